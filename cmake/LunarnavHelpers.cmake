@@ -1,0 +1,53 @@
+# Helpers that give every target of the project the same shape:
+#   lunarnav_add_library(NAME SRCS ... PUBLIC_DEPS ... PRIVATE_DEPS ...)
+#   lunarnav_add_app(NAME SRCS ... DEPS ...)
+#   lunarnav_add_test(NAME SRCS ... DEPS ... [LABELS ...])
+include_guard(GLOBAL)
+include(CheckCXXCompilerFlag)
+
+set(LUNARNAV_WARNING_FLAGS -Wall -Wextra -Wpedantic -Wno-unused-parameter)
+if(LUNARNAV_WERROR)
+  list(APPEND LUNARNAV_WARNING_FLAGS -Werror)
+endif()
+
+function(lunarnav_set_common_options target)
+  target_compile_options(${target} PRIVATE ${LUNARNAV_WARNING_FLAGS})
+  if(LUNARNAV_SANITIZE)
+    target_compile_options(${target} PRIVATE -fsanitize=address,undefined -fno-omit-frame-pointer)
+    target_link_options(${target} PRIVATE -fsanitize=address,undefined)
+  endif()
+endfunction()
+
+# One library target per lib/ module: lunarnav_<NAME>, aliased lunarnav::<NAME>.
+function(lunarnav_add_library NAME)
+  cmake_parse_arguments(ARG "" "" "SRCS;PUBLIC_DEPS;PRIVATE_DEPS" ${ARGN})
+  set(target lunarnav_${NAME})
+  add_library(${target} STATIC ${ARG_SRCS})
+  add_library(lunarnav::${NAME} ALIAS ${target})
+  target_include_directories(${target} PUBLIC ${PROJECT_SOURCE_DIR}/lib ${PROJECT_BINARY_DIR}/lib)
+  target_link_libraries(${target} PUBLIC ${ARG_PUBLIC_DEPS} PRIVATE ${ARG_PRIVATE_DEPS})
+  lunarnav_set_common_options(${target})
+endfunction()
+
+# A command-line tool; the executable is named NAME (e.g. stereo-batch).
+function(lunarnav_add_app NAME)
+  cmake_parse_arguments(ARG "" "" "SRCS;DEPS" ${ARGN})
+  add_executable(${NAME} ${ARG_SRCS})
+  target_link_libraries(${NAME} PRIVATE ${ARG_DEPS})
+  lunarnav_set_common_options(${NAME})
+  set_target_properties(${NAME} PROPERTIES RUNTIME_OUTPUT_DIRECTORY ${PROJECT_BINARY_DIR}/bin)
+endfunction()
+
+# A GoogleTest program registered with CTest as DIR/NAME (e.g. stereo/ncc_matcher_test).
+function(lunarnav_add_test NAME)
+  cmake_parse_arguments(ARG "" "DIR" "SRCS;DEPS;LABELS" ${ARGN})
+  string(REPLACE "/" "_" exe "${ARG_DIR}_${NAME}")
+  add_executable(${exe} ${ARG_SRCS})
+  target_link_libraries(${exe} PRIVATE ${ARG_DEPS} lunarnav::testing GTest::gtest GTest::gmock)
+  target_include_directories(${exe} PRIVATE ${PROJECT_SOURCE_DIR}/tests)
+  lunarnav_set_common_options(${exe})
+  add_test(NAME ${ARG_DIR}/${NAME} COMMAND ${exe})
+  set_tests_properties(${ARG_DIR}/${NAME} PROPERTIES
+    ENVIRONMENT "LUNARNAV_TESTDATA=${PROJECT_SOURCE_DIR}/testdata;LUNARNAV_BIN=${PROJECT_BINARY_DIR}/bin"
+    LABELS "${ARG_DIR};${ARG_LABELS}")
+endfunction()

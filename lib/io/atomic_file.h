@@ -1,0 +1,28 @@
+// Atomic output files: write to a hidden temporary file in the same directory, then rename.
+//
+// A run that is killed leaves either the complete file or no file under the final name
+// (a leftover hidden ".*.lunarnav-tmp" file at most, which RemoveStaleTempFiles deletes).
+#pragma once
+
+#include <filesystem>
+#include <string_view>
+
+namespace lunarnav::io {
+
+/// Writes `bytes` to `path` atomically; creates the parent directories.
+/// Throws std::runtime_error (exit 1) when the file system refuses.
+void WriteFileAtomic(const std::filesystem::path& path, std::string_view bytes);
+
+/// The hidden temporary name used while `path` is being written (unique per process and call).
+std::filesystem::path TempPathFor(const std::filesystem::path& path);
+
+/// Renames a finished temporary file onto its final name (atomic on POSIX file systems).
+void CommitTempFile(const std::filesystem::path& temp, const std::filesystem::path& path);
+
+/// Deletes leftover temporary files of killed runs in `dir` (not recursive). Returns how many.
+int RemoveStaleTempFiles(const std::filesystem::path& dir);
+
+/// True for the names TempPathFor produces.
+bool IsTempFileName(const std::filesystem::path& path);
+
+}  // namespace lunarnav::io

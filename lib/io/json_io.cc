@@ -1,0 +1,25 @@
+#include "io/json_io.h"
+
+#include <fstream>
+#include <sstream>
+
+#include "io/atomic_file.h"
+#include "util/check.h"
+
+namespace lunarnav::io {
+
+void WriteJsonAtomic(const std::filesystem::path& path, const nlohmann::json& value) {
+  WriteFileAtomic(path, value.dump(2) + "\n");
+}
+
+nlohmann::json ReadJson(const std::filesystem::path& path) {
+  std::ifstream in(path);
+  LN_CHECK_INPUT(in.good()) << path.string() << ": cannot open";
+  try {
+    return nlohmann::json::parse(in);
+  } catch (const nlohmann::json::parse_error& e) {
+    throw InputError(path.string() + ": invalid JSON (" + e.what() + ")");
+  }
+}
+
+}  // namespace lunarnav::io

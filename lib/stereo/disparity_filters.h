@@ -1,0 +1,27 @@
+// Sub-pixel interpolation and the median filter of the correlation matcher.
+#pragma once
+
+#include <opencv2/core.hpp>
+
+namespace lunarnav::stereo {
+
+/// Offset in (-0.5, 0.5) of the vertex of the parabola through (-1, c_prev), (0, c_best),
+/// (1, c_next) (Krotkov & Hebert sec. 3.2: "a parabolic interpolation that uses the
+/// correlation values of the two closest disparities"). Returns 0 when the three values
+/// do not form a maximum (flat or not concave).
+double ParabolicPeakOffset(double c_prev, double c_best, double c_next);
+
+/// The fourth filter: a k x k median filter over a disparity grid (the map on the
+/// subsampling grid, one cell per evaluated pixel).
+///
+/// Each accepted cell (Rejection::kAccepted in `rejection`) takes the median of the accepted
+/// disparities in its neighbourhood (mean of the two middle values for an even count). A cell
+/// whose accepted neighbours (itself included) are fewer than half of its evaluated neighbours
+/// (cells that are neither kNotEvaluated nor kBorder) is an isolated match: it is set to NaN
+/// and marked kMedian.
+/// @param size  odd k >= 3 (1 or 0: nothing is done).
+/// @param disparity  CV_32FC1, NaN where not accepted; filtered in place.
+/// @param rejection  CV_8UC1 Rejection codes, same size; updated in place.
+void MedianFilterDisparityGrid(int size, cv::Mat* disparity, cv::Mat* rejection);
+
+}  // namespace lunarnav::stereo

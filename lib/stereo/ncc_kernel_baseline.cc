@@ -1,0 +1,39 @@
+// The correlation kernel for the baseline instruction set (SSE2 on x86-64, NEON on ARM).
+#include <cstddef>
+#include <cstdint>
+
+#include <opencv2/core/hal/intrin.hpp>
+
+#include "stereo/ncc_kernel.h"
+
+namespace lunarnav::stereo::internal {
+namespace baseline {
+#include "stereo/ncc_kernel_impl.h"
+}  // namespace baseline
+
+#if defined(LUNARNAV_HAVE_AVX2_KERNEL)
+namespace avx2 {
+void RunKernel(const KernelInput& in, int row_begin, int row_end, void* workspace,
+               PeakRecord* records);
+}  // namespace avx2
+#endif
+
+std::size_t KernelWorkspaceBytes(const KernelInput& in) {
+  baseline::Workspace ws;
+  return baseline::LayoutWorkspace(in, baseline::MakeGeometry(in), nullptr, &ws);
+}
+
+KernelFn BaselineKernel() { return &baseline::RunKernelImpl; }
+
+KernelFn SelectKernel(const char** name) {
+#if defined(LUNARNAV_HAVE_AVX2_KERNEL)
+  if (__builtin_cpu_supports("avx2")) {
+    if (name != nullptr) *name = "avx2";
+    return &avx2::RunKernel;
+  }
+#endif
+  if (name != nullptr) *name = "baseline";
+  return &baseline::RunKernelImpl;
+}
+
+}  // namespace lunarnav::stereo::internal

@@ -1,0 +1,113 @@
+#include "stereo/ncc_options.h"
+
+#include <cmath>
+#include <sstream>
+#include <stdexcept>
+
+#include "util/check.h"
+
+namespace lunarnav::stereo {
+
+std::string ToString(ReferenceImage reference) {
+  return reference == ReferenceImage::kRight ? "right" : "left";
+}
+
+ReferenceImage ReferenceImageFromString(const std::string& name) {
+  if (name == "right") return ReferenceImage::kRight;
+  if (name == "left") return ReferenceImage::kLeft;
+  throw std::invalid_argument("reference: expected 'right' or 'left', got '" + name + "'");
+}
+
+std::string ToString(Rejection reason) {
+  switch (reason) {
+    case Rejection::kAccepted: return "accepted";
+    case Rejection::kNotEvaluated: return "not_evaluated";
+    case Rejection::kBorder: return "border";
+    case Rejection::kLowTexture: return "low_texture";
+    case Rejection::kLowCorrelation: return "low_correlation";
+    case Rejection::kAmbiguous: return "ambiguous";
+    case Rejection::kRangeEdge: return "range_edge";
+    case Rejection::kMedian: return "median";
+  }
+  return "unknown";
+}
+
+void NccOptions::Validate() const {
+  LN_CHECK_ARG(half_window_x_px >= 0 && half_window_y_px >= 0)
+      << "window: half-sizes must be >= 0, got " << half_window_x_px << "x" << half_window_y_px;
+  LN_CHECK_ARG(half_window_x_px <= 500 && half_window_y_px <= 500)
+      << "window: half-sizes must be <= 500";
+  LN_CHECK_ARG(step_x_px >= 1 && step_y_px >= 1)
+      << "step: must be >= 1, got " << step_x_px << "x" << step_y_px;
+  LN_CHECK_ARG(step_x_px <= 64 && step_y_px <= 64) << "step: must be <= 64";
+  LN_CHECK_ARG(min_disparity_px <= max_disparity_px)
+      << "disparity: MIN must be <= MAX, got " << min_disparity_px << ":" << max_disparity_px;
+  LN_CHECK_ARG(max_disparity_px - min_disparity_px < 4096)
+      << "disparity: range must hold at most 4096 values";
+  LN_CHECK_ARG(std::abs(min_disparity_px) < 100000 && std::abs(max_disparity_px) < 100000)
+      << "disparity: values must be within +-100000";
+  LN_CHECK_ARG(min_row.has_value() == max_row.has_value())
+      << "rows: give both MIN and MAX";
+  if (min_row) {
+    LN_CHECK_ARG(*min_row >= 0 && *min_row <= *max_row)
+        << "rows: need 0 <= MIN <= MAX, got " << *min_row << ":" << *max_row;
+  }
+  LN_CHECK_ARG(std::isfinite(min_sigma) && min_sigma >= 0)
+      << "sigma-min: must be >= 0, got " << min_sigma;
+  LN_CHECK_ARG(std::isfinite(min_correlation) && min_correlation >= -1 && min_correlation <= 1)
+      << "c-min: must be in [-1, 1], got " << min_correlation;
+  LN_CHECK_ARG(std::isfinite(ambiguity) && ambiguity >= 0 && ambiguity <= 1)
+      << "ambiguity: must be in [0, 1], got " << ambiguity;
+  LN_CHECK_ARG(median_size == 0 || (median_size % 2 == 1 && median_size <= 15))
+      << "median: size must be 0 (off) or odd and <= 15, got " << median_size;
+  LN_CHECK_ARG(num_threads >= 0) << "threads: must be >= 0";
+}
+
+nlohmann::json NccOptions::ToJson() const {
+  nlohmann::json j;
+  j["half_window_px"] = {half_window_x_px, half_window_y_px};
+  j["step_px"] = {step_x_px, step_y_px};
+  j["disparity_range_px"] = {min_disparity_px, max_disparity_px};
+  j["rows"] = min_row ? nlohmann::json{*min_row, *max_row} : nlohmann::json(nullptr);
+  j["reference"] = ToString(reference);
+  j["sigma_min_grey8"] = min_sigma;
+  j["c_min"] = min_correlation;
+  j["ambiguity"] = ambiguity;
+  j["median_size"] = median_size;
+  return j;
+}
+
+std::string NccSummary::BriefReport() const {
+  std::ostringstream s;
+  s.setf(std::ios::fixed);
+  s.precision(1);
+  const double total = evaluated_pixels > 0 ? evaluated_pixels : 1;
+  s << "accepted " << 100.0 * accepted_pixels / total << "% of " << evaluated_pixels << " px";
+  bool first = true;
+  for (int code = static_cast<int>(Rejection::kBorder); code < kNumRejectionCodes; ++code) {
+    if (pixels_by_reason[code] == 0) continue;
+    s << (first ? " (" : ", ") << ToString(static_cast<Rejection>(code)) << " "
+      << 100.0 * pixels_by_reason[code] / total << "%";
+    first = false;
+  }
+  if (!first) s << ")";
+  s.precision(2);
+  s << " in " << 1e3 * match_seconds << " ms";
+  return s.str();
+}
+
+nlohmann::json NccSummary::ToJson() const {
+  nlohmann::json rejected;
+  for (int code = static_cast<int>(Rejection::kBorder); code < kNumRejectionCodes; ++code) {
+    rejected[ToString(static_cast<Rejection>(code))] = pixels_by_reason[code];
+  }
+  return {{"size_px", {width, height}},
+          {"pixels_evaluated", evaluated_pixels},
+          {"pixels_accepted", accepted_pixels},
+          {"pixels_rejected", rejected},
+          {"rows_processed", {band_min_row, band_max_row}},
+          {"working_shift_bits", working_shift_bits},
+          {"match_ms", 1e3 * match_seconds}};
+}
+
+}  // namespace lunarnav::stereo

@@ -1,0 +1,22 @@
+// Parsing of the small value syntaxes used on command lines ("25x17", "44:118", "0/4").
+#pragma once
+
+#include <string>
+#include <utility>
+
+namespace lunarnav::util {
+
+/// Parses "AxB" (e.g. "25x17") into two integers. Throws std::invalid_argument
+/// naming `what` when the text is not of that form.
+std::pair<int, int> ParseIntPair(const std::string& text, char separator, const std::string& what);
+
+/// Parses "A:B" into two doubles. Throws std::invalid_argument naming `what`.
+std::pair<double, double> ParseDoublePair(const std::string& text, char separator,
+                                          const std::string& what);
+
+/// Parses a whole string as an int / double (no trailing characters). Throws
+/// std::invalid_argument naming `what`.
+int ParseInt(const std::string& text, const std::string& what);
+double ParseDouble(const std::string& text, const std::string& what);
+
+}  // namespace lunarnav::util

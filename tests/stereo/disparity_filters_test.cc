@@ -1,0 +1,53 @@
+#include "stereo/disparity_filters.h"
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <limits>
+
+#include "stereo/ncc_options.h"
+
+namespace lunarnav::stereo {
+namespace {
+
+TEST(ParabolicPeakOffset, FindsTheVertexOfAParabola) {
+  // c(t) = 1 - 0.3 (t - 0.27)^2 sampled at -1, 0, 1: the vertex is at 0.27.
+  auto c = [](double t) { return 1.0 - 0.3 * (t - 0.27) * (t - 0.27); };
+  EXPECT_NEAR(ParabolicPeakOffset(c(-1), c(0), c(1)), 0.27, 1e-12);
+  EXPECT_NEAR(ParabolicPeakOffset(c(1), c(0), c(-1)), -0.27, 1e-12);
+  EXPECT_EQ(ParabolicPeakOffset(0.5, 0.5, 0.5), 0.0);  // flat
+}
+
+TEST(MedianFilterDisparityGrid, ReplacesAnOutlierAndRejectsAnIsolatedMatch) {
+  const float nan = std::numeric_limits<float>::quiet_NaN();
+  cv::Mat disparity(5, 5, CV_32FC1, cv::Scalar(10.0f));
+  cv::Mat rejection(5, 5, CV_8UC1, cv::Scalar(0));
+  disparity.at<float>(1, 1) = 30.0f;  // an outlier among accepted neighbours
+  // Row 4: an accepted cell with only rejected evaluated neighbours.
+  for (int c = 0; c < 5; ++c) {
+    disparity.at<float>(3, c) = nan;
+    rejection.at<std::uint8_t>(3, c) = static_cast<std::uint8_t>(Rejection::kLowCorrelation);
+    disparity.at<float>(4, c) = nan;
+    rejection.at<std::uint8_t>(4, c) = static_cast<std::uint8_t>(Rejection::kLowCorrelation);
+  }
+  disparity.at<float>(4, 2) = 12.0f;
+  rejection.at<std::uint8_t>(4, 2) = 0;
+  MedianFilterDisparityGrid(3, &disparity, &rejection);
+  EXPECT_FLOAT_EQ(disparity.at<float>(1, 1), 10.0f);
+  EXPECT_EQ(rejection.at<std::uint8_t>(4, 2), static_cast<int>(Rejection::kMedian));
+  EXPECT_TRUE(std::isnan(disparity.at<float>(4, 2)));
+  EXPECT_EQ(rejection.at<std::uint8_t>(0, 0), 0);  // corner: 4 of 4 accepted
+}
+
+TEST(MedianFilterDisparityGrid, PreservesAPlane) {
+  // The median of a linear function over a symmetric window is its centre value.
+  cv::Mat disparity(9, 9, CV_32FC1), rejection(9, 9, CV_8UC1, cv::Scalar(0));
+  for (int r = 0; r < 9; ++r)
+    for (int c = 0; c < 9; ++c) disparity.at<float>(r, c) = 5.0f + 0.25f * c + 0.5f * r;
+  const cv::Mat before = disparity.clone();
+  MedianFilterDisparityGrid(5, &disparity, &rejection);
+  EXPECT_EQ(cv::norm(disparity(cv::Rect(2, 2, 5, 5)), before(cv::Rect(2, 2, 5, 5)), cv::NORM_INF), 0);
+}
+
+}  // namespace
+}  // namespace lunarnav::stereo
