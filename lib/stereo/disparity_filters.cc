@@ -5,6 +5,9 @@
 #include <limits>
 #include <vector>
 
+#include <opencv2/imgproc.hpp>
+#include <tbb/parallel_for.h>
+
 #include "stereo/ncc_options.h"
 #include "util/check.h"
 
@@ -16,6 +19,24 @@ double ParabolicPeakOffset(double c_prev, double c_best, double c_next) {
   const double offset = 0.5 * (c_prev - c_next) / curvature;
   return std::clamp(offset, -0.5, 0.5);
 }
+
+namespace {
+// Median of values[0..count) (mean of the two middle ones for an even count); reorders them.
+float SmallMedian(float* values, int count) {
+  if (count <= 25) {  // insertion sort: fastest for the usual 3x3 and 5x5 neighbourhoods
+    for (int a = 1; a < count; ++a) {
+      const float v = values[a];
+      int b = a - 1;
+      for (; b >= 0 && values[b] > v; --b) values[b + 1] = values[b];
+      values[b + 1] = v;
+    }
+  } else {
+    std::sort(values, values + count);
+  }
+  const int mid = count / 2;
+  return count % 2 == 1 ? values[mid] : 0.5f * (values[mid - 1] + values[mid]);
+}
+}  // namespace
 
 void MedianFilterDisparityGrid(int size, cv::Mat* disparity, cv::Mat* rejection) {
   LN_CHECK(disparity != nullptr && rejection != nullptr);
@@ -30,13 +51,27 @@ void MedianFilterDisparityGrid(int size, cv::Mat* disparity, cv::Mat* rejection)
   const auto accepted = static_cast<std::uint8_t>(Rejection::kAccepted);
   const auto not_evaluated = static_cast<std::uint8_t>(Rejection::kNotEvaluated);
   const auto border = static_cast<std::uint8_t>(Rejection::kBorder);
-  std::vector<float> values;
-  values.reserve(static_cast<std::size_t>(size) * size);
-  for (int r = 0; r < rows; ++r) {
+  // Fast path: where the whole neighbourhood is accepted, OpenCV's median (a SIMD sorting
+  // network, k = 3 or 5 for float) gives the answer; the loop below handles the rest.
+  cv::Mat full_support, fast_median;
+  if ((size == 3 || size == 5) && rows >= size && cols >= size) {
+    const cv::Mat accepted_mask = in_reason == accepted;
+    cv::erode(accepted_mask, full_support, cv::getStructuringElement(cv::MORPH_RECT, {size, size}),
+              {-1, -1}, 1, cv::BORDER_CONSTANT, cv::Scalar(0));
+    cv::medianBlur(in_disp, fast_median, size);
+  }
+  tbb::parallel_for(0, rows, [&](int r) {
+    std::vector<float> values(static_cast<std::size_t>(size) * size);
+    auto* out_disp = disparity->ptr<float>(r);
+    auto* out_reason = rejection->ptr<std::uint8_t>(r);
+    const std::uint8_t* full = full_support.empty() ? nullptr : full_support.ptr<std::uint8_t>(r);
     for (int c = 0; c < cols; ++c) {
       if (in_reason.at<std::uint8_t>(r, c) != accepted) continue;
-      values.clear();
-      int evaluated = 0;
+      if (full != nullptr && full[c] != 0) {
+        out_disp[c] = fast_median.at<float>(r, c);
+        continue;
+      }
+      int count = 0, evaluated = 0;
       for (int rr = std::max(0, r - half); rr <= std::min(rows - 1, r + half); ++rr) {
         const auto* reason_row = in_reason.ptr<std::uint8_t>(rr);
         const auto* disp_row = in_disp.ptr<float>(rr);
@@ -44,24 +79,17 @@ void MedianFilterDisparityGrid(int size, cv::Mat* disparity, cv::Mat* rejection)
           const std::uint8_t code = reason_row[cc];
           if (code == not_evaluated || code == border) continue;
           ++evaluated;
-          if (code == accepted) values.push_back(disp_row[cc]);
+          if (code == accepted) values[count++] = disp_row[cc];
         }
       }
-      if (2 * static_cast<int>(values.size()) < evaluated) {
-        disparity->at<float>(r, c) = std::numeric_limits<float>::quiet_NaN();
-        rejection->at<std::uint8_t>(r, c) = static_cast<std::uint8_t>(Rejection::kMedian);
-        continue;
+      if (2 * count < evaluated) {
+        out_disp[c] = std::numeric_limits<float>::quiet_NaN();
+        out_reason[c] = static_cast<std::uint8_t>(Rejection::kMedian);
+      } else {
+        out_disp[c] = SmallMedian(values.data(), count);
       }
-      const std::size_t mid = values.size() / 2;
-      std::nth_element(values.begin(), values.begin() + mid, values.end());
-      float median = values[mid];
-      if (values.size() % 2 == 0) {
-        const float below = *std::max_element(values.begin(), values.begin() + mid);
-        median = 0.5f * (below + median);
-      }
-      disparity->at<float>(r, c) = median;
     }
-  }
+  });
 }
 
 }  // namespace lunarnav::stereo

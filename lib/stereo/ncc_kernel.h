@@ -31,6 +31,10 @@ struct KernelInput {
   /// Low-texture threshold on V_r = n*sum(r^2) - (sum r)^2 (= n^2 sigma_r^2): a window with
   /// V_r < min_var is not searched (filter 1).
   double min_var = 0;
+  /// Filters 2 and 3, used only to skip work: the second peak is looked for only when the
+  /// best C >= min_correlation, and only among peaks above C * (1 - ambiguity).
+  double min_correlation = -1.0;
+  double ambiguity = 0.0;
 };
 
 /// What the kernel found at one grid pixel.
@@ -43,7 +47,9 @@ struct PeakRecord {
   float c_best = 0;          ///< C at best, evaluated exactly (in double) from the integer sums.
   float c_prev = 0;          ///< C at best-1 (exact); meaningless when best == lo.
   float c_next = 0;          ///< C at best+1 (exact); meaningless when best == hi.
-  float c_second = 0;        ///< Second-highest peak of C over [lo, hi]; -inf when there is none.
+  /// Second-highest peak of C over [lo, hi] when it exceeds c_best * (1 - ambiguity) and
+  /// c_best >= min_correlation > 0 (the only case where filter 3 needs it); -inf otherwise.
+  float c_second = 0;
 };
 
 /// Disparities padded to a multiple of the widest vector (16 int32 lanes).
@@ -52,9 +58,12 @@ static inline int PaddedDisparities(int num_disp) { return (num_disp + 15) / 16 
 /// Bytes of scratch memory one kernel call needs (allocated by the caller, 64-byte aligned).
 std::size_t KernelWorkspaceBytes(const KernelInput& in);
 
-/// Computes output rows [row_begin, row_end) into records[j * num_cols + i].
+/// Receives each finished output row j: records[i] for grid columns i = 0 .. num_cols-1.
+using RowSink = void (*)(void* context, int row, const PeakRecord* records);
+
+/// Computes output rows [row_begin, row_end), handing each to `sink` as soon as it is done.
 using KernelFn = void (*)(const KernelInput& in, int row_begin, int row_end, void* workspace,
-                          PeakRecord* records);
+                          RowSink sink, void* sink_context);
 
 /// The fastest kernel this CPU runs, and its name ("avx2" or "baseline").
 KernelFn SelectKernel(const char** name = nullptr);

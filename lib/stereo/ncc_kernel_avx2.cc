@@ -11,9 +11,9 @@
 namespace lunarnav::stereo::internal::avx2 {
 #include "stereo/ncc_kernel_impl.h"
 
-void RunKernel(const KernelInput& in, int row_begin, int row_end, void* workspace,
-               PeakRecord* records) {
+void RunKernel(const KernelInput& in, int row_begin, int row_end, void* workspace, RowSink sink,
+               void* sink_context) {
   static_assert(kLanes == 8, "the AVX2 kernel must use 256-bit vectors");
-  RunKernelImpl(in, row_begin, row_end, workspace, records);
+  RunKernelImpl(in, row_begin, row_end, workspace, sink, sink_context);
 }
 }  // namespace lunarnav::stereo::internal::avx2

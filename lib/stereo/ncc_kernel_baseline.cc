@@ -13,9 +13,15 @@ namespace baseline {
 
 #if defined(LUNARNAV_HAVE_AVX2_KERNEL)
 namespace avx2 {
-void RunKernel(const KernelInput& in, int row_begin, int row_end, void* workspace,
-               PeakRecord* records);
+void RunKernel(const KernelInput& in, int row_begin, int row_end, void* workspace, RowSink sink,
+               void* sink_context);
 }  // namespace avx2
+#endif
+#if defined(LUNARNAV_HAVE_AVX512_KERNEL)
+namespace avx512 {
+void RunKernel(const KernelInput& in, int row_begin, int row_end, void* workspace, RowSink sink,
+               void* sink_context);
+}  // namespace avx512
 #endif
 
 std::size_t KernelWorkspaceBytes(const KernelInput& in) {
@@ -26,6 +32,14 @@ std::size_t KernelWorkspaceBytes(const KernelInput& in) {
 KernelFn BaselineKernel() { return &baseline::RunKernelImpl; }
 
 KernelFn SelectKernel(const char** name) {
+#if defined(LUNARNAV_HAVE_AVX512_KERNEL)
+  if (__builtin_cpu_supports("avx512f") && __builtin_cpu_supports("avx512bw") &&
+      __builtin_cpu_supports("avx512dq") && __builtin_cpu_supports("avx512vl") &&
+      __builtin_cpu_supports("avx512cd")) {
+    if (name != nullptr) *name = "avx512";
+    return &avx512::RunKernel;
+  }
+#endif
 #if defined(LUNARNAV_HAVE_AVX2_KERNEL)
   if (__builtin_cpu_supports("avx2")) {
     if (name != nullptr) *name = "avx2";

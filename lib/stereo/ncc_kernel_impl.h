@@ -20,6 +20,7 @@ namespace {
 
 constexpr int kLanes = cv::v_int32::nlanes;
 constexpr float kNegInf = -__builtin_inff();
+alignas(64) constexpr std::int32_t kIota[16] = {0, 1, 2, 3, 4, 5, 6, 7, 8, 9, 10, 11, 12, 13, 14, 15};
 
 inline int MinInt(int a, int b) { return a < b ? a : b; }
 inline int MaxInt(int a, int b) { return a > b ? a : b; }
@@ -35,12 +36,16 @@ struct Workspace {
   std::int64_t* r_col2;   // width
   std::int64_t* prefix1;  // width: strided prefix sums (scratch)
   std::int64_t* prefix2;  // width
-  std::int64_t* t_sum;    // Wp: window sum of T at padded column p (0 outside)
-  std::int64_t* t_var;    // Wp: n*sum(T^2) - sum(T)^2 (0 outside)
-  float* t_sumf;          // Wp: float(t_sum)
-  float* t_k;             // Wp: sqrt(n / t_var), 0 where undefined
-  std::int64_t* r_sum;    // width
-  std::int64_t* r_var;    // width
+  // Window statistics. Sums and V = n*sum(v^2) - sum(v)^2 are integers held exactly in double.
+  double* t_sum;          // Wp: window sum of T at padded column p (0 outside)
+  double* t_var;          // Wp: V of T (0 outside)
+  double* t_inv;          // Wp: 1 / sqrt(V_t), 0 where V_t == 0
+  float* t_u;             // Wp: t_sum * t_k (float)
+  float* t_k;             // Wp: sqrt(n) * t_inv (float)
+  double* r_sum;          // width
+  double* r_var;          // width
+  double* r_inv;          // width: 1 / sqrt(V_r), 0 where V_r == 0
+  lunarnav::stereo::internal::PeakRecord* records;  // num_cols: the current output row
 };
 
 inline std::size_t AlignUp(std::size_t bytes) { return (bytes + 63) / 64 * 64; }
@@ -86,12 +91,16 @@ inline std::size_t LayoutWorkspace(const lunarnav::stereo::internal::KernelInput
   ws->r_col2 = reinterpret_cast<std::int64_t*>(take(sizeof(std::int64_t) * w));
   ws->prefix1 = reinterpret_cast<std::int64_t*>(take(sizeof(std::int64_t) * w));
   ws->prefix2 = reinterpret_cast<std::int64_t*>(take(sizeof(std::int64_t) * w));
-  ws->t_sum = reinterpret_cast<std::int64_t*>(take(sizeof(std::int64_t) * wp));
-  ws->t_var = reinterpret_cast<std::int64_t*>(take(sizeof(std::int64_t) * wp));
-  ws->t_sumf = reinterpret_cast<float*>(take(sizeof(float) * (wp + 16)));
+  ws->t_sum = reinterpret_cast<double*>(take(sizeof(double) * (wp + 16)));
+  ws->t_var = reinterpret_cast<double*>(take(sizeof(double) * (wp + 16)));
+  ws->t_inv = reinterpret_cast<double*>(take(sizeof(double) * (wp + 16)));
+  ws->t_u = reinterpret_cast<float*>(take(sizeof(float) * (wp + 16)));
   ws->t_k = reinterpret_cast<float*>(take(sizeof(float) * (wp + 16)));
-  ws->r_sum = reinterpret_cast<std::int64_t*>(take(sizeof(std::int64_t) * w));
-  ws->r_var = reinterpret_cast<std::int64_t*>(take(sizeof(std::int64_t) * w));
+  ws->r_sum = reinterpret_cast<double*>(take(sizeof(double) * (w + 16)));
+  ws->r_var = reinterpret_cast<double*>(take(sizeof(double) * (w + 16)));
+  ws->r_inv = reinterpret_cast<double*>(take(sizeof(double) * (w + 16)));
+  ws->records = reinterpret_cast<lunarnav::stereo::internal::PeakRecord*>(
+      take(sizeof(lunarnav::stereo::internal::PeakRecord) * static_cast<std::size_t>(in.num_cols)));
   return offset;
 }
 
@@ -125,8 +134,8 @@ inline void UpdateColumnStats(const std::int16_t* img, int width, int y, int dy,
 // sums; writes sum and V = n*sum(v^2) - sum(v)^2 at out[x + out_offset] for every column x
 // whose window is inside the image, and 0 elsewhere in [0, width).
 inline void WindowStats(const std::int64_t* c1, const std::int64_t* c2, int width, int dx,
-                        int mx, int n, std::int64_t* p1, std::int64_t* p2, std::int64_t* out_sum,
-                        std::int64_t* out_var, int out_offset) {
+                        int mx, int n, std::int64_t* p1, std::int64_t* p2, double* out_sum,
+                        double* out_var, int out_offset) {
   for (int x = 0; x < width; ++x) {
     p1[x] = c1[x] + (x >= dx ? p1[x - dx] : 0);
     p2[x] = c2[x] + (x >= dx ? p2[x - dx] : 0);
@@ -140,23 +149,36 @@ inline void WindowStats(const std::int64_t* c1, const std::int64_t* c2, int widt
       const std::int64_t s2 = p2[x + half] - (before >= 0 ? p2[before] : 0);
       v = static_cast<std::int64_t>(n) * s2 - s * s;
     }
-    out_sum[x + out_offset] = s;
-    out_var[x + out_offset] = v;
+    out_sum[x + out_offset] = static_cast<double>(s);
+    out_var[x + out_offset] = static_cast<double>(v);
   }
+}
+
+// inv[p] = 1 / sqrt(var[p]) (0 where var is 0) for p in [0, count), vectorised.
+inline void InverseSqrt(const double* var, int count, double* inv) {
+  constexpr int kLanes64 = cv::v_float64::nlanes;
+  const cv::v_float64 zero = cv::vx_setzero_f64(), one = cv::vx_setall_f64(1.0);
+  int p = 0;
+  for (; p + kLanes64 <= count; p += kLanes64) {
+    const cv::v_float64 v = cv::vx_load(var + p);
+    const cv::v_float64 positive = v > zero;
+    const cv::v_float64 safe = cv::v_select(positive, v, one);
+    cv::v_store(inv + p, cv::v_select(positive, one / cv::v_sqrt(safe), zero));
+  }
+  for (; p < count; ++p) inv[p] = var[p] > 0 ? 1.0 / __builtin_sqrt(var[p]) : 0.0;
 }
 
 // col[i][k] += ca * T(row_a, x_i + d_min + k) + cb * T(row_b, x_i + d_min + k) for every grid
 // column i, from `pairs` holding the two target rows interleaved.
+inline cv::v_int16 Coefficients(const std::int16_t* ref_a, const std::int16_t* ref_b, int sign_b,
+                                int x);
+
 inline void AccumulateProducts(const lunarnav::stereo::internal::KernelInput& in, const Geometry& g,
                                const Workspace& ws, const std::int16_t* ref_a, const std::int16_t* ref_b,
-                               int sign_b) {
-  for (int i = 0; i < in.num_cols; ++i) {
+                               int sign_b, int i_begin, int i_end) {
+  for (int i = i_begin; i < i_end; ++i) {
     const int x = in.x0 + i * in.step_x;
-    const std::int16_t ca = ref_a[x];
-    const std::int16_t cb = static_cast<std::int16_t>(sign_b * ref_b[x]);
-    const std::uint32_t packed = static_cast<std::uint16_t>(ca) |
-                                 (static_cast<std::uint32_t>(static_cast<std::uint16_t>(cb)) << 16);
-    const cv::v_int16 coef = cv::v_reinterpret_as_s16(cv::vx_setall_u32(packed));
+    const cv::v_int16 coef = Coefficients(ref_a, ref_b, sign_b, x);
     std::int32_t* col = ws.col + static_cast<std::ptrdiff_t>(i) * g.dp;
     const std::int16_t* src = ws.pairs + 2 * (x + in.d_min - g.xa);
     for (int k = 0; k < g.dp; k += kLanes) {
@@ -176,170 +198,236 @@ inline void InterleaveRows(const std::int16_t* a, const std::int16_t* b, int wid
   }
 }
 
-inline double ExactC(std::int64_t n, std::int64_t s, std::int64_t r_sum, std::int64_t r_var,
-                     std::int64_t t_sum, std::int64_t t_var) {
-  if (r_var <= 0 || t_var <= 0) return 0.0;
-  const double num = static_cast<double>(n) * static_cast<double>(s) -
-                     static_cast<double>(r_sum) * static_cast<double>(t_sum);
-  return num / __builtin_sqrt(static_cast<double>(r_var) * static_cast<double>(t_var));
+// C = (n S - Sum_r Sum_t) / sqrt(V_r V_t); the numerator is an exact integer in double.
+inline double ExactC(double n, std::int32_t s, double r_sum, double r_inv, double t_sum,
+                     double t_inv) {
+  return (n * static_cast<double>(s) - r_sum * t_sum) * r_inv * t_inv;
 }
 
-// Searches the disparities of one grid pixel whose window sums of products are in ws.sum.
-inline void SearchPixel(const lunarnav::stereo::internal::KernelInput& in, const Geometry& g,
-                        const Workspace& ws, int x, lunarnav::stereo::internal::PeakRecord* rec) {
-  using lunarnav::stereo::internal::PeakRecord;
-  const std::int64_t r_var = ws.r_var[x];
-  const std::int64_t r_sum = ws.r_sum[x];
-  if (r_var <= 0 || static_cast<double>(r_var) < in.min_var) {
-    rec->status = PeakRecord::kLowTexture;
-    return;
+// How the window sums of products reach the current grid column before its search:
+// ws.sum already holds them (kNone), or they are advanced by the paper's recursion
+// S(i) = S(i-1) + col[i+mx] - col[i-mx-1] (kAdvance), with col[i+mx] first moved down one
+// row (kAdvanceAndUpdate: the column enters the window in this pass, so its vertical update
+// is fused here instead of a separate sweep over all columns).
+enum class SumStep { kNone, kAdvance, kAdvanceAndUpdate };
+
+struct ColumnStep {
+  std::int32_t* add = nullptr;           // col[i+mx]
+  const std::int32_t* sub = nullptr;     // col[i-mx-1]
+  const std::int16_t* pairs = nullptr;   // interleaved target rows for col[i+mx]'s update
+  cv::v_int16 coef;                      // (R(entering row), -R(leaving row)) for col[i+mx]
+};
+
+template <SumStep kStep>
+inline cv::v_int32 StepSum(const Workspace& ws, const ColumnStep& step, int k) {
+  cv::v_int32 s = cv::vx_load(ws.sum + k);
+  if constexpr (kStep != SumStep::kNone) {
+    cv::v_int32 a = cv::vx_load(step.add + k);
+    if constexpr (kStep == SumStep::kAdvanceAndUpdate) {
+      a = a + cv::v_dotprod(cv::vx_load(step.pairs + 2 * k), step.coef);
+      cv::v_store(step.add + k, a);
+    }
+    s = s + a - cv::vx_load(step.sub + k);
+    cv::v_store(ws.sum + k, s);
   }
+  return s;
+}
+
+// Searches the disparities of the grid pixel at column x, advancing the window sums first.
+template <SumStep kStep>
+inline void SearchPixel(const lunarnav::stereo::internal::KernelInput& in, const Geometry& g,
+                        const Workspace& ws, int x, const ColumnStep& step,
+                        lunarnav::stereo::internal::PeakRecord* rec) {
+  using lunarnav::stereo::internal::PeakRecord;
+  const double r_var = ws.r_var[x];
   // Searchable indices: the target window x + d_min + k +- half_x stays inside the image.
   const int lo = MaxInt(0, g.half_x - x - in.d_min);
   const int hi = MinInt(in.num_disp - 1, in.width - 1 - g.half_x - x - in.d_min);
   rec->lo = static_cast<std::int16_t>(lo);
   rec->hi = static_cast<std::int16_t>(hi);
-  if (lo > hi) {
-    rec->status = PeakRecord::kBorder;
+  const bool low_texture = r_var <= 0 || r_var < in.min_var;
+  if (low_texture || lo > hi) {
+    for (int k = 0; k < g.dp; k += kLanes) StepSum<kStep>(ws, step, k);
+    rec->status = low_texture ? PeakRecord::kLowTexture : PeakRecord::kBorder;
     return;
   }
   rec->status = PeakRecord::kSearched;
 
-  // Float correlation curve over all padded disparities.
+  // The curve up to the positive factor k_r = sqrt(n / V_r), which changes neither the
+  // argmax nor the peaks: c'(k) = S(k) * t_k - (Sum_r / n) * Sum_t * t_k. Each lane keeps
+  // its maximum and the first index where it occurs.
   const int base = x + in.d_min - g.xa;  // padded column of k = 0
-  const float n_f = static_cast<float>(g.n);
-  const float a_r = static_cast<float>(r_sum) / n_f;
-  const float k_r = static_cast<float>(__builtin_sqrt(static_cast<double>(g.n) / static_cast<double>(r_var)));
-  const cv::v_float32 va = cv::vx_setall_f32(a_r);
-  const cv::v_float32 vk = cv::vx_setall_f32(k_r);
+  const cv::v_float32 va = cv::vx_setall_f32(static_cast<float>(ws.r_sum[x] / g.n));
+  const cv::v_float32 neg = cv::vx_setall_f32(kNegInf);
+  const cv::v_int32 vlo = cv::vx_setall_s32(lo), vhi = cv::vx_setall_s32(hi);
+  const cv::v_int32 iota = cv::vx_load(kIota);
   float* curve = ws.curve + 1;  // curve[-1] and curve[dp] are sentinels
-  for (int k = 0; k < g.dp; k += kLanes) {
-    const cv::v_float32 s = cv::v_cvt_f32(cv::vx_load(ws.sum + k));
-    const cv::v_float32 num = s - va * cv::vx_load(ws.t_sumf + base + k);
-    cv::v_store(curve + k, num * vk * cv::vx_load(ws.t_k + base + k));
-  }
-  for (int k = 0; k < lo; ++k) curve[k] = kNegInf;
-  for (int k = hi + 1; k < g.dp; ++k) curve[k] = kNegInf;
   curve[-1] = kNegInf;
   curve[g.dp] = kNegInf;
-
-  // Peaks (strictly above the left neighbour, not below the right one): per lane, the two
-  // highest peak values.
-  cv::v_float32 top1 = cv::vx_setall_f32(kNegInf), top2 = top1;
-  const cv::v_float32 neg = top1;
-  for (int k = 0; k < g.dp; k += kLanes) {
-    const cv::v_float32 c = cv::vx_load(curve + k);
-    const cv::v_float32 is_peak = (c > cv::vx_load(curve + k - 1)) & (c >= cv::vx_load(curve + k + 1));
-    const cv::v_float32 v = cv::v_select(is_peak, c, neg);
-    top2 = cv::v_max(top2, cv::v_min(top1, v));
-    top1 = cv::v_max(top1, v);
-  }
-  float t1[kLanes], t2[kLanes];
-  cv::v_store(t1, top1);
-  cv::v_store(t2, top2);
-  float best = kNegInf;
-  int best_lane = 0;
-  for (int l = 0; l < kLanes; ++l) {
-    if (t1[l] > best) { best = t1[l]; best_lane = l; }
-  }
-  float second = kNegInf;
-  for (int l = 0; l < kLanes; ++l) {
-    if (t2[l] > second) second = t2[l];
-    if (l != best_lane && t1[l] > second) second = t1[l];
-  }
-  // First index of the best value (the global maximum is always a peak).
-  int best_k = lo;
-  const cv::v_float32 vbest = cv::vx_setall_f32(best);
-  for (int k = 0; k < g.dp; k += kLanes) {
-    const int mask = cv::v_signmask(cv::vx_load(curve + k) == vbest);
-    if (mask != 0) {
-      best_k = k + __builtin_ctz(static_cast<unsigned>(mask));
-      break;
+  // Two independent (max, argmax) accumulators, for even and odd blocks, so that the
+  // compare-and-blend of one block does not wait for the previous one.
+  cv::v_float32 vmax[2] = {neg, neg};
+  cv::v_int32 vargmax[2] = {iota, iota};
+  auto block = [&](int k, int a) {
+    const cv::v_int32 s = StepSum<kStep>(ws, step, k);
+    cv::v_float32 c = cv::v_cvt_f32(s) * cv::vx_load(ws.t_k + base + k) -
+                      va * cv::vx_load(ws.t_u + base + k);
+    const cv::v_int32 vidx = iota + cv::vx_setall_s32(k);
+    if (k < lo || k + kLanes - 1 > hi) {  // block straddles or leaves [lo, hi]
+      c = cv::v_select(cv::v_reinterpret_as_f32((vidx >= vlo) & (vidx <= vhi)), c, neg);
     }
+    cv::v_store(curve + k, c);
+    vargmax[a] = cv::v_select(cv::v_reinterpret_as_s32(c > vmax[a]), vidx, vargmax[a]);
+    vmax[a] = cv::v_max(vmax[a], c);
+  };
+  int k = 0;
+  for (; k + 2 * kLanes <= g.dp; k += 2 * kLanes) {
+    block(k, 0);
+    block(k + kLanes, 1);
   }
+  if (k < g.dp) block(k, 0);
+  const float best = cv::v_reduce_max(cv::v_max(vmax[0], vmax[1]));
+  // The first index of the best value: the smallest argmax among the lanes holding it.
+  const cv::v_float32 vbest = cv::vx_setall_f32(best);
+  const cv::v_int32 none = cv::vx_setall_s32(1 << 30);
+  const cv::v_int32 arg0 = cv::v_select(cv::v_reinterpret_as_s32(vmax[0] == vbest), vargmax[0], none);
+  const cv::v_int32 arg1 = cv::v_select(cv::v_reinterpret_as_s32(vmax[1] == vbest), vargmax[1], none);
+  const int best_k = cv::v_reduce_min(cv::v_min(arg0, arg1));
   rec->best = static_cast<std::int16_t>(best_k);
-  rec->c_second = second;
-  const std::int64_t n = g.n;
+  const double r_sum = ws.r_sum[x], r_inv = ws.r_inv[x], n = g.n;
   auto exact = [&](int k) {
-    return static_cast<float>(ExactC(n, ws.sum[k], r_sum, r_var, ws.t_sum[base + k], ws.t_var[base + k]));
+    return static_cast<float>(
+        ExactC(n, ws.sum[k], r_sum, r_inv, ws.t_sum[base + k], ws.t_inv[base + k]));
   };
   rec->c_best = exact(best_k);
   rec->c_prev = best_k > lo ? exact(best_k - 1) : 0.0f;
   rec->c_next = best_k < hi ? exact(best_k + 1) : 0.0f;
+
+  // Second peak (strictly above its left neighbour, not below its right one), looked for
+  // only where filter 3 can need it: among values above best * (1 - M).
+  rec->c_second = kNegInf;
+  if (in.ambiguity <= 0.0 || !(best > 0.0f) || rec->c_best < in.min_correlation) return;
+  const cv::v_float32 vthreshold = cv::vx_setall_f32(best * static_cast<float>(1.0 - in.ambiguity));
+  const cv::v_int32 vbest_k = cv::vx_setall_s32(best_k);
+  cv::v_float32 vsecond = neg;
+  for (int k = 0; k < g.dp; k += kLanes) {
+    const cv::v_float32 c = cv::vx_load(curve + k);
+    const cv::v_float32 above = c > vthreshold;
+    if (cv::v_signmask(above) == 0) continue;
+    const cv::v_float32 is_peak = (c > cv::vx_load(curve + k - 1)) & (c >= cv::vx_load(curve + k + 1));
+    const cv::v_int32 idx = iota + cv::vx_setall_s32(k);
+    const cv::v_float32 other = cv::v_reinterpret_as_f32(idx != vbest_k);
+    vsecond = cv::v_max(vsecond, cv::v_select(is_peak & above & other, c, neg));
+  }
+  const float second = cv::v_reduce_max(vsecond);
+  if (second > kNegInf) {
+    rec->c_second = static_cast<float>(second * __builtin_sqrt(n) * r_inv);
+  }
+}
+
+// The (R(row a), sign_b * R(row b)) coefficient pair of grid column x, for v_dotprod.
+inline cv::v_int16 Coefficients(const std::int16_t* ref_a, const std::int16_t* ref_b, int sign_b,
+                                int x) {
+  const std::int16_t ca = ref_a[x];
+  const std::int16_t cb = static_cast<std::int16_t>(sign_b * ref_b[x]);
+  const std::uint32_t packed = static_cast<std::uint16_t>(ca) |
+                               (static_cast<std::uint32_t>(static_cast<std::uint16_t>(cb)) << 16);
+  return cv::v_reinterpret_as_s16(cv::vx_setall_u32(packed));
 }
 
 void RunKernelImpl(const lunarnav::stereo::internal::KernelInput& in, int row_begin, int row_end,
-                   void* workspace, lunarnav::stereo::internal::PeakRecord* records) {
+                   void* workspace, lunarnav::stereo::internal::RowSink sink, void* sink_context) {
   using lunarnav::stereo::internal::PeakRecord;
   const Geometry g = MakeGeometry(in);
   Workspace ws;
   LayoutWorkspace(in, g, static_cast<unsigned char*>(workspace), &ws);
   const int width = in.width;
-  const int dy = in.step_y, my = in.my;
+  const int dy = in.step_y, my = in.my, mx = in.mx;
   for (int p = 0; p < 2 * g.wp + 64; ++p) ws.pairs[p] = 0;
-  for (int p = 0; p < g.wp + 16; ++p) ws.t_sumf[p] = ws.t_k[p] = 0.0f;
-  for (int p = 0; p < g.wp; ++p) ws.t_sum[p] = ws.t_var[p] = 0;
+  for (int p = 0; p < g.wp + 16; ++p) {
+    ws.t_u[p] = ws.t_k[p] = 0.0f;
+    ws.t_sum[p] = ws.t_var[p] = ws.t_inv[p] = 0.0;
+  }
   auto ref_row = [&](int y) { return in.ref + static_cast<std::ptrdiff_t>(y) * width; };
   auto tgt_row = [&](int y) { return in.tgt + static_cast<std::ptrdiff_t>(y) * width; };
+  auto col_of = [&](int i) { return ws.col + static_cast<std::ptrdiff_t>(i) * g.dp; };
+  const double sqrt_n = __builtin_sqrt(static_cast<double>(g.n));
 
-  // Grid columns whose window is inside the image.
+  // Grid columns whose window is inside the image; only columns i_lo-mx .. i_hi+mx are used.
   int i_lo = 0;
   while (i_lo < in.num_cols && in.x0 + i_lo * in.step_x < g.half_x) ++i_lo;
   int i_hi = in.num_cols - 1;
   while (i_hi >= 0 && in.x0 + i_hi * in.step_x + g.half_x > width - 1) --i_hi;
+  const int used_begin = i_lo - mx, used_end = i_hi + mx + 1;
 
   for (int j = row_begin; j < row_end; ++j) {
     const int y = in.first_row + j * dy;
-    if (j == row_begin) {
-      for (std::size_t q = 0; q < static_cast<std::size_t>(in.num_cols) * g.dp; ++q) ws.col[q] = 0;
-      for (int r = -my; r <= my; r += 2) {
-        const int ya = y + r * dy;
-        const int yb = r + 1 <= my ? ya + dy : ya;  // odd count: pair the last row with itself, weight 0
-        InterleaveRows(tgt_row(ya), tgt_row(yb), width, g.xa, ws.pairs);
-        AccumulateProducts(in, g, ws, ref_row(ya), ref_row(yb), r + 1 <= my ? 1 : 0);
+    const bool first = j == row_begin;
+    // Vertical sums for the window of row y: from scratch for the chunk's first row, else
+    // moved down one grid row (for the products, lazily, in the column sweep below).
+    const int enter = y + my * dy, leave = y - (my + 1) * dy;
+    if (first) {
+      if (used_begin < used_end) {
+        for (std::size_t q = 0; q < static_cast<std::size_t>(in.num_cols) * g.dp; ++q) ws.col[q] = 0;
+        for (int r = -my; r <= my; r += 2) {
+          const int ya = y + r * dy;
+          const int yb = r + 1 <= my ? ya + dy : ya;  // odd count: last row paired with itself, weight 0
+          InterleaveRows(tgt_row(ya), tgt_row(yb), width, g.xa, ws.pairs);
+          AccumulateProducts(in, g, ws, ref_row(ya), ref_row(yb), r + 1 <= my ? 1 : 0, used_begin,
+                             used_end);
+        }
       }
       InitColumnStats(in.tgt, width, y, dy, my, ws.t_col1, ws.t_col2);
       InitColumnStats(in.ref, width, y, dy, my, ws.r_col1, ws.r_col2);
     } else {
-      const int y_prev = y - dy;
-      const int enter = y_prev + (my + 1) * dy, leave = y_prev - my * dy;
       InterleaveRows(tgt_row(enter), tgt_row(leave), width, g.xa, ws.pairs);
-      AccumulateProducts(in, g, ws, ref_row(enter), ref_row(leave), -1);
-      UpdateColumnStats(in.tgt, width, y_prev, dy, my, ws.t_col1, ws.t_col2);
-      UpdateColumnStats(in.ref, width, y_prev, dy, my, ws.r_col1, ws.r_col2);
+      UpdateColumnStats(in.tgt, width, y - dy, dy, my, ws.t_col1, ws.t_col2);
+      UpdateColumnStats(in.ref, width, y - dy, dy, my, ws.r_col1, ws.r_col2);
     }
-    WindowStats(ws.t_col1, ws.t_col2, width, in.step_x, in.mx, g.n, ws.prefix1, ws.prefix2,
+    WindowStats(ws.t_col1, ws.t_col2, width, in.step_x, mx, g.n, ws.prefix1, ws.prefix2,
                 ws.t_sum, ws.t_var, -g.xa);
+    InverseSqrt(ws.t_var, g.wp, ws.t_inv);
     for (int p = 0; p < g.wp; ++p) {
-      ws.t_sumf[p] = static_cast<float>(ws.t_sum[p]);
-      ws.t_k[p] = ws.t_var[p] > 0
-                      ? static_cast<float>(__builtin_sqrt(static_cast<double>(g.n) / static_cast<double>(ws.t_var[p])))
-                      : 0.0f;
+      const double k = sqrt_n * ws.t_inv[p];
+      ws.t_k[p] = static_cast<float>(k);
+      ws.t_u[p] = static_cast<float>(ws.t_sum[p] * k);
     }
-    WindowStats(ws.r_col1, ws.r_col2, width, in.step_x, in.mx, g.n, ws.prefix1, ws.prefix2,
+    WindowStats(ws.r_col1, ws.r_col2, width, in.step_x, mx, g.n, ws.prefix1, ws.prefix2,
                 ws.r_sum, ws.r_var, 0);
+    InverseSqrt(ws.r_var, width, ws.r_inv);
 
-    PeakRecord* row_records = records + static_cast<std::ptrdiff_t>(j) * in.num_cols;
+    PeakRecord* row_records = ws.records;
     for (int i = 0; i < in.num_cols; ++i) row_records[i] = PeakRecord{};
-    if (i_lo > i_hi) continue;
-    // Window sums of products at grid column i_lo, then the recursion over grid columns.
+    if (i_lo > i_hi) {
+      sink(sink_context, j, row_records);
+      continue;
+    }
+    ColumnStep step;
+    if (!first) {  // move the columns of the first window down one row
+      AccumulateProducts(in, g, ws, ref_row(enter), ref_row(leave), -1, used_begin, i_lo + mx + 1);
+    }
+    // Window sums of products at grid column i_lo ...
     for (int k = 0; k < g.dp; k += kLanes) {
       cv::v_int32 acc = cv::vx_setzero_s32();
-      for (int q = i_lo - in.mx; q <= i_lo + in.mx; ++q) {
-        acc = acc + cv::vx_load(ws.col + static_cast<std::ptrdiff_t>(q) * g.dp + k);
-      }
+      for (int q = i_lo - mx; q <= i_lo + mx; ++q) acc = acc + cv::vx_load(col_of(q) + k);
       cv::v_store(ws.sum + k, acc);
     }
-    for (int i = i_lo; i <= i_hi; ++i) {
-      if (i > i_lo) {
-        const std::int32_t* add = ws.col + static_cast<std::ptrdiff_t>(i + in.mx) * g.dp;
-        const std::int32_t* sub = ws.col + static_cast<std::ptrdiff_t>(i - in.mx - 1) * g.dp;
-        for (int k = 0; k < g.dp; k += kLanes) {
-          cv::v_store(ws.sum + k, cv::vx_load(ws.sum + k) + cv::vx_load(add + k) - cv::vx_load(sub + k));
-        }
+    SearchPixel<SumStep::kNone>(in, g, ws, in.x0 + i_lo * in.step_x, step, &row_records[i_lo]);
+    // ... then the recursion over grid columns.
+    for (int i = i_lo + 1; i <= i_hi; ++i) {
+      step.add = col_of(i + mx);
+      step.sub = col_of(i - mx - 1);
+      const int x = in.x0 + i * in.step_x;
+      if (first) {
+        SearchPixel<SumStep::kAdvance>(in, g, ws, x, step, &row_records[i]);
+      } else {
+        const int x_add = in.x0 + (i + mx) * in.step_x;
+        step.pairs = ws.pairs + 2 * (x_add + in.d_min - g.xa);
+        step.coef = Coefficients(ref_row(enter), ref_row(leave), -1, x_add);
+        SearchPixel<SumStep::kAdvanceAndUpdate>(in, g, ws, x, step, &row_records[i]);
       }
-      SearchPixel(in, g, ws, in.x0 + i * in.step_x, &row_records[i]);
     }
+    sink(sink_context, j, row_records);
   }
 }
 

@@ -10,6 +10,7 @@
 
 #include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>
+#include <tbb/parallel_invoke.h>
 #include <tbb/task_arena.h>
 
 #include "stereo/disparity_filters.h"
@@ -32,9 +33,10 @@ struct WorkingPair {
 };
 
 template <typename T>
-void ConvertRows(const cv::Mat& src, int offset, int shift, bool flip, cv::Mat* dst) {
+void ConvertRows(const cv::Mat& src, int offset, int shift, bool flip, const cv::Range& rows,
+                 cv::Mat* dst) {
   const int width = src.cols;
-  for (int y = 0; y < src.rows; ++y) {
+  for (int y = rows.start; y < rows.end; ++y) {
     const T* in = src.ptr<T>(y);
     auto* out = dst->ptr<std::int16_t>(y);
     for (int x = 0; x < width; ++x) {
@@ -44,7 +46,10 @@ void ConvertRows(const cv::Mat& src, int offset, int shift, bool flip, cv::Mat* 
   }
 }
 
-WorkingPair MakeWorkingPair(const cv::Mat& ref, const cv::Mat& tgt, int n, bool flip) {
+// Converts only `rows` (the rows the kernel reads); the others are left uninitialised.
+WorkingPair MakeWorkingPair(const cv::Mat& ref_full, const cv::Mat& tgt_full, int n, bool flip,
+                            const cv::Range& rows) {
+  const cv::Mat ref = ref_full.rowRange(rows), tgt = tgt_full.rowRange(rows);
   double min_r, max_r, min_t, max_t;
   cv::minMaxLoc(ref, &min_r, &max_r);
   cv::minMaxLoc(tgt, &min_t, &max_t);
@@ -58,15 +63,16 @@ WorkingPair MakeWorkingPair(const cv::Mat& ref, const cv::Mat& tgt, int n, bool 
       break;
     }
   }
-  pair.ref.create(ref.size(), CV_16SC1);
-  pair.tgt.create(tgt.size(), CV_16SC1);
-  if (ref.depth() == CV_8U) {
-    ConvertRows<std::uint8_t>(ref, offset, pair.shift, flip, &pair.ref);
-    ConvertRows<std::uint8_t>(tgt, offset, pair.shift, flip, &pair.tgt);
-  } else {
-    ConvertRows<std::uint16_t>(ref, offset, pair.shift, flip, &pair.ref);
-    ConvertRows<std::uint16_t>(tgt, offset, pair.shift, flip, &pair.tgt);
-  }
+  pair.ref.create(ref_full.size(), CV_16SC1);
+  pair.tgt.create(tgt_full.size(), CV_16SC1);
+  auto convert = [&](const cv::Mat& src, cv::Mat* dst) {
+    if (src.depth() == CV_8U) {
+      ConvertRows<std::uint8_t>(src, offset, pair.shift, flip, rows, dst);
+    } else {
+      ConvertRows<std::uint16_t>(src, offset, pair.shift, flip, rows, dst);
+    }
+  };
+  tbb::parallel_invoke([&] { convert(ref_full, &pair.ref); }, [&] { convert(tgt_full, &pair.tgt); });
   return pair;
 }
 
@@ -77,41 +83,79 @@ int FloorToMultiple(int value, int step) {
   return value >= 0 ? value / step * step : -((-value + step - 1) / step * step);
 }
 
-// Runs the kernel over all output rows, split into chunks for the worker threads.
-void RunKernelParallel(const KernelInput& in, int num_threads, std::vector<PeakRecord>* records) {
+// Filters 1-3 and the sub-pixel interpolation of one grid pixel.
+Rejection Classify(const PeakRecord& rec, const NccOptions& options, int d_min, float* disparity,
+                   float* correlation) {
+  if (rec.status == PeakRecord::kBorder) return Rejection::kBorder;
+  if (rec.status == PeakRecord::kLowTexture) return Rejection::kLowTexture;
+  *correlation = rec.c_best;
+  const double c = rec.c_best, c2 = rec.c_second;
+  if (c < options.min_correlation) return Rejection::kLowCorrelation;
+  if (options.ambiguity > 0 && std::isfinite(c2) && c > 0 && (c - c2) / c < options.ambiguity) {
+    return Rejection::kAmbiguous;
+  }
+  if (rec.best == rec.lo || rec.best == rec.hi) return Rejection::kRangeEdge;
+  *disparity = static_cast<float>(d_min + rec.best +
+                                  ParabolicPeakOffset(rec.c_prev, rec.c_best, rec.c_next));
+  return Rejection::kAccepted;
+}
+
+// Grid maps filled row by row by the kernel's sink.
+struct GridMaps {
+  const NccOptions* options;
+  int d_min;
+  cv::Mat disparity, correlation, rejection;
+};
+
+void ClassifyRow(void* context, int row, const PeakRecord* records) {
+  auto* maps = static_cast<GridMaps*>(context);
+  auto* disp = maps->disparity.ptr<float>(row);
+  auto* corr = maps->correlation.ptr<float>(row);
+  auto* reason = maps->rejection.ptr<std::uint8_t>(row);
+  const float nan = std::numeric_limits<float>::quiet_NaN();
+  for (int i = 0; i < maps->disparity.cols; ++i) {
+    disp[i] = corr[i] = nan;
+    reason[i] = static_cast<std::uint8_t>(
+        Classify(records[i], *maps->options, maps->d_min, &disp[i], &corr[i]));
+  }
+}
+
+// Scratch memory of the kernel, kept per thread so that a batch does not map and clear
+// fresh pages for every pair.
+void* ThreadWorkspace(std::size_t bytes) {
+  thread_local std::vector<unsigned char> buffer;
+  if (buffer.size() < bytes + 64) buffer.resize(bytes + 64);
+  return reinterpret_cast<void*>((reinterpret_cast<std::uintptr_t>(buffer.data()) + 63) / 64 * 64);
+}
+
+// Runs the kernel over all output rows, split into chunks for the current arena's threads.
+void RunKernelParallel(const KernelInput& in, GridMaps* maps) {
   const internal::KernelFn kernel = internal::SelectKernel();
   const std::size_t workspace_bytes = internal::KernelWorkspaceBytes(in);
   auto run_chunk = [&](int row_begin, int row_end) {
-    std::unique_ptr<unsigned char[]> buffer(new unsigned char[workspace_bytes + 64]);
-    void* aligned = reinterpret_cast<void*>(
-        (reinterpret_cast<std::uintptr_t>(buffer.get()) + 63) / 64 * 64);
-    kernel(in, row_begin, row_end, aligned, records->data());
+    kernel(in, row_begin, row_end, ThreadWorkspace(workspace_bytes), &ClassifyRow, maps);
   };
-  const int threads =
-      num_threads > 0 ? num_threads : tbb::this_task_arena::max_concurrency();
+  const int threads = tbb::this_task_arena::max_concurrency();
   // Each chunk starts with a full window of rows (2*my+1 row updates), so chunks are kept
-  // several windows tall; two chunks per thread balance uneven rows.
-  const int min_chunk = 4 * (2 * in.my + 1);
-  const int num_chunks =
-      std::max(1, std::min(2 * threads, in.num_rows / std::max(1, min_chunk)));
-  if (threads == 1 || num_chunks == 1) {
+  // several windows tall; a multiple of the thread count keeps the threads equally busy.
+  const int window_rows = 2 * in.my + 1;
+  int num_chunks = 1;
+  if (in.num_rows >= 2 * threads * 4 * window_rows) {
+    num_chunks = 2 * threads;
+  } else if (in.num_rows >= threads * window_rows) {
+    num_chunks = threads;
+  }
+  if (num_chunks == 1) {
     run_chunk(0, in.num_rows);
     return;
   }
-  auto body = [&] {
-    tbb::parallel_for(0, num_chunks, [&](int c) {
-      const int begin = static_cast<int>(static_cast<long>(in.num_rows) * c / num_chunks);
-      const int end = static_cast<int>(static_cast<long>(in.num_rows) * (c + 1) / num_chunks);
-      if (begin < end) run_chunk(begin, end);
-    });
-  };
-  if (num_threads > 0) {
-    tbb::task_arena arena(num_threads);
-    arena.execute(body);
-  } else {
-    body();
-  }
+  tbb::parallel_for(0, num_chunks, [&](int c) {
+    const int begin = static_cast<int>(static_cast<long>(in.num_rows) * c / num_chunks);
+    const int end = static_cast<int>(static_cast<long>(in.num_rows) * (c + 1) / num_chunks);
+    if (begin < end) run_chunk(begin, end);
+  });
 }
+
 
 }  // namespace
 
@@ -121,16 +165,10 @@ std::string ActiveKernelName() {
   return name;
 }
 
-NccResult MatchStereoPair(const NccOptions& options, const cv::Mat& left, const cv::Mat& right) {
-  options.Validate();
-  LN_CHECK_INPUT(!left.empty() && !right.empty()) << "empty image";
-  LN_CHECK_INPUT(left.size() == right.size())
-      << "image sizes differ: left " << left.cols << "x" << left.rows << ", right " << right.cols
-      << "x" << right.rows;
-  LN_CHECK_INPUT(left.type() == right.type())
-      << "image types differ (one is 8-bit, the other 16-bit)";
-  LN_CHECK_INPUT(left.type() == CV_8UC1 || left.type() == CV_16UC1)
-      << "images must be 8- or 16-bit single-channel";
+namespace {
+
+void MatchInCurrentArena(const NccOptions& options, const cv::Mat& left, const cv::Mat& right,
+                         NccResult* out) {
   util::Timer timer;
   const int width = left.cols, height = left.rows;
   const int dx = options.step_x_px, dy = options.step_y_px;
@@ -159,59 +197,44 @@ NccResult MatchStereoPair(const NccOptions& options, const cv::Mat& left, const 
   const int fit_hi = std::min(grid_hi, FloorToMultiple(height - 1 - in.my * dy, dy));
   in.first_row = fit_lo;
   in.num_rows = fit_hi >= fit_lo ? (fit_hi - fit_lo) / dy + 1 : 0;
+  const int band_grid_rows = grid_hi >= grid_lo ? (grid_hi - grid_lo) / dy + 1 : 0;
 
-  const WorkingPair work = MakeWorkingPair(flip ? left : right, flip ? right : left, n, flip);
-  in.ref = work.ref.ptr<std::int16_t>();
-  in.tgt = work.tgt.ptr<std::int16_t>();
-  const double full_scale = left.depth() == CV_8U ? 255.0 : 65535.0;
-  const double sigma_min_work = options.min_sigma * (full_scale / 255.0) / std::ldexp(1.0, work.shift);
-  in.min_var = (sigma_min_work * n) * (sigma_min_work * n);
-
-  std::vector<PeakRecord> records(static_cast<std::size_t>(in.num_rows) * in.num_cols);
-  if (in.num_rows > 0) RunKernelParallel(in, options.num_threads, &records);
-
-  // Filters 1-3 and sub-pixel interpolation, on the grid.
-  const float nan = std::numeric_limits<float>::quiet_NaN();
-  cv::Mat grid_disp(in.num_rows, in.num_cols, CV_32FC1, cv::Scalar(nan));
-  cv::Mat grid_corr(in.num_rows, in.num_cols, CV_32FC1, cv::Scalar(nan));
-  cv::Mat grid_reason(in.num_rows, in.num_cols, CV_8UC1);
-  for (int j = 0; j < in.num_rows; ++j) {
-    for (int i = 0; i < in.num_cols; ++i) {
-      const PeakRecord& rec = records[static_cast<std::size_t>(j) * in.num_cols + i];
-      Rejection reason = Rejection::kAccepted;
-      if (rec.status == PeakRecord::kBorder) {
-        reason = Rejection::kBorder;
-      } else if (rec.status == PeakRecord::kLowTexture) {
-        reason = Rejection::kLowTexture;
-      } else {
-        grid_corr.at<float>(j, i) = rec.c_best;
-        const double c = rec.c_best, c2 = rec.c_second;
-        if (c < options.min_correlation) {
-          reason = Rejection::kLowCorrelation;
-        } else if (options.ambiguity > 0 && std::isfinite(c2) && c > 0 &&
-                   (c - c2) / c < options.ambiguity) {
-          reason = Rejection::kAmbiguous;
-        } else if (rec.best == rec.lo || rec.best == rec.hi) {
-          reason = Rejection::kRangeEdge;
-        } else {
-          grid_disp.at<float>(j, i) = static_cast<float>(
-              in.d_min + rec.best + ParabolicPeakOffset(rec.c_prev, rec.c_best, rec.c_next));
-        }
-      }
-      grid_reason.at<std::uint8_t>(j, i) = static_cast<std::uint8_t>(reason);
-    }
+  WorkingPair work;
+  GridMaps grid{&options, in.d_min, cv::Mat(in.num_rows, in.num_cols, CV_32FC1),
+                cv::Mat(in.num_rows, in.num_cols, CV_32FC1),
+                cv::Mat(in.num_rows, in.num_cols, CV_8UC1)};
+  if (in.num_rows > 0) {
+    const cv::Range rows(fit_lo - in.my * dy, fit_hi + in.my * dy + 1);
+    work = MakeWorkingPair(flip ? left : right, flip ? right : left, n, flip, rows);
+    in.ref = work.ref.ptr<std::int16_t>();
+    in.tgt = work.tgt.ptr<std::int16_t>();
+    const double full_scale = left.depth() == CV_8U ? 255.0 : 65535.0;
+    const double sigma_min_work =
+        options.min_sigma * (full_scale / 255.0) / std::ldexp(1.0, work.shift);
+    in.min_var = (sigma_min_work * n) * (sigma_min_work * n);
+    in.min_correlation = options.min_correlation;
+    in.ambiguity = options.ambiguity;
+    // Filters 1-3 and the sub-pixel interpolation run in the kernel's row sink.
+    RunKernelParallel(in, &grid);
   }
+  cv::Mat& grid_disp = grid.disparity;
+  cv::Mat& grid_corr = grid.correlation;
+  cv::Mat& grid_reason = grid.rejection;
   MedianFilterDisparityGrid(options.median_size, &grid_disp, &grid_reason);
 
   // Scatter the grid into full-size maps in the reference image's columns.
-  NccResult result;
+  const float nan = std::numeric_limits<float>::quiet_NaN();
+  NccResult& result = *out;
+  result.summary = NccSummary{};
   result.disparity_px.create(height, width, CV_32FC1);
   result.disparity_px.setTo(nan);
   result.correlation.create(height, width, CV_32FC1);
   result.correlation.setTo(nan);
   result.rejection.create(height, width, CV_8UC1);
   result.rejection.setTo(static_cast<int>(Rejection::kNotEvaluated));
-  for (int y = grid_lo; y <= grid_hi; y += dy) {
+  NccSummary& s = result.summary;
+  tbb::parallel_for(0, band_grid_rows, [&](int row) {
+    const int y = grid_lo + row * dy;
     const bool fits = y >= fit_lo && y <= fit_hi;
     const int j = fits ? (y - fit_lo) / dy : -1;
     auto* out_reason = result.rejection.ptr<std::uint8_t>(y);
@@ -228,23 +251,52 @@ NccResult MatchStereoPair(const NccOptions& options, const cv::Mat& left, const 
       out_disp[x] = grid_disp.at<float>(j, i);
       out_corr[x] = grid_corr.at<float>(j, i);
     }
+  });
+  for (int j = 0; j < in.num_rows; ++j) {
+    const auto* reason = grid_reason.ptr<std::uint8_t>(j);
+    for (int i = 0; i < in.num_cols; ++i) ++s.pixels_by_reason[reason[i]];
   }
 
-  NccSummary& s = result.summary;
   s.width = width;
   s.height = height;
   s.band_min_row = band_lo;
   s.band_max_row = band_hi;
   s.working_shift_bits = work.shift;
-  for (int y = 0; y < height; ++y) {
-    const auto* row = result.rejection.ptr<std::uint8_t>(y);
-    for (int x = 0; x < width; ++x) ++s.pixels_by_reason[row[x]];
-  }
+  s.pixels_by_reason[static_cast<int>(Rejection::kBorder)] +=
+      (band_grid_rows - in.num_rows) * in.num_cols;
+  s.evaluated_pixels = band_grid_rows * in.num_cols;
+  s.pixels_by_reason[static_cast<int>(Rejection::kNotEvaluated)] =
+      width * height - s.evaluated_pixels;
   s.accepted_pixels = s.pixels_by_reason[static_cast<int>(Rejection::kAccepted)];
-  s.evaluated_pixels =
-      width * height - s.pixels_by_reason[static_cast<int>(Rejection::kNotEvaluated)];
   s.match_seconds = timer.ElapsedSeconds();
+}
+
+}  // namespace
+
+NccResult MatchStereoPair(const NccOptions& options, const cv::Mat& left, const cv::Mat& right) {
+  NccResult result;
+  MatchStereoPair(options, left, right, &result);
   return result;
+}
+
+void MatchStereoPair(const NccOptions& options, const cv::Mat& left, const cv::Mat& right,
+                     NccResult* result) {
+  LN_CHECK(result != nullptr);
+  options.Validate();
+  LN_CHECK_INPUT(!left.empty() && !right.empty()) << "empty image";
+  LN_CHECK_INPUT(left.size() == right.size())
+      << "image sizes differ: left " << left.cols << "x" << left.rows << ", right " << right.cols
+      << "x" << right.rows;
+  LN_CHECK_INPUT(left.type() == right.type())
+      << "image types differ (one is 8-bit, the other 16-bit)";
+  LN_CHECK_INPUT(left.type() == CV_8UC1 || left.type() == CV_16UC1)
+      << "images must be 8- or 16-bit single-channel";
+  if (options.num_threads == 0) {
+    MatchInCurrentArena(options, left, right, result);
+    return;
+  }
+  tbb::task_arena arena(options.num_threads);
+  arena.execute([&] { MatchInCurrentArena(options, left, right, result); });
 }
 
 }  // namespace lunarnav::stereo

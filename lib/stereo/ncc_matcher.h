@@ -26,6 +26,11 @@ namespace lunarnav::stereo {
 /// @throws InputError when the images are empty or differ in size or type.
 NccResult MatchStereoPair(const NccOptions& options, const cv::Mat& left, const cv::Mat& right);
 
+/// As above, writing into `result`, whose maps are reused when they already have the right
+/// size (saves mapping fresh memory for every pair of a long sequence).
+void MatchStereoPair(const NccOptions& options, const cv::Mat& left, const cv::Mat& right,
+                     NccResult* result);
+
 /// Name of the SIMD kernel this CPU uses ("avx2" or "baseline").
 std::string ActiveKernelName();
 

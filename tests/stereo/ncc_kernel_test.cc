@@ -2,6 +2,7 @@
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cstring>
 #include <memory>
 #include <vector>
@@ -38,12 +39,20 @@ TEST(SelectKernel, AgreesBitForBitWithTheBaselineKernel) {
   in.num_rows = 40;
   in.d_min = -3;
   in.num_disp = 37;
+  in.min_correlation = 0.5;
+  in.ambiguity = 0.1;
   const std::size_t bytes = KernelWorkspaceBytes(in);
   std::vector<std::uint64_t> workspace(bytes / 8 + 8);
   std::vector<PeakRecord> a(in.num_rows * in.num_cols), b(a.size());
+  // Collects the rows the kernel hands over.
+  auto sink = [](void* context, int row, const PeakRecord* records) {
+    auto* all = static_cast<std::vector<PeakRecord>*>(context);
+    const int cols = (200 - 1) / 3 + 1;
+    std::copy(records, records + cols, all->begin() + static_cast<std::ptrdiff_t>(row) * cols);
+  };
   const char* name = nullptr;
-  SelectKernel(&name)(in, 0, in.num_rows, workspace.data(), a.data());
-  BaselineKernel()(in, 0, in.num_rows, workspace.data(), b.data());
+  SelectKernel(&name)(in, 0, in.num_rows, workspace.data(), sink, &a);
+  BaselineKernel()(in, 0, in.num_rows, workspace.data(), sink, &b);
   int searched = 0;
   for (std::size_t k = 0; k < a.size(); ++k) {
     ASSERT_EQ(a[k].status, b[k].status) << k << " " << name;
