@@ -2,10 +2,13 @@
 
 #include <algorithm>
 #include <cctype>
+#include <cstdint>
+#include <fstream>
 #include <memory>
 #include <vector>
 
 #include <OpenImageIO/imageio.h>
+#include <zlib.h>
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
 
@@ -29,7 +32,37 @@ std::string OiioError(const OIIO::ImageInput* in) {
   std::replace(message.begin(), message.end(), '\n', ' ');
   return message;
 }
+std::uint32_t BigEndian32(const unsigned char* p) {
+  return (std::uint32_t{p[0]} << 24) | (std::uint32_t{p[1]} << 16) | (std::uint32_t{p[2]} << 8) | p[3];
+}
+
 }  // namespace
+
+std::string PngStructureProblem(const fs::path& path) {
+  std::ifstream in(path, std::ios::binary);
+  if (!in) return "cannot open";
+  const std::vector<unsigned char> bytes((std::istreambuf_iterator<char>(in)),
+                                         std::istreambuf_iterator<char>());
+  static const unsigned char kSignature[8] = {0x89, 'P', 'N', 'G', '\r', '\n', 0x1A, '\n'};
+  if (bytes.size() < 8 || !std::equal(kSignature, kSignature + 8, bytes.begin())) {
+    return "not a PNG file (bad signature)";
+  }
+  std::size_t pos = 8;
+  while (pos + 12 <= bytes.size()) {
+    const std::uint32_t length = BigEndian32(&bytes[pos]);
+    const std::string type(reinterpret_cast<const char*>(&bytes[pos + 4]), 4);
+    if (length > bytes.size() - pos - 12) {
+      return "truncated (chunk " + type + " at byte " + std::to_string(pos) + " runs past the end)";
+    }
+    const uLong crc = crc32(crc32(0L, Z_NULL, 0), &bytes[pos + 4], length + 4);
+    if (crc != BigEndian32(&bytes[pos + 8 + length])) {
+      return "corrupt (CRC mismatch in chunk " + type + " at byte " + std::to_string(pos) + ")";
+    }
+    if (type == "IEND") return "";
+    pos += 12 + length;
+  }
+  return "truncated (no IEND chunk)";
+}
 
 bool HasImageExtension(const fs::path& path) {
   static const char* kExtensions[] = {".png", ".pgm", ".ppm", ".pnm", ".tif",
@@ -43,6 +76,11 @@ cv::Mat ReadGreyImage(const fs::path& path) {
   std::error_code ec;
   LN_CHECK_INPUT(fs::is_regular_file(path, ec)) << path.string() << ": no such file";
   LN_CHECK_INPUT(fs::file_size(path, ec) > 0) << path.string() << ": empty file";
+  if (LowerExtension(path) == ".png") {
+    // libpng prints its own stderr line on a damaged file: find the damage first.
+    const std::string problem = PngStructureProblem(path);
+    LN_CHECK_INPUT(problem.empty()) << path.string() << ": " << problem;
+  }
   auto in = OIIO::ImageInput::open(path.string());
   LN_CHECK_INPUT(in != nullptr) << path.string() << ": unreadable image (" << OiioError(nullptr) << ")";
   const OIIO::ImageSpec& spec = in->spec();
@@ -59,7 +97,8 @@ cv::Mat ReadGreyImage(const fs::path& path) {
   const int cv_depth = is8 ? CV_8U : CV_16U;
   cv::Mat raw(spec.height, spec.width, CV_MAKETYPE(cv_depth, channels));
   const OIIO::TypeDesc read_type = is8 ? OIIO::TypeDesc::UINT8 : OIIO::TypeDesc::UINT16;
-  const bool ok = in->read_image(0, 0, 0, channels, read_type, raw.data);
+  // A truncated JPEG decodes with grey filler and only a pending error message.
+  const bool ok = in->read_image(0, 0, 0, channels, read_type, raw.data) && !in->has_error();
   LN_CHECK_INPUT(ok) << path.string() << ": truncated or corrupt image (" << OiioError(in.get())
                      << ")";
   in->close();

@@ -17,6 +17,10 @@ namespace lunarnav::io {
 ///         float or 32-bit pixels, empty).
 cv::Mat ReadGreyImage(const std::filesystem::path& path);
 
+/// What is wrong with the chunk structure of a PNG file (signature, chunk lengths, CRCs, the
+/// closing IEND chunk), or "" when it is sound.
+std::string PngStructureProblem(const std::filesystem::path& path);
+
 /// True when the file extension is one ReadGreyImage is meant for
 /// (.png .pgm .ppm .pnm .tif .tiff .jpg .jpeg, any case).
 bool HasImageExtension(const std::filesystem::path& path);

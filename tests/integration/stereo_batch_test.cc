@@ -1,0 +1,256 @@
+// Integration tests of the stereo-batch tool over temporary directories.
+#include <gtest/gtest.h>
+
+#include <signal.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <filesystem>
+#include <fstream>
+#include <thread>
+#include <vector>
+
+#include <nlohmann/json.hpp>
+#include <opencv2/core.hpp>
+#include <opencv2/imgcodecs.hpp>
+
+#include "integration/run_tool.h"
+#include "io/atomic_file.h"
+#include "io/image_io.h"
+#include "io/json_io.h"
+#include "util/testing.h"
+
+namespace lunarnav {
+namespace {
+namespace fs = std::filesystem;
+using testing::RunTool;
+using util::ScopedTempDir;
+using util::TestDataPath;
+
+const char* kStems[] = {"frame0000", "frame0001", "frame0002"};
+
+// A copy of testdata/stereo_pairs (images only) in `dir`.
+fs::path CopyPairs(const fs::path& dir) {
+  const fs::path in = dir / "pairs";
+  for (const char* side : {"left", "right"}) {
+    fs::create_directories(in / side);
+    for (const char* stem : kStems) {
+      fs::copy_file(TestDataPath("stereo_pairs") / side / (std::string(stem) + ".png"),
+                    in / side / (std::string(stem) + ".png"));
+    }
+  }
+  return in;
+}
+
+std::string ReadBytes(const fs::path& path) {
+  std::ifstream in(path, std::ios::binary);
+  return {std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>()};
+}
+
+TEST(StereoBatch, MatchesTheTestdataPairsAgainstTheirGroundTruth) {
+  ScopedTempDir tmp;
+  const fs::path out = tmp.path() / "out";
+  const auto run = RunTool("stereo-batch", {TestDataPath("stereo_pairs").string(), "-o", out.string(), "-q"}, tmp.path());
+  ASSERT_EQ(run.exit_code, 0) << run.stderr_text;
+  EXPECT_EQ(run.ErrorLines(), 0);
+  for (const char* stem : kStems) {
+    const cv::Mat d = io::ReadPfm(out / "disparity" / (std::string(stem) + ".pfm"));
+    const cv::Mat truth16 = cv::imread(
+        (TestDataPath("stereo_pairs") / "truth" / "disparity" / (std::string(stem) + ".png")).string(),
+        cv::IMREAD_UNCHANGED);
+    ASSERT_EQ(d.size(), truth16.size());
+    std::vector<double> errors;
+    for (int y = 0; y < d.rows; ++y) {
+      for (int x = 0; x < d.cols; ++x) {
+        const float v = d.at<float>(y, x);
+        const int t = truth16.at<std::uint16_t>(y, x);
+        if (!std::isfinite(v) || t == 0) continue;  // +inf = no disparity; 0 = no truth
+        errors.push_back(std::abs(v - t / 256.0));
+      }
+    }
+    ASSERT_GT(errors.size(), 150000u) << stem;  // most of the 640 x 480 image
+    std::sort(errors.begin(), errors.end());
+    EXPECT_LT(errors[errors.size() / 2], 0.1) << stem;
+    // Gross errors (> 1 px) only at the boxes' edges: a small fraction.
+    const auto gross = errors.end() - std::upper_bound(errors.begin(), errors.end(), 1.0);
+    EXPECT_LT(gross, 0.03 * errors.size()) << stem;
+    // The confidence and rejection maps have the image's size and the right types.
+    const cv::Mat c = cv::imread((out / "confidence" / (std::string(stem) + ".tif")).string(), cv::IMREAD_UNCHANGED);
+    EXPECT_EQ(c.type(), CV_32FC1);
+    const cv::Mat r = cv::imread((out / "rejections" / (std::string(stem) + ".png")).string(), cv::IMREAD_UNCHANGED);
+    EXPECT_EQ(r.type(), CV_8UC1);
+    EXPECT_EQ(r.size(), d.size());
+  }
+  const nlohmann::json summary = io::ReadJson(out / "summary.json");
+  EXPECT_EQ(summary["counts"]["pairs_ok"], 3);
+  EXPECT_EQ(summary["counts"]["pairs_failed"], 0);
+  EXPECT_EQ(summary["options"]["half_window_px"], nlohmann::json({25, 17}));
+  EXPECT_EQ(summary["pairs"].size(), 3u);
+}
+
+TEST(StereoBatch, ReportsAndSkipsBadPairs) {
+  ScopedTempDir tmp;
+  const fs::path in = CopyPairs(tmp.path());
+  // frame0001: truncated right image.
+  const std::string bytes = ReadBytes(in / "right" / "frame0001.png");
+  std::ofstream(in / "right" / "frame0001.png", std::ios::binary | std::ios::trunc)
+      .write(bytes.data(), static_cast<std::streamsize>(bytes.size() / 2));
+  // frame0002: the left image is smaller.
+  cv::Mat small = cv::imread((in / "left" / "frame0002.png").string(), cv::IMREAD_GRAYSCALE);
+  cv::imwrite((in / "left" / "frame0002.png").string(), small(cv::Rect(0, 0, 320, 240)));
+  // cable: blank left frame; sun: saturated right frame; lonely: no right partner.
+  cv::imwrite((in / "left" / "cable.png").string(), cv::Mat(480, 640, CV_8UC1, cv::Scalar(3)));
+  fs::copy_file(in / "right" / "frame0000.png", in / "right" / "cable.png");
+  fs::copy_file(in / "left" / "frame0000.png", in / "left" / "sun.png");
+  cv::imwrite((in / "right" / "sun.png").string(), cv::Mat(480, 640, CV_8UC1, cv::Scalar(255)));
+  fs::copy_file(in / "left" / "frame0000.png", in / "left" / "lonely.png");
+  std::ofstream(in / "left" / "notes.txt") << "not an image";
+
+  const fs::path out = tmp.path() / "out";
+  const auto run = RunTool("stereo-batch", {in.string(), "-o", out.string(), "--window", "7x5"}, tmp.path());
+  EXPECT_EQ(run.exit_code, 4) << run.stderr_text;
+  EXPECT_EQ(run.ErrorLines(), 5) << run.stderr_text;
+  for (const char* word : {"pair frame0001:", "truncated", "pair frame0002:", "differs", "pair cable:",
+                           "blank", "pair sun:", "saturated", "pair lonely:", "missing"}) {
+    EXPECT_NE(run.stderr_text.find(word), std::string::npos) << word << "\n" << run.stderr_text;
+  }
+  EXPECT_TRUE(fs::exists(out / "disparity" / "frame0000.pfm"));
+  for (const char* bad : {"frame0001", "frame0002", "cable", "sun", "lonely"}) {
+    EXPECT_FALSE(fs::exists(out / "disparity" / (std::string(bad) + ".pfm"))) << bad;
+  }
+  const nlohmann::json summary = io::ReadJson(out / "summary.json");
+  EXPECT_EQ(summary["counts"]["pairs_ok"], 1);
+  EXPECT_EQ(summary["counts"]["pairs_failed"], 5);
+  EXPECT_EQ(summary["failed"].size(), 5u);
+}
+
+TEST(StereoBatch, ResumeSkipsCompletePairsAndRedoesIncompleteOnes) {
+  ScopedTempDir tmp;
+  const fs::path in = CopyPairs(tmp.path());
+  const fs::path out = tmp.path() / "out";
+  const std::vector<std::string> args = {in.string(), "-o", out.string(), "-q", "--window", "7x5"};
+  ASSERT_EQ(RunTool("stereo-batch", args, tmp.path()).exit_code, 0);
+  const auto before = fs::last_write_time(out / "disparity" / "frame0000.pfm");
+  fs::remove(out / "disparity" / "frame0001.json");  // as if killed before the sidecar
+  std::vector<std::string> resume = args;
+  resume.push_back("--resume");
+  ASSERT_EQ(RunTool("stereo-batch", resume, tmp.path()).exit_code, 0);
+  EXPECT_EQ(fs::last_write_time(out / "disparity" / "frame0000.pfm"), before);
+  const nlohmann::json summary = io::ReadJson(out / "summary.json");
+  EXPECT_EQ(summary["counts"]["pairs_resumed"], 2);
+  EXPECT_EQ(summary["counts"]["pairs_ok"], 1);
+  EXPECT_TRUE(fs::exists(out / "disparity" / "frame0001.json"));
+  // Other options: nothing is reused.
+  resume.push_back("--c-min");
+  resume.push_back("0.6");
+  ASSERT_EQ(RunTool("stereo-batch", resume, tmp.path()).exit_code, 0);
+  EXPECT_EQ(io::ReadJson(out / "summary.json")["counts"]["pairs_resumed"], 0);
+}
+
+TEST(StereoBatch, ShardsTogetherEqualTheSingleRun) {
+  ScopedTempDir tmp;
+  const fs::path in = CopyPairs(tmp.path());
+  const fs::path single = tmp.path() / "single", sharded = tmp.path() / "sharded";
+  ASSERT_EQ(RunTool("stereo-batch", {in.string(), "-o", single.string(), "-q", "--step", "3x2"}, tmp.path()).exit_code, 0);
+  for (const char* shard : {"0/2", "1/2"}) {
+    ASSERT_EQ(RunTool("stereo-batch", {in.string(), "-o", sharded.string(), "-q", "--step", "3x2", "--shard", shard, "-j", "1"},
+                      tmp.path()).exit_code, 0);
+  }
+  for (const char* stem : kStems) {
+    for (const auto& [dir, ext] : {std::pair{"disparity", ".pfm"}, {"confidence", ".tif"}, {"rejections", ".png"}}) {
+      const fs::path a = single / dir / (std::string(stem) + ext), b = sharded / dir / (std::string(stem) + ext);
+      EXPECT_EQ(ReadBytes(a), ReadBytes(b)) << a;
+    }
+  }
+  EXPECT_EQ(io::ReadJson(sharded / "summary.shard-0-of-2.json")["counts"]["pairs_in_shard"], 2);
+  EXPECT_EQ(io::ReadJson(sharded / "summary.shard-1-of-2.json")["counts"]["pairs_in_shard"], 1);
+}
+
+TEST(StereoBatch, AKilledRunLeavesNoHalfWrittenFile) {
+  ScopedTempDir tmp;
+  // Twelve pairs, so that the run is still writing when it is killed.
+  const fs::path in = tmp.path() / "pairs";
+  for (const char* side : {"left", "right"}) {
+    fs::create_directories(in / side);
+    for (int i = 0; i < 12; ++i) {
+      fs::copy_file(TestDataPath("stereo_pairs") / side / (std::string(kStems[i % 3]) + ".png"),
+                    in / side / ("p" + std::to_string(100 + i) + ".png"));
+    }
+  }
+  const fs::path out = tmp.path() / "out";
+  const std::string tool = util::ToolPath("stereo-batch").string();
+  int killed_with_outputs = 0;
+  for (int delay_ms : {80, 250, 450}) {
+    const pid_t pid = fork();
+    ASSERT_GE(pid, 0);
+    if (pid == 0) {
+      execl(tool.c_str(), tool.c_str(), in.c_str(), "-o", out.c_str(), "-q", "--resume", "-j", "1",
+            static_cast<char*>(nullptr));
+      _exit(127);
+    }
+    std::this_thread::sleep_for(std::chrono::milliseconds(delay_ms));
+    kill(pid, SIGKILL);
+    int status = 0;
+    waitpid(pid, &status, 0);
+    if (!fs::exists(out / "disparity")) continue;
+    killed_with_outputs += !fs::is_empty(out / "disparity");
+    // Every file under its final name is complete.
+    for (const auto& entry : fs::recursive_directory_iterator(out)) {
+      if (!entry.is_regular_file() || io::IsTempFileName(entry.path())) continue;
+      const std::string ext = entry.path().extension().string();
+      if (ext == ".json") {
+        EXPECT_NO_THROW(io::ReadJson(entry.path())) << entry.path();
+      } else {
+        const cv::Mat m = cv::imread(entry.path().string(), cv::IMREAD_UNCHANGED);
+        EXPECT_EQ(m.size(), cv::Size(640, 480)) << entry.path();
+      }
+    }
+  }
+  EXPECT_GT(killed_with_outputs, 0) << "every run was killed before writing anything";
+  // A resumed run completes the set and clears the leftovers of the killed ones.
+  ASSERT_EQ(RunTool("stereo-batch", {in.string(), "-o", out.string(), "-q", "--resume"}, tmp.path()).exit_code, 0);
+  int files = 0;
+  for (const auto& entry : fs::recursive_directory_iterator(out)) {
+    if (!entry.is_regular_file()) continue;
+    EXPECT_FALSE(io::IsTempFileName(entry.path())) << entry.path();
+    ++files;
+  }
+  EXPECT_EQ(files, 12 * 4 + 1);  // 3 maps + sidecar per pair, and summary.json
+}
+
+TEST(StereoBatch, UsageAndInputErrorsHaveTheirExitCodes) {
+  ScopedTempDir tmp;
+  const fs::path in = CopyPairs(tmp.path());
+  const std::string out = (tmp.path() / "out").string();
+  EXPECT_EQ(RunTool("stereo-batch", {"--help"}, tmp.path()).exit_code, 0);
+  EXPECT_EQ(RunTool("stereo-batch", {in.string()}, tmp.path()).exit_code, 2);  // no -o
+  EXPECT_EQ(RunTool("stereo-batch", {in.string(), "-o", out, "--window", "big"}, tmp.path()).exit_code, 2);
+  EXPECT_EQ(RunTool("stereo-batch", {in.string(), "-o", out, "--shard", "2/2"}, tmp.path()).exit_code, 2);
+  EXPECT_EQ(RunTool("stereo-batch", {in.string(), "-o", out, "--median", "4"}, tmp.path()).exit_code, 2);
+  EXPECT_EQ(RunTool("stereo-batch", {in.string(), "-o", out, "--disparity", "50:10"}, tmp.path()).exit_code, 2);
+  const auto missing = RunTool("stereo-batch", {(tmp.path() / "nowhere").string(), "-o", out}, tmp.path());
+  EXPECT_EQ(missing.exit_code, 3);
+  EXPECT_EQ(missing.ErrorLines(), 1);
+  EXPECT_NE(missing.stderr_text.find("nowhere"), std::string::npos);
+  fs::remove_all(in / "right");
+  EXPECT_EQ(RunTool("stereo-batch", {in.string(), "-o", out}, tmp.path()).exit_code, 3);
+}
+
+TEST(StereoBatch, LeftReferenceAndSubsamplingRun) {
+  ScopedTempDir tmp;
+  const fs::path out = tmp.path() / "out";
+  const auto run = RunTool("stereo-batch", {TestDataPath("stereo_pairs").string(), "-o", out.string(), "-q",
+                                            "--reference", "left", "--step", "5x4", "--rows", "130:233",
+                                            "--disparity", "20:90"}, tmp.path());
+  ASSERT_EQ(run.exit_code, 0) << run.stderr_text;
+  const cv::Mat d = io::ReadPfm(out / "disparity" / "frame0000.pfm");
+  // Only rows 130..233 on the 4-row grid hold disparities.
+  EXPECT_FALSE(std::isfinite(d.at<float>(100, 300)));
+  EXPECT_EQ(io::ReadJson(out / "summary.json")["options"]["step_px"], nlohmann::json({5, 4}));
+}
+
+}  // namespace
+}  // namespace lunarnav

@@ -1,0 +1,97 @@
+#include "io/image_io.h"
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <fstream>
+#include <limits>
+
+#include <opencv2/imgcodecs.hpp>
+
+#include "util/errors.h"
+#include "util/testing.h"
+
+namespace lunarnav::io {
+namespace {
+namespace fs = std::filesystem;
+
+cv::Mat Ramp(int type) {
+  cv::Mat m(7, 11, type);
+  for (int y = 0; y < m.rows; ++y)
+    for (int x = 0; x < m.cols; ++x) {
+      if (type == CV_8UC1) m.at<std::uint8_t>(y, x) = static_cast<std::uint8_t>(20 * y + x);
+      if (type == CV_16UC1) m.at<std::uint16_t>(y, x) = static_cast<std::uint16_t>(5000 * y + x);
+    }
+  return m;
+}
+
+TEST(ReadGreyImage, RoundTripsEightAndSixteenBitFormats) {
+  util::ScopedTempDir tmp;
+  for (const char* ext : {".png", ".pgm", ".tif"}) {
+    for (int type : {CV_8UC1, CV_16UC1}) {
+      const fs::path path = tmp.path() / (std::string("ramp") + std::to_string(type) + ext);
+      const cv::Mat m = Ramp(type);
+      ASSERT_TRUE(cv::imwrite(path.string(), m));
+      const cv::Mat back = ReadGreyImage(path);
+      ASSERT_EQ(back.type(), type) << path;
+      EXPECT_EQ(cv::norm(back, m, cv::NORM_INF), 0) << path;
+    }
+  }
+}
+
+TEST(ReadGreyImage, ConvertsColourWithRec601Weights) {
+  util::ScopedTempDir tmp;
+  cv::Mat bgr(4, 4, CV_8UC3, cv::Scalar(10, 200, 40));  // B, G, R
+  ASSERT_TRUE(cv::imwrite((tmp.path() / "c.png").string(), bgr));
+  const cv::Mat grey = ReadGreyImage(tmp.path() / "c.png");
+  ASSERT_EQ(grey.type(), CV_8UC1);
+  EXPECT_NEAR(grey.at<std::uint8_t>(0, 0), 0.299 * 40 + 0.587 * 200 + 0.114 * 10, 1.0);
+}
+
+TEST(ReadGreyImage, ReportsMissingEmptyAndTruncatedFiles) {
+  util::ScopedTempDir tmp;
+  EXPECT_THROW(ReadGreyImage(tmp.path() / "none.png"), InputError);
+  std::ofstream(tmp.path() / "empty.png");
+  EXPECT_THROW(ReadGreyImage(tmp.path() / "empty.png"), InputError);
+  cv::Mat noise(200, 200, CV_8UC1);
+  cv::randu(noise, 0, 255);
+  std::vector<uchar> bytes;
+  for (const char* ext : {".png", ".tif", ".pgm", ".jpg"}) {
+    cv::imencode(ext, noise, bytes);
+    const fs::path path = tmp.path() / (std::string("cut") + ext);
+    std::ofstream(path, std::ios::binary).write(reinterpret_cast<const char*>(bytes.data()),
+                                                static_cast<std::streamsize>(bytes.size() / 2));
+    try {
+      ReadGreyImage(path);
+      ADD_FAILURE() << "no error for truncated " << ext;
+    } catch (const InputError& e) {
+      EXPECT_NE(std::string(e.what()).find(path.string()), std::string::npos) << e.what();
+    }
+  }
+}
+
+TEST(WritePfm, RoundTripsWithInfinityAndMiddleburyLayout) {
+  util::ScopedTempDir tmp;
+  cv::Mat m(2, 3, CV_32FC1);
+  for (int i = 0; i < 6; ++i) m.at<float>(i / 3, i % 3) = 0.5f * i;
+  m.at<float>(0, 0) = std::numeric_limits<float>::infinity();
+  const fs::path path = tmp.path() / "d.pfm";
+  WriteImageAtomic(path, m);
+  std::ifstream in(path, std::ios::binary);
+  std::string header;
+  std::getline(in, header);
+  EXPECT_EQ(header, "Pf");
+  std::getline(in, header);
+  EXPECT_EQ(header, "3 2");
+  std::getline(in, header);
+  EXPECT_LT(std::stod(header), 0.0);  // negative scale: little-endian
+  float first_stored = 0;
+  in.read(reinterpret_cast<char*>(&first_stored), sizeof(float));
+  EXPECT_EQ(first_stored, m.at<float>(1, 0));  // rows bottom to top
+  const cv::Mat back = ReadPfm(path);
+  EXPECT_TRUE(std::isinf(back.at<float>(0, 0)));
+  EXPECT_EQ(back.at<float>(1, 2), 2.5f);
+}
+
+}  // namespace
+}  // namespace lunarnav::io
