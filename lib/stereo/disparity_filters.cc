@@ -6,19 +6,13 @@
 #include <vector>
 
 #include <opencv2/imgproc.hpp>
+#include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>
 
 #include "stereo/ncc_options.h"
 #include "util/check.h"
 
 namespace lunarnav::stereo {
-
-double ParabolicPeakOffset(double c_prev, double c_best, double c_next) {
-  const double curvature = c_prev - 2.0 * c_best + c_next;
-  if (!(curvature < 0.0)) return 0.0;
-  const double offset = 0.5 * (c_prev - c_next) / curvature;
-  return std::clamp(offset, -0.5, 0.5);
-}
 
 namespace {
 // Median of values[0..count) (mean of the two middle ones for an even count); reorders them.
@@ -46,47 +40,54 @@ void MedianFilterDisparityGrid(int size, cv::Mat* disparity, cv::Mat* rejection)
   LN_CHECK(size % 2 == 1) << "median size must be odd";
   const int half = size / 2;
   const int rows = disparity->rows, cols = disparity->cols;
+  const int accepted = static_cast<int>(Rejection::kAccepted);
+  const int not_evaluated = static_cast<int>(Rejection::kNotEvaluated);
+  const int border = static_cast<int>(Rejection::kBorder);
   const cv::Mat in_disp = disparity->clone();
-  const cv::Mat in_reason = rejection->clone();
-  const auto accepted = static_cast<std::uint8_t>(Rejection::kAccepted);
-  const auto not_evaluated = static_cast<std::uint8_t>(Rejection::kNotEvaluated);
-  const auto border = static_cast<std::uint8_t>(Rejection::kBorder);
+  const cv::Mat accepted_mask = *rejection == accepted;
   // Fast path: where the whole neighbourhood is accepted, OpenCV's median (a SIMD sorting
-  // network, k = 3 or 5 for float) gives the answer; the loop below handles the rest.
-  cv::Mat full_support, fast_median;
+  // network, k = 3 or 5 for float) is the answer, copied under a mask.
+  cv::Mat partial = accepted_mask;
   if ((size == 3 || size == 5) && rows >= size && cols >= size) {
-    const cv::Mat accepted_mask = in_reason == accepted;
+    cv::Mat full_support, fast_median;
     cv::erode(accepted_mask, full_support, cv::getStructuringElement(cv::MORPH_RECT, {size, size}),
               {-1, -1}, 1, cv::BORDER_CONSTANT, cv::Scalar(0));
     cv::medianBlur(in_disp, fast_median, size);
+    fast_median.copyTo(*disparity, full_support);
+    partial = accepted_mask & ~full_support;
   }
-  tbb::parallel_for(0, rows, [&](int r) {
-    std::vector<float> values(static_cast<std::size_t>(size) * size);
-    auto* out_disp = disparity->ptr<float>(r);
-    auto* out_reason = rejection->ptr<std::uint8_t>(r);
-    const std::uint8_t* full = full_support.empty() ? nullptr : full_support.ptr<std::uint8_t>(r);
-    for (int c = 0; c < cols; ++c) {
-      if (in_reason.at<std::uint8_t>(r, c) != accepted) continue;
-      if (full != nullptr && full[c] != 0) {
-        out_disp[c] = fast_median.at<float>(r, c);
-        continue;
-      }
+  // The rest: accepted pixels next to rejected or unevaluated ones.
+  std::vector<cv::Point> remaining;
+  cv::findNonZero(partial, remaining);
+  // Per cell: 1 if accepted / evaluated (neither kNotEvaluated nor kBorder), for branch-free
+  // counting below.
+  cv::Mat is_accepted, is_evaluated;
+  accepted_mask.convertTo(is_accepted, CV_8U, 1.0 / 255);
+  cv::Mat not_eval = (*rejection == not_evaluated) | (*rejection == border);
+  cv::bitwise_not(not_eval, is_evaluated);
+  is_evaluated.convertTo(is_evaluated, CV_8U, 1.0 / 255);
+  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, remaining.size(), 256),
+                    [&](const tbb::blocked_range<std::size_t>& range) {
+    std::vector<float> values(static_cast<std::size_t>(size) * size + 1);
+    for (std::size_t p = range.begin(); p != range.end(); ++p) {
+      const int r = remaining[p].y, c = remaining[p].x;
+      const int c0 = std::max(0, c - half), c1 = std::min(cols - 1, c + half);
       int count = 0, evaluated = 0;
       for (int rr = std::max(0, r - half); rr <= std::min(rows - 1, r + half); ++rr) {
-        const auto* reason_row = in_reason.ptr<std::uint8_t>(rr);
+        const auto* acc_row = is_accepted.ptr<std::uint8_t>(rr);
+        const auto* eval_row = is_evaluated.ptr<std::uint8_t>(rr);
         const auto* disp_row = in_disp.ptr<float>(rr);
-        for (int cc = std::max(0, c - half); cc <= std::min(cols - 1, c + half); ++cc) {
-          const std::uint8_t code = reason_row[cc];
-          if (code == not_evaluated || code == border) continue;
-          ++evaluated;
-          if (code == accepted) values[count++] = disp_row[cc];
+        for (int cc = c0; cc <= c1; ++cc) {
+          values[count] = disp_row[cc];
+          count += acc_row[cc];
+          evaluated += eval_row[cc];
         }
       }
       if (2 * count < evaluated) {
-        out_disp[c] = std::numeric_limits<float>::quiet_NaN();
-        out_reason[c] = static_cast<std::uint8_t>(Rejection::kMedian);
+        disparity->at<float>(r, c) = std::numeric_limits<float>::quiet_NaN();
+        rejection->at<std::uint8_t>(r, c) = static_cast<std::uint8_t>(Rejection::kMedian);
       } else {
-        out_disp[c] = SmallMedian(values.data(), count);
+        disparity->at<float>(r, c) = SmallMedian(values.data(), count);
       }
     }
   });

@@ -9,7 +9,12 @@ namespace lunarnav::stereo {
 /// (1, c_next) (Krotkov & Hebert sec. 3.2: "a parabolic interpolation that uses the
 /// correlation values of the two closest disparities"). Returns 0 when the three values
 /// do not form a maximum (flat or not concave).
-double ParabolicPeakOffset(double c_prev, double c_best, double c_next);
+inline double ParabolicPeakOffset(double c_prev, double c_best, double c_next) {
+  const double curvature = c_prev - 2.0 * c_best + c_next;
+  if (!(curvature < 0.0)) return 0.0;
+  const double offset = 0.5 * (c_prev - c_next) / curvature;
+  return offset < -0.5 ? -0.5 : (offset > 0.5 ? 0.5 : offset);
+}
 
 /// The fourth filter: a k x k median filter over a disparity grid (the map on the
 /// subsampling grid, one cell per evaluated pixel).

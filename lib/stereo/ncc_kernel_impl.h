@@ -305,8 +305,11 @@ inline void SearchPixel(const lunarnav::stereo::internal::KernelInput& in, const
 
   // Second peak (strictly above its left neighbour, not below its right one), looked for
   // only where filter 3 can need it: among values above best * (1 - M).
+  // The gate uses the float estimate of C, known long before the exact value, so the
+  // branch does not wait for it; the margin covers the estimate's rounding.
   rec->c_second = kNegInf;
-  if (in.ambiguity <= 0.0 || !(best > 0.0f) || rec->c_best < in.min_correlation) return;
+  const double c_estimate = static_cast<double>(best) * __builtin_sqrt(n) * r_inv;
+  if (in.ambiguity <= 0.0 || !(best > 0.0f) || c_estimate < in.min_correlation - 1e-3) return;
   const cv::v_float32 vthreshold = cv::vx_setall_f32(best * static_cast<float>(1.0 - in.ambiguity));
   const cv::v_int32 vbest_k = cv::vx_setall_s32(best_k);
   cv::v_float32 vsecond = neg;
@@ -396,8 +399,10 @@ void RunKernelImpl(const lunarnav::stereo::internal::KernelInput& in, int row_be
                 ws.r_sum, ws.r_var, 0);
     InverseSqrt(ws.r_var, width, ws.r_inv);
 
-    PeakRecord* row_records = ws.records;
-    for (int i = 0; i < in.num_cols; ++i) row_records[i] = PeakRecord{};
+    PeakRecord* row_records = ws.records;  // columns i_lo .. i_hi are written by SearchPixel
+    for (int i = 0; i < in.num_cols; ++i) {
+      if (i < i_lo || i > i_hi) row_records[i] = PeakRecord{};
+    }
     if (i_lo > i_hi) {
       sink(sink_context, j, row_records);
       continue;

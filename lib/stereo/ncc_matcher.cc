@@ -199,10 +199,28 @@ void MatchInCurrentArena(const NccOptions& options, const cv::Mat& left, const c
   in.num_rows = fit_hi >= fit_lo ? (fit_hi - fit_lo) / dy + 1 : 0;
   const int band_grid_rows = grid_hi >= grid_lo ? (grid_hi - grid_lo) / dy + 1 : 0;
 
+  // Full-size output maps. At full resolution with the right reference the grid rows are
+  // rows of these maps, so the kernel writes into them directly; otherwise into grid maps
+  // that are scattered afterwards.
+  const float nan = std::numeric_limits<float>::quiet_NaN();
+  NccResult& result = *out;
+  result.summary = NccSummary{};
+  result.disparity_px.create(height, width, CV_32FC1);
+  result.correlation.create(height, width, CV_32FC1);
+  result.rejection.create(height, width, CV_8UC1);
+  const bool direct = dx == 1 && dy == 1 && !flip;
   WorkingPair work;
-  GridMaps grid{&options, in.d_min, cv::Mat(in.num_rows, in.num_cols, CV_32FC1),
-                cv::Mat(in.num_rows, in.num_cols, CV_32FC1),
-                cv::Mat(in.num_rows, in.num_cols, CV_8UC1)};
+  GridMaps grid{&options, in.d_min, {}, {}, {}};
+  if (direct) {
+    const cv::Range grid_rows(fit_lo, fit_lo + in.num_rows);
+    grid.disparity = result.disparity_px.rowRange(grid_rows);
+    grid.correlation = result.correlation.rowRange(grid_rows);
+    grid.rejection = result.rejection.rowRange(grid_rows);
+  } else {
+    grid.disparity.create(in.num_rows, in.num_cols, CV_32FC1);
+    grid.correlation.create(in.num_rows, in.num_cols, CV_32FC1);
+    grid.rejection.create(in.num_rows, in.num_cols, CV_8UC1);
+  }
   if (in.num_rows > 0) {
     const cv::Range rows(fit_lo - in.my * dy, fit_hi + in.my * dy + 1);
     work = MakeWorkingPair(flip ? left : right, flip ? right : left, n, flip, rows);
@@ -222,19 +240,24 @@ void MatchInCurrentArena(const NccOptions& options, const cv::Mat& left, const c
   cv::Mat& grid_reason = grid.rejection;
   MedianFilterDisparityGrid(options.median_size, &grid_disp, &grid_reason);
 
-  // Scatter the grid into full-size maps in the reference image's columns.
-  const float nan = std::numeric_limits<float>::quiet_NaN();
-  NccResult& result = *out;
-  result.summary = NccSummary{};
-  result.disparity_px.create(height, width, CV_32FC1);
-  result.disparity_px.setTo(nan);
-  result.correlation.create(height, width, CV_32FC1);
-  result.correlation.setTo(nan);
-  result.rejection.create(height, width, CV_8UC1);
-  result.rejection.setTo(static_cast<int>(Rejection::kNotEvaluated));
+  // Everything outside the grid rows, then the grid scattered into the reference image's
+  // columns (unless the kernel wrote into the maps directly).
+  auto clear_rows = [&](int begin, int end) {
+    if (begin >= end) return;
+    result.disparity_px.rowRange(begin, end).setTo(nan);
+    result.correlation.rowRange(begin, end).setTo(nan);
+    result.rejection.rowRange(begin, end).setTo(static_cast<int>(Rejection::kNotEvaluated));
+  };
+  if (direct && in.num_rows > 0) {
+    clear_rows(0, fit_lo);
+    clear_rows(fit_lo + in.num_rows, height);
+  } else {
+    clear_rows(0, height);
+  }
   NccSummary& s = result.summary;
   tbb::parallel_for(0, band_grid_rows, [&](int row) {
     const int y = grid_lo + row * dy;
+    if (direct && y >= fit_lo && y <= fit_hi) return;  // already in place
     const bool fits = y >= fit_lo && y <= fit_hi;
     const int j = fits ? (y - fit_lo) / dy : -1;
     auto* out_reason = result.rejection.ptr<std::uint8_t>(y);
