@@ -34,8 +34,6 @@ struct Workspace {
   std::int64_t* t_col2;   // width: vertical sums of T^2
   std::int64_t* r_col1;   // width
   std::int64_t* r_col2;   // width
-  std::int64_t* prefix1;  // width: strided prefix sums (scratch)
-  std::int64_t* prefix2;  // width
   // Window statistics. Sums and V = n*sum(v^2) - sum(v)^2 are integers held exactly in double.
   double* t_sum;          // Wp: window sum of T at padded column p (0 outside)
   double* t_var;          // Wp: V of T (0 outside)
@@ -89,8 +87,6 @@ inline std::size_t LayoutWorkspace(const lunarnav::stereo::internal::KernelInput
   ws->t_col2 = reinterpret_cast<std::int64_t*>(take(sizeof(std::int64_t) * w));
   ws->r_col1 = reinterpret_cast<std::int64_t*>(take(sizeof(std::int64_t) * w));
   ws->r_col2 = reinterpret_cast<std::int64_t*>(take(sizeof(std::int64_t) * w));
-  ws->prefix1 = reinterpret_cast<std::int64_t*>(take(sizeof(std::int64_t) * w));
-  ws->prefix2 = reinterpret_cast<std::int64_t*>(take(sizeof(std::int64_t) * w));
   ws->t_sum = reinterpret_cast<double*>(take(sizeof(double) * (wp + 16)));
   ws->t_var = reinterpret_cast<double*>(take(sizeof(double) * (wp + 16)));
   ws->t_inv = reinterpret_cast<double*>(take(sizeof(double) * (wp + 16)));
@@ -130,27 +126,29 @@ inline void UpdateColumnStats(const std::int16_t* img, int width, int y, int dy,
   }
 }
 
-// Window sums over columns x + j*dx, j = -mx..mx, from the vertical sums, by strided prefix
-// sums; writes sum and V = n*sum(v^2) - sum(v)^2 at out[x + out_offset] for every column x
-// whose window is inside the image, and 0 elsewhere in [0, width).
-inline void WindowStats(const std::int64_t* c1, const std::int64_t* c2, int width, int dx,
-                        int mx, int n, std::int64_t* p1, std::int64_t* p2, double* out_sum,
-                        double* out_var, int out_offset) {
-  for (int x = 0; x < width; ++x) {
-    p1[x] = c1[x] + (x >= dx ? p1[x - dx] : 0);
-    p2[x] = c2[x] + (x >= dx ? p2[x - dx] : 0);
-  }
+// Window sums over columns x + j*dx, j = -mx..mx, from the vertical sums, sliding along each
+// class of columns x = r (mod dx) (all classes, or only `only_residue` when >= 0): writes sum
+// and V = n*sum(v^2) - sum(v)^2 at out[x + out_offset] for every such column x whose window
+// is inside the image. Other entries are left as they are (zero from the start).
+inline void WindowStats(const std::int64_t* c1, const std::int64_t* c2, int width, int dx, int mx,
+                        int n, int only_residue, double* out_sum, double* out_var, int out_offset) {
   const int half = mx * dx;
-  for (int x = 0; x < width; ++x) {
-    std::int64_t s = 0, v = 0;
-    if (x >= half && x + half < width) {
-      const int before = x - (mx + 1) * dx;
-      s = p1[x + half] - (before >= 0 ? p1[before] : 0);
-      const std::int64_t s2 = p2[x + half] - (before >= 0 ? p2[before] : 0);
-      v = static_cast<std::int64_t>(n) * s2 - s * s;
+  for (int r = 0; r < dx; ++r) {
+    if (only_residue >= 0 && r != only_residue) continue;
+    if (r + 2 * half >= width) continue;  // no window of this class fits
+    std::int64_t s1 = 0, s2 = 0;
+    for (int j = 0; j <= 2 * mx; ++j) {
+      s1 += c1[r + j * dx];
+      s2 += c2[r + j * dx];
     }
-    out_sum[x + out_offset] = static_cast<double>(s);
-    out_var[x + out_offset] = static_cast<double>(v);
+    for (int x = r + half;; x += dx) {
+      out_sum[x + out_offset] = static_cast<double>(s1);
+      out_var[x + out_offset] = static_cast<double>(static_cast<std::int64_t>(n) * s2 - s1 * s1);
+      const int enter = x + half + dx;
+      if (enter >= width) break;
+      s1 += c1[enter] - c1[x - half];
+      s2 += c2[enter] - c2[x - half];
+    }
   }
 }
 
@@ -351,6 +349,7 @@ void RunKernelImpl(const lunarnav::stereo::internal::KernelInput& in, int row_be
     ws.t_u[p] = ws.t_k[p] = 0.0f;
     ws.t_sum[p] = ws.t_var[p] = ws.t_inv[p] = 0.0;
   }
+  for (int x = 0; x < width + 16; ++x) ws.r_sum[x] = ws.r_var[x] = ws.r_inv[x] = 0.0;
   auto ref_row = [&](int y) { return in.ref + static_cast<std::ptrdiff_t>(y) * width; };
   auto tgt_row = [&](int y) { return in.tgt + static_cast<std::ptrdiff_t>(y) * width; };
   auto col_of = [&](int i) { return ws.col + static_cast<std::ptrdiff_t>(i) * g.dp; };
@@ -387,16 +386,15 @@ void RunKernelImpl(const lunarnav::stereo::internal::KernelInput& in, int row_be
       UpdateColumnStats(in.tgt, width, y - dy, dy, my, ws.t_col1, ws.t_col2);
       UpdateColumnStats(in.ref, width, y - dy, dy, my, ws.r_col1, ws.r_col2);
     }
-    WindowStats(ws.t_col1, ws.t_col2, width, in.step_x, mx, g.n, ws.prefix1, ws.prefix2,
-                ws.t_sum, ws.t_var, -g.xa);
+    WindowStats(ws.t_col1, ws.t_col2, width, in.step_x, mx, g.n, -1, ws.t_sum, ws.t_var, -g.xa);
     InverseSqrt(ws.t_var, g.wp, ws.t_inv);
     for (int p = 0; p < g.wp; ++p) {
       const double k = sqrt_n * ws.t_inv[p];
       ws.t_k[p] = static_cast<float>(k);
       ws.t_u[p] = static_cast<float>(ws.t_sum[p] * k);
     }
-    WindowStats(ws.r_col1, ws.r_col2, width, in.step_x, mx, g.n, ws.prefix1, ws.prefix2,
-                ws.r_sum, ws.r_var, 0);
+    WindowStats(ws.r_col1, ws.r_col2, width, in.step_x, mx, g.n, in.x0 % in.step_x, ws.r_sum,
+                ws.r_var, 0);
     InverseSqrt(ws.r_var, width, ws.r_inv);
 
     PeakRecord* row_records = ws.records;  // columns i_lo .. i_hi are written by SearchPixel
