@@ -44,6 +44,7 @@ struct Workspace {
   double* r_var;          // width
   double* r_inv;          // width: 1 / sqrt(V_r), 0 where V_r == 0
   lunarnav::stereo::internal::PeakRecord* records;  // num_cols: the current output row
+  std::int32_t* best_sums;  // 3 * num_cols: S at best-1, best, best+1 of the current row
 };
 
 inline std::size_t AlignUp(std::size_t bytes) { return (bytes + 63) / 64 * 64; }
@@ -97,6 +98,8 @@ inline std::size_t LayoutWorkspace(const lunarnav::stereo::internal::KernelInput
   ws->r_inv = reinterpret_cast<double*>(take(sizeof(double) * (w + 16)));
   ws->records = reinterpret_cast<lunarnav::stereo::internal::PeakRecord*>(
       take(sizeof(lunarnav::stereo::internal::PeakRecord) * static_cast<std::size_t>(in.num_cols)));
+  ws->best_sums = reinterpret_cast<std::int32_t*>(
+      take(sizeof(std::int32_t) * 3 * static_cast<std::size_t>(in.num_cols)));
   return offset;
 }
 
@@ -234,7 +237,7 @@ inline cv::v_int32 StepSum(const Workspace& ws, const ColumnStep& step, int k) {
 // Searches the disparities of the grid pixel at column x, advancing the window sums first.
 template <SumStep kStep>
 inline void SearchPixel(const lunarnav::stereo::internal::KernelInput& in, const Geometry& g,
-                        const Workspace& ws, int x, const ColumnStep& step,
+                        const Workspace& ws, int column, int x, const ColumnStep& step,
                         lunarnav::stereo::internal::PeakRecord* rec) {
   using lunarnav::stereo::internal::PeakRecord;
   const double r_var = ws.r_var[x];
@@ -292,14 +295,13 @@ inline void SearchPixel(const lunarnav::stereo::internal::KernelInput& in, const
   const cv::v_int32 arg1 = cv::v_select(cv::v_reinterpret_as_s32(vmax[1] == vbest), vargmax[1], none);
   const int best_k = cv::v_reduce_min(cv::v_min(arg0, arg1));
   rec->best = static_cast<std::int16_t>(best_k);
-  const double r_sum = ws.r_sum[x], r_inv = ws.r_inv[x], n = g.n;
-  auto exact = [&](int k) {
-    return static_cast<float>(
-        ExactC(n, ws.sum[k], r_sum, r_inv, ws.t_sum[base + k], ws.t_inv[base + k]));
-  };
-  rec->c_best = exact(best_k);
-  rec->c_prev = best_k > lo ? exact(best_k - 1) : 0.0f;
-  rec->c_next = best_k < hi ? exact(best_k + 1) : 0.0f;
+  // The exact correlations around the best are evaluated for the whole row afterwards
+  // (ExactCorrelations), out of this chain of dependent reductions; keep their sums.
+  std::int32_t* kept = ws.best_sums + 3 * column;
+  kept[0] = best_k > lo ? ws.sum[best_k - 1] : 0;
+  kept[1] = ws.sum[best_k];
+  kept[2] = best_k < hi ? ws.sum[best_k + 1] : 0;
+  const double r_inv = ws.r_inv[x], n = g.n;
 
   // Second peak (strictly above its left neighbour, not below its right one), looked for
   // only where filter 3 can need it: among values above best * (1 - M).
@@ -323,6 +325,29 @@ inline void SearchPixel(const lunarnav::stereo::internal::KernelInput& in, const
   const float second = cv::v_reduce_max(vsecond);
   if (second > kNegInf) {
     rec->c_second = static_cast<float>(second * __builtin_sqrt(n) * r_inv);
+  }
+}
+
+// C at best-1, best and best+1 for the searched pixels of grid columns [i_lo, i_hi] of the
+// row, exactly (double) from the integer sums SearchPixel kept.
+inline void ExactCorrelations(const lunarnav::stereo::internal::KernelInput& in, const Geometry& g,
+                              const Workspace& ws, int i_lo, int i_hi,
+                              lunarnav::stereo::internal::PeakRecord* records) {
+  using lunarnav::stereo::internal::PeakRecord;
+  const double n = g.n;
+  for (int i = i_lo; i <= i_hi; ++i) {
+    PeakRecord& rec = records[i];
+    if (rec.status != PeakRecord::kSearched) continue;
+    const int x = in.x0 + i * in.step_x;
+    const int base = x + in.d_min - g.xa;
+    const std::int32_t* kept = ws.best_sums + 3 * i;
+    const double r_sum = ws.r_sum[x], r_inv = ws.r_inv[x];
+    auto exact = [&](int k, std::int32_t s) {
+      return static_cast<float>(ExactC(n, s, r_sum, r_inv, ws.t_sum[base + k], ws.t_inv[base + k]));
+    };
+    rec.c_best = exact(rec.best, kept[1]);
+    rec.c_prev = rec.best > rec.lo ? exact(rec.best - 1, kept[0]) : 0.0f;
+    rec.c_next = rec.best < rec.hi ? exact(rec.best + 1, kept[2]) : 0.0f;
   }
 }
 
@@ -415,21 +440,23 @@ void RunKernelImpl(const lunarnav::stereo::internal::KernelInput& in, int row_be
       for (int q = i_lo - mx; q <= i_lo + mx; ++q) acc = acc + cv::vx_load(col_of(q) + k);
       cv::v_store(ws.sum + k, acc);
     }
-    SearchPixel<SumStep::kNone>(in, g, ws, in.x0 + i_lo * in.step_x, step, &row_records[i_lo]);
+    SearchPixel<SumStep::kNone>(in, g, ws, i_lo, in.x0 + i_lo * in.step_x, step,
+                               &row_records[i_lo]);
     // ... then the recursion over grid columns.
     for (int i = i_lo + 1; i <= i_hi; ++i) {
       step.add = col_of(i + mx);
       step.sub = col_of(i - mx - 1);
       const int x = in.x0 + i * in.step_x;
       if (first) {
-        SearchPixel<SumStep::kAdvance>(in, g, ws, x, step, &row_records[i]);
+        SearchPixel<SumStep::kAdvance>(in, g, ws, i, x, step, &row_records[i]);
       } else {
         const int x_add = in.x0 + (i + mx) * in.step_x;
         step.pairs = ws.pairs + 2 * (x_add + in.d_min - g.xa);
         step.coef = Coefficients(ref_row(enter), ref_row(leave), -1, x_add);
-        SearchPixel<SumStep::kAdvanceAndUpdate>(in, g, ws, x, step, &row_records[i]);
+        SearchPixel<SumStep::kAdvanceAndUpdate>(in, g, ws, i, x, step, &row_records[i]);
       }
     }
+    ExactCorrelations(in, g, ws, i_lo, i_hi, row_records);
     sink(sink_context, j, row_records);
   }
 }

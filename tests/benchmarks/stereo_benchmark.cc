@@ -1,16 +1,16 @@
 // Speed of the NCC matcher, side by side with OpenCV's StereoBM on the same images, in one run.
 //
-//   build/bin/stereo_benchmark            (all; prints the NCC / StereoBM time ratio at the end)
+//   build/bin/stereo_benchmark
 //
-// Every benchmark is repeated 7 times with the repetitions of all benchmarks randomly
-// interleaved (so a slow spell of a shared machine hits both sides alike); the ratio uses
-// the medians.
+// BM_SideBySide is the comparison: NCC and StereoBM alternate within every iteration, and
+// the ratio is the median of the per-iteration ratios. The other benchmarks give absolute
+// figures, repeated 7 times (medians).
 //
 // Scenes are rendered by lunarnav::sim (a textured slanted ground plane with boxes).
 #include <benchmark/benchmark.h>
 
-#include <cstdio>
-#include <map>
+#include <algorithm>
+#include <chrono>
 #include <string>
 #include <vector>
 
@@ -93,42 +93,43 @@ void BM_NccPaperConfiguration(benchmark::State& state) {
 BENCHMARK(BM_NccPaperConfiguration)->Unit(benchmark::kMicrosecond)->UseRealTime()
     ->Repetitions(7)->ReportAggregatesOnly(true);
 
-// Records every run's real time so the ratios can be printed after the table.
-class RatioReporter : public benchmark::ConsoleReporter {
- public:
-  void ReportRuns(const std::vector<Run>& runs) override {
-    for (const Run& run : runs) {
-      if (run.aggregate_name == "median") times_[run.run_name.str()] = run.GetAdjustedRealTime();
-    }
-    ConsoleReporter::ReportRuns(runs);
+// The comparison itself: each iteration runs NCC, then StereoBM, on the same pair with the
+// same threads, so both see the same state of a shared machine; the counters are the
+// medians of the per-iteration times and of the per-iteration ratio NCC / StereoBM.
+void BM_SideBySide(benchmark::State& state) {
+  const int threads = static_cast<int>(state.range(0));
+  stereo::NccOptions options;
+  options.max_disparity_px = 127;
+  options.num_threads = threads;
+  stereo::NccResult result;
+  cv::setNumThreads(threads);
+  auto bm = cv::StereoBM::create(128, 41);
+  cv::Mat disparity;
+  std::vector<double> ncc_ms, bm_ms, ratio;
+  using Clock = std::chrono::steady_clock;
+  for (auto _ : state) {
+    const auto t0 = Clock::now();
+    stereo::MatchStereoPair(options, Scene().left, Scene().right, &result);
+    const auto t1 = Clock::now();
+    bm->compute(Scene().left, Scene().right, disparity);
+    const auto t2 = Clock::now();
+    ncc_ms.push_back(std::chrono::duration<double, std::milli>(t1 - t0).count());
+    bm_ms.push_back(std::chrono::duration<double, std::milli>(t2 - t1).count());
+    ratio.push_back(ncc_ms.back() / bm_ms.back());
+    state.SetIterationTime(std::chrono::duration<double>(t2 - t0).count());
   }
-  void PrintRatios() const {
-    for (const char* threads : {"2", "1"}) {
-      const std::string ncc = std::string("BM_NccFullResolution/") + threads + "/repeats:7/real_time";
-      const std::string bm = std::string("BM_StereoBM/") + threads + "/repeats:7/real_time";
-      if (times_.count(ncc) == 0 || times_.count(bm) == 0) continue;
-      std::printf("NCC / StereoBM time ratio (medians), %s thread(s): %.2f\n", threads,
-                  times_.at(ncc) / times_.at(bm));
-    }
-  }
-
- private:
-  std::map<std::string, double> times_;
-};
+  auto median = [](std::vector<double> v) {
+    std::nth_element(v.begin(), v.begin() + v.size() / 2, v.end());
+    return v[v.size() / 2];
+  };
+  state.counters["ncc_ms"] = median(ncc_ms);
+  state.counters["stereobm_ms"] = median(bm_ms);
+  state.counters["ratio"] = median(ratio);
+  state.SetLabel(stereo::ActiveKernelName());
+}
+BENCHMARK(BM_SideBySide)->Arg(2)->Arg(1)->UseManualTime()->Iterations(60)
+    ->Unit(benchmark::kMillisecond);
 
 }  // namespace
 
-int main(int argc, char** argv) {
-  std::vector<char*> args(argv, argv + argc);
-  std::string interleave = "--benchmark_enable_random_interleaving=true";
-  args.insert(args.begin() + 1, interleave.data());
-  argc = static_cast<int>(args.size());
-  argv = args.data();
-  benchmark::Initialize(&argc, argv);
-  if (benchmark::ReportUnrecognizedArguments(argc, argv)) return 1;
-  RatioReporter reporter;
-  benchmark::RunSpecifiedBenchmarks(&reporter);
-  reporter.PrintRatios();
-  benchmark::Shutdown();
-  return 0;
-}
+BENCHMARK_MAIN();
