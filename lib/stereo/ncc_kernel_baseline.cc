@@ -1,6 +1,8 @@
 // The correlation kernel for the baseline instruction set (SSE2 on x86-64, NEON on ARM).
 #include <cstddef>
 #include <cstdint>
+#include <cstdlib>
+#include <cstring>
 
 #include <opencv2/core/hal/intrin.hpp>
 
@@ -32,8 +34,13 @@ std::size_t KernelWorkspaceBytes(const KernelInput& in) {
 KernelFn BaselineKernel() { return &baseline::RunKernelImpl; }
 
 KernelFn SelectKernel(const char** name) {
+  // LUNARNAV_SIMD=baseline|avx2|avx512 caps the instruction set (to measure or compare the
+  // kernels); a request the CPU cannot run falls back to the widest it can.
+  const char* cap = std::getenv("LUNARNAV_SIMD");
+  const bool allow_avx512 = cap == nullptr || std::strcmp(cap, "avx512") == 0;
+  const bool allow_avx2 = allow_avx512 || std::strcmp(cap, "avx2") == 0;
 #if defined(LUNARNAV_HAVE_AVX512_KERNEL)
-  if (__builtin_cpu_supports("avx512f") && __builtin_cpu_supports("avx512bw") &&
+  if (allow_avx512 && __builtin_cpu_supports("avx512f") && __builtin_cpu_supports("avx512bw") &&
       __builtin_cpu_supports("avx512dq") && __builtin_cpu_supports("avx512vl") &&
       __builtin_cpu_supports("avx512cd")) {
     if (name != nullptr) *name = "avx512";
@@ -41,11 +48,12 @@ KernelFn SelectKernel(const char** name) {
   }
 #endif
 #if defined(LUNARNAV_HAVE_AVX2_KERNEL)
-  if (__builtin_cpu_supports("avx2")) {
+  if (allow_avx2 && __builtin_cpu_supports("avx2")) {
     if (name != nullptr) *name = "avx2";
     return &avx2::RunKernel;
   }
 #endif
+  (void)allow_avx2;
   if (name != nullptr) *name = "baseline";
   return &baseline::RunKernelImpl;
 }
