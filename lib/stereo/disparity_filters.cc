@@ -36,7 +36,7 @@ void MedianFilterDisparityGrid(int size, cv::Mat* disparity, cv::Mat* rejection)
   LN_CHECK(disparity != nullptr && rejection != nullptr);
   LN_CHECK(disparity->type() == CV_32FC1 && rejection->type() == CV_8UC1 &&
            disparity->size() == rejection->size());
-  if (size <= 1) return;
+  if (size <= 1 || disparity->empty()) return;
   LN_CHECK(size % 2 == 1) << "median size must be odd";
   const int half = size / 2;
   const int rows = disparity->rows, cols = disparity->cols;

@@ -208,7 +208,7 @@ void MatchInCurrentArena(const NccOptions& options, const cv::Mat& left, const c
   result.disparity_px.create(height, width, CV_32FC1);
   result.correlation.create(height, width, CV_32FC1);
   result.rejection.create(height, width, CV_8UC1);
-  const bool direct = dx == 1 && dy == 1 && !flip;
+  const bool direct = dx == 1 && dy == 1 && !flip && in.num_rows > 0;
   WorkingPair work;
   GridMaps grid{&options, in.d_min, {}, {}, {}};
   if (direct) {
@@ -248,7 +248,7 @@ void MatchInCurrentArena(const NccOptions& options, const cv::Mat& left, const c
     result.correlation.rowRange(begin, end).setTo(nan);
     result.rejection.rowRange(begin, end).setTo(static_cast<int>(Rejection::kNotEvaluated));
   };
-  if (direct && in.num_rows > 0) {
+  if (direct) {
     clear_rows(0, fit_lo);
     clear_rows(fit_lo + in.num_rows, height);
   } else {

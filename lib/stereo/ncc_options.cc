@@ -42,8 +42,8 @@ void NccOptions::Validate() const {
   LN_CHECK_ARG(step_x_px <= 64 && step_y_px <= 64) << "step: must be <= 64";
   LN_CHECK_ARG(min_disparity_px <= max_disparity_px)
       << "disparity: MIN must be <= MAX, got " << min_disparity_px << ":" << max_disparity_px;
-  LN_CHECK_ARG(max_disparity_px - min_disparity_px < 4096)
-      << "disparity: range must hold at most 4096 values";
+  LN_CHECK_ARG(max_disparity_px - min_disparity_px < 16384)
+      << "disparity: range must hold at most 16384 values";
   LN_CHECK_ARG(std::abs(min_disparity_px) < 100000 && std::abs(max_disparity_px) < 100000)
       << "disparity: values must be within +-100000";
   LN_CHECK_ARG(min_row.has_value() == max_row.has_value())

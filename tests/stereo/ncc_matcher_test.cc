@@ -296,6 +296,22 @@ TEST(MatchStereoPair, ThreadCountDoesNotChangeTheResult) {
   EXPECT_EQ(cv::norm(serial.disparity_px, parallel.disparity_px, cv::NORM_INF, mask), 0);
 }
 
+TEST(MatchStereoPair, HandlesImagesSmallerThanTheWindowAndBandsOutsideTheImage) {
+  const auto pair = RenderLayeredPair(OnePlane(5.0, 0, 0, 30, 20));
+  const NccResult tiny = MatchStereoPair(NccOptions{}, pair.left, pair.right);  // 51 x 35 window
+  EXPECT_EQ(tiny.summary.accepted_pixels, 0);
+  EXPECT_EQ(tiny.summary.pixels_by_reason[static_cast<int>(Rejection::kBorder)], 30 * 20);
+  NccOptions far_rows = SmallWindow();
+  far_rows.min_row = 500;
+  far_rows.max_row = 600;
+  for (int step : {1, 2}) {
+    far_rows.step_x_px = far_rows.step_y_px = step;
+    const NccResult none = MatchStereoPair(far_rows, pair.left, pair.right);
+    EXPECT_EQ(none.summary.evaluated_pixels, 0);
+    EXPECT_EQ(cv::countNonZero(none.rejection == static_cast<int>(Rejection::kNotEvaluated)), 30 * 20);
+  }
+}
+
 TEST(MatchStereoPair, RejectsMismatchedImages) {
   const cv::Mat a(20, 30, CV_8UC1, cv::Scalar(0)), b(20, 31, CV_8UC1, cv::Scalar(0));
   EXPECT_THROW(MatchStereoPair(NccOptions{}, a, b), InputError);
