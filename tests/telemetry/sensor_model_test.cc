@@ -1,0 +1,87 @@
+#include "telemetry/sensor_model.h"
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+
+#include "util/errors.h"
+#include "util/testing.h"
+
+namespace lunarnav::telemetry {
+namespace {
+
+nlohmann::json Minimal() {
+  return nlohmann::json::parse(R"({
+    "format": "lunarnav.sensors/1",
+    "bits": 10,
+    "channels": {
+      "enc_fl": {"counts_per_revolution": 512, "wheel_radius_m": 0.2, "counter_bits": 16},
+      "compass": {"column": "heading_raw", "scale": 0.3515625, "offset": -180, "units": "deg"},
+      "gyro_z": {"scale": 0.1, "offset": -51.2, "units": "deg/s", "valid_range": [5, 1018]}
+    }
+  })");
+}
+
+TEST(SensorModelFromJson, ReadsChannelsWithDefaults) {
+  const SensorModel m = SensorModelFromJson(Minimal(), "s.json");
+  EXPECT_TRUE(m[Channel::kEncoderFrontLeft].present);
+  EXPECT_FALSE(m[Channel::kEncoderRearRight].present);
+  EXPECT_EQ(m[Channel::kEncoderFrontLeft].column, "enc_fl");
+  EXPECT_EQ(m[Channel::kEncoderFrontLeft].valid_max, 65535);  // counter width
+  EXPECT_NEAR(m[Channel::kEncoderFrontLeft].MetresPerCount(), 2 * M_PI * 0.2 / 512, 1e-15);
+  EXPECT_EQ(m[Channel::kCompass].column, "heading_raw");
+  EXPECT_EQ(m[Channel::kCompass].valid_max, 1023);
+  // count 512 -> -180 + 180 = 0 deg; count 768 -> 90 deg.
+  EXPECT_NEAR(m[Channel::kCompass].ToRadians(768), M_PI / 2, 1e-12);
+  EXPECT_EQ(m[Channel::kGyroZ].valid_min, 5);
+}
+
+TEST(SensorModelFromJson, OverridingBitsRescalesDefaultRangesOnly) {
+  SensorModel m = SensorModelFromJson(Minimal(), "s.json");
+  m.OverrideBits(7);
+  EXPECT_EQ(m[Channel::kCompass].valid_max, 127);
+  EXPECT_EQ(m[Channel::kGyroZ].valid_max, 1018);  // given explicitly
+  const SensorModel back = SensorModelFromJson(m.ToJson(), "round trip");
+  EXPECT_EQ(back[Channel::kCompass].bits, 7);
+  EXPECT_EQ(back[Channel::kCompass].column, "heading_raw");
+}
+
+TEST(SensorModelFromJson, NamesTheKeyOfEveryMistake) {
+  auto expect_error = [](nlohmann::json j, const std::string& words) {
+    try {
+      SensorModelFromJson(j, "s.json");
+      ADD_FAILURE() << "accepted: " << words;
+    } catch (const InputError& e) {
+      EXPECT_NE(std::string(e.what()).find(words), std::string::npos) << e.what();
+    }
+  };
+  nlohmann::json j = Minimal();
+  j["channels"]["magnetometer"] = {{"scale", 1}};
+  expect_error(j, "s.json.channels.magnetometer: unknown channel");
+  j = Minimal();
+  j["channels"]["compass"].erase("scale");
+  expect_error(j, "s.json.channels.compass: missing field 'scale'");
+  j = Minimal();
+  j["channels"]["compass"]["scael"] = 2;
+  expect_error(j, "unknown field 'scael'");
+  j = Minimal();
+  j["channels"]["enc_fl"]["wheel_radius_m"] = -0.2;
+  expect_error(j, "wheel_radius_m: must be > 0");
+  j = Minimal();
+  j["channels"]["compass"]["units"] = "furlongs";
+  expect_error(j, "units");
+  j = Minimal();
+  j["channels"]["gyro_z"]["column"] = "heading_raw";
+  expect_error(j, "used twice");
+  j = Minimal();
+  j["format"] = "something else";
+  expect_error(j, "format");
+}
+
+TEST(ReadSensorModel, ReadsThePaperRoversExample) {
+  const SensorModel m = ReadSensorModel(util::TestDataPath("telemetry/ratler_sensors.json"));
+  for (Channel c : kAllChannels) EXPECT_TRUE(m[c].present) << ToString(c);
+}
+
+}  // namespace
+}  // namespace lunarnav::telemetry

@@ -1,0 +1,64 @@
+#include "telemetry/telemetry_csv.h"
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+
+#include "util/errors.h"
+
+namespace lunarnav::telemetry {
+namespace {
+
+SensorModel Model() {
+  return SensorModelFromJson(nlohmann::json::parse(R"({
+    "format": "lunarnav.sensors/1",
+    "channels": {
+      "enc_fl": {"counts_per_revolution": 512, "wheel_radius_m": 0.2},
+      "compass": {"scale": 0.35, "units": "deg"},
+      "roll": {"column": "ROLL", "scale": 0.1, "offset": -51.2}
+    }
+  })"),
+                             "model");
+}
+
+TEST(ParseTelemetryCsv, ReadsColumnsByNameWithGapsAndComments) {
+  const std::string text =
+      "# logger v2\n"
+      "t, compass, enc_fl, extra\n"
+      "0.0, 100, 5, 1\n"
+      "\n"
+      "0.1,, 7, 2\r\n"
+      "# pause\n"
+      "0.2, 102, +9, 3\n";
+  const TelemetryLog log = ParseTelemetryCsv(text, "log.csv", Model());
+  ASSERT_EQ(log.size(), 3u);
+  EXPECT_EQ(log.t_s[2], 0.2);
+  EXPECT_EQ(log.line[0], 3);
+  EXPECT_EQ(log.line[2], 7);
+  EXPECT_TRUE(std::isnan(log.counts[static_cast<int>(Channel::kCompass)][1]));
+  EXPECT_EQ(log.counts[static_cast<int>(Channel::kEncoderFrontLeft)][2], 9);
+  EXPECT_FALSE(log.Has(Channel::kRoll));
+  ASSERT_EQ(log.missing_columns.size(), 1u);
+  EXPECT_EQ(log.missing_columns[0], Channel::kRoll);
+  EXPECT_EQ(log.unused_columns, std::vector<std::string>{"extra"});
+}
+
+TEST(ParseTelemetryCsv, ErrorsNameTheFileAndLine) {
+  auto expect_error = [](const std::string& text, const std::string& words) {
+    try {
+      ParseTelemetryCsv(text, "log.csv", Model());
+      ADD_FAILURE() << "accepted: " << words;
+    } catch (const InputError& e) {
+      EXPECT_NE(std::string(e.what()).find(words), std::string::npos) << e.what();
+    }
+  };
+  expect_error("", "log.csv: no header");
+  expect_error("time,compass\n0,1\n", "log.csv:1: missing required column 't'");
+  expect_error("t,compass\n0,1\n0.1,abc\n", "log.csv:3: column 'compass': 'abc' is not an integer count");
+  expect_error("t,compass\n0,1\n0.1,1.5\n", "log.csv:3");
+  expect_error("t,compass\n0,1\n0.1\n", "log.csv:3: 1 cells, the header has 2");
+  expect_error("t,compass\nx,1\n", "log.csv:2: column 't': 'x' is not a time stamp");
+}
+
+}  // namespace
+}  // namespace lunarnav::telemetry
