@@ -1,0 +1,379 @@
+#include "telemetry/screening.h"
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+#include <sstream>
+
+#include "io/atomic_file.h"
+#include "util/check.h"
+
+namespace lunarnav::telemetry {
+namespace {
+
+constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
+constexpr int kRowSlot = kNumChannels;
+// A rate-limit rejection run this long means the signal really moved: accept it from there.
+constexpr int kRebaselineAfter = 3;
+
+// Median of a short vector by insertion sort (reorders it).
+double SmallMedian(std::vector<double>* v) {
+  std::vector<double>& a = *v;
+  for (std::size_t i = 1; i < a.size(); ++i) {
+    const double x = a[i];
+    std::size_t j = i;
+    for (; j > 0 && a[j - 1] > x; --j) a[j] = a[j - 1];
+    a[j] = x;
+  }
+  const std::size_t mid = a.size() / 2;
+  return a.size() % 2 == 1 ? a[mid] : 0.5 * (a[mid - 1] + a[mid]);
+}
+
+double Median(std::vector<double> v) {
+  if (v.empty()) return kNaN;
+  const std::size_t mid = v.size() / 2;
+  std::nth_element(v.begin(), v.begin() + mid, v.end());
+  return v[mid];
+}
+
+class Screener {
+ public:
+  Screener(const TelemetryLog& log, const SensorModel& model, const ScreeningOptions& options)
+      : log_(log), model_(model), o_(options) {}
+
+  ScreenedLog Run() {
+    ScreenRows();
+    for (Channel c : kAllChannels) {
+      if (log_.Has(c)) ScreenChannel(c);
+    }
+    for (Channel c : kAllChannels) {
+      if (out_.Has(c)) DetectStuck(c);
+    }
+    std::sort(out_.events.begin(), out_.events.end(), [](const ScreeningEvent& a, const ScreeningEvent& b) {
+      return a.line != b.line ? a.line < b.line : a.channel < b.channel;
+    });
+    return std::move(out_);
+  }
+
+ private:
+  void Record(std::size_t k, int channel, ScreeningRule rule, double raw) {
+    out_.events.push_back({out_.line[k], out_.t_s[k], channel, rule, raw});
+    ++out_.counts[static_cast<int>(rule)][channel < 0 ? kRowSlot : channel];
+  }
+
+  void ScreenRows() {
+    double last_t = -std::numeric_limits<double>::infinity();
+    for (std::size_t i = 0; i < log_.size(); ++i) {
+      const double t = log_.t_s[i];
+      if (!keep_.empty() && (t == last_t || t < last_t)) {
+        const ScreeningRule rule =
+            t == last_t ? ScreeningRule::kRepeatedTimestamp : ScreeningRule::kOutOfOrderTimestamp;
+        out_.events.push_back({log_.line[i], t, -1, rule, t});
+        ++out_.counts[static_cast<int>(rule)][kRowSlot];
+        continue;
+      }
+      keep_.push_back(i);
+      out_.t_s.push_back(t);
+      out_.line.push_back(log_.line[i]);
+      last_t = t;
+    }
+    if (out_.t_s.size() < 2) return;
+    std::vector<double> dt(out_.t_s.size() - 1);
+    for (std::size_t k = 1; k < out_.t_s.size(); ++k) dt[k - 1] = out_.t_s[k] - out_.t_s[k - 1];
+    const double typical = Median(dt);
+    for (std::size_t k = 1; k < out_.t_s.size(); ++k) {
+      if (dt[k - 1] > o_.gap_factor * typical) Record(k, -1, ScreeningRule::kGap, out_.t_s[k]);
+    }
+  }
+
+  void ScreenChannel(Channel c) {
+    const int ch = static_cast<int>(c);
+    const ChannelModel& m = model_[c];
+    const std::size_t n = keep_.size();
+    std::vector<double>& raw = raw_[ch];
+    raw.resize(n);
+    for (std::size_t k = 0; k < n; ++k) raw[k] = log_.counts[ch][keep_[k]];
+    std::vector<double>& v = out_.value[ch];
+    v.assign(n, kNaN);
+
+    // Dropouts: silences much longer than the channel's own sampling interval.
+    std::vector<std::size_t> present;
+    for (std::size_t k = 0; k < n; ++k) {
+      if (!std::isnan(raw[k])) present.push_back(k);
+    }
+    if (present.size() >= 3) {
+      std::vector<double> gaps;
+      for (std::size_t p = 1; p < present.size(); ++p) gaps.push_back(out_.t_s[present[p]] - out_.t_s[present[p - 1]]);
+      const double typical = Median(gaps);
+      for (std::size_t p = 1; p < present.size(); ++p) {
+        if (gaps[p - 1] > o_.gap_factor * typical) Record(present[p], ch, ScreeningRule::kDropout, raw[present[p]]);
+      }
+    }
+
+    // Range and rails, then conversion, unwrapping and the rate limit against the last
+    // accepted sample.
+    const bool encoder = IsEncoder(c);
+    const double full_scale = std::ldexp(1.0, m.bits) - 1.0;
+    const double period = std::ldexp(1.0, m.counter_bits);
+    double limit = 0, slack = 0;  // per second, and absolute, in the value's units
+    if (encoder) {
+      limit = o_.max_speed_mps / std::abs(m.MetresPerCount());
+      slack = o_.rate_slack_counts;
+    } else {
+      const double unit = std::abs(m.ToRadians(1.0) - m.ToRadians(0.0));  // radians per count
+      slack = o_.rate_slack_counts * unit;
+      const double deg = M_PI / 180.0;
+      if (c == Channel::kCompass) limit = o_.max_turn_rate_dps * deg;
+      else if (c == Channel::kGyroZ) limit = o_.max_turn_accel_dps2 * deg;
+      else limit = o_.max_tilt_rate_dps * deg;
+    }
+    bool have_last = false;
+    double last_raw = 0, last_value = 0, last_t = 0;
+    int rejected_run = 0;
+    for (std::size_t k : present) {
+      const double r = raw[k];
+      if (r < m.valid_min || r > m.valid_max) {
+        Record(k, ch, ScreeningRule::kOutOfRange, r);
+        continue;
+      }
+      // Rails mean saturation, except for the compass, whose 0 and full scale are headings.
+      if (!encoder && c != Channel::kCompass && (r == 0 || r == full_scale)) {
+        Record(k, ch, ScreeningRule::kAtRail, r);
+        continue;
+      }
+      double value = 0;
+      bool wrapped = false;
+      if (encoder) {
+        double d = have_last ? r - last_raw : 0.0;
+        if (d > period / 2) { d -= period; wrapped = true; }
+        if (d < -period / 2) { d += period; wrapped = true; }
+        value = have_last ? last_value + d : r;
+      } else {
+        value = m.ToRadians(r);
+        if (c == Channel::kCompass && have_last) {
+          value += 2.0 * M_PI * std::round((last_value - value) / (2.0 * M_PI));
+        }
+      }
+      if (have_last && std::abs(value - last_value) > limit * (out_.t_s[k] - last_t) + slack &&
+          rejected_run + 1 < kRebaselineAfter) {
+        ++rejected_run;
+        Record(k, ch, ScreeningRule::kRateLimit, r);
+        continue;
+      }
+      if (wrapped) Record(k, ch, ScreeningRule::kEncoderWrap, r);
+      rejected_run = 0;
+      v[k] = value;
+      have_last = true;
+      last_raw = r;
+      last_value = value;
+      last_t = out_.t_s[k];
+    }
+    if (!encoder) Hampel(c);
+  }
+
+  // Hampel identifier over the accepted samples of an analog channel, on the residuals from
+  // the local trend (the median slope of the window), so that a steady turn or climb is not
+  // mistaken for spread: a sample is a spike when its residual is further from the residuals'
+  // median than hampel_threshold robust sigmas (1.4826 MAD) and hampel_min_counts counts.
+  void Hampel(Channel c) {
+    const int ch = static_cast<int>(c);
+    const ChannelModel& m = model_[c];
+    std::vector<double>& v = out_.value[ch];
+    std::vector<std::size_t> idx;
+    for (std::size_t k = 0; k < v.size(); ++k) {
+      if (!std::isnan(v[k])) idx.push_back(k);
+    }
+    const int h = o_.hampel_half_window;
+    if (static_cast<int>(idx.size()) < 2 * h + 1) return;
+    const double unit = std::abs(m.ToRadians(1.0) - m.ToRadians(0.0));
+    const double min_dev = o_.hampel_min_counts * unit;
+    const std::vector<double>& t = out_.t_s;
+    std::vector<double> slopes, residual, dev;
+    std::vector<std::size_t> spikes;
+    for (std::size_t p = 0; p < idx.size(); ++p) {
+      const std::size_t lo = std::min(p >= static_cast<std::size_t>(h) ? p - h : 0, idx.size() - 1 - 2 * h);
+      const std::size_t hi = lo + 2 * h;
+      slopes.clear();
+      for (std::size_t q = lo + 1; q <= hi; ++q) {
+        slopes.push_back((v[idx[q]] - v[idx[q - 1]]) / (t[idx[q]] - t[idx[q - 1]]));
+      }
+      const double slope = SmallMedian(&slopes);
+      residual.clear();
+      for (std::size_t q = lo; q <= hi; ++q) residual.push_back(v[idx[q]] - slope * (t[idx[q]] - t[idx[p]]));
+      const double mine = v[idx[p]];
+      const double med = SmallMedian(&residual);
+      dev.clear();
+      for (std::size_t q = lo; q <= hi; ++q) {
+        dev.push_back(std::abs(v[idx[q]] - slope * (t[idx[q]] - t[idx[p]]) - med));
+      }
+      const double sigma = 1.4826 * SmallMedian(&dev);
+      const double d = std::abs(mine - med);
+      if (d > o_.hampel_threshold * sigma && d > min_dev) spikes.push_back(idx[p]);
+    }
+    for (std::size_t k : spikes) {
+      Record(k, ch, ScreeningRule::kSpike, raw_[ch][k]);
+      v[k] = kNaN;
+    }
+  }
+
+  // How far a correlated channel of `c` disagrees with `c` holding `stuck_value` over
+  // [t0, t1] (radians or metres), or -1 when there is none to compare with.
+  double CorrelatedMotion(Channel c, double t0, double t1, double stuck_value) const {
+    auto change = [&](Channel other, bool integrate) -> double {
+      const int o = static_cast<int>(other);
+      if (!out_.Has(other)) return -1;
+      const std::vector<double>& w = out_.value[o];
+      double first = kNaN, last = kNaN, integral = 0, prev_t = kNaN, prev_w = kNaN;
+      for (std::size_t k = 0; k < w.size(); ++k) {
+        if (out_.t_s[k] < t0 || out_.t_s[k] > t1 || std::isnan(w[k])) continue;
+        if (std::isnan(first)) first = w[k];
+        last = w[k];
+        if (!std::isnan(prev_t)) integral += 0.5 * (w[k] + prev_w) * (out_.t_s[k] - prev_t);
+        prev_t = out_.t_s[k];
+        prev_w = w[k];
+      }
+      if (std::isnan(first)) return -1;
+      if (integrate) return std::abs(integral);
+      if (IsEncoder(other)) return std::abs((last - first) * model_[other].MetresPerCount());
+      return std::abs(last - first);
+    };
+    switch (c) {
+      case Channel::kCompass: return change(Channel::kGyroZ, true);
+      case Channel::kGyroZ: {  // a constant rate is fine if the compass turns at that rate
+        const double turned = change(Channel::kCompass, false);
+        return turned < 0 ? -1 : std::abs(turned - std::abs(stuck_value) * (t1 - t0));
+      }
+      case Channel::kPitchLeft: return change(Channel::kPitchRight, false);
+      case Channel::kPitchRight: return change(Channel::kPitchLeft, false);
+      case Channel::kRoll: return -1;
+      default: {  // an encoder: the furthest travel of the others
+        double most = -1;
+        for (Channel other : {Channel::kEncoderFrontLeft, Channel::kEncoderFrontRight,
+                              Channel::kEncoderRearLeft, Channel::kEncoderRearRight}) {
+          if (other != c) most = std::max(most, change(other, false));
+        }
+        return most;
+      }
+    }
+  }
+
+  // Runs of one raw count lasting stuck_min_s while a correlated channel moved.
+  void DetectStuck(Channel c) {
+    const int ch = static_cast<int>(c);
+    const std::vector<double>& raw = raw_[ch];
+    std::vector<double>& v = out_.value[ch];
+    const double motion_threshold = IsEncoder(c) ? 0.3 : 5.0 * M_PI / 180.0;  // metres, radians
+    std::size_t k = 0;
+    while (k < v.size()) {
+      if (std::isnan(v[k])) {
+        ++k;
+        continue;
+      }
+      std::size_t end = k, next = k + 1;
+      while (next < v.size() && (std::isnan(raw[next]) || raw[next] == raw[k])) {
+        if (!std::isnan(v[next])) end = next;
+        ++next;
+      }
+      const double t0 = out_.t_s[k], t1 = out_.t_s[end];
+      if (end > k && t1 - t0 >= o_.stuck_min_s && CorrelatedMotion(c, t0, t1, v[k]) > motion_threshold) {
+        for (std::size_t q = k + 1; q <= end; ++q) {
+          if (std::isnan(v[q])) continue;
+          Record(q, ch, ScreeningRule::kStuck, raw[q]);
+          v[q] = kNaN;
+        }
+      }
+      k = end + 1;
+    }
+  }
+
+  const TelemetryLog& log_;
+  const SensorModel& model_;
+  const ScreeningOptions& o_;
+  std::vector<std::size_t> keep_;  // log rows kept
+  std::array<std::vector<double>, kNumChannels> raw_;  // raw counts of kept rows
+  ScreenedLog out_;
+};
+
+}  // namespace
+
+std::string ToString(ScreeningRule rule) {
+  switch (rule) {
+    case ScreeningRule::kRepeatedTimestamp: return "repeated_timestamp";
+    case ScreeningRule::kOutOfOrderTimestamp: return "out_of_order_timestamp";
+    case ScreeningRule::kGap: return "gap";
+    case ScreeningRule::kDropout: return "dropout";
+    case ScreeningRule::kOutOfRange: return "out_of_range";
+    case ScreeningRule::kAtRail: return "at_rail";
+    case ScreeningRule::kRateLimit: return "rate_limit";
+    case ScreeningRule::kSpike: return "spike";
+    case ScreeningRule::kStuck: return "stuck";
+    case ScreeningRule::kEncoderWrap: return "encoder_wrap";
+  }
+  return "unknown";
+}
+
+void ScreeningOptions::Validate() const {
+  LN_CHECK_ARG(gap_factor > 1) << "gap factor: must be > 1";
+  LN_CHECK_ARG(max_speed_mps > 0 && max_turn_rate_dps > 0 && max_tilt_rate_dps > 0 &&
+               max_turn_accel_dps2 > 0)
+      << "rate limits: must be > 0";
+  LN_CHECK_ARG(rate_slack_counts >= 0 && hampel_min_counts >= 0) << "slacks: must be >= 0";
+  LN_CHECK_ARG(hampel_half_window >= 2) << "Hampel half window: must be >= 2";
+  LN_CHECK_ARG(hampel_threshold > 0) << "Hampel threshold: must be > 0";
+  LN_CHECK_ARG(stuck_min_s > 0) << "stuck duration: must be > 0";
+}
+
+nlohmann::json ScreeningOptions::ToJson() const {
+  return {{"gap_factor", gap_factor},
+          {"max_speed_mps", max_speed_mps},
+          {"max_turn_rate_dps", max_turn_rate_dps},
+          {"max_tilt_rate_dps", max_tilt_rate_dps},
+          {"max_turn_accel_dps2", max_turn_accel_dps2},
+          {"rate_slack_counts", rate_slack_counts},
+          {"hampel_half_window", hampel_half_window},
+          {"hampel_threshold", hampel_threshold},
+          {"hampel_min_counts", hampel_min_counts},
+          {"stuck_min_s", stuck_min_s}};
+}
+
+long ScreenedLog::Count(ScreeningRule rule) const {
+  long total = 0;
+  for (long n : counts[static_cast<int>(rule)]) total += n;
+  return total;
+}
+
+nlohmann::json ScreenedLog::ReportJson() const {
+  nlohmann::json report = nlohmann::json::object();
+  for (int r = 0; r < kNumScreeningRules; ++r) {
+    nlohmann::json per = nlohmann::json::object();
+    for (int c = 0; c <= kNumChannels; ++c) {
+      if (counts[r][c] == 0) continue;
+      per[c == kRowSlot ? "rows" : ToString(static_cast<Channel>(c))] = counts[r][c];
+    }
+    report[ToString(static_cast<ScreeningRule>(r))] = {{"total", Count(static_cast<ScreeningRule>(r))},
+                                                       {"by_channel", per}};
+  }
+  return report;
+}
+
+ScreenedLog ScreenTelemetry(const TelemetryLog& log, const SensorModel& model,
+                            const ScreeningOptions& options) {
+  options.Validate();
+  return Screener(log, model, options).Run();
+}
+
+void WriteScreeningLog(const std::filesystem::path& path, const ScreenedLog& screened) {
+  std::ostringstream s;
+  s.imbue(std::locale::classic());
+  s.precision(17);
+  s << "# lunarnav screening log: one rejected, dropped or repaired sample per line\n";
+  s << "line,t_s,channel,rule,raw\n";
+  for (const ScreeningEvent& e : screened.events) {
+    s << e.line << "," << e.t_s << ","
+      << (e.channel < 0 ? std::string("row") : ToString(static_cast<Channel>(e.channel))) << ","
+      << ToString(e.rule) << "," << e.raw << "\n";
+  }
+  io::WriteFileAtomic(path, s.str());
+}
+
+}  // namespace lunarnav::telemetry

@@ -1,0 +1,83 @@
+// Screening of raw telemetry: "the raw data from each of the four types of sensor is biased
+// and noisy and sometimes corrupt" (Krotkov & Hebert sec. 4.1). Every rule is counted and
+// every rejected or repaired sample is recorded; nothing is dropped silently.
+#pragma once
+
+#include <array>
+#include <string>
+#include <vector>
+
+#include <nlohmann/json.hpp>
+
+#include "telemetry/sensor_model.h"
+#include "telemetry/telemetry_csv.h"
+
+namespace lunarnav::telemetry {
+
+/// The screening rules (docs/posfilter.md describes each).
+enum class ScreeningRule {
+  kRepeatedTimestamp,   ///< Row whose time stamp equals the previous one: dropped.
+  kOutOfOrderTimestamp, ///< Row earlier than the last kept one: dropped.
+  kGap,                 ///< Rows further apart than gap_factor x the median interval: reported.
+  kDropout,             ///< A channel silent for longer than gap_factor x its own interval: reported.
+  kOutOfRange,          ///< Count outside the channel's valid range: rejected.
+  kAtRail,              ///< Analog count at 0 or 2^bits - 1 (saturated or disconnected): rejected.
+  kRateLimit,           ///< Change since the last accepted sample faster than physics allows: rejected.
+  kSpike,               ///< Hampel test on residuals from the local trend: rejected.
+  kStuck,               ///< Unchanged for stuck_min_s while a correlated channel moves: rejected.
+  kEncoderWrap          ///< Encoder counter wrapped around: unwrapped (repaired, not rejected).
+};
+inline constexpr int kNumScreeningRules = 10;
+std::string ToString(ScreeningRule rule);
+
+/// Thresholds of the rules. Physical limits are generous multiples of the paper's rover
+/// (top speed 0.7 m/s).
+struct ScreeningOptions {
+  double gap_factor = 5.0;            ///< Gap / dropout: interval > gap_factor x typical. > 1.
+  double max_speed_mps = 2.0;         ///< Rate limit of each wheel's travel. > 0.
+  double max_turn_rate_dps = 90.0;    ///< Rate limit of the compass heading. > 0.
+  double max_tilt_rate_dps = 60.0;    ///< Rate limit of pitch and roll. > 0.
+  double max_turn_accel_dps2 = 180.0; ///< Rate limit of the gyro's reading. > 0.
+  /// Slack added to every rate limit, in counts of the channel (quantisation and noise).
+  double rate_slack_counts = 4.0;
+  int hampel_half_window = 3;         ///< Hampel test over +-k accepted samples. >= 2.
+  double hampel_threshold = 4.0;      ///< In robust sigmas (1.4826 MAD). > 0.
+  double hampel_min_counts = 6.0;     ///< Smallest deviation called a spike, in counts.
+  double stuck_min_s = 3.0;           ///< Shortest stuck run. > 0.
+  void Validate() const;
+  nlohmann::json ToJson() const;
+};
+
+/// One rejected, dropped or repaired sample (or row, when channel is not set).
+struct ScreeningEvent {
+  long line = 0;                ///< Line in the CSV file.
+  double t_s = 0;
+  int channel = -1;             ///< static_cast<int>(Channel), or -1 for a whole row.
+  ScreeningRule rule = ScreeningRule::kSpike;
+  double raw = 0;               ///< The raw count (or the time stamp for row rules).
+};
+
+/// The screened log.
+struct ScreenedLog {
+  std::vector<double> t_s;      ///< Kept rows, strictly increasing.
+  std::vector<long> line;       ///< Their lines in the file.
+  /// Per channel and kept row: encoders: unwrapped cumulative counts; analog channels:
+  /// radians (rad/s for the gyro), the compass unwrapped (continuous across +-180 deg).
+  /// NaN where the sample is missing or was rejected. Empty for absent channels.
+  std::array<std::vector<double>, kNumChannels> value;
+  std::array<std::array<long, kNumChannels + 1>, kNumScreeningRules> counts{};  ///< [rule][channel or kNumChannels for rows]
+  std::vector<ScreeningEvent> events;
+
+  bool Has(Channel c) const { return !value[static_cast<int>(c)].empty(); }
+  long Count(ScreeningRule rule) const;  ///< Over all channels and rows.
+  nlohmann::json ReportJson() const;     ///< Counts per rule and channel.
+};
+
+/// Applies the rules to a log read with `model`.
+ScreenedLog ScreenTelemetry(const TelemetryLog& log, const SensorModel& model,
+                            const ScreeningOptions& options);
+
+/// Writes the events as CSV (line, t_s, channel, rule, raw), atomically.
+void WriteScreeningLog(const std::filesystem::path& path, const ScreenedLog& screened);
+
+}  // namespace lunarnav::telemetry

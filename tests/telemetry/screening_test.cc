@@ -1,0 +1,135 @@
+#include "telemetry/screening.h"
+#include <fstream>
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+
+#include "util/testing.h"
+
+namespace lunarnav::telemetry {
+namespace {
+
+// A rover driving at 0.5 m/s and turning at 6 deg/s for 60 s, logged at 10 Hz by the sensors
+// of testdata/telemetry/ratler_sensors.json (10-bit counts, 10-bit wrapping encoders).
+struct Scenario {
+  SensorModel model = ReadSensorModel(util::TestDataPath("telemetry/ratler_sensors.json"));
+  TelemetryLog log;
+
+  Scenario() {
+    const int n = 600;
+    for (int i = 0; i < n; ++i) {
+      const double t = 0.1 * i;
+      log.t_s.push_back(t);
+      log.line.push_back(i + 2);
+      const double heading_deg = std::fmod(30.0 + 6.0 * t, 360.0);
+      const double distance_m = 0.5 * t;
+      Set(Channel::kCompass, std::round(heading_deg / 0.3515625));
+      Set(Channel::kGyroZ, std::round((6.0 + 60.0) / 0.1171875));
+      for (Channel e : {Channel::kEncoderFrontLeft, Channel::kEncoderFrontRight,
+                        Channel::kEncoderRearLeft, Channel::kEncoderRearRight}) {
+        Set(e, std::fmod(std::round(distance_m / model[e].MetresPerCount()), 1024.0));
+      }
+      Set(Channel::kPitchLeft, 535);
+      Set(Channel::kPitchRight, 535 + (i / 20) % 2);  // a little rocking
+      Set(Channel::kRoll, 512);
+    }
+  }
+  void Set(Channel c, double count) { log.counts[static_cast<int>(c)].push_back(count); }
+  double& At(Channel c, int i) { return log.counts[static_cast<int>(c)][i]; }
+  ScreenedLog Screen() const { return ScreenTelemetry(log, model, ScreeningOptions{}); }
+};
+
+long Rejections(const ScreenedLog& s) {
+  return static_cast<long>(s.events.size()) - s.Count(ScreeningRule::kEncoderWrap);
+}
+
+TEST(ScreenTelemetry, LeavesCleanDataUntouchedAndUnwrapsEncoders) {
+  Scenario sc;
+  const ScreenedLog s = sc.Screen();
+  EXPECT_EQ(Rejections(s), 0) << s.ReportJson().dump();
+  EXPECT_EQ(s.t_s.size(), 600u);
+  // 30 m at 0.00614 m/count = 4890 counts: four wraps of the 10-bit counter per wheel.
+  EXPECT_EQ(s.Count(ScreeningRule::kEncoderWrap), 4 * 4);
+  const auto& fl = s.value[static_cast<int>(Channel::kEncoderFrontLeft)];
+  const double metres = (fl.back() - fl.front()) * sc.model[Channel::kEncoderFrontLeft].MetresPerCount();
+  EXPECT_NEAR(metres, 0.5 * 59.9, 0.01);
+  // The compass is continuous across 360 -> 0: 6 deg/s for 59.9 s.
+  const auto& compass = s.value[static_cast<int>(Channel::kCompass)];
+  EXPECT_NEAR((compass.back() - compass.front()) * 180 / M_PI, 6.0 * 59.9, 0.5);
+}
+
+TEST(ScreenTelemetry, EachRuleCatchesItsFault) {
+  {
+    Scenario sc;  // a moderate spike: within the rate limit, caught by the Hampel test
+    sc.At(Channel::kCompass, 300) += 23;
+    const ScreenedLog s = sc.Screen();
+    EXPECT_EQ(s.Count(ScreeningRule::kSpike), 1);
+    EXPECT_EQ(Rejections(s), 1);
+    EXPECT_TRUE(std::isnan(s.value[static_cast<int>(Channel::kCompass)][300]));
+  }
+  {
+    Scenario sc;  // a wild value: faster than any turn
+    sc.At(Channel::kCompass, 300) += 300;
+    const ScreenedLog s = sc.Screen();
+    EXPECT_EQ(s.Count(ScreeningRule::kRateLimit), 1);
+    EXPECT_EQ(Rejections(s), 1);
+  }
+  {
+    Scenario sc;  // the compass freezes for 5 s while the gyro says the rover turns
+    for (int i = 200; i < 250; ++i) sc.At(Channel::kCompass, i) = sc.At(Channel::kCompass, 199);
+    const ScreenedLog s = sc.Screen();
+    EXPECT_GE(s.Count(ScreeningRule::kStuck), 45);
+    EXPECT_EQ(s.counts[static_cast<int>(ScreeningRule::kStuck)][static_cast<int>(Channel::kCompass)],
+              s.Count(ScreeningRule::kStuck));
+  }
+  {
+    Scenario sc;  // one encoder stops counting while the others go on (a broken encoder)
+    for (int i = 300; i < 360; ++i) sc.At(Channel::kEncoderRearLeft, i) = sc.At(Channel::kEncoderRearLeft, 299);
+    const ScreenedLog s = sc.Screen();
+    EXPECT_GE(s.counts[static_cast<int>(ScreeningRule::kStuck)][static_cast<int>(Channel::kEncoderRearLeft)], 55);
+  }
+  {
+    Scenario sc;  // the gyro is silent for 3 s
+    for (int i = 100; i < 130; ++i) sc.At(Channel::kGyroZ, i) = std::nan("");
+    const ScreenedLog s = sc.Screen();
+    EXPECT_EQ(s.Count(ScreeningRule::kDropout), 1);
+    EXPECT_EQ(Rejections(s), 1);
+  }
+  {
+    Scenario sc;  // rails and the valid range
+    sc.At(Channel::kRoll, 50) = 1023;
+    sc.At(Channel::kPitchLeft, 60) = 0;
+    sc.At(Channel::kEncoderFrontRight, 70) = 2000;  // beyond the 10-bit counter
+    const ScreenedLog s = sc.Screen();
+    EXPECT_EQ(s.Count(ScreeningRule::kAtRail), 2);
+    EXPECT_EQ(s.Count(ScreeningRule::kOutOfRange), 1);
+    EXPECT_EQ(Rejections(s), 3);
+  }
+  {
+    Scenario sc;  // time stamps: a repeat, one out of order, and a 2 s hole
+    sc.log.t_s[101] = sc.log.t_s[100];
+    std::swap(sc.log.t_s[201], sc.log.t_s[202]);
+    for (int i = 400; i < 420; ++i) sc.log.t_s[i] = sc.log.t_s[399] + 2.0 + 0.1 * (i - 400) + 0.001;
+    for (int i = 420; i < 600; ++i) sc.log.t_s[i] += 2.0;
+    const ScreenedLog s = sc.Screen();
+    EXPECT_EQ(s.Count(ScreeningRule::kRepeatedTimestamp), 1);
+    EXPECT_EQ(s.Count(ScreeningRule::kOutOfOrderTimestamp), 1);
+    EXPECT_EQ(s.Count(ScreeningRule::kGap), 1);
+    for (std::size_t k = 1; k < s.t_s.size(); ++k) ASSERT_GT(s.t_s[k], s.t_s[k - 1]);
+  }
+}
+
+TEST(WriteScreeningLog, ListsEveryEventWithItsLine) {
+  Scenario sc;
+  sc.At(Channel::kRoll, 50) = 1023;
+  const ScreenedLog s = sc.Screen();
+  util::ScopedTempDir tmp;
+  WriteScreeningLog(tmp.path() / "screening.csv", s);
+  std::ifstream in(tmp.path() / "screening.csv");
+  std::string text((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+  EXPECT_NE(text.find("52,5,roll,at_rail,1023"), std::string::npos) << text;
+}
+
+}  // namespace
+}  // namespace lunarnav::telemetry
