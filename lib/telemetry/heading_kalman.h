@@ -1,0 +1,54 @@
+// The heading filter of Krotkov & Hebert sec. 4.1: a Kalman filter on heading and heading
+// rate that "does not believe the compass when Ratler turns".
+#pragma once
+
+#include <vector>
+
+#include <nlohmann/json.hpp>
+
+namespace lunarnav::telemetry {
+
+/// Parameters of the heading filter. Angles in degrees for readability; the filter works in
+/// radians.
+struct HeadingKalmanOptions {
+  double compass_sigma_deg = 3.0;       ///< Compass noise when the rover is steady. > 0.
+  double gyro_sigma_dps = 0.5;          ///< Gyro noise. > 0.
+  double rate_walk_dps2 = 5.0;          ///< Process noise of the heading rate, deg/s per sqrt(s). > 0.
+  /// Compass gating: its variance is multiplied by
+  /// 1 + gate_gain * ((w / turn_gate_dps)^2 + (a / accel_gate_dps2)^2), w the gyro's turn
+  /// rate and a its change per second: turning or accelerating, the compass is hardly
+  /// believed (the paper's transients), steady, fully.
+  double turn_gate_dps = 2.0;           ///< > 0.
+  double accel_gate_dps2 = 4.0;         ///< > 0.
+  double gate_gain = 100.0;             ///< >= 0; 0 = no gating.
+  /// Gyro bias: estimated as the mean gyro reading while the wheels stand still (stationary).
+  bool estimate_gyro_bias = true;
+  double initial_heading_deg = 0.0;     ///< Used only when there is no compass.
+  void Validate() const;
+  nlohmann::json ToJson() const;
+};
+
+/// Per-sample inputs; NaN marks a missing or rejected sample.
+struct HeadingInputs {
+  std::vector<double> t_s;
+  std::vector<double> compass_rad;      ///< Heading, radians (any branch: wrapped or not).
+  std::vector<double> gyro_radps;       ///< Turn rate, rad/s, same sign as heading increases.
+  std::vector<char> stationary;         ///< 1 where the wheels stand still (may be empty).
+};
+
+struct HeadingEstimate {
+  std::vector<double> heading_rad;      ///< Continuous (unwrapped) heading.
+  std::vector<double> rate_radps;
+  std::vector<double> heading_sigma_rad;
+  double gyro_bias_radps = 0;           ///< Final bias estimate.
+  int compass_updates = 0, gyro_updates = 0;
+};
+
+/// Runs the filter forward in time (causal, as on the vehicle). The compass innovation is
+/// wrapped to (-pi, pi], so a heading passing through +-180 deg is no event.
+HeadingEstimate FilterHeading(const HeadingInputs& inputs, const HeadingKalmanOptions& options);
+
+/// Wraps an angle to (-pi, pi].
+double WrapPi(double angle_rad);
+
+}  // namespace lunarnav::telemetry
