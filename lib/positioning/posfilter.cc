@@ -1,0 +1,196 @@
+#include "positioning/posfilter.h"
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+
+#include "util/check.h"
+
+namespace lunarnav::positioning {
+namespace {
+
+using telemetry::Channel;
+constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
+
+// Linear interpolation in time over NaN gaps, holding the end values; empty when fewer than
+// two samples are valid.
+std::vector<double> FillGaps(const std::vector<double>& t, const std::vector<double>& v) {
+  std::vector<std::size_t> valid;
+  for (std::size_t k = 0; k < v.size(); ++k) {
+    if (!std::isnan(v[k])) valid.push_back(k);
+  }
+  if (valid.size() < 2) return {};
+  std::vector<double> out(v.size());
+  std::size_t next = 0;
+  for (std::size_t k = 0; k < v.size(); ++k) {
+    while (next < valid.size() && valid[next] < k) ++next;
+    if (next < valid.size() && valid[next] == k) {
+      out[k] = v[k];
+    } else if (next == 0) {
+      out[k] = v[valid.front()];
+    } else if (next == valid.size()) {
+      out[k] = v[valid.back()];
+    } else {
+      const std::size_t a = valid[next - 1], b = valid[next];
+      const double f = (t[k] - t[a]) / (t[b] - t[a]);
+      out[k] = v[a] + f * (v[b] - v[a]);
+    }
+  }
+  return out;
+}
+
+double MedianInterval(const std::vector<double>& t) {
+  std::vector<double> dt(t.size() - 1);
+  for (std::size_t k = 1; k < t.size(); ++k) dt[k - 1] = t[k] - t[k - 1];
+  std::nth_element(dt.begin(), dt.begin() + dt.size() / 2, dt.end());
+  return dt[dt.size() / 2];
+}
+
+}  // namespace
+
+std::string ToString(FilterMode mode) { return mode == FilterMode::kCausal ? "causal" : "zero-phase"; }
+std::string ToString(HeadingMethod method) {
+  return method == HeadingMethod::kKalman ? "kalman" : "lowpass";
+}
+
+void PosfilterOptions::Validate() const {
+  screening.Validate();
+  kalman.Validate();
+  LN_CHECK_ARG(filter_order >= 1 && filter_order <= 8) << "order: must be in 1..8";
+  LN_CHECK_ARG(cutoff_hz > 0 && std::isfinite(cutoff_hz)) << "cutoff: must be > 0 Hz";
+  LN_CHECK_ARG(stationary_min_s > 0) << "stationary time: must be > 0";
+  LN_CHECK_ARG(dead_reckoning.slip_fraction > 0 && dead_reckoning.slip_min_m > 0)
+      << "slip tolerances: must be > 0";
+}
+
+nlohmann::json PosfilterOptions::ToJson() const {
+  return {{"screening", screening.ToJson()},
+          {"filter", {{"type", telemetry::ToString(filter)}, {"order", filter_order}, {"cutoff_hz", cutoff_hz},
+                      {"mode", ToString(mode)}}},
+          {"heading", ToString(heading)},
+          {"kalman", kalman.ToJson()},
+          {"slip", {{"fraction", dead_reckoning.slip_fraction}, {"min_m", dead_reckoning.slip_min_m}}},
+          {"stationary_min_s", stationary_min_s}};
+}
+
+PosfilterResult RunPosfilter(const telemetry::TelemetryLog& log, const telemetry::SensorModel& model,
+                             const PosfilterOptions& options) {
+  options.Validate();
+  PosfilterResult r;
+  r.screened = telemetry::ScreenTelemetry(log, model, options.screening);
+  const telemetry::ScreenedLog& s = r.screened;
+  const std::vector<double>& t = s.t_s;
+  LN_CHECK_INPUT(t.size() >= 2) << log.source.string() << ": fewer than two usable rows";
+  r.sample_rate_hz = 1.0 / MedianInterval(t);
+  LN_CHECK_INPUT(options.cutoff_hz < 0.5 * r.sample_rate_hz)
+      << log.source.string() << ": the cut-off " << options.cutoff_hz
+      << " Hz is not below half the sample rate (" << r.sample_rate_hz << " Hz)";
+  r.design = telemetry::DesignLowPass(options.filter, options.filter_order, options.cutoff_hz, r.sample_rate_hz);
+  auto lowpass = [&](const std::vector<double>& v) {
+    return options.mode == FilterMode::kCausal ? telemetry::FilterCausal(r.design, v)
+                                               : telemetry::FilterZeroPhase(r.design, v);
+  };
+  auto filled = [&](Channel c) -> std::vector<double> {
+    if (!s.Has(c)) return {};
+    std::vector<double> v = FillGaps(t, s.value[static_cast<int>(c)]);
+    if (!v.empty()) r.channels_used.push_back(telemetry::ToString(c));
+    return v;
+  };
+
+  DeadReckoningInputs in;
+  in.t_s = t;
+  // Wheels: cumulative metres.
+  const Channel wheels[4] = {Channel::kEncoderFrontLeft, Channel::kEncoderFrontRight,
+                             Channel::kEncoderRearLeft, Channel::kEncoderRearRight};
+  int wheel_count = 0;
+  for (int i = 0; i < 4; ++i) {
+    std::vector<double> counts = filled(wheels[i]);
+    if (counts.empty()) continue;
+    const double mpc = model[wheels[i]].MetresPerCount();
+    for (double& c : counts) c *= mpc;
+    in.wheel_m[i] = std::move(counts);
+    ++wheel_count;
+  }
+  LN_CHECK_INPUT(wheel_count > 0) << log.source.string() << ": no usable encoder channel";
+
+  // Pitch: the mean of the filtered left and right inclinometers.
+  const std::vector<double> pitch_left = filled(Channel::kPitchLeft);
+  const std::vector<double> pitch_right = filled(Channel::kPitchRight);
+  if (!pitch_left.empty() || !pitch_right.empty()) {
+    const std::vector<double> a = pitch_left.empty() ? pitch_right : lowpass(pitch_left);
+    const std::vector<double> b = pitch_right.empty() ? a : lowpass(pitch_right);
+    in.pitch_rad.resize(t.size());
+    for (std::size_t k = 0; k < t.size(); ++k) in.pitch_rad[k] = 0.5 * (a[k] + b[k]);
+    if (pitch_left.empty() || pitch_right.empty()) r.notes.push_back("one pitch inclinometer: pitch from the other");
+  } else {
+    r.notes.push_back("no pitch inclinometers: flat ground (z = 0)");
+  }
+  const std::vector<double> roll = filled(Channel::kRoll);
+  if (!roll.empty()) in.roll_rad = lowpass(roll);
+
+  // Heading.
+  const std::vector<double> compass = filled(Channel::kCompass);
+  const bool have_gyro = s.Has(Channel::kGyroZ) &&
+                         std::any_of(s.value[static_cast<int>(Channel::kGyroZ)].begin(),
+                                     s.value[static_cast<int>(Channel::kGyroZ)].end(),
+                                     [](double v) { return !std::isnan(v); });
+  if (have_gyro) r.channels_used.push_back("gyro_z");
+  if (options.heading == HeadingMethod::kLowPass && !compass.empty()) {
+    in.heading_rad = lowpass(compass);
+  } else if (!compass.empty() || have_gyro) {
+    if (options.heading == HeadingMethod::kLowPass) {
+      r.notes.push_back("no compass: heading from the gyro by the Kalman filter");
+    }
+    if (compass.empty()) r.notes.push_back("no compass: heading from the gyro, relative to the start");
+    telemetry::HeadingInputs h;
+    h.t_s = t;
+    if (!compass.empty()) h.compass_rad = s.value[static_cast<int>(Channel::kCompass)];
+    if (have_gyro) h.gyro_radps = s.value[static_cast<int>(Channel::kGyroZ)];
+    // Stationary: no wheel has moved over the last stationary_min_s.
+    h.stationary.assign(t.size(), 0);
+    std::size_t since = 0;  // first index of the current still stretch
+    for (std::size_t k = 1; k < t.size(); ++k) {
+      bool moved = false;
+      for (const auto& w : in.wheel_m) {
+        if (!w.empty() && std::abs(w[k] - w[k - 1]) > 1e-9) moved = true;
+      }
+      if (moved) since = k;
+      h.stationary[k] = !moved && t[k] - t[since] >= options.stationary_min_s;
+    }
+    r.heading = telemetry::FilterHeading(h, options.kalman);
+    r.kalman_used = true;
+    in.heading_rad = r.heading.heading_rad;
+  } else {
+    r.notes.push_back("no compass and no gyro: constant heading");
+    in.heading_rad.assign(t.size(), options.kalman.initial_heading_deg * M_PI / 180.0);
+  }
+  r.motion = DeadReckon(in, options.dead_reckoning);
+  return r;
+}
+
+nlohmann::json PosfilterResult::SummaryJson() const {
+  nlohmann::json j;
+  j["rows_used"] = screened.t_s.size();
+  j["sample_rate_hz"] = sample_rate_hz;
+  j["channels_used"] = channels_used;
+  j["notes"] = notes;
+  j["screening"] = screened.ReportJson();
+  j["lowpass"] = design.ToJson();
+  if (kalman_used) {
+    j["heading_kalman"] = {{"compass_updates", heading.compass_updates},
+                           {"gyro_updates", heading.gyro_updates},
+                           {"gyro_bias_dps", heading.gyro_bias_radps * 180.0 / M_PI}};
+  }
+  const double duration = screened.t_s.empty() ? 0.0 : screened.t_s.back() - screened.t_s.front();
+  j["motion"] = {{"distance_m", motion.distance_m},
+                 {"duration_s", duration},
+                 {"slip_events", motion.slip_events},
+                 {"steps_without_odometry", motion.steps_without_odometry}};
+  if (!motion.trajectory.empty()) {
+    const TrajectorySample& last = motion.trajectory.back();
+    j["motion"]["final_position_m"] = {last.x_m, last.y_m, last.z_m};
+  }
+  return j;
+}
+
+}  // namespace lunarnav::positioning

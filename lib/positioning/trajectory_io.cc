@@ -1,0 +1,95 @@
+#include "positioning/trajectory_io.h"
+
+#include <cmath>
+#include <fstream>
+#include <sstream>
+
+#include <Eigen/Geometry>
+
+#include "io/atomic_file.h"
+#include "util/check.h"
+
+namespace lunarnav::positioning {
+namespace {
+constexpr double kDeg = 180.0 / M_PI;
+
+// Fast, locale-independent, round-trippable formatting of a double.
+void Put(std::string* out, double v, int precision) {
+  char buf[64];
+  const int len = std::snprintf(buf, sizeof(buf), "%.*g", precision, v);
+  out->append(buf, static_cast<std::size_t>(len));
+}
+}  // namespace
+
+void WriteTrajectoryCsv(const std::filesystem::path& path, const std::vector<TrajectorySample>& trajectory) {
+  std::string s;
+  s.reserve(trajectory.size() * 110 + 512);
+  s += "# lunarnav trajectory: frame x east, y north, z up (m), origin at the start;\n";
+  s += "# heading clockwise from north (deg, [0, 360)), pitch nose up (deg), roll right side down (deg)\n";
+  s += "t_s,x_m,y_m,z_m,heading_deg,pitch_deg,roll_deg,speed_mps\n";
+  for (const TrajectorySample& p : trajectory) {
+    double heading = std::fmod(p.heading_rad * kDeg, 360.0);
+    if (heading < 0) heading += 360.0;
+    Put(&s, p.t_s, 17); s += ',';
+    Put(&s, p.x_m, 10); s += ',';
+    Put(&s, p.y_m, 10); s += ',';
+    Put(&s, p.z_m, 10); s += ',';
+    Put(&s, heading, 9); s += ',';
+    Put(&s, p.pitch_rad * kDeg, 8); s += ',';
+    Put(&s, p.roll_rad * kDeg, 8); s += ',';
+    Put(&s, p.speed_mps, 8); s += '\n';
+  }
+  io::WriteFileAtomic(path, s);
+}
+
+void WriteTrajectoryTum(const std::filesystem::path& path, const std::vector<TrajectorySample>& trajectory) {
+  std::string s;
+  s.reserve(trajectory.size() * 120 + 128);
+  s += "# timestamp tx ty tz qx qy qz qw (lunarnav; ENU frame, body x forward, y left, z up)\n";
+  for (const TrajectorySample& p : trajectory) {
+    const Eigen::Quaterniond q = Eigen::AngleAxisd(M_PI / 2 - p.heading_rad, Eigen::Vector3d::UnitZ()) *
+                                 Eigen::AngleAxisd(-p.pitch_rad, Eigen::Vector3d::UnitY()) *
+                                 Eigen::AngleAxisd(-p.roll_rad, Eigen::Vector3d::UnitX());
+    for (double v : {p.t_s, p.x_m, p.y_m, p.z_m, q.x(), q.y(), q.z(), q.w()}) {
+      Put(&s, v, 12);
+      s += ' ';
+    }
+    s.back() = '\n';
+  }
+  io::WriteFileAtomic(path, s);
+}
+
+std::vector<TrajectorySample> ReadTrajectoryCsv(const std::filesystem::path& path) {
+  std::ifstream in(path);
+  LN_CHECK_INPUT(in.good()) << path.string() << ": cannot open";
+  std::vector<TrajectorySample> out;
+  std::string line;
+  long number = 0;
+  bool header = false;
+  while (std::getline(in, line)) {
+    ++number;
+    if (line.empty() || line[0] == '#') continue;
+    if (!header) {
+      LN_CHECK_INPUT(line.rfind("t_s,x_m,y_m,z_m,heading_deg", 0) == 0)
+          << path.string() << ":" << number << ": not a lunarnav trajectory header";
+      header = true;
+      continue;
+    }
+    std::istringstream row(line);
+    row.imbue(std::locale::classic());
+    TrajectorySample p;
+    double heading = 0, pitch = 0, roll = 0;
+    char c1, c2, c3, c4, c5, c6, c7;
+    row >> p.t_s >> c1 >> p.x_m >> c2 >> p.y_m >> c3 >> p.z_m >> c4 >> heading >> c5 >> pitch >> c6 >>
+        roll >> c7 >> p.speed_mps;
+    LN_CHECK_INPUT(!row.fail()) << path.string() << ":" << number << ": malformed row";
+    p.heading_rad = heading / kDeg;
+    p.pitch_rad = pitch / kDeg;
+    p.roll_rad = roll / kDeg;
+    out.push_back(p);
+  }
+  LN_CHECK_INPUT(header) << path.string() << ": no header";
+  return out;
+}
+
+}  // namespace lunarnav::positioning
