@@ -82,9 +82,20 @@ double ChannelModel::ToRadians(double count) const {
 void SensorModel::OverrideBits(int bits) {
   LN_CHECK_ARG(bits >= 1 && bits <= 24) << "bits: must be in 1..24, got " << bits;
   for (ChannelModel& m : channels) {
+    if (!m.present || m.bits == bits) continue;
+    // The same sensor read with fewer (or more) bits: each count spans `factor` old counts.
+    const double factor = std::ldexp(1.0, m.bits - bits);
     const bool default_range = m.valid_min == 0 && m.valid_max == (1LL << m.bits) - 1;
+    m.scale *= factor;
+    m.counts_per_revolution /= factor;
+    m.counter_bits = std::max(2, m.counter_bits - (m.bits - bits));
+    if (default_range) {
+      m.valid_max = (1LL << bits) - 1;
+    } else {
+      m.valid_min = static_cast<long long>(std::floor(m.valid_min / factor));
+      m.valid_max = static_cast<long long>(std::ceil(m.valid_max / factor));
+    }
     m.bits = bits;
-    if (default_range) m.valid_max = (1LL << bits) - 1;
   }
 }
 

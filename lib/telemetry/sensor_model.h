@@ -74,8 +74,11 @@ struct SensorModel {
   const ChannelModel& operator[](Channel c) const { return channels[static_cast<int>(c)]; }
   ChannelModel& operator[](Channel c) { return channels[static_cast<int>(c)]; }
 
-  /// Sets every channel's digitisation to `bits` (posfilter --bits 7), keeping valid ranges
-  /// that were given explicitly and rescaling the default ones.
+  /// Reads every channel with `bits` instead (posfilter --bits 7: the paper's old telemetry
+  /// carried 7-bit values of the same 10-bit sensors). Each channel keeps its full-scale
+  /// range: a count spans 2^(old - new) old counts, so analog scales grow by that factor,
+  /// encoders count that many times fewer counts per revolution on a counter that many bits
+  /// narrower, and valid ranges shrink alike.
   void OverrideBits(int bits);
   nlohmann::json ToJson() const;
 };

@@ -36,11 +36,16 @@ TEST(SensorModelFromJson, ReadsChannelsWithDefaults) {
   EXPECT_EQ(m[Channel::kGyroZ].valid_min, 5);
 }
 
-TEST(SensorModelFromJson, OverridingBitsRescalesDefaultRangesOnly) {
+TEST(SensorModelFromJson, OverridingBitsKeepsEachChannelsFullScale) {
   SensorModel m = SensorModelFromJson(Minimal(), "s.json");
+  const double compass_full_scale = m[Channel::kCompass].ToRadians(1023);
   m.OverrideBits(7);
   EXPECT_EQ(m[Channel::kCompass].valid_max, 127);
-  EXPECT_EQ(m[Channel::kGyroZ].valid_max, 1018);  // given explicitly
+  EXPECT_NEAR(m[Channel::kCompass].ToRadians(127), compass_full_scale, 8 * 0.3515625 * M_PI / 180);
+  EXPECT_EQ(m[Channel::kGyroZ].valid_min, 0);    // [5, 1018] / 8, widened to whole counts
+  EXPECT_EQ(m[Channel::kGyroZ].valid_max, 128);
+  EXPECT_EQ(m[Channel::kEncoderFrontLeft].counter_bits, 13);  // 16 bits, three fewer
+  EXPECT_NEAR(m[Channel::kEncoderFrontLeft].counts_per_revolution, 512.0 / 8, 1e-12);
   const SensorModel back = SensorModelFromJson(m.ToJson(), "round trip");
   EXPECT_EQ(back[Channel::kCompass].bits, 7);
   EXPECT_EQ(back[Channel::kCompass].column, "heading_raw");

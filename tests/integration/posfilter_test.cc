@@ -1,0 +1,135 @@
+// Integration tests of the posfilter tool.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <filesystem>
+#include <fstream>
+#include <sstream>
+
+#include <nlohmann/json.hpp>
+
+#include "integration/run_tool.h"
+#include "io/json_io.h"
+#include "positioning/trajectory_io.h"
+#include "util/testing.h"
+
+namespace lunarnav {
+namespace {
+namespace fs = std::filesystem;
+using testing::RunTool;
+
+// A log in the format of testdata/telemetry/ratler_sensors.json (10-bit counts): 10 s still,
+// 40 s north at 0.5 m/s, then 30 s turning right at 6 deg/s (through east), at 10 Hz. The
+// compass starts at 350 deg so it crosses north (1023 -> 0 counts); the encoders wrap every
+// 1024 counts (6.3 m).
+std::string DriveCsv(int bits = 10, double* end_x = nullptr, double* end_y = nullptr) {
+  const double levels = std::ldexp(1.0, bits);
+  const double compass_scale = 360.0 / levels, tilt_scale = 90.0 / levels, gyro_scale = 120.0 / levels;
+  // The same wheels read with `bits` (the 10-bit model counts 256 per revolution).
+  const double metres_per_count = 2 * M_PI * 0.25 / (256 * levels / 1024);
+  std::ostringstream s;
+  s << "# a hand-built drive\n"
+    << "t,enc_fl,enc_fr,enc_rl,enc_rr,compass,pitch_left,pitch_right,roll,gyro_z\n";
+  double heading = 350.0, distance = 0, x = 0, y = 0;
+  for (int i = 0; i <= 800; ++i) {
+    const double t = 0.1 * i;
+    const double speed = t < 10 ? 0.0 : 0.5;
+    const double rate = t < 50 ? 0.0 : 6.0;
+    if (i > 0) {
+      const double h = heading + 0.5 * rate * 0.1;  // midpoint of this step
+      x += speed * 0.1 * std::sin(h * M_PI / 180);
+      y += speed * 0.1 * std::cos(h * M_PI / 180);
+      heading += rate * 0.1;
+      distance += speed * 0.1;
+    }
+    const long enc = std::lround(distance / metres_per_count) % static_cast<long>(levels);
+    const long compass = std::lround(std::fmod(heading + 360.0, 360.0) / compass_scale) % static_cast<long>(levels);
+    const long pitch = std::lround((0.0 + 45.0) / tilt_scale), roll = std::lround(45.0 / tilt_scale);
+    const long gyro = std::lround((rate + 60.0) / gyro_scale);
+    s << t << "," << enc << "," << enc << "," << enc << "," << enc << "," << compass << "," << pitch << ","
+      << pitch << "," << roll << "," << gyro << "\n";
+  }
+  if (end_x != nullptr) *end_x = x;
+  if (end_y != nullptr) *end_y = y;
+  return s.str();
+}
+
+TEST(Posfilter, DeadReckonsAHandBuiltDrive) {
+  util::ScopedTempDir tmp;
+  double x = 0, y = 0;
+  std::ofstream(tmp.path() / "log.csv") << DriveCsv(10, &x, &y);
+  const fs::path out = tmp.path() / "out";
+  const auto run = RunTool("posfilter", {(tmp.path() / "log.csv").string(), "--sensors",
+                                         util::TestDataPath("telemetry/ratler_sensors.json").string(),
+                                         "-o", out.string(), "--screening-log",
+                                         (tmp.path() / "screening.csv").string()}, tmp.path());
+  ASSERT_EQ(run.exit_code, 0) << run.stderr_text;
+  const auto trajectory = positioning::ReadTrajectoryCsv(out / "trajectory.csv");
+  ASSERT_EQ(trajectory.size(), 801u);
+  // 35 m driven; counts are quantised (6 mm) and the compass to 0.35 deg.
+  EXPECT_NEAR(trajectory.back().x_m, x, 0.5);
+  EXPECT_NEAR(trajectory.back().y_m, y, 0.5);
+  const nlohmann::json summary = io::ReadJson(out / "summary.json");
+  EXPECT_NEAR(summary["motion"]["distance_m"].get<double>(), 35.0, 0.1);
+  EXPECT_EQ(summary["screening"]["encoder_wrap"]["total"], 4 * 5);  // 35 m / 6.28 m per wrap
+  EXPECT_EQ(summary["screening"]["spike"]["total"], 0);
+  // DC delay of a 2nd-order Butterworth: sqrt(2) / (2 pi fc) = 0.90 s, 9 samples at 10 Hz.
+  EXPECT_NEAR(summary["lowpass"]["delay_samples"].get<double>(), std::sqrt(2.0) / (2 * M_PI * 0.25) * 10, 0.05);
+  EXPECT_TRUE(fs::exists(out / "trajectory.tum"));
+  EXPECT_TRUE(fs::exists(tmp.path() / "screening.csv"));
+}
+
+TEST(Posfilter, ReadsSevenBitTelemetry) {
+  util::ScopedTempDir tmp;
+  double x = 0, y = 0;
+  std::ofstream(tmp.path() / "log.csv") << DriveCsv(7, &x, &y);
+  const fs::path out = tmp.path() / "out";
+  // The 10-bit sensor model, read with 7 bits.
+  const auto run = RunTool("posfilter", {(tmp.path() / "log.csv").string(), "--sensors",
+                                         util::TestDataPath("telemetry/ratler_sensors.json").string(),
+                                         "-o", out.string(), "--bits", "7"},
+                           tmp.path());
+  ASSERT_EQ(run.exit_code, 0) << run.stderr_text;
+  const auto trajectory = positioning::ReadTrajectoryCsv(out / "trajectory.csv");
+  // 7 bits: 2.8 deg compass steps and 4.9 cm counts (32 per revolution of a 1.57 m wheel).
+  EXPECT_NEAR(trajectory.back().x_m, x, 2.0);
+  EXPECT_NEAR(trajectory.back().y_m, y, 2.0);
+}
+
+TEST(Posfilter, BadInputGetsOneErrorLineAndNoOutput) {
+  util::ScopedTempDir tmp;
+  const std::string sensors = util::TestDataPath("telemetry/ratler_sensors.json").string();
+  std::string csv = DriveCsv();
+  const std::size_t line5 = csv.find('\n', csv.find('\n', csv.find('\n', csv.find('\n') + 1) + 1) + 1);
+  std::string bad = csv;
+  bad.insert(line5 + 1, "0.35,12,12,12,12,north,512,512,512,512\n");  // becomes line 5
+  std::ofstream(tmp.path() / "bad.csv") << bad;
+  const fs::path out = tmp.path() / "out";
+  auto run = RunTool("posfilter", {(tmp.path() / "bad.csv").string(), "--sensors", sensors, "-o", out.string()}, tmp.path());
+  EXPECT_EQ(run.exit_code, 3);
+  EXPECT_EQ(run.ErrorLines(), 1) << run.stderr_text;
+  EXPECT_NE(run.stderr_text.find("bad.csv:5: column 'compass': 'north'"), std::string::npos) << run.stderr_text;
+  EXPECT_FALSE(fs::exists(out / "trajectory.csv"));
+
+  std::ofstream(tmp.path() / "notime.csv") << "time,enc_fl\n0,1\n";
+  run = RunTool("posfilter", {(tmp.path() / "notime.csv").string(), "--sensors", sensors, "-o", out.string()}, tmp.path());
+  EXPECT_EQ(run.exit_code, 3);
+  EXPECT_NE(run.stderr_text.find("missing required column 't'"), std::string::npos) << run.stderr_text;
+
+  nlohmann::json model = io::ReadJson(sensors);
+  model["channels"]["sonar"] = {{"scale", 1}};
+  std::ofstream(tmp.path() / "unknown.json") << model.dump();
+  std::ofstream(tmp.path() / "log.csv") << csv;
+  run = RunTool("posfilter", {(tmp.path() / "log.csv").string(), "--sensors", (tmp.path() / "unknown.json").string(),
+                              "-o", out.string()}, tmp.path());
+  EXPECT_EQ(run.exit_code, 3);
+  EXPECT_NE(run.stderr_text.find("channels.sonar: unknown channel"), std::string::npos) << run.stderr_text;
+
+  run = RunTool("posfilter", {(tmp.path() / "log.csv").string(), "--sensors", sensors, "-o", out.string(),
+                              "--cutoff", "-1"}, tmp.path());
+  EXPECT_EQ(run.exit_code, 2);
+  EXPECT_FALSE(fs::exists(out / "trajectory.csv"));
+}
+
+}  // namespace
+}  // namespace lunarnav
