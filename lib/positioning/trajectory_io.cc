@@ -1,5 +1,6 @@
 #include "positioning/trajectory_io.h"
 
+#include <charconv>
 #include <cmath>
 #include <fstream>
 #include <sstream>
@@ -13,11 +14,14 @@ namespace lunarnav::positioning {
 namespace {
 constexpr double kDeg = 180.0 / M_PI;
 
-// Fast, locale-independent, round-trippable formatting of a double.
-void Put(std::string* out, double v, int precision) {
+// Locale-independent formatting: `decimals` digits after the point, or the shortest text
+// that reads back to the same double when decimals < 0.
+void Put(std::string* out, double v, int decimals) {
   char buf[64];
-  const int len = std::snprintf(buf, sizeof(buf), "%.*g", precision, v);
-  out->append(buf, static_cast<std::size_t>(len));
+  const std::to_chars_result r = decimals < 0 ? std::to_chars(buf, buf + sizeof(buf), v)
+                                              : std::to_chars(buf, buf + sizeof(buf), v,
+                                                              std::chars_format::fixed, decimals);
+  out->append(buf, r.ptr);
 }
 }  // namespace
 
@@ -30,14 +34,14 @@ void WriteTrajectoryCsv(const std::filesystem::path& path, const std::vector<Tra
   for (const TrajectorySample& p : trajectory) {
     double heading = std::fmod(p.heading_rad * kDeg, 360.0);
     if (heading < 0) heading += 360.0;
-    Put(&s, p.t_s, 17); s += ',';
-    Put(&s, p.x_m, 10); s += ',';
-    Put(&s, p.y_m, 10); s += ',';
-    Put(&s, p.z_m, 10); s += ',';
-    Put(&s, heading, 9); s += ',';
-    Put(&s, p.pitch_rad * kDeg, 8); s += ',';
-    Put(&s, p.roll_rad * kDeg, 8); s += ',';
-    Put(&s, p.speed_mps, 8); s += '\n';
+    Put(&s, p.t_s, -1); s += ',';  // as read
+    Put(&s, p.x_m, 6); s += ',';    // micrometres
+    Put(&s, p.y_m, 6); s += ',';
+    Put(&s, p.z_m, 6); s += ',';
+    Put(&s, heading, 6); s += ',';  // micro-degrees
+    Put(&s, p.pitch_rad * kDeg, 6); s += ',';
+    Put(&s, p.roll_rad * kDeg, 6); s += ',';
+    Put(&s, p.speed_mps, 6); s += '\n';
   }
   io::WriteFileAtomic(path, s);
 }
@@ -50,10 +54,12 @@ void WriteTrajectoryTum(const std::filesystem::path& path, const std::vector<Tra
     const Eigen::Quaterniond q = Eigen::AngleAxisd(M_PI / 2 - p.heading_rad, Eigen::Vector3d::UnitZ()) *
                                  Eigen::AngleAxisd(-p.pitch_rad, Eigen::Vector3d::UnitY()) *
                                  Eigen::AngleAxisd(-p.roll_rad, Eigen::Vector3d::UnitX());
-    for (double v : {p.t_s, p.x_m, p.y_m, p.z_m, q.x(), q.y(), q.z(), q.w()}) {
-      Put(&s, v, 12);
+    Put(&s, p.t_s, -1);
+    for (double v : {p.x_m, p.y_m, p.z_m, q.x(), q.y(), q.z(), q.w()}) {
       s += ' ';
+      Put(&s, v, 9);
     }
+    s += ' ';
     s.back() = '\n';
   }
   io::WriteFileAtomic(path, s);

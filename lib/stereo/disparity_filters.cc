@@ -11,26 +11,10 @@
 
 #include "stereo/ncc_options.h"
 #include "util/check.h"
+#include "util/small_median.h"
 
 namespace lunarnav::stereo {
 
-namespace {
-// Median of values[0..count) (mean of the two middle ones for an even count); reorders them.
-float SmallMedian(float* values, int count) {
-  if (count <= 25) {  // insertion sort: fastest for the usual 3x3 and 5x5 neighbourhoods
-    for (int a = 1; a < count; ++a) {
-      const float v = values[a];
-      int b = a - 1;
-      for (; b >= 0 && values[b] > v; --b) values[b + 1] = values[b];
-      values[b + 1] = v;
-    }
-  } else {
-    std::sort(values, values + count);
-  }
-  const int mid = count / 2;
-  return count % 2 == 1 ? values[mid] : 0.5f * (values[mid - 1] + values[mid]);
-}
-}  // namespace
 
 void MedianFilterDisparityGrid(int size, cv::Mat* disparity, cv::Mat* rejection) {
   LN_CHECK(disparity != nullptr && rejection != nullptr);
@@ -87,7 +71,7 @@ void MedianFilterDisparityGrid(int size, cv::Mat* disparity, cv::Mat* rejection)
         disparity->at<float>(r, c) = std::numeric_limits<float>::quiet_NaN();
         rejection->at<std::uint8_t>(r, c) = static_cast<std::uint8_t>(Rejection::kMedian);
       } else {
-        disparity->at<float>(r, c) = SmallMedian(values.data(), count);
+        disparity->at<float>(r, c) = util::SmallMedian(values.data(), static_cast<std::size_t>(count));
       }
     }
   });

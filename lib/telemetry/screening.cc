@@ -7,6 +7,7 @@
 
 #include "io/atomic_file.h"
 #include "util/check.h"
+#include "util/small_median.h"
 
 namespace lunarnav::telemetry {
 namespace {
@@ -16,18 +17,7 @@ constexpr int kRowSlot = kNumChannels;
 // A rate-limit rejection run this long means the signal really moved: accept it from there.
 constexpr int kRebaselineAfter = 3;
 
-// Median of a short vector by insertion sort (reorders it).
-double SmallMedian(std::vector<double>* v) {
-  std::vector<double>& a = *v;
-  for (std::size_t i = 1; i < a.size(); ++i) {
-    const double x = a[i];
-    std::size_t j = i;
-    for (; j > 0 && a[j - 1] > x; --j) a[j] = a[j - 1];
-    a[j] = x;
-  }
-  const std::size_t mid = a.size() / 2;
-  return a.size() % 2 == 1 ? a[mid] : 0.5 * (a[mid - 1] + a[mid]);
-}
+double SmallMedian(std::vector<double>* v) { return util::SmallMedian(v->data(), v->size()); }
 
 double Median(std::vector<double> v) {
   if (v.empty()) return kNaN;
