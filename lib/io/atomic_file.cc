@@ -54,6 +54,38 @@ void WriteFileAtomic(const fs::path& path, std::string_view bytes) {
   CommitTempFile(temp, path);
 }
 
+AtomicOutputFile::AtomicOutputFile(const fs::path& path) : path_(path), temp_(TempPathFor(path)) {
+  if (!path.parent_path().empty()) fs::create_directories(path.parent_path());
+  file_ = std::fopen(temp_.c_str(), "wb");
+  if (file_ == nullptr) throw std::runtime_error(temp_.string() + ": cannot open for writing");
+}
+
+AtomicOutputFile::~AtomicOutputFile() {
+  if (file_ != nullptr) {
+    std::fclose(file_);
+    std::error_code ec;
+    fs::remove(temp_, ec);
+  }
+}
+
+void AtomicOutputFile::Write(std::string_view bytes) {
+  if (std::fwrite(bytes.data(), 1, bytes.size(), file_) != bytes.size()) {
+    throw std::runtime_error(path_.string() + ": write failed (disk full?)");
+  }
+}
+
+void AtomicOutputFile::Commit() {
+  const bool ok = std::fflush(file_) == 0;
+  const bool closed = std::fclose(file_) == 0;
+  file_ = nullptr;
+  if (!ok || !closed) {
+    std::error_code ec;
+    fs::remove(temp_, ec);
+    throw std::runtime_error(path_.string() + ": write failed (disk full?)");
+  }
+  CommitTempFile(temp_, path_);
+}
+
 int RemoveStaleTempFiles(const fs::path& dir) {
   int removed = 0;
   std::error_code ec;

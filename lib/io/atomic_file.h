@@ -4,6 +4,7 @@
 // (a leftover hidden ".*.lunarnav-tmp" file at most, which RemoveStaleTempFiles deletes).
 #pragma once
 
+#include <cstdio>
 #include <filesystem>
 #include <string_view>
 
@@ -18,6 +19,24 @@ std::filesystem::path TempPathFor(const std::filesystem::path& path);
 
 /// Renames a finished temporary file onto its final name (atomic on POSIX file systems).
 void CommitTempFile(const std::filesystem::path& temp, const std::filesystem::path& path);
+
+/// A file written piece by piece under a temporary name and renamed by Commit(); destroyed
+/// without Commit() (an exception on the way), it leaves nothing behind.
+class AtomicOutputFile {
+ public:
+  /// Opens the temporary file; creates the parent directories.
+  explicit AtomicOutputFile(const std::filesystem::path& path);
+  ~AtomicOutputFile();
+  AtomicOutputFile(const AtomicOutputFile&) = delete;
+  AtomicOutputFile& operator=(const AtomicOutputFile&) = delete;
+  void Write(std::string_view bytes);
+  /// Flushes, closes and renames onto the final name.
+  void Commit();
+
+ private:
+  std::filesystem::path path_, temp_;
+  std::FILE* file_ = nullptr;
+};
 
 /// Deletes leftover temporary files of killed runs in `dir` (not recursive). Returns how many.
 int RemoveStaleTempFiles(const std::filesystem::path& dir);

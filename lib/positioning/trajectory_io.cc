@@ -14,20 +14,43 @@ namespace lunarnav::positioning {
 namespace {
 constexpr double kDeg = 180.0 / M_PI;
 
-// Locale-independent formatting: `decimals` digits after the point, or the shortest text
-// that reads back to the same double when decimals < 0.
+// Locale-independent formatting: `decimals` (0..9) digits after the point, or the shortest
+// text that reads back to the same double when decimals < 0. Fixed-point goes through a
+// rounded integer (std::to_chars with a precision is several times slower).
 void Put(std::string* out, double v, int decimals) {
   char buf[64];
-  const std::to_chars_result r = decimals < 0 ? std::to_chars(buf, buf + sizeof(buf), v)
-                                              : std::to_chars(buf, buf + sizeof(buf), v,
-                                                              std::chars_format::fixed, decimals);
-  out->append(buf, r.ptr);
+  if (decimals < 0 || !(std::abs(v) < 9e9)) {
+    const std::to_chars_result r = std::to_chars(buf, buf + sizeof(buf), v);
+    out->append(buf, r.ptr);
+    return;
+  }
+  static constexpr long long kPow10[] = {1, 10, 100, 1000, 10000, 100000, 1000000, 10000000,
+                                         100000000, 1000000000};
+  const long long scale = kPow10[decimals];
+  const long long scaled = std::llround(v * static_cast<double>(scale));
+  const unsigned long long magnitude = static_cast<unsigned long long>(scaled < 0 ? -scaled : scaled);
+  if (scaled < 0) out->push_back('-');
+  char* end = std::to_chars(buf, buf + sizeof(buf), magnitude / scale).ptr;
+  out->append(buf, end);
+  if (decimals == 0) return;
+  out->push_back('.');
+  unsigned long long fraction = magnitude % scale;
+  char digits[16];
+  for (int i = decimals - 1; i >= 0; --i) {
+    digits[i] = static_cast<char>('0' + fraction % 10);
+    fraction /= 10;
+  }
+  out->append(digits, static_cast<std::size_t>(decimals));
 }
 }  // namespace
 
+// Output is built in blocks of about this size and streamed to the file.
+constexpr std::size_t kBlockBytes = 1 << 20;
+
 void WriteTrajectoryCsv(const std::filesystem::path& path, const std::vector<TrajectorySample>& trajectory) {
+  io::AtomicOutputFile file(path);
   std::string s;
-  s.reserve(trajectory.size() * 110 + 512);
+  s.reserve(kBlockBytes + 1024);
   s += "# lunarnav trajectory: frame x east, y north, z up (m), origin at the start;\n";
   s += "# heading clockwise from north (deg, [0, 360)), pitch nose up (deg), roll right side down (deg)\n";
   s += "t_s,x_m,y_m,z_m,heading_deg,pitch_deg,roll_deg,speed_mps\n";
@@ -42,13 +65,19 @@ void WriteTrajectoryCsv(const std::filesystem::path& path, const std::vector<Tra
     Put(&s, p.pitch_rad * kDeg, 6); s += ',';
     Put(&s, p.roll_rad * kDeg, 6); s += ',';
     Put(&s, p.speed_mps, 6); s += '\n';
+    if (s.size() >= kBlockBytes) {
+      file.Write(s);
+      s.clear();
+    }
   }
-  io::WriteFileAtomic(path, s);
+  file.Write(s);
+  file.Commit();
 }
 
 void WriteTrajectoryTum(const std::filesystem::path& path, const std::vector<TrajectorySample>& trajectory) {
+  io::AtomicOutputFile file(path);
   std::string s;
-  s.reserve(trajectory.size() * 120 + 128);
+  s.reserve(kBlockBytes + 1024);
   s += "# timestamp tx ty tz qx qy qz qw (lunarnav; ENU frame, body x forward, y left, z up)\n";
   for (const TrajectorySample& p : trajectory) {
     const Eigen::Quaterniond q = Eigen::AngleAxisd(M_PI / 2 - p.heading_rad, Eigen::Vector3d::UnitZ()) *
@@ -61,8 +90,13 @@ void WriteTrajectoryTum(const std::filesystem::path& path, const std::vector<Tra
     }
     s += ' ';
     s.back() = '\n';
+    if (s.size() >= kBlockBytes) {
+      file.Write(s);
+      s.clear();
+    }
   }
-  io::WriteFileAtomic(path, s);
+  file.Write(s);
+  file.Commit();
 }
 
 std::vector<TrajectorySample> ReadTrajectoryCsv(const std::filesystem::path& path) {

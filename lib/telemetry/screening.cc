@@ -117,6 +117,9 @@ class Screener {
       else if (c == Channel::kGyroZ) limit = o_.max_turn_accel_dps2 * deg;
       else limit = o_.max_tilt_rate_dps * deg;
     }
+    // Counts to radians is linear: precomputed, not called per sample.
+    const double radians_at_zero = encoder ? 0.0 : m.ToRadians(0.0);
+    const double radians_per_count = encoder ? 0.0 : m.ToRadians(1.0) - radians_at_zero;
     bool have_last = false;
     double last_raw = 0, last_value = 0, last_t = 0;
     int rejected_run = 0;
@@ -139,9 +142,10 @@ class Screener {
         if (d < -period / 2) { d += period; wrapped = true; }
         value = have_last ? last_value + d : r;
       } else {
-        value = m.ToRadians(r);
-        if (c == Channel::kCompass && have_last) {
-          value += 2.0 * M_PI * std::round((last_value - value) / (2.0 * M_PI));
+        value = radians_at_zero + radians_per_count * r;
+        if (c == Channel::kCompass && have_last) {  // continue across +-180 deg
+          while (value - last_value > M_PI) value -= 2.0 * M_PI;
+          while (value - last_value < -M_PI) value += 2.0 * M_PI;
         }
       }
       if (have_last && std::abs(value - last_value) > limit * (out_.t_s[k] - last_t) + slack &&
@@ -178,15 +182,18 @@ class Screener {
     const double unit = std::abs(m.ToRadians(1.0) - m.ToRadians(0.0));
     const double min_dev = o_.hampel_min_counts * unit;
     const std::vector<double>& t = out_.t_s;
+    // Slopes between consecutive accepted samples, once: slope[q] joins q-1 and q.
+    std::vector<double> all_slopes(idx.size());
+    for (std::size_t q = 1; q < idx.size(); ++q) {
+      all_slopes[q] = (v[idx[q]] - v[idx[q - 1]]) / (t[idx[q]] - t[idx[q - 1]]);
+    }
     std::vector<double> slopes, residual, dev;
     std::vector<std::size_t> spikes;
     for (std::size_t p = 0; p < idx.size(); ++p) {
       const std::size_t lo = std::min(p >= static_cast<std::size_t>(h) ? p - h : 0, idx.size() - 1 - 2 * h);
       const std::size_t hi = lo + 2 * h;
-      slopes.clear();
-      for (std::size_t q = lo + 1; q <= hi; ++q) {
-        slopes.push_back((v[idx[q]] - v[idx[q - 1]]) / (t[idx[q]] - t[idx[q - 1]]));
-      }
+      slopes.assign(all_slopes.begin() + static_cast<std::ptrdiff_t>(lo) + 1,
+                    all_slopes.begin() + static_cast<std::ptrdiff_t>(hi) + 1);
       const double slope = SmallMedian(&slopes);
       residual.clear();
       for (std::size_t q = lo; q <= hi; ++q) residual.push_back(v[idx[q]] - slope * (t[idx[q]] - t[idx[p]]));
