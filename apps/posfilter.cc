@@ -10,6 +10,7 @@
 #include "positioning/trajectory_io.h"
 #include "util/errors.h"
 #include "util/log.h"
+#include "util/progress.h"
 #include "util/run_main.h"
 #include "util/timer.h"
 #include "util/version.h"
@@ -24,7 +25,7 @@ int main(int argc, char** argv) {
       "Writes OUT_DIR/trajectory.csv, trajectory.tum and summary.json.\n"
       "Exit codes: 0 ok, 1 internal error, 2 usage, 3 bad input."};
   positioning::PosfilterOptions opt;  // defaults live in the library
-  fs::path telemetry_csv, sensors, output_dir, screening_log;
+  fs::path telemetry_csv, sensors, output_dir, screening_log, streams;
   std::string filter = "butterworth", heading = "kalman";
   int bits = 0;
   bool zero_phase = false, quiet = false;
@@ -40,7 +41,8 @@ int main(int argc, char** argv) {
   app.add_option("--heading", heading, "heading filter")->check(CLI::IsMember({"kalman", "lowpass"}))
       ->capture_default_str();
   app.add_option("--screening-log", screening_log, "CSV listing every rejected or repaired sample");
-  app.add_flag("-q,--quiet", quiet, "no summary line (errors still print)");
+  app.add_option("--streams", streams, "CSV of the raw and filtered heading streams (for plots)");
+  app.add_flag("-q,--quiet", quiet, "no progress and no summary line (errors still print)");
   app.set_version_flag("--version", std::string(kVersion) + " (" + kGitRevision + ")");
   try {
     app.parse(argc, argv);
@@ -55,20 +57,24 @@ int main(int argc, char** argv) {
     opt.mode = zero_phase ? positioning::FilterMode::kZeroPhase : positioning::FilterMode::kCausal;
     opt.heading = heading == "kalman" ? positioning::HeadingMethod::kKalman : positioning::HeadingMethod::kLowPass;
     opt.Validate();
+    util::ProgressBar progress(3, "posfilter (read, filter, write)", !quiet);
     telemetry::SensorModel model = telemetry::ReadSensorModel(sensors);
     if (bits > 0) model.OverrideBits(bits);
     const telemetry::TelemetryLog log = telemetry::ReadTelemetryCsv(telemetry_csv, model);
+    progress.Increment();
     for (telemetry::Channel c : log.missing_columns) {
       LN_LOG(Warning) << telemetry_csv.string() << ": no column '" << model[c].column << "' for channel "
                       << telemetry::ToString(c) << "; going on without it";
     }
     const positioning::PosfilterResult result = positioning::RunPosfilter(log, model, opt);
+    progress.Increment();
     for (const std::string& note : result.notes) LN_LOG(Info) << "posfilter: " << note;
 
     fs::create_directories(output_dir);
     positioning::WriteTrajectoryCsv(output_dir / "trajectory.csv", result.motion.trajectory);
     positioning::WriteTrajectoryTum(output_dir / "trajectory.tum", result.motion.trajectory);
     if (!screening_log.empty()) telemetry::WriteScreeningLog(screening_log, result.screened);
+    if (!streams.empty()) positioning::WriteHeadingStreamsCsv(streams, log, model, result);
     nlohmann::json summary = result.SummaryJson();
     summary["tool"] = "posfilter";
     summary["version"] = kVersion;
@@ -81,6 +87,7 @@ int main(int argc, char** argv) {
     summary["rows_read"] = log.size();
     summary["seconds"] = timer.ElapsedSeconds();
     io::WriteJsonAtomic(output_dir / "summary.json", summary);
+    progress.Increment();
     LN_LOG(Info) << "posfilter: " << log.size() << " rows, " << result.screened.events.size()
                  << " screening events, " << result.motion.distance_m << " m travelled; outputs in "
                  << output_dir.string();

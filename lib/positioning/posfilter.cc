@@ -2,8 +2,10 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdio>
 #include <limits>
 
+#include "io/atomic_file.h"
 #include "util/check.h"
 
 namespace lunarnav::positioning {
@@ -166,6 +168,37 @@ PosfilterResult RunPosfilter(const telemetry::TelemetryLog& log, const telemetry
   }
   r.motion = DeadReckon(in, options.dead_reckoning);
   return r;
+}
+
+void WriteHeadingStreamsCsv(const std::filesystem::path& path, const telemetry::TelemetryLog& log,
+                            const telemetry::SensorModel& model, const PosfilterResult& result) {
+  const telemetry::ScreenedLog& s = result.screened;
+  const std::vector<double>* compass = log.Has(Channel::kCompass) ? &log.counts[static_cast<int>(Channel::kCompass)] : nullptr;
+  const std::vector<double>* gyro = log.Has(Channel::kGyroZ) ? &log.counts[static_cast<int>(Channel::kGyroZ)] : nullptr;
+  const double deg = 180.0 / M_PI;
+  auto angle = [](double d) { d = std::fmod(d, 360.0); return d < 0 ? d + 360.0 : d; };
+  std::string text = "# lunarnav heading streams: raw sensors and filtered estimates (deg, deg/s)\n"
+                     "t_s,compass_raw_deg,heading_deg,gyro_raw_dps,heading_rate_dps\n";
+  char buf[160];
+  for (std::size_t k = 0; k < s.t_s.size(); ++k) {
+    const std::size_t row = s.row[k];
+    std::string c, g, r;
+    if (compass != nullptr && !std::isnan((*compass)[row])) {
+      std::snprintf(buf, sizeof(buf), "%.4f", angle(model[Channel::kCompass].ToRadians((*compass)[row]) * deg));
+      c = buf;
+    }
+    if (gyro != nullptr && !std::isnan((*gyro)[row])) {
+      std::snprintf(buf, sizeof(buf), "%.4f", model[Channel::kGyroZ].ToRadians((*gyro)[row]) * deg);
+      g = buf;
+    }
+    if (result.kalman_used) {
+      std::snprintf(buf, sizeof(buf), "%.4f", result.heading.rate_radps[k] * deg);
+      r = buf;
+    }
+    std::snprintf(buf, sizeof(buf), "%.4f", angle(result.motion.trajectory[k].heading_rad * deg));
+    text += std::to_string(s.t_s[k]) + "," + c + "," + buf + "," + g + "," + r + "\n";
+  }
+  io::WriteFileAtomic(path, text);
 }
 
 nlohmann::json PosfilterResult::SummaryJson() const {

@@ -2,6 +2,7 @@
 // (Krotkov & Hebert sec. 4).
 #pragma once
 
+#include <filesystem>
 #include <string>
 #include <vector>
 
@@ -59,5 +60,11 @@ struct PosfilterResult {
 /// @throws InputError when the log has fewer than two usable rows or no encoder.
 PosfilterResult RunPosfilter(const telemetry::TelemetryLog& log, const telemetry::SensorModel& model,
                              const PosfilterOptions& options);
+
+/// Writes the heading streams, raw and filtered, per kept row (the data of the paper's
+/// Figure 6): t_s, compass_raw_deg, heading_deg, gyro_raw_dps, heading_rate_dps; empty cells
+/// where a channel has no sample. Headings in [0, 360).
+void WriteHeadingStreamsCsv(const std::filesystem::path& path, const telemetry::TelemetryLog& log,
+                            const telemetry::SensorModel& model, const PosfilterResult& result);
 
 }  // namespace lunarnav::positioning

@@ -63,6 +63,7 @@ class Screener {
         continue;
       }
       keep_.push_back(i);
+      out_.row.push_back(i);
       out_.t_s.push_back(t);
       out_.line.push_back(log_.line[i]);
       last_t = t;
@@ -182,6 +183,14 @@ class Screener {
     const double unit = std::abs(m.ToRadians(1.0) - m.ToRadians(0.0));
     const double min_dev = o_.hampel_min_counts * unit;
     const std::vector<double>& t = out_.t_s;
+    // The channel's noise level, from its second differences (for white noise their variance
+    // is 6 sigma^2): a floor under each window's own estimate, which from a handful of
+    // samples is often far too small.
+    std::vector<double> second(idx.size() - 2);
+    for (std::size_t q = 1; q + 1 < idx.size(); ++q) {
+      second[q - 1] = std::abs(v[idx[q + 1]] - 2.0 * v[idx[q]] + v[idx[q - 1]]);
+    }
+    const double channel_sigma = 1.4826 * Median(std::move(second)) / std::sqrt(6.0);
     // Slopes between consecutive accepted samples, once: slope[q] joins q-1 and q.
     std::vector<double> all_slopes(idx.size());
     for (std::size_t q = 1; q < idx.size(); ++q) {
@@ -203,7 +212,7 @@ class Screener {
       for (std::size_t q = lo; q <= hi; ++q) {
         dev.push_back(std::abs(v[idx[q]] - slope * (t[idx[q]] - t[idx[p]]) - med));
       }
-      const double sigma = 1.4826 * SmallMedian(&dev);
+      const double sigma = std::max(1.4826 * SmallMedian(&dev), channel_sigma);
       const double d = std::abs(mine - med);
       if (d > o_.hampel_threshold * sigma && d > min_dev) spikes.push_back(idx[p]);
     }

@@ -41,7 +41,9 @@ struct ScreeningOptions {
   /// Slack added to every rate limit, in counts of the channel (quantisation and noise).
   double rate_slack_counts = 4.0;
   int hampel_half_window = 3;         ///< Hampel test over +-k accepted samples. >= 2.
-  double hampel_threshold = 4.0;      ///< In robust sigmas (1.4826 MAD). > 0.
+  /// In robust sigmas: the larger of the window's 1.4826 MAD and the channel's noise level
+  /// (from its second differences). > 0.
+  double hampel_threshold = 5.0;
   double hampel_min_counts = 6.0;     ///< Smallest deviation called a spike, in counts.
   double stuck_min_s = 3.0;           ///< Shortest stuck run. > 0.
   void Validate() const;
@@ -61,6 +63,7 @@ struct ScreeningEvent {
 struct ScreenedLog {
   std::vector<double> t_s;      ///< Kept rows, strictly increasing.
   std::vector<long> line;       ///< Their lines in the file.
+  std::vector<std::size_t> row; ///< Their indices in the TelemetryLog.
   /// Per channel and kept row: encoders: unwrapped cumulative counts; analog channels:
   /// radians (rad/s for the gyro), the compass unwrapped (continuous across +-180 deg).
   /// NaN where the sample is missing or was rejected. Empty for absent channels.
