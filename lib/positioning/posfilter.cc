@@ -41,9 +41,11 @@ std::vector<double> FillGaps(const std::vector<double>& t, const std::vector<dou
   return out;
 }
 
+// The median sampling interval (from at most 65536 evenly spread intervals).
 double MedianInterval(const std::vector<double>& t) {
-  std::vector<double> dt(t.size() - 1);
-  for (std::size_t k = 1; k < t.size(); ++k) dt[k - 1] = t[k] - t[k - 1];
+  const std::size_t stride = std::max<std::size_t>(1, t.size() / 65536);
+  std::vector<double> dt;
+  for (std::size_t k = 1; k < t.size(); k += stride) dt.push_back(t[k] - t[k - 1]);
   std::nth_element(dt.begin(), dt.begin() + dt.size() / 2, dt.end());
   return dt[dt.size() / 2];
 }

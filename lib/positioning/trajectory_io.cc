@@ -58,13 +58,13 @@ void WriteTrajectoryCsv(const std::filesystem::path& path, const std::vector<Tra
     double heading = std::fmod(p.heading_rad * kDeg, 360.0);
     if (heading < 0) heading += 360.0;
     Put(&s, p.t_s, -1); s += ',';  // as read
-    Put(&s, p.x_m, 6); s += ',';    // micrometres
-    Put(&s, p.y_m, 6); s += ',';
-    Put(&s, p.z_m, 6); s += ',';
-    Put(&s, heading, 6); s += ',';  // micro-degrees
-    Put(&s, p.pitch_rad * kDeg, 6); s += ',';
-    Put(&s, p.roll_rad * kDeg, 6); s += ',';
-    Put(&s, p.speed_mps, 6); s += '\n';
+    Put(&s, p.x_m, 4); s += ',';    // 0.1 mm
+    Put(&s, p.y_m, 4); s += ',';
+    Put(&s, p.z_m, 4); s += ',';
+    Put(&s, heading, 4); s += ',';  // 0.0001 deg
+    Put(&s, p.pitch_rad * kDeg, 4); s += ',';
+    Put(&s, p.roll_rad * kDeg, 4); s += ',';
+    Put(&s, p.speed_mps, 4); s += '\n';
     if (s.size() >= kBlockBytes) {
       file.Write(s);
       s.clear();
@@ -84,9 +84,13 @@ void WriteTrajectoryTum(const std::filesystem::path& path, const std::vector<Tra
                                  Eigen::AngleAxisd(-p.pitch_rad, Eigen::Vector3d::UnitY()) *
                                  Eigen::AngleAxisd(-p.roll_rad, Eigen::Vector3d::UnitX());
     Put(&s, p.t_s, -1);
-    for (double v : {p.x_m, p.y_m, p.z_m, q.x(), q.y(), q.z(), q.w()}) {
+    for (double v : {p.x_m, p.y_m, p.z_m}) {
       s += ' ';
-      Put(&s, v, 9);
+      Put(&s, v, 4);
+    }
+    for (double v : {q.x(), q.y(), q.z(), q.w()}) {
+      s += ' ';
+      Put(&s, v, 8);
     }
     s += ' ';
     s.back() = '\n';

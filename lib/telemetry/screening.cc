@@ -19,7 +19,16 @@ constexpr int kRebaselineAfter = 3;
 
 double SmallMedian(std::vector<double>* v) { return util::SmallMedian(v->data(), v->size()); }
 
+// Median of v, for estimates of a typical interval or noise level: long arrays are
+// subsampled evenly to at most 65536 values (plenty for a robust level, and linear time).
 double Median(std::vector<double> v) {
+  constexpr std::size_t kMaxSamples = 65536;
+  if (v.size() > kMaxSamples) {
+    const std::size_t stride = (v.size() + kMaxSamples - 1) / kMaxSamples;
+    std::size_t out = 0;
+    for (std::size_t i = 0; i < v.size(); i += stride) v[out++] = v[i];
+    v.resize(out);
+  }
   if (v.empty()) return kNaN;
   const std::size_t mid = v.size() / 2;
   std::nth_element(v.begin(), v.begin() + mid, v.end());
@@ -81,14 +90,21 @@ class Screener {
     const int ch = static_cast<int>(c);
     const ChannelModel& m = model_[c];
     const std::size_t n = keep_.size();
-    std::vector<double>& raw = raw_[ch];
-    raw.resize(n);
-    for (std::size_t k = 0; k < n; ++k) raw[k] = log_.counts[ch][keep_[k]];
+    // The raw counts of the kept rows: the log's own array when no row was dropped.
+    if (keep_.size() != log_.size()) {
+      raw_copy_[ch].resize(n);
+      for (std::size_t k = 0; k < n; ++k) raw_copy_[ch][k] = log_.counts[ch][keep_[k]];
+      raw_[ch] = &raw_copy_[ch];
+    } else {
+      raw_[ch] = &log_.counts[ch];
+    }
+    const std::vector<double>& raw = *raw_[ch];
     std::vector<double>& v = out_.value[ch];
     v.assign(n, kNaN);
 
     // Dropouts: silences much longer than the channel's own sampling interval.
     std::vector<std::size_t> present;
+    present.reserve(n);
     for (std::size_t k = 0; k < n; ++k) {
       if (!std::isnan(raw[k])) present.push_back(k);
     }
@@ -217,7 +233,7 @@ class Screener {
       if (d > o_.hampel_threshold * sigma && d > min_dev) spikes.push_back(idx[p]);
     }
     for (std::size_t k : spikes) {
-      Record(k, ch, ScreeningRule::kSpike, raw_[ch][k]);
+      Record(k, ch, ScreeningRule::kSpike, (*raw_[ch])[k]);
       v[k] = kNaN;
     }
   }
@@ -266,7 +282,7 @@ class Screener {
   // Runs of one raw count lasting stuck_min_s while a correlated channel moved.
   void DetectStuck(Channel c) {
     const int ch = static_cast<int>(c);
-    const std::vector<double>& raw = raw_[ch];
+    const std::vector<double>& raw = *raw_[ch];
     std::vector<double>& v = out_.value[ch];
     const double motion_threshold = IsEncoder(c) ? 0.3 : 5.0 * M_PI / 180.0;  // metres, radians
     std::size_t k = 0;
@@ -296,7 +312,8 @@ class Screener {
   const SensorModel& model_;
   const ScreeningOptions& o_;
   std::vector<std::size_t> keep_;  // log rows kept
-  std::array<std::vector<double>, kNumChannels> raw_;  // raw counts of kept rows
+  std::array<const std::vector<double>*, kNumChannels> raw_{};  // raw counts of kept rows
+  std::array<std::vector<double>, kNumChannels> raw_copy_;      // when rows were dropped
   ScreenedLog out_;
 };
 

@@ -24,10 +24,11 @@ TEST(TrajectoryCsv, RoundTrips) {
   ASSERT_EQ(back.size(), 3u);
   for (int i = 0; i < 3; ++i) {
     EXPECT_DOUBLE_EQ(back[i].t_s, in[i].t_s);
-    EXPECT_NEAR(back[i].y_m, in[i].y_m, 1e-9);
+    // Written to 0.1 mm and 0.0001 deg (docs/formats.md).
+    EXPECT_NEAR(back[i].y_m, in[i].y_m, 0.5e-4);
     // Headings are written in [0, 360).
-    EXPECT_NEAR(std::remainder(back[i].heading_rad - in[i].heading_rad, 2 * M_PI), 0.0, 1e-7);
-    EXPECT_NEAR(back[i].pitch_rad, in[i].pitch_rad, 1e-7);
+    EXPECT_NEAR(std::remainder(back[i].heading_rad - in[i].heading_rad, 2 * M_PI), 0.0, 0.5e-4 * M_PI / 180);
+    EXPECT_NEAR(back[i].pitch_rad, in[i].pitch_rad, 0.5e-4 * M_PI / 180);
   }
 }
 
