@@ -1,4 +1,5 @@
-// posfilter end to end on one core: parse, screen, filter, integrate, write.
+// posfilter end to end on one core: parse, screen, filter, integrate, write (the trajectory
+// as CSV and TUM, as the tool does).
 //
 //   build/bin/posfilter_benchmark
 //
@@ -65,13 +66,16 @@ const std::string& Log() {
 void BM_PosfilterEndToEnd(benchmark::State& state) {
   const std::string& text = Log();
   const std::filesystem::path out = std::filesystem::temp_directory_path() / "lunarnav_posfilter_bench.csv";
+  const std::filesystem::path tum = std::filesystem::temp_directory_path() / "lunarnav_posfilter_bench.tum";
   for (auto _ : state) {
     const telemetry::TelemetryLog log = telemetry::ParseTelemetryCsv(text, "benchmark.csv", Model());
     const positioning::PosfilterResult r = positioning::RunPosfilter(log, Model(), positioning::PosfilterOptions{});
     positioning::WriteTrajectoryCsv(out, r.motion.trajectory);
+    positioning::WriteTrajectoryTum(tum, r.motion.trajectory);
     benchmark::DoNotOptimize(r.motion.distance_m);
   }
   std::filesystem::remove(out);
+  std::filesystem::remove(tum);
   state.counters["rows_per_s"] =
       benchmark::Counter(2e6 * static_cast<double>(state.iterations()), benchmark::Counter::kIsRate);
 }
