@@ -6,6 +6,10 @@ include_guard(GLOBAL)
 include(CheckCXXCompilerFlag)
 
 set(LUNARNAV_WARNING_FLAGS -Wall -Wextra -Wpedantic -Wno-unused-parameter)
+if(CMAKE_CXX_COMPILER_ID STREQUAL "GNU" AND CMAKE_CXX_COMPILER_VERSION VERSION_GREATER_EQUAL 12)
+  # False positives inside libstdc++'s std::string with GCC 12 (GCC bug 105329).
+  list(APPEND LUNARNAV_WARNING_FLAGS -Wno-restrict)
+endif()
 if(LUNARNAV_WERROR)
   list(APPEND LUNARNAV_WARNING_FLAGS -Werror)
 endif()
