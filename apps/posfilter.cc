@@ -1,13 +1,12 @@
 // posfilter: raw 10- or 7-bit rover telemetry -> screened, filtered streams -> 3-D trajectory.
 // docs/posfilter.md describes every option and output.
-#include <CLI/CLI.hpp>
-
 #include <filesystem>
 #include <string>
 
 #include "io/json_io.h"
 #include "positioning/posfilter.h"
 #include "positioning/trajectory_io.h"
+#include "util/cli.h"
 #include "util/errors.h"
 #include "util/log.h"
 #include "util/progress.h"
@@ -42,16 +41,10 @@ int main(int argc, char** argv) {
       ->capture_default_str();
   app.add_option("--screening-log", screening_log, "CSV listing every rejected or repaired sample");
   app.add_option("--streams", streams, "CSV of the raw and filtered heading streams (for plots)");
-  app.add_flag("-q,--quiet", quiet, "no progress and no summary line (errors still print)");
-  app.set_version_flag("--version", std::string(kVersion) + " (" + kGitRevision + ")");
-  try {
-    app.parse(argc, argv);
-  } catch (const CLI::ParseError& e) {
-    return app.exit(e) == 0 ? kExitOk : kExitUsage;
-  }
+  util::AddCommonFlags(&app, &quiet);
+  if (const auto exit_code = util::ParseCommandLine(&app, argc, argv, quiet)) return *exit_code;
 
   return util::RunMain([&] {
-    if (quiet) util::SetLogLevel(util::LogLevel::kWarning);
     util::Timer timer;
     opt.filter = telemetry::LowPassTypeFromString(filter);
     opt.mode = zero_phase ? positioning::FilterMode::kZeroPhase : positioning::FilterMode::kCausal;
@@ -79,8 +72,7 @@ int main(int argc, char** argv) {
     summary["tool"] = "posfilter";
     summary["version"] = kVersion;
     summary["git_revision"] = kGitRevision;
-    summary["invocation"] = nlohmann::json::array();
-    for (int i = 0; i < argc; ++i) summary["invocation"].push_back(argv[i]);
+    summary["invocation"] = util::CommandLineJson(argc, argv);
     summary["inputs"] = {{"telemetry", telemetry_csv.string()}, {"sensors", sensors.string()}};
     summary["sensor_model"] = model.ToJson();
     summary["options"] = opt.ToJson();

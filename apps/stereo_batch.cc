@@ -1,17 +1,15 @@
 // stereo-batch: the paper's correlation matcher over a directory of rectified image pairs.
 // docs/stereo-batch.md describes every option and output.
-#include <CLI/CLI.hpp>
-
 #include <filesystem>
 #include <iostream>
 #include <string>
 
 #include "stereo/batch.h"
+#include "util/cli.h"
 #include "util/errors.h"
 #include "util/log.h"
 #include "util/parse.h"
 #include "util/run_main.h"
-#include "util/version.h"
 
 namespace fs = std::filesystem;
 using namespace lunarnav;
@@ -57,16 +55,10 @@ int main(int argc, char** argv) {
   app.add_option("--shard", shard, "K/N: process pairs K, K+N, K+2N, ... (0 <= K < N)");
   app.add_option("-j,--threads", opt.num_threads, "worker threads (0 = all cores)")
       ->capture_default_str();
-  app.add_flag("-q,--quiet", quiet, "no progress bar and no summary line (errors still print)");
-  app.set_version_flag("--version", std::string(kVersion) + " (" + kGitRevision + ")");
-  try {
-    app.parse(argc, argv);
-  } catch (const CLI::ParseError& e) {
-    return app.exit(e) == 0 ? kExitOk : kExitUsage;
-  }
+  util::AddCommonFlags(&app, &quiet);
+  if (const auto exit_code = util::ParseCommandLine(&app, argc, argv, quiet)) return *exit_code;
 
   return util::RunMain([&] {
-    if (quiet) util::SetLogLevel(util::LogLevel::kWarning);
     std::tie(opt.matcher.half_window_x_px, opt.matcher.half_window_y_px) =
         util::ParseIntPair(window, 'x', "--window");
     std::tie(opt.matcher.step_x_px, opt.matcher.step_y_px) = util::ParseIntPair(step, 'x', "--step");
@@ -83,10 +75,8 @@ int main(int argc, char** argv) {
     opt.matcher.reference = stereo::ReferenceImageFromString(reference);
     opt.show_progress = !quiet;
 
-    nlohmann::json invocation = nlohmann::json::array();
-    for (int i = 0; i < argc; ++i) invocation.push_back(argv[i]);
     const stereo::BatchSummary summary =
-        stereo::RunStereoBatch(opt, input_dir, output_dir, invocation);
+        stereo::RunStereoBatch(opt, input_dir, output_dir, util::CommandLineJson(argc, argv));
     LN_LOG(Info) << "stereo-batch: " << summary.BriefReport();
     LN_LOG(Info) << "outputs in " << output_dir.string() << "/{disparity,confidence,rejections}, "
                  << "summary in " << summary.summary_path.string();

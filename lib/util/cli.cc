@@ -1,0 +1,32 @@
+#include "util/cli.h"
+
+#include <string>
+
+#include "util/errors.h"
+#include "util/log.h"
+#include "util/version.h"
+
+namespace lunarnav::util {
+
+void AddCommonFlags(CLI::App* app, bool* quiet) {
+  app->add_flag("-q,--quiet", *quiet, "no progress and no summary line (errors still print)");
+  app->set_version_flag("--version", std::string(kVersion) + " (" + kGitRevision + ")");
+}
+
+std::optional<int> ParseCommandLine(CLI::App* app, int argc, char** argv, const bool& quiet) {
+  try {
+    app->parse(argc, argv);
+  } catch (const CLI::ParseError& e) {
+    return app->exit(e) == 0 ? kExitOk : kExitUsage;
+  }
+  if (quiet) SetLogLevel(LogLevel::kWarning);
+  return std::nullopt;
+}
+
+nlohmann::json CommandLineJson(int argc, char** argv) {
+  nlohmann::json args = nlohmann::json::array();
+  for (int i = 0; i < argc; ++i) args.push_back(argv[i]);
+  return args;
+}
+
+}  // namespace lunarnav::util

@@ -1,0 +1,23 @@
+// What every command-line tool shares: the common flags, parsing with the project's exit
+// codes, and the command line recorded in summaries.
+#pragma once
+
+#include <optional>
+
+#include <CLI/CLI.hpp>
+#include <nlohmann/json.hpp>
+
+namespace lunarnav::util {
+
+/// Adds --version (project version and git revision) and -q/--quiet.
+void AddCommonFlags(CLI::App* app, bool* quiet);
+
+/// Parses the command line. Returns std::nullopt when the tool should go on (and lowers the
+/// log level if --quiet was given), else the exit code after CLI11 printed its message:
+/// 0 for --help and --version, 2 (usage) for anything wrong.
+std::optional<int> ParseCommandLine(CLI::App* app, int argc, char** argv, const bool& quiet);
+
+/// The command line as a JSON array of strings, for summary.json.
+nlohmann::json CommandLineJson(int argc, char** argv);
+
+}  // namespace lunarnav::util
