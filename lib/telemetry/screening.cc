@@ -214,6 +214,7 @@ class Screener {
     }
     std::vector<double> slopes, residual, dev;
     std::vector<std::size_t> spikes;
+    const double smallest_threshold = std::max(o_.hampel_threshold * channel_sigma, min_dev);
     for (std::size_t p = 0; p < idx.size(); ++p) {
       const std::size_t lo = std::min(p >= static_cast<std::size_t>(h) ? p - h : 0, idx.size() - 1 - 2 * h);
       const std::size_t hi = lo + 2 * h;
@@ -223,6 +224,11 @@ class Screener {
       residual.clear();
       for (std::size_t q = lo; q <= hi; ++q) residual.push_back(v[idx[q]] - slope * (t[idx[q]] - t[idx[p]]));
       const double mine = v[idx[p]];
+      // Exact shortcut: with an odd window the residuals' median is one of them, so when all
+      // lie within the smallest possible threshold of this sample it is no spike.
+      double farthest = 0;
+      for (double e : residual) farthest = std::max(farthest, std::abs(mine - e));
+      if (residual.size() % 2 == 1 && farthest <= smallest_threshold) continue;
       const double med = SmallMedian(&residual);
       dev.clear();
       for (std::size_t q = lo; q <= hi; ++q) {
