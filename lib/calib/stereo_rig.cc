@@ -1,0 +1,93 @@
+#include "calib/stereo_rig.h"
+
+#include <cmath>
+#include <string>
+
+#include "util/check.h"
+
+namespace lunarnav::calib {
+namespace {
+
+constexpr double kDeg = M_PI / 180.0;
+
+void CheckRotation(const Eigen::Matrix3d& r, const std::string& where) {
+  LN_CHECK_INPUT(r.allFinite()) << where << ": not finite";
+  LN_CHECK_INPUT((r.transpose() * r - Eigen::Matrix3d::Identity()).norm() < 1e-6 &&
+                 std::abs(r.determinant() - 1.0) < 1e-6)
+      << where << ": not a rotation matrix (R^T R = I and det R = 1 within 1e-6)";
+}
+
+void CheckCamera(const CameraIntrinsics& c, int width, int height, const std::string& where) {
+  const Eigen::Matrix3d& k = c.K;
+  LN_CHECK_INPUT(k.allFinite()) << where << ".K: not finite";
+  LN_CHECK_INPUT(k(0, 0) > 0 && k(1, 1) > 0) << where << ".K: focal lengths must be positive, got fx "
+                                              << k(0, 0) << ", fy " << k(1, 1);
+  LN_CHECK_INPUT(k(1, 0) == 0 && k(2, 0) == 0 && k(2, 1) == 0 && k(2, 2) == 1)
+      << where << ".K: expected [[fx, s, cx], [0, fy, cy], [0, 0, 1]]";
+  LN_CHECK_INPUT(k(0, 2) > -width && k(0, 2) < 2.0 * width && k(1, 2) > -height && k(1, 2) < 2.0 * height)
+      << where << ".K: principal point (" << k(0, 2) << ", " << k(1, 2) << ") far outside the "
+      << width << "x" << height << " image";
+  const std::size_t n = c.distortion.size();
+  LN_CHECK_INPUT(n == 0 || n == 4 || n == 5 || n == 8)
+      << where << ".distortion: expected 0, 4, 5 or 8 coefficients (OpenCV order), got " << n;
+  for (double d : c.distortion) LN_CHECK_INPUT(std::isfinite(d)) << where << ".distortion: not finite";
+}
+
+}  // namespace
+
+Eigen::Matrix3d VehicleFromHeadRotation(double tilt_deg) {
+  const double t = tilt_deg * kDeg;
+  Eigen::Matrix3d r;
+  // Columns: the head's x (right), y (down, tilted) and z (optical axis) in vehicle axes.
+  r.col(0) = Eigen::Vector3d(1, 0, 0);
+  r.col(1) = Eigen::Vector3d(0, -std::sin(t), -std::cos(t));
+  r.col(2) = Eigen::Vector3d(0, std::cos(t), -std::sin(t));
+  return r;
+}
+
+Eigen::Isometry3d StereoRig::VehicleFromLeft() const {
+  const Eigen::Matrix3d r = VehicleFromHeadRotation(mast.tilt_deg);
+  // The right camera's centre in left coordinates is -R^T t; the head centre is midway.
+  const Eigen::Vector3d right_centre_in_left = -right_from_left_R.transpose() * right_from_left_t_m;
+  const Eigen::Vector3d head_centre_in_left = 0.5 * right_centre_in_left;
+  const Eigen::Vector3d head_in_vehicle(mast.lateral_offset_m, mast.forward_offset_m, mast.height_m);
+  Eigen::Isometry3d t = Eigen::Isometry3d::Identity();
+  t.linear() = r;
+  t.translation() = head_in_vehicle - r * head_centre_in_left;
+  return t;
+}
+
+Eigen::Isometry3d StereoRig::VehicleFromRight() const {
+  Eigen::Isometry3d right_from_left = Eigen::Isometry3d::Identity();
+  right_from_left.linear() = right_from_left_R;
+  right_from_left.translation() = right_from_left_t_m;
+  return VehicleFromLeft() * right_from_left.inverse();
+}
+
+void StereoRig::Validate(const std::string& source) const {
+  LN_CHECK_INPUT(width_px > 0 && height_px > 0 && width_px <= 100000 && height_px <= 100000)
+      << source << ".image_size_px: must be positive";
+  CheckCamera(left, width_px, height_px, source + ".left");
+  CheckCamera(right, width_px, height_px, source + ".right");
+  CheckRotation(right_from_left_R, source + ".right_from_left.R");
+  LN_CHECK_INPUT(right_from_left_t_m.allFinite() && BaselineM() > 1e-6)
+      << source << ".right_from_left.t_m: the baseline must be positive";
+  LN_CHECK_INPUT(std::isfinite(mast.height_m) && std::isfinite(mast.lateral_offset_m) &&
+                 std::isfinite(mast.forward_offset_m))
+      << source << ".mast: not finite";
+  LN_CHECK_INPUT(std::isfinite(mast.tilt_deg) && mast.tilt_deg > -90 && mast.tilt_deg < 90)
+      << source << ".mast.tilt_deg: must be in (-90, 90), got " << mast.tilt_deg;
+  if (rectified) {
+    const RectifiedGeometry& g = *rectified;
+    CheckRotation(g.rect_from_left, source + ".rectified.rect_from_left");
+    CheckRotation(g.rect_from_right, source + ".rectified.rect_from_right");
+    LN_CHECK_INPUT(g.width_px > 0 && g.height_px > 0) << source << ".rectified.size_px: must be positive";
+    LN_CHECK_INPUT(g.P_left.allFinite() && g.P_right.allFinite() && g.P_left(0, 0) > 0 &&
+                   g.P_left(0, 0) == g.P_right(0, 0) && g.P_left(1, 2) == g.P_right(1, 2) &&
+                   g.P_left(0, 3) == 0 && g.P_right(0, 3) != 0)
+        << source << ".rectified: P_left and P_right must share focal length and principal row, "
+        << "with the baseline term in P_right[0][3] only";
+  }
+}
+
+}  // namespace lunarnav::calib
