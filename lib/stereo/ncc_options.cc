@@ -8,16 +8,6 @@
 
 namespace lunarnav::stereo {
 
-std::string ToString(ReferenceImage reference) {
-  return reference == ReferenceImage::kRight ? "right" : "left";
-}
-
-ReferenceImage ReferenceImageFromString(const std::string& name) {
-  if (name == "right") return ReferenceImage::kRight;
-  if (name == "left") return ReferenceImage::kLeft;
-  throw std::invalid_argument("reference: expected 'right' or 'left', got '" + name + "'");
-}
-
 std::string ToString(Rejection reason) {
   switch (reason) {
     case Rejection::kAccepted: return "accepted";

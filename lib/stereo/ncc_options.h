@@ -9,15 +9,14 @@
 #include <nlohmann/json.hpp>
 #include <opencv2/core.hpp>
 
+#include "calib/triangulation.h"
+
 namespace lunarnav::stereo {
 
-/// Which image the disparity map is referenced to.
-enum class ReferenceImage {
-  kRight,  ///< The paper's convention: x_l = x_r + d, the map is in right-image pixels.
-  kLeft    ///< x_r = x_l - d, the map is in left-image pixels (Middlebury / KITTI ground truth).
-};
-std::string ToString(ReferenceImage reference);
-ReferenceImage ReferenceImageFromString(const std::string& name);
+/// Which image the disparity map is referenced to (calib/triangulation.h).
+using calib::ReferenceImage;
+using calib::ReferenceImageFromString;
+using calib::ToString;
 
 /// Why a pixel has no disparity. Stored as these codes in rejection maps (docs/formats.md).
 enum class Rejection : std::uint8_t {
