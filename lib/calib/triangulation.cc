@@ -34,6 +34,32 @@ RectifiedCamera Unpack(const StereoRig& rig, const cv::Mat& disparity) {
   return c;
 }
 
+// For each pixel with a finite disparity in front of the rig, the depth z and the rectified
+// ray (u, v, 1) of the reference camera go to `per_point`, whose result fills the CV_32FC3
+// map; elsewhere NaN.
+template <typename PerPoint>
+cv::Mat MapPoints(const RectifiedCamera& c, const cv::Mat& disparity_px, ReferenceImage reference,
+                  const PerPoint& per_point) {
+  const double c_x = reference == ReferenceImage::kRight ? c.c_right : c.c_left;
+  const float nan = std::numeric_limits<float>::quiet_NaN();
+  cv::Mat out(disparity_px.size(), CV_32FC3);
+  for (int y = 0; y < disparity_px.rows; ++y) {
+    const float* d = disparity_px.ptr<float>(y);
+    cv::Vec3f* row = out.ptr<cv::Vec3f>(y);
+    for (int x = 0; x < disparity_px.cols; ++x) {
+      const double effective = d[x] - (c.c_left - c.c_right);
+      if (!std::isfinite(d[x]) || !(effective > 0)) {
+        row[x] = cv::Vec3f(nan, nan, nan);
+        continue;
+      }
+      const double z = c.f * c.baseline_m / effective;
+      const Eigen::Vector3d v = per_point(z, Eigen::Vector3d((x - c_x) / c.f, (y - c.c_y) / c.f, 1.0));
+      row[x] = cv::Vec3f(static_cast<float>(v.x()), static_cast<float>(v.y()), static_cast<float>(v.z()));
+    }
+  }
+  return out;
+}
+
 }  // namespace
 
 std::string ToString(ReferenceImage reference) {
@@ -48,55 +74,21 @@ ReferenceImage ReferenceImageFromString(const std::string& name) {
 
 cv::Mat TriangulateDisparity(const StereoRig& rig, const cv::Mat& disparity_px, ReferenceImage reference) {
   const RectifiedCamera c = Unpack(rig, disparity_px);
-  const bool right = reference == ReferenceImage::kRight;
-  const double c_x = right ? c.c_right : c.c_left;
-  const double x_offset = right ? c.baseline_m : 0.0;
-  const float nan = std::numeric_limits<float>::quiet_NaN();
-  cv::Mat xyz(disparity_px.size(), CV_32FC3);
-  for (int y = 0; y < disparity_px.rows; ++y) {
-    const float* d = disparity_px.ptr<float>(y);
-    cv::Vec3f* out = xyz.ptr<cv::Vec3f>(y);
-    for (int x = 0; x < disparity_px.cols; ++x) {
-      const double effective = d[x] - (c.c_left - c.c_right);
-      if (!std::isfinite(d[x]) || !(effective > 0)) {
-        out[x] = cv::Vec3f(nan, nan, nan);
-        continue;
-      }
-      const double z = c.f * c.baseline_m / effective;
-      const Eigen::Vector3d rect((x - c_x) * z / c.f + x_offset, (y - c.c_y) * z / c.f, z);
-      const Eigen::Vector3d v = c.vehicle_from_rect * rect + c.vehicle_origin;
-      out[x] = cv::Vec3f(static_cast<float>(v.x()), static_cast<float>(v.y()), static_cast<float>(v.z()));
-    }
-  }
-  return xyz;
+  // A right-referenced ray starts at the right camera, B along the rectified x axis.
+  const Eigen::Vector3d ray_origin(reference == ReferenceImage::kRight ? c.baseline_m : 0.0, 0, 0);
+  return MapPoints(c, disparity_px, reference, [&](double z, const Eigen::Vector3d& ray) -> Eigen::Vector3d {
+    return c.vehicle_from_rect * (ray_origin + z * ray) + c.vehicle_origin;
+  });
 }
 
 cv::Mat PredictXyzSigma(const StereoRig& rig, const cv::Mat& disparity_px, ReferenceImage reference,
                         double sigma_d_px) {
   LN_CHECK_ARG(std::isfinite(sigma_d_px) && sigma_d_px > 0) << "sigma_d: must be > 0 px";
   const RectifiedCamera c = Unpack(rig, disparity_px);
-  const bool right = reference == ReferenceImage::kRight;
-  const double c_x = right ? c.c_right : c.c_left;
-  const float nan = std::numeric_limits<float>::quiet_NaN();
-  cv::Mat sigma(disparity_px.size(), CV_32FC3);
-  for (int y = 0; y < disparity_px.rows; ++y) {
-    const float* d = disparity_px.ptr<float>(y);
-    cv::Vec3f* out = sigma.ptr<cv::Vec3f>(y);
-    for (int x = 0; x < disparity_px.cols; ++x) {
-      const double effective = d[x] - (c.c_left - c.c_right);
-      if (!std::isfinite(d[x]) || !(effective > 0)) {
-        out[x] = cv::Vec3f(nan, nan, nan);
-        continue;
-      }
-      const double z = c.f * c.baseline_m / effective;
-      // P - C_ref in the rectified frame is z (u, v, 1); dP/dd = -(z / (f B)) (P - C_ref).
-      const Eigen::Vector3d ray((x - c_x) / c.f, (y - c.c_y) / c.f, 1.0);
-      const Eigen::Vector3d derivative = -(z * z / (c.f * c.baseline_m)) * ray;
-      const Eigen::Vector3d v = (c.vehicle_from_rect * derivative).cwiseAbs() * sigma_d_px;
-      out[x] = cv::Vec3f(static_cast<float>(v.x()), static_cast<float>(v.y()), static_cast<float>(v.z()));
-    }
-  }
-  return sigma;
+  // P - C_ref = z (u, v, 1) in the rectified frame, so dP/dd = -(z^2 / (f B)) (u, v, 1).
+  return MapPoints(c, disparity_px, reference, [&](double z, const Eigen::Vector3d& ray) -> Eigen::Vector3d {
+    return (c.vehicle_from_rect * (-(z * z / (c.f * c.baseline_m)) * ray)).cwiseAbs() * sigma_d_px;
+  });
 }
 
 }  // namespace lunarnav::calib
