@@ -3,6 +3,7 @@
 #include <filesystem>
 #include <string>
 
+#include "io/atomic_file.h"
 #include "io/json_io.h"
 #include "positioning/posfilter.h"
 #include "positioning/trajectory_io.h"
@@ -50,6 +51,7 @@ int main(int argc, char** argv) {
     opt.mode = zero_phase ? positioning::FilterMode::kZeroPhase : positioning::FilterMode::kCausal;
     opt.heading = heading == "kalman" ? positioning::HeadingMethod::kKalman : positioning::HeadingMethod::kLowPass;
     opt.Validate();
+    io::CreateOutputDirectory(output_dir);  // before the work, not after it
     util::ProgressBar progress(3, "posfilter (read, filter, write)", !quiet);
     telemetry::SensorModel model = telemetry::ReadSensorModel(sensors);
     if (bits > 0) model.OverrideBits(bits);
@@ -63,7 +65,6 @@ int main(int argc, char** argv) {
     progress.Increment();
     for (const std::string& note : result.notes) LN_LOG(Info) << "posfilter: " << note;
 
-    fs::create_directories(output_dir);
     positioning::WriteTrajectoryCsv(output_dir / "trajectory.csv", result.motion.trajectory);
     positioning::WriteTrajectoryTum(output_dir / "trajectory.tum", result.motion.trajectory);
     if (!screening_log.empty()) telemetry::WriteScreeningLog(screening_log, result.screened);

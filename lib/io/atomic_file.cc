@@ -86,6 +86,15 @@ void AtomicOutputFile::Commit() {
   CommitTempFile(temp_, path_);
 }
 
+void CreateOutputDirectory(const fs::path& dir) {
+  std::error_code ec;
+  fs::create_directories(dir, ec);
+  if (ec || !fs::is_directory(dir)) {
+    throw std::invalid_argument(dir.string() + ": cannot create the output directory (" +
+                                (ec ? ec.message() : std::string("not a directory")) + ")");
+  }
+}
+
 int RemoveStaleTempFiles(const fs::path& dir) {
   int removed = 0;
   std::error_code ec;

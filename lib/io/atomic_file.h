@@ -38,6 +38,11 @@ class AtomicOutputFile {
   std::FILE* file_ = nullptr;
 };
 
+/// Creates `dir` (and its parents) for a tool's outputs. Throws std::invalid_argument (exit 2)
+/// "<dir>: cannot create the output directory (<reason>)" when that is impossible, e.g. a
+/// file of that name exists or permission is denied.
+void CreateOutputDirectory(const std::filesystem::path& dir);
+
 /// Deletes leftover temporary files of killed runs in `dir` (not recursive). Returns how many.
 int RemoveStaleTempFiles(const std::filesystem::path& dir);
 

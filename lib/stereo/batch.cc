@@ -227,7 +227,7 @@ BatchSummary RunStereoBatch(const BatchOptions& options, const fs::path& input_d
     if (static_cast<int>(i % options.shard_count) == options.shard_index) shard.push_back(&listing[i]);
   }
   for (const char* sub : {"disparity", "confidence", "rejections"}) {
-    fs::create_directories(output_dir / sub);
+    io::CreateOutputDirectory(output_dir / sub);
     io::RemoveStaleTempFiles(output_dir / sub);
   }
   io::RemoveStaleTempFiles(output_dir);

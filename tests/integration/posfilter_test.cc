@@ -125,6 +125,12 @@ TEST(Posfilter, BadInputGetsOneErrorLineAndNoOutput) {
   EXPECT_EQ(run.exit_code, 3);
   EXPECT_NE(run.stderr_text.find("channels.sonar: unknown channel"), std::string::npos) << run.stderr_text;
 
+  std::ofstream(tmp.path() / "a_file") << "x";
+  run = RunTool("posfilter", {(tmp.path() / "log.csv").string(), "--sensors", sensors, "-o",
+                              (tmp.path() / "a_file").string()}, tmp.path());
+  EXPECT_EQ(run.exit_code, 2);
+  EXPECT_NE(run.stderr_text.find("cannot create the output directory"), std::string::npos) << run.stderr_text;
+
   run = RunTool("posfilter", {(tmp.path() / "log.csv").string(), "--sensors", sensors, "-o", out.string(),
                               "--cutoff", "-1"}, tmp.path());
   EXPECT_EQ(run.exit_code, 2);

@@ -235,6 +235,10 @@ TEST(StereoBatch, UsageAndInputErrorsHaveTheirExitCodes) {
   EXPECT_EQ(missing.exit_code, 3);
   EXPECT_EQ(missing.ErrorLines(), 1);
   EXPECT_NE(missing.stderr_text.find("nowhere"), std::string::npos);
+  std::ofstream(tmp.path() / "a_file") << "x";  // an output "directory" that is a file
+  const auto bad_out = RunTool("stereo-batch", {in.string(), "-o", (tmp.path() / "a_file").string()}, tmp.path());
+  EXPECT_EQ(bad_out.exit_code, 2);
+  EXPECT_NE(bad_out.stderr_text.find("cannot create the output directory"), std::string::npos) << bad_out.stderr_text;
   fs::remove_all(in / "right");
   EXPECT_EQ(RunTool("stereo-batch", {in.string(), "-o", out}, tmp.path()).exit_code, 3);
 }

@@ -15,6 +15,13 @@ TEST(ParseIntPair, ParsesAndRejects) {
   EXPECT_THROW(ParseIntPair("2.5x3", 'x', "window"), std::invalid_argument);
 }
 
+TEST(ParseDoublePair, ParsesIntervalsAndRejectsHalfOnes) {
+  EXPECT_EQ(ParseDoublePair("4.2:7.5", ':', "range"), std::make_pair(4.2, 7.5));
+  EXPECT_EQ(ParseDoublePair("-0.5:1", ':', "range"), std::make_pair(-0.5, 1.0));
+  EXPECT_THROW(ParseDoublePair("4.2", ':', "range"), std::invalid_argument);
+  EXPECT_THROW(ParseDoublePair("4.2:", ':', "range"), std::invalid_argument);
+}
+
 TEST(ParseDouble, RejectsTrailingTextAndNonFinite) {
   EXPECT_DOUBLE_EQ(ParseDouble("0.25", "x"), 0.25);
   EXPECT_THROW(ParseDouble("0.25m", "x"), std::invalid_argument);
