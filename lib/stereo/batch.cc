@@ -3,13 +3,10 @@
 #include <algorithm>
 #include <cmath>
 #include <limits>
-#include <map>
 #include <mutex>
 #include <sstream>
 
 #include <tbb/enumerable_thread_specific.h>
-#include <tbb/parallel_for.h>
-#include <tbb/task_arena.h>
 
 #include "io/atomic_file.h"
 #include "io/image_io.h"
@@ -17,6 +14,7 @@
 #include "stereo/ncc_matcher.h"
 #include "util/check.h"
 #include "util/log.h"
+#include "util/parallel.h"
 #include "util/progress.h"
 #include "util/resources.h"
 #include "util/timer.h"
@@ -29,21 +27,6 @@ using nlohmann::json;
 namespace {
 
 constexpr const char* kSidecarFormat = "lunarnav.disparity/1";
-
-// stem -> the image files with that stem in one directory.
-std::map<std::string, std::vector<fs::path>> ImagesByStem(const fs::path& dir) {
-  std::map<std::string, std::vector<fs::path>> by_stem;
-  std::error_code ec;
-  for (const auto& entry : fs::directory_iterator(dir, ec)) {
-    const fs::path& path = entry.path();
-    const std::string name = path.filename().string();
-    if (name.empty() || name[0] == '.' || !io::HasImageExtension(path)) continue;
-    if (!entry.is_regular_file(ec) && !entry.is_symlink(ec)) continue;
-    by_stem[path.stem().string()].push_back(path);
-  }
-  LN_CHECK_INPUT(!ec) << dir.string() << ": cannot list (" << ec.message() << ")";
-  return by_stem;
-}
 
 std::string ReferenceConvention(ReferenceImage reference) {
   return reference == ReferenceImage::kRight ? "x_left = x_right + d (right image reference)"
@@ -135,50 +118,10 @@ json ProcessPair(const BatchOptions& options, const PairFiles& pair, const PairO
 
 }  // namespace
 
-std::vector<PairFiles> ListStereoPairs(const fs::path& input_dir) {
-  std::error_code ec;
-  LN_CHECK_INPUT(fs::is_directory(input_dir, ec)) << input_dir.string() << ": no such directory";
-  const fs::path left_dir = input_dir / "left", right_dir = input_dir / "right";
-  LN_CHECK_INPUT(fs::is_directory(left_dir, ec))
-      << input_dir.string() << ": no left/ directory (expected left/ and right/ image folders)";
-  LN_CHECK_INPUT(fs::is_directory(right_dir, ec))
-      << input_dir.string() << ": no right/ directory (expected left/ and right/ image folders)";
-  const auto lefts = ImagesByStem(left_dir);
-  const auto rights = ImagesByStem(right_dir);
-  std::map<std::string, PairFiles> pairs;
-  auto add = [&](const std::map<std::string, std::vector<fs::path>>& side, bool is_left) {
-    for (const auto& [stem, files] : side) {
-      PairFiles& pair = pairs[stem];
-      pair.stem = stem;
-      (is_left ? pair.left : pair.right) = files.front();
-      if (files.size() > 1 && pair.problem.empty()) {
-        pair.problem = files[1].string() + ": several images with stem '" + stem + "' (" +
-                       files[0].filename().string() + ", " + files[1].filename().string() + ")";
-      }
-    }
-  };
-  add(lefts, true);
-  add(rights, false);
-  std::vector<PairFiles> listing;
-  for (auto& [stem, pair] : pairs) {
-    if (pair.problem.empty() && pair.left.empty()) {
-      pair.problem = (left_dir / (stem + ".*")).string() + ": missing (right image " +
-                     pair.right.filename().string() + " has no partner)";
-    }
-    if (pair.problem.empty() && pair.right.empty()) {
-      pair.problem = (right_dir / (stem + ".*")).string() + ": missing (left image " +
-                     pair.left.filename().string() + " has no partner)";
-    }
-    listing.push_back(std::move(pair));
-  }
-  return listing;
-}
-
 void BatchOptions::Validate() const {
   matcher.Validate();
   frame_check.Validate();
-  LN_CHECK_ARG(shard_count >= 1 && shard_index >= 0 && shard_index < shard_count)
-      << "shard: need 0 <= K < N, got " << shard_index << "/" << shard_count;
+  io::CheckShard(shard_index, shard_count);
   LN_CHECK_ARG(num_threads >= 0) << "threads: must be >= 0";
 }
 
@@ -194,9 +137,7 @@ PairOutputPaths OutputPathsFor(const fs::path& output_dir, const std::string& st
 }
 
 std::string SummaryFileName(const BatchOptions& options) {
-  if (options.shard_count == 1) return "summary.json";
-  return "summary.shard-" + std::to_string(options.shard_index) + "-of-" +
-         std::to_string(options.shard_count) + ".json";
+  return io::SummaryFileName(options.shard_index, options.shard_count);
 }
 
 std::string BatchSummary::BriefReport() const {
@@ -222,10 +163,8 @@ BatchSummary RunStereoBatch(const BatchOptions& options, const fs::path& input_d
   const std::vector<PairFiles> listing = ListStereoPairs(input_dir);
   LN_CHECK_INPUT(!listing.empty())
       << input_dir.string() << ": no image pairs in left/ and right/ (PNG, PGM, TIFF or JPEG)";
-  std::vector<const PairFiles*> shard;
-  for (std::size_t i = 0; i < listing.size(); ++i) {
-    if (static_cast<int>(i % options.shard_count) == options.shard_index) shard.push_back(&listing[i]);
-  }
+  const std::vector<const PairFiles*> shard =
+      io::SelectShard(listing, options.shard_index, options.shard_count);
   for (const char* sub : {"disparity", "confidence", "rejections"}) {
     io::CreateOutputDirectory(output_dir / sub);
     io::RemoveStaleTempFiles(output_dir / sub);
@@ -262,15 +201,7 @@ BatchSummary RunStereoBatch(const BatchOptions& options, const fs::path& input_d
     }
     progress.Increment();
   };
-  tbb::task_arena arena(options.num_threads > 0 ? options.num_threads
-                                                : tbb::task_arena::automatic);
-  arena.execute([&] {
-    tbb::parallel_for(tbb::blocked_range<std::size_t>(0, shard.size(), 1),
-                      [&](const tbb::blocked_range<std::size_t>& range) {
-                        for (std::size_t k = range.begin(); k != range.end(); ++k) process(k);
-                      },
-                      tbb::simple_partitioner());
-  });
+  util::ParallelForEachItem(shard.size(), options.num_threads, process);
 
   json pairs_json = json::array();
   json failed_json = json::array();
@@ -306,7 +237,7 @@ BatchSummary RunStereoBatch(const BatchOptions& options, const fs::path& input_d
   j["output_dir"] = output_dir.string();
   j["options"] = options_json;
   j["shard"] = {options.shard_index, options.shard_count};
-  j["threads"] = options.num_threads > 0 ? options.num_threads : tbb::info::default_concurrency();
+  j["threads"] = util::EffectiveThreadCount(options.num_threads);
   j["kernel"] = ActiveKernelName();
   j["counts"] = {{"pairs_listed", summary.pairs_listed},
                  {"pairs_in_shard", summary.pairs_in_shard},

@@ -8,23 +8,14 @@
 
 #include <nlohmann/json.hpp>
 
+#include "io/stereo_pairs.h"
 #include "stereo/frame_check.h"
 #include "stereo/ncc_options.h"
 
 namespace lunarnav::stereo {
 
-/// One pair found in INPUT_DIR (left/<stem>.<ext>, right/<stem>.<ext>); a path is empty when
-/// that side is missing, and `problem` says what is wrong with the pair as listed.
-struct PairFiles {
-  std::string stem;
-  std::filesystem::path left, right;
-  std::string problem;  ///< Empty when both images exist once each.
-};
-
-/// Lists the pairs of INPUT_DIR in name order (byte-wise order of the stems). Files whose
-/// extension is not an image's, and hidden files, are ignored.
-/// @throws InputError when INPUT_DIR, left/ or right/ is missing.
-std::vector<PairFiles> ListStereoPairs(const std::filesystem::path& input_dir);
+using io::ListStereoPairs;
+using io::PairFiles;
 
 /// Everything stereo-batch does besides matching.
 struct BatchOptions {

@@ -1,0 +1,80 @@
+#include "io/stereo_pairs.h"
+
+#include <map>
+
+#include "io/image_io.h"
+#include "util/check.h"
+
+namespace lunarnav::io {
+namespace fs = std::filesystem;
+
+namespace {
+
+// stem -> the image files with that stem in one directory.
+std::map<std::string, std::vector<fs::path>> ImagesByStem(const fs::path& dir) {
+  std::map<std::string, std::vector<fs::path>> by_stem;
+  std::error_code ec;
+  for (const auto& entry : fs::directory_iterator(dir, ec)) {
+    const fs::path& path = entry.path();
+    const std::string name = path.filename().string();
+    if (name.empty() || name[0] == '.' || !HasImageExtension(path)) continue;
+    if (!entry.is_regular_file(ec) && !entry.is_symlink(ec)) continue;
+    by_stem[path.stem().string()].push_back(path);
+  }
+  LN_CHECK_INPUT(!ec) << dir.string() << ": cannot list (" << ec.message() << ")";
+  return by_stem;
+}
+
+}  // namespace
+
+std::vector<PairFiles> ListStereoPairs(const fs::path& input_dir) {
+  std::error_code ec;
+  LN_CHECK_INPUT(fs::is_directory(input_dir, ec)) << input_dir.string() << ": no such directory";
+  const fs::path left_dir = input_dir / "left", right_dir = input_dir / "right";
+  LN_CHECK_INPUT(fs::is_directory(left_dir, ec))
+      << input_dir.string() << ": no left/ directory (expected left/ and right/ image folders)";
+  LN_CHECK_INPUT(fs::is_directory(right_dir, ec))
+      << input_dir.string() << ": no right/ directory (expected left/ and right/ image folders)";
+  const auto lefts = ImagesByStem(left_dir);
+  const auto rights = ImagesByStem(right_dir);
+  std::map<std::string, PairFiles> pairs;
+  auto add = [&](const std::map<std::string, std::vector<fs::path>>& side, bool is_left) {
+    for (const auto& [stem, files] : side) {
+      PairFiles& pair = pairs[stem];
+      pair.stem = stem;
+      (is_left ? pair.left : pair.right) = files.front();
+      if (files.size() > 1 && pair.problem.empty()) {
+        pair.problem = files[1].string() + ": several images with stem '" + stem + "' (" +
+                       files[0].filename().string() + ", " + files[1].filename().string() + ")";
+      }
+    }
+  };
+  add(lefts, true);
+  add(rights, false);
+  std::vector<PairFiles> listing;
+  for (auto& [stem, pair] : pairs) {
+    if (pair.problem.empty() && pair.left.empty()) {
+      pair.problem = (left_dir / (stem + ".*")).string() + ": missing (right image " +
+                     pair.right.filename().string() + " has no partner)";
+    }
+    if (pair.problem.empty() && pair.right.empty()) {
+      pair.problem = (right_dir / (stem + ".*")).string() + ": missing (left image " +
+                     pair.left.filename().string() + " has no partner)";
+    }
+    listing.push_back(std::move(pair));
+  }
+  return listing;
+}
+
+void CheckShard(int shard_index, int shard_count) {
+  LN_CHECK_ARG(shard_count >= 1 && shard_index >= 0 && shard_index < shard_count)
+      << "shard: need 0 <= K < N, got " << shard_index << "/" << shard_count;
+}
+
+std::string SummaryFileName(int shard_index, int shard_count) {
+  if (shard_count == 1) return "summary.json";
+  return "summary.shard-" + std::to_string(shard_index) + "-of-" + std::to_string(shard_count) +
+         ".json";
+}
+
+}  // namespace lunarnav::io

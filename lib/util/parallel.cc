@@ -1,0 +1,25 @@
+#include "util/parallel.h"
+
+#include <tbb/blocked_range.h>
+#include <tbb/info.h>
+#include <tbb/parallel_for.h>
+#include <tbb/task_arena.h>
+
+namespace lunarnav::util {
+
+void ParallelForEachItem(std::size_t n, int num_threads, const std::function<void(std::size_t)>& fn) {
+  tbb::task_arena arena(num_threads > 0 ? num_threads : tbb::task_arena::automatic);
+  arena.execute([&] {
+    tbb::parallel_for(tbb::blocked_range<std::size_t>(0, n, 1),
+                      [&](const tbb::blocked_range<std::size_t>& range) {
+                        for (std::size_t i = range.begin(); i != range.end(); ++i) fn(i);
+                      },
+                      tbb::simple_partitioner());
+  });
+}
+
+int EffectiveThreadCount(int num_threads) {
+  return num_threads > 0 ? num_threads : tbb::info::default_concurrency();
+}
+
+}  // namespace lunarnav::util

@@ -1,0 +1,17 @@
+// Item-parallel loops for batch tools (one image pair, one log per task).
+#pragma once
+
+#include <cstddef>
+#include <functional>
+
+namespace lunarnav::util {
+
+/// Calls fn(i) for i in [0, n) on up to `num_threads` threads (0 = all cores), one item per
+/// task so that slow items do not hold up a whole block. Returns when every call has
+/// returned; the first exception thrown by fn is rethrown here.
+void ParallelForEachItem(std::size_t n, int num_threads, const std::function<void(std::size_t)>& fn);
+
+/// The number of threads `num_threads` means (0 = all cores).
+int EffectiveThreadCount(int num_threads);
+
+}  // namespace lunarnav::util
