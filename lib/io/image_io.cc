@@ -72,7 +72,10 @@ bool HasImageExtension(const fs::path& path) {
                      [&](const char* e) { return ext == e; });
 }
 
-cv::Mat ReadGreyImage(const fs::path& path) {
+namespace {
+
+// The decoded pixels with every channel of the file, in the file's (RGB) order.
+cv::Mat ReadAllChannels(const fs::path& path) {
   std::error_code ec;
   LN_CHECK_INPUT(fs::is_regular_file(path, ec)) << path.string() << ": no such file";
   LN_CHECK_INPUT(fs::file_size(path, ec) > 0) << path.string() << ": empty file";
@@ -81,7 +84,10 @@ cv::Mat ReadGreyImage(const fs::path& path) {
     const std::string problem = PngStructureProblem(path);
     LN_CHECK_INPUT(problem.empty()) << path.string() << ": " << problem;
   }
-  auto in = OIIO::ImageInput::open(path.string());
+  // The stored colour values, not multiplied by alpha (OIIO's default for PNG and TIFF).
+  OIIO::ImageSpec config;
+  config.attribute("oiio:UnassociatedAlpha", 1);
+  auto in = OIIO::ImageInput::open(path.string(), &config);
   LN_CHECK_INPUT(in != nullptr) << path.string() << ": unreadable image (" << OiioError(nullptr) << ")";
   const OIIO::ImageSpec& spec = in->spec();
   LN_CHECK_INPUT(spec.width > 0 && spec.height > 0 && spec.depth == 1)
@@ -102,16 +108,28 @@ cv::Mat ReadGreyImage(const fs::path& path) {
   LN_CHECK_INPUT(ok) << path.string() << ": truncated or corrupt image (" << OiioError(in.get())
                      << ")";
   in->close();
+  return raw;
+}
 
-  if (channels == 1) return raw;
-  cv::Mat grey;
-  if (channels == 2) {  // grey + alpha
-    cv::extractChannel(raw, grey, 0);
-  } else if (channels == 3) {
-    cv::cvtColor(raw, grey, cv::COLOR_RGB2GRAY);
-  } else {
-    cv::cvtColor(raw, grey, cv::COLOR_RGBA2GRAY);
+}  // namespace
+
+cv::Mat ReadImage(const fs::path& path) {
+  const cv::Mat raw = ReadAllChannels(path);
+  cv::Mat image;
+  switch (raw.channels()) {
+    case 1: return raw;
+    case 2: cv::extractChannel(raw, image, 0); break;  // grey + alpha
+    case 3: cv::cvtColor(raw, image, cv::COLOR_RGB2BGR); break;
+    default: cv::cvtColor(raw, image, cv::COLOR_RGBA2BGR); break;
   }
+  return image;
+}
+
+cv::Mat ReadGreyImage(const fs::path& path) {
+  const cv::Mat image = ReadImage(path);
+  if (image.channels() == 1) return image;
+  cv::Mat grey;
+  cv::cvtColor(image, grey, cv::COLOR_BGR2GRAY);
   return grey;
 }
 

@@ -17,6 +17,12 @@ namespace lunarnav::io {
 ///         float or 32-bit pixels, empty).
 cv::Mat ReadGreyImage(const std::filesystem::path& path);
 
+/// Reads an 8- or 16-bit image keeping its colour: one channel for grey (and grey + alpha),
+/// three in OpenCV's BGR order for colour; an alpha channel is dropped. Same checks and
+/// errors as ReadGreyImage.
+/// @return CV_8UC1, CV_8UC3, CV_16UC1 or CV_16UC3.
+cv::Mat ReadImage(const std::filesystem::path& path);
+
 /// What is wrong with the chunk structure of a PNG file (signature, chunk lengths, CRCs, the
 /// closing IEND chunk), or "" when it is sound.
 std::string PngStructureProblem(const std::filesystem::path& path);

@@ -48,6 +48,20 @@ TEST(ReadGreyImage, ConvertsColourWithRec601Weights) {
   EXPECT_NEAR(grey.at<std::uint8_t>(0, 0), 0.299 * 40 + 0.587 * 200 + 0.114 * 10, 1.0);
 }
 
+TEST(ReadImage, KeepsColourInBgrOrderAndDropsAlpha) {
+  util::ScopedTempDir tmp;
+  cv::Mat bgra(3, 5, CV_16UC4, cv::Scalar(1000, 20000, 40000, 65535));
+  bgra.at<cv::Vec<std::uint16_t, 4>>(2, 4) = {7, 8, 9, 0};
+  ASSERT_TRUE(cv::imwrite((tmp.path() / "c.png").string(), bgra));
+  const cv::Mat image = ReadImage(tmp.path() / "c.png");
+  ASSERT_EQ(image.type(), CV_16UC3);
+  EXPECT_EQ(image.at<cv::Vec3w>(0, 0), cv::Vec3w(1000, 20000, 40000));
+  EXPECT_EQ(image.at<cv::Vec3w>(2, 4), cv::Vec3w(7, 8, 9));
+  cv::Mat grey(2, 2, CV_8UC1, cv::Scalar(77));
+  ASSERT_TRUE(cv::imwrite((tmp.path() / "g.pgm").string(), grey));
+  EXPECT_EQ(ReadImage(tmp.path() / "g.pgm").type(), CV_8UC1);
+}
+
 TEST(ReadGreyImage, ReportsMissingEmptyAndTruncatedFiles) {
   util::ScopedTempDir tmp;
   EXPECT_THROW(ReadGreyImage(tmp.path() / "none.png"), InputError);
