@@ -70,8 +70,11 @@ std::vector<cv::Point2d> Rectifier::RectifyPoints(const std::vector<cv::Point2d>
   const RectifiedGeometry& g = *rig_.rectified;
   std::vector<cv::Point2d> out;
   if (raw.empty()) return out;
+  // Iterate the inverse distortion to convergence, not OpenCV's default 5 fixed-point
+  // iterations, so that strongly distorted lenses are inverted too.
+  const cv::TermCriteria converged(cv::TermCriteria::COUNT | cv::TermCriteria::EPS, 100, 1e-12);
   cv::undistortPoints(raw, out, ToCv(c.K), Distortion(c), ToCv(left ? g.rect_from_left : g.rect_from_right),
-                      ToCv(left ? g.P_left : g.P_right));
+                      ToCv(left ? g.P_left : g.P_right), converged);
   return out;
 }
 

@@ -61,5 +61,34 @@ TEST(Rectifier, RefusesImagesOfAnotherSize) {
   EXPECT_THROW(Rectifier(testing::PaperRig()), std::invalid_argument);  // not rectified
 }
 
+TEST(Rectifier, RectifyPointsInvertsTheRemapTablesEverywhere) {
+  // The remap tables send each rectified pixel to a raw position; RectifyPoints must send that
+  // raw position back, also in the strongly distorted corners of the image.
+  const StereoRig rig = RectifyRig(testing::PaperRig(), 1.0);
+  const Rectifier rectifier(rig);
+  const RectifiedGeometry& g = *rig.rectified;
+  for (const bool left : {true, false}) {
+    const CameraIntrinsics& c = left ? rig.left : rig.right;
+    cv::Mat map_x, map_y, k, r, p;
+    cv::eigen2cv(c.K, k);
+    cv::eigen2cv(left ? g.rect_from_left : g.rect_from_right, r);
+    cv::eigen2cv(left ? g.P_left : g.P_right, p);
+    cv::initUndistortRectifyMap(k, cv::Mat(c.distortion), r, p, cv::Size(g.width_px, g.height_px), CV_32FC1,
+                                map_x, map_y);
+    std::vector<cv::Point2d> rect, raw;
+    for (int y = 0; y < g.height_px; y += 479) {
+      for (int x = 0; x < g.width_px; x += 71) {
+        rect.emplace_back(x, y);
+        raw.emplace_back(map_x.at<float>(y, x), map_y.at<float>(y, x));
+      }
+    }
+    const std::vector<cv::Point2d> back = rectifier.RectifyPoints(raw, left);
+    for (std::size_t i = 0; i < rect.size(); ++i) {
+      EXPECT_NEAR(back[i].x, rect[i].x, 2e-3) << rect[i] << (left ? " left" : " right");
+      EXPECT_NEAR(back[i].y, rect[i].y, 2e-3) << rect[i] << (left ? " left" : " right");
+    }
+  }
+}
+
 }  // namespace
 }  // namespace lunarnav::calib
