@@ -1,0 +1,283 @@
+#include "evaluation/disparity_eval.h"
+
+#include <cmath>
+#include <limits>
+#include <map>
+#include <sstream>
+
+#include <opencv2/imgcodecs.hpp>
+
+#include "io/image_io.h"
+#include "io/json_io.h"
+#include "util/check.h"
+
+namespace lunarnav::evaluation {
+namespace fs = std::filesystem;
+
+namespace {
+
+std::string FormatThreshold(double t) {
+  std::ostringstream s;
+  s << t;
+  return s.str();
+}
+
+// stem -> files with one of `extensions` in `dir`.
+std::map<std::string, std::vector<fs::path>> FilesByStem(const fs::path& dir,
+                                                        const std::vector<std::string>& extensions) {
+  std::map<std::string, std::vector<fs::path>> by_stem;
+  std::error_code ec;
+  for (const auto& entry : fs::directory_iterator(dir, ec)) {
+    const fs::path& path = entry.path();
+    const std::string name = path.filename().string();
+    if (name.empty() || name[0] == '.' || !entry.is_regular_file(ec)) continue;
+    for (const std::string& ext : extensions) {
+      if (path.extension() == ext) by_stem[path.stem().string()].push_back(path);
+    }
+  }
+  LN_CHECK_INPUT(!ec) << dir.string() << ": cannot list (" << ec.message() << ")";
+  return by_stem;
+}
+
+// The sample grid from stereo-batch's sidecar next to the estimate, or the identity grid.
+SampleGrid GridOf(const fs::path& estimate) {
+  fs::path sidecar = estimate;
+  sidecar.replace_extension(".json");
+  SampleGrid grid;
+  std::error_code ec;
+  if (!fs::is_regular_file(sidecar, ec)) return grid;
+  const nlohmann::json j = io::ReadJson(sidecar);
+  try {
+    const auto& g = j.at("disparity").at("grid");
+    grid.origin_x = g.at("origin_px").at(0).get<int>();
+    grid.origin_y = g.at("origin_px").at(1).get<int>();
+    grid.step_x = g.at("step_px").at(0).get<int>();
+    grid.step_y = g.at("step_px").at(1).get<int>();
+    const auto& rows = j.at("options").at("rows");
+    if (!rows.is_null()) {
+      grid.min_row = rows.at(0).get<int>();
+      grid.max_row = rows.at(1).get<int>();
+    }
+  } catch (const nlohmann::json::exception& e) {
+    throw InputError(sidecar.string() + ": no usable disparity.grid or options.rows (" + e.what() + ")");
+  }
+  LN_CHECK_INPUT(grid.step_x >= 1 && grid.step_y >= 1 && grid.origin_x >= 0 && grid.origin_y >= 0)
+      << sidecar.string() << ": impossible disparity.grid";
+  return grid;
+}
+
+}  // namespace
+
+void DisparityEvalOptions::Validate() const {
+  LN_CHECK_ARG(!bad_thresholds_px.empty()) << "bad thresholds: need at least one";
+  for (double t : bad_thresholds_px) LN_CHECK_ARG(t > 0) << "bad thresholds: must be > 0, got " << t;
+  LN_CHECK_ARG(png_truth_scale > 0) << "PNG truth scale: must be > 0";
+}
+
+void DisparityScores::Add(const DisparityScores& other) {
+  if (bad.size() < other.bad.size()) bad.resize(other.bad.size(), 0);
+  truth_pixels += other.truth_pixels;
+  estimated_pixels += other.estimated_pixels;
+  for (std::size_t k = 0; k < other.bad.size(); ++k) bad[k] += other.bad[k];
+  sum_abs_error_px += other.sum_abs_error_px;
+  sum_squared_error_px2 += other.sum_squared_error_px2;
+}
+
+double DisparityScores::DensityPct() const {
+  return truth_pixels > 0 ? 100.0 * static_cast<double>(estimated_pixels) / truth_pixels : NAN;
+}
+double DisparityScores::BadPct(std::size_t k) const {
+  return estimated_pixels > 0 ? 100.0 * static_cast<double>(bad.at(k)) / estimated_pixels : NAN;
+}
+double DisparityScores::BadOrMissingPct(std::size_t k) const {
+  return truth_pixels > 0
+             ? 100.0 * static_cast<double>(bad.at(k) + truth_pixels - estimated_pixels) / truth_pixels
+             : NAN;
+}
+double DisparityScores::MeanAbsErrorPx() const {
+  return estimated_pixels > 0 ? sum_abs_error_px / estimated_pixels : NAN;
+}
+double DisparityScores::RmsErrorPx() const {
+  return estimated_pixels > 0 ? std::sqrt(sum_squared_error_px2 / estimated_pixels) : NAN;
+}
+
+DisparityScores ScoreDisparity(const cv::Mat& estimate, const cv::Mat& truth, const cv::Mat& mask,
+                               const SampleGrid& grid, const DisparityEvalOptions& options) {
+  LN_CHECK(estimate.type() == CV_32FC1 && truth.type() == CV_32FC1) << "float maps expected";
+  LN_CHECK(mask.empty() || (mask.type() == CV_8UC1 && mask.size() == truth.size()))
+      << "mask: CV_8UC1 of the truth's size expected";
+  LN_CHECK(grid.step_x >= 1 && grid.step_y >= 1 && grid.origin_x >= 0 && grid.origin_y >= 0)
+      << "impossible sample grid";
+  // Sample points of the truth image, and where each is in the estimate: the same pixel of a
+  // full-size estimate, or the next cell of a compact one.
+  const int samples_x = grid.origin_x < truth.cols ? (truth.cols - grid.origin_x + grid.step_x - 1) / grid.step_x : 0;
+  const int samples_y = grid.origin_y < truth.rows ? (truth.rows - grid.origin_y + grid.step_y - 1) / grid.step_y : 0;
+  const bool full_size = estimate.size() == truth.size();
+  LN_CHECK_INPUT(full_size || (estimate.cols == samples_x && estimate.rows == samples_y))
+      << "the estimate's " << estimate.cols << "x" << estimate.rows << " pixels are neither the truth's "
+      << truth.cols << "x" << truth.rows << " nor its " << samples_x << "x" << samples_y
+      << " sample points (grid origin " << grid.origin_x << "," << grid.origin_y << ", step "
+      << grid.step_x << "x" << grid.step_y << ")";
+  DisparityScores s;
+  s.bad.assign(options.bad_thresholds_px.size(), 0);
+  for (int j = 0; j < samples_y; ++j) {
+    const int ty = grid.origin_y + j * grid.step_y;
+    if (ty < grid.min_row || ty > grid.max_row) continue;
+    const float* e = estimate.ptr<float>(full_size ? ty : j);
+    const float* t = truth.ptr<float>(ty);
+    const std::uint8_t* m = mask.empty() ? nullptr : mask.ptr<std::uint8_t>(ty);
+    for (int i = 0; i < samples_x; ++i) {
+      const int tx = grid.origin_x + i * grid.step_x;
+      if (!std::isfinite(t[tx]) || (m != nullptr && m[tx] == 0)) continue;
+      ++s.truth_pixels;
+      const float estimated = e[full_size ? tx : i];
+      if (!std::isfinite(estimated)) continue;
+      ++s.estimated_pixels;
+      const double error = std::abs(static_cast<double>(estimated) - t[tx]);
+      s.sum_abs_error_px += error;
+      s.sum_squared_error_px2 += error * error;
+      for (std::size_t k = 0; k < s.bad.size(); ++k) s.bad[k] += error > options.bad_thresholds_px[k];
+    }
+  }
+  return s;
+}
+
+cv::Mat ReadTruthDisparity(const fs::path& path, double png_scale) {
+  if (path.extension() == ".pfm") {
+    cv::Mat truth = io::ReadPfm(path);
+    LN_CHECK_INPUT(truth.channels() == 1) << path.string() << ": a 1-channel PFM expected";
+    return truth;
+  }
+  std::error_code ec;
+  LN_CHECK_INPUT(fs::is_regular_file(path, ec)) << path.string() << ": no such file";
+  const cv::Mat raw = cv::imread(path.string(), cv::IMREAD_UNCHANGED);
+  LN_CHECK_INPUT(!raw.empty()) << path.string() << ": unreadable image";
+  LN_CHECK_INPUT(raw.type() == CV_16UC1)
+      << path.string() << ": a 16-bit single-channel PNG expected (disparity x " << png_scale << ")";
+  cv::Mat truth;
+  raw.convertTo(truth, CV_32F, 1.0 / png_scale);
+  truth.setTo(std::numeric_limits<float>::quiet_NaN(), raw == 0);
+  return truth;
+}
+
+std::vector<DisparityItem> EvaluateDisparityDirectories(const fs::path& results, const fs::path& truth_dir,
+                                                        const fs::path& mask_dir,
+                                                        const DisparityEvalOptions& options) {
+  options.Validate();
+  std::error_code ec;
+  LN_CHECK_INPUT(fs::is_directory(results, ec)) << results.string() << ": no such directory";
+  LN_CHECK_INPUT(fs::is_directory(truth_dir, ec)) << truth_dir.string() << ": no such directory";
+  const fs::path estimate_dir = fs::is_directory(results / "disparity", ec) ? results / "disparity" : results;
+  const fs::path truth_files = fs::is_directory(truth_dir / "disparity", ec) ? truth_dir / "disparity" : truth_dir;
+  const auto estimates = FilesByStem(estimate_dir, {".pfm"});
+  const auto truths = FilesByStem(truth_files, {".pfm", ".png"});
+  std::map<std::string, std::vector<fs::path>> masks;
+  if (!mask_dir.empty()) {
+    LN_CHECK_INPUT(fs::is_directory(mask_dir, ec)) << mask_dir.string() << ": no such directory";
+    masks = FilesByStem(mask_dir, {".png"});
+  }
+  std::map<std::string, DisparityItem> by_stem;
+  for (const auto& [stem, files] : estimates) by_stem[stem].estimate = files.front();
+  for (const auto& [stem, files] : truths) {
+    DisparityItem& item = by_stem[stem];
+    item.truth = files.front();
+    if (files.size() > 1) {
+      item.problem = files[1].string() + ": several truth files for '" + stem + "'";
+    }
+  }
+  int scored = 0;
+  std::vector<DisparityItem> items;
+  for (auto& [stem, item] : by_stem) {
+    item.stem = stem;
+    if (item.problem.empty() && item.estimate.empty()) {
+      item.problem = (estimate_dir / (stem + ".pfm")).string() + ": no estimate for this truth";
+    } else if (item.problem.empty() && item.truth.empty()) {
+      item.problem = (truth_files / (stem + ".{pfm,png}")).string() + ": no truth for this estimate";
+    }
+    if (item.problem.empty() && !mask_dir.empty()) {
+      const auto m = masks.find(stem);
+      if (m == masks.end()) {
+        item.problem = (mask_dir / (stem + ".png")).string() + ": no mask for this pair";
+      } else {
+        item.mask = m->second.front();
+      }
+    }
+    if (item.problem.empty()) {
+      try {
+        const cv::Mat estimate = io::ReadPfm(item.estimate);
+        LN_CHECK_INPUT(estimate.channels() == 1) << item.estimate.string() << ": a 1-channel PFM expected";
+        const cv::Mat truth = ReadTruthDisparity(item.truth, options.png_truth_scale);
+        cv::Mat mask;
+        if (!item.mask.empty()) {
+          mask = io::ReadGreyImage(item.mask);
+          LN_CHECK_INPUT(mask.type() == CV_8UC1 && mask.size() == truth.size())
+              << item.mask.string() << ": an 8-bit mask of the truth's size expected";
+        }
+        try {
+          item.scores = ScoreDisparity(estimate, truth, mask, GridOf(item.estimate), options);
+        } catch (const InputError& e) {
+          throw InputError(item.estimate.string() + ": " + e.what());
+        }
+        ++scored;
+      } catch (const InputError& e) {
+        item.problem = e.what();
+      }
+    }
+    items.push_back(std::move(item));
+  }
+  LN_CHECK_INPUT(!items.empty()) << estimate_dir.string() << " and " << truth_files.string()
+                                 << ": no disparity maps (.pfm) or truth files (.pfm, .png)";
+  LN_CHECK_INPUT(scored > 0) << results.string() << " and " << truth_dir.string()
+                             << ": no stem has both an estimate and its truth (first: "
+                             << items.front().problem << ")";
+  return items;
+}
+
+Table DisparityTable(const std::vector<DisparityItem>& items, const DisparityEvalOptions& options) {
+  Table table;
+  table.title = "Disparity against ground truth";
+  table.columns = {{"stem", "", "pair", 0}, {"truth_pixels", "", "truth pixels", 0},
+                   {"density", "pct", "density (%)", 2}};
+  for (double t : options.bad_thresholds_px) {
+    const std::string name = "bad_" + FormatThreshold(t);
+    table.columns.push_back({name, "pct", "bad-" + FormatThreshold(t) + " (%)", 2});
+  }
+  table.columns.push_back({"bad_or_missing_" + FormatThreshold(options.bad_thresholds_px.back()), "pct",
+                           "bad-" + FormatThreshold(options.bad_thresholds_px.back()) + " or missing (%)", 2});
+  table.columns.push_back({"mean_abs_error", "px", "mean |error| (px)", 3});
+  table.columns.push_back({"rms_error", "px", "RMS error (px)", 3});
+  auto row_of = [&](const std::string& name, const DisparityScores& s, const std::string& problem) {
+    std::vector<Cell> row = {Cell::Text(name)};
+    if (!problem.empty()) {
+      for (std::size_t c = 1; c < table.columns.size(); ++c) row.push_back(Cell::NotAvailable(problem));
+      return row;
+    }
+    row.push_back(Cell::Number(static_cast<double>(s.truth_pixels)));
+    const std::string no_truth = "no truth pixels", no_estimate = "no estimate on truth pixels";
+    row.push_back(Cell::NumberOr(s.DensityPct(), no_truth));
+    for (std::size_t k = 0; k < options.bad_thresholds_px.size(); ++k) {
+      row.push_back(Cell::NumberOr(s.BadPct(k), no_estimate));
+    }
+    row.push_back(Cell::NumberOr(s.BadOrMissingPct(options.bad_thresholds_px.size() - 1), no_truth));
+    row.push_back(Cell::NumberOr(s.MeanAbsErrorPx(), no_estimate));
+    row.push_back(Cell::NumberOr(s.RmsErrorPx(), no_estimate));
+    return row;
+  };
+  DisparityScores all;
+  int scored = 0;
+  for (const DisparityItem& item : items) {
+    table.AddRow(row_of(item.stem, item.scores, item.problem));
+    if (item.problem.empty()) {
+      all.Add(item.scores);
+      ++scored;
+    }
+  }
+  table.AddRow(row_of("all (" + std::to_string(scored) + " pairs)", all, scored ? "" : "no pair scored"));
+  table.notes = {
+      "bad-N: estimates more than N px from the truth, % of the estimated truth pixels; "
+      "bad-N or missing: also counting truth pixels without an estimate as bad.",
+      "Errors are measured at the estimate's sample points (partial subsampling grid)."};
+  return table;
+}
+
+}  // namespace lunarnav::evaluation

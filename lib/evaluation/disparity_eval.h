@@ -1,0 +1,84 @@
+// Scoring disparity maps against ground-truth disparity (`evaluate disparity`), with the
+// measures of the KITTI and Middlebury stereo benchmarks.
+#pragma once
+
+#include <filesystem>
+#include <limits>
+#include <string>
+#include <vector>
+
+#include <opencv2/core.hpp>
+
+#include "evaluation/table.h"
+
+namespace lunarnav::evaluation {
+
+/// The pixels a matcher evaluated (stereo-batch's partial subsampling; the sidecar's "grid"):
+/// (origin_x + i step_x, origin_y + j step_y). Only these are scored. An estimate either has
+/// the truth's size (other pixels ignored) or holds just these samples, row by row.
+struct SampleGrid {
+  int origin_x = 0, origin_y = 0;
+  int step_x = 1, step_y = 1;
+  /// The band of rows the matcher processed (window selection); rows outside are not scored.
+  int min_row = 0, max_row = std::numeric_limits<int>::max();
+};
+
+struct DisparityEvalOptions {
+  /// An estimate is bad at a pixel when |estimate - truth| > threshold.
+  std::vector<double> bad_thresholds_px = {0.5, 1.0, 2.0, 4.0};
+  /// 16-bit PNG truth holds disparity * scale, 0 = no truth (KITTI's 256).
+  double png_truth_scale = 256.0;
+  void Validate() const;
+};
+
+/// Counts and sums over the truth pixels of one or several maps; Add() pools them.
+struct DisparityScores {
+  long long truth_pixels = 0;       ///< Valid truth pixels (inside the mask) at sample points.
+  long long estimated_pixels = 0;   ///< Of those, with a finite estimate.
+  std::vector<long long> bad;       ///< Per threshold: estimated pixels with error above it.
+  double sum_abs_error_px = 0, sum_squared_error_px2 = 0;
+
+  void Add(const DisparityScores& other);
+  /// estimated / truth pixels, %; NaN without truth pixels.
+  double DensityPct() const;
+  /// Bad estimates among the estimated pixels, %; NaN without estimates.
+  double BadPct(std::size_t threshold_index) const;
+  /// Bad or missing among the truth pixels (a missing estimate counts as bad), %.
+  double BadOrMissingPct(std::size_t threshold_index) const;
+  double MeanAbsErrorPx() const;
+  double RmsErrorPx() const;
+};
+
+/// Scores `estimate` (CV_32FC1, NaN or +-inf = no disparity) against `truth` (CV_32FC1, NaN
+/// or +-inf = no truth). `mask` (CV_8UC1, truth's size, nonzero = evaluate) may be empty.
+/// @throws InputError when the estimate has neither the truth's size nor the grid's.
+DisparityScores ScoreDisparity(const cv::Mat& estimate, const cv::Mat& truth, const cv::Mat& mask,
+                               const SampleGrid& grid, const DisparityEvalOptions& options);
+
+/// Reads ground-truth disparity: PFM (float; inf/NaN = none) or 16-bit PNG (value / scale,
+/// 0 = none). @throws InputError naming the file.
+cv::Mat ReadTruthDisparity(const std::filesystem::path& path, double png_scale);
+
+/// One stem of an `evaluate disparity` run.
+struct DisparityItem {
+  std::string stem;
+  std::filesystem::path estimate, truth, mask;  ///< Empty when absent.
+  std::string problem;                          ///< Why it cannot be scored; empty if it can.
+  DisparityScores scores;
+};
+
+/// The estimates of RESULTS (a stereo-batch output directory: disparity/<stem>.pfm with
+/// sidecars giving the sample grid; or a directory of .pfm files) matched by stem with the
+/// truth files of TRUTH_DIR (<stem>.pfm or <stem>.png, also under TRUTH_DIR/disparity/) and
+/// the masks of MASK_DIR (<stem>.png, optional). Every stem of either side is an item; an
+/// item without both sides, or whose files cannot be read, has a `problem`.
+/// @throws InputError when a directory is missing or no stem has both sides.
+std::vector<DisparityItem> EvaluateDisparityDirectories(const std::filesystem::path& results,
+                                                        const std::filesystem::path& truth_dir,
+                                                        const std::filesystem::path& mask_dir,
+                                                        const DisparityEvalOptions& options);
+
+/// The per-pair table with a final "all" row pooling every scored pair.
+Table DisparityTable(const std::vector<DisparityItem>& items, const DisparityEvalOptions& options);
+
+}  // namespace lunarnav::evaluation

@@ -1,0 +1,121 @@
+#include "evaluation/disparity_eval.h"
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <fstream>
+
+#include <opencv2/imgcodecs.hpp>
+
+#include "io/image_io.h"
+#include "io/json_io.h"
+#include "util/errors.h"
+#include "util/testing.h"
+
+namespace lunarnav::evaluation {
+namespace {
+namespace fs = std::filesystem;
+
+TEST(ScoreDisparity, AMapAgainstItselfHasNoErrorAndFullDensity) {
+  cv::Mat truth(30, 40, CV_32FC1);
+  cv::randu(truth, 1, 60);
+  truth.at<float>(3, 4) = NAN;  // no truth here
+  const DisparityScores s = ScoreDisparity(truth, truth, cv::Mat(), {}, {});
+  EXPECT_EQ(s.truth_pixels, 30 * 40 - 1);
+  EXPECT_EQ(s.DensityPct(), 100.0);
+  for (std::size_t k = 0; k < 4; ++k) EXPECT_EQ(s.BadPct(k), 0.0);
+  EXPECT_EQ(s.RmsErrorPx(), 0.0);
+}
+
+TEST(ScoreDisparity, MatchesHandCountedErrors) {
+  // Truth 10 everywhere on a 2 x 5 image; estimates with errors 0.25, 0.75, 1.5, 3, 5 in the
+  // first row and, in the second, one missing estimate, one masked pixel, three exact.
+  cv::Mat truth(2, 5, CV_32FC1, cv::Scalar(10));
+  cv::Mat estimate = (cv::Mat_<float>(2, 5) << 10.25f, 9.25f, 11.5f, 7, 15, NAN, 10, 10, 10, 99);
+  cv::Mat mask(2, 5, CV_8UC1, cv::Scalar(1));
+  mask.at<std::uint8_t>(1, 4) = 0;
+  const DisparityScores s = ScoreDisparity(estimate, truth, mask, {}, {});
+  EXPECT_EQ(s.truth_pixels, 9);
+  EXPECT_EQ(s.estimated_pixels, 8);
+  EXPECT_EQ(s.bad, (std::vector<long long>{4, 3, 2, 1}));  // > 0.5, > 1, > 2, > 4
+  EXPECT_DOUBLE_EQ(s.BadPct(1), 100.0 * 3 / 8);
+  EXPECT_DOUBLE_EQ(s.BadOrMissingPct(1), 100.0 * 4 / 9);
+  EXPECT_DOUBLE_EQ(s.MeanAbsErrorPx(), (0.25 + 0.75 + 1.5 + 3 + 5) / 8);
+  EXPECT_DOUBLE_EQ(s.RmsErrorPx(), std::sqrt((0.0625 + 0.5625 + 2.25 + 9 + 25) / 8));
+  EXPECT_NEAR(s.DensityPct(), 100.0 * 8 / 9, 1e-12);
+}
+
+TEST(ScoreDisparity, SamplesTheTruthOnTheSubsamplingGrid) {
+  cv::Mat truth(20, 30, CV_32FC1);
+  for (int y = 0; y < truth.rows; ++y) {
+    for (int x = 0; x < truth.cols; ++x) truth.at<float>(y, x) = static_cast<float>(x + 100 * y);
+  }
+  const SampleGrid grid{2, 1, 5, 4};
+  cv::Mat estimate(5, 6, CV_32FC1);
+  for (int j = 0; j < estimate.rows; ++j) {
+    for (int i = 0; i < estimate.cols; ++i) estimate.at<float>(j, i) = truth.at<float>(1 + 4 * j, 2 + 5 * i);
+  }
+  const DisparityScores s = ScoreDisparity(estimate, truth, cv::Mat(), grid, {});
+  EXPECT_EQ(s.truth_pixels, 30);
+  EXPECT_EQ(s.bad[0], 0);
+  // A full-size estimate is read at the grid points only; the other pixels do not count as
+  // missing.
+  cv::Mat full(truth.size(), CV_32FC1, cv::Scalar(NAN));
+  for (int y = 1; y < truth.rows; y += 4) {
+    for (int x = 2; x < truth.cols; x += 5) full.at<float>(y, x) = truth.at<float>(y, x) + 0.75f;
+  }
+  const DisparityScores f = ScoreDisparity(full, truth, cv::Mat(), grid, {});
+  EXPECT_EQ(f.truth_pixels, 30);
+  EXPECT_EQ(f.estimated_pixels, 30);
+  EXPECT_EQ(f.bad, (std::vector<long long>{30, 0, 0, 0}));
+  SampleGrid band = grid;  // rows 5 and 9 only
+  band.min_row = 4;
+  band.max_row = 10;
+  EXPECT_EQ(ScoreDisparity(full, truth, cv::Mat(), band, {}).truth_pixels, 12);
+  EXPECT_THROW(ScoreDisparity(cv::Mat(5, 7, CV_32FC1), truth, cv::Mat(), grid, {}), InputError);
+}
+
+TEST(ReadTruthDisparity, ReadsKittiPngsWithZeroAsNoTruth) {
+  util::ScopedTempDir tmp;
+  cv::Mat png(2, 2, CV_16UC1, cv::Scalar(256 * 12 + 128));
+  png.at<std::uint16_t>(0, 1) = 0;
+  ASSERT_TRUE(cv::imwrite((tmp.path() / "t.png").string(), png));
+  const cv::Mat truth = ReadTruthDisparity(tmp.path() / "t.png", 256.0);
+  EXPECT_FLOAT_EQ(truth.at<float>(0, 0), 12.5f);
+  EXPECT_TRUE(std::isnan(truth.at<float>(0, 1)));
+  ASSERT_TRUE(cv::imwrite((tmp.path() / "eight.png").string(), cv::Mat(2, 2, CV_8UC1, cv::Scalar(3))));
+  EXPECT_THROW(ReadTruthDisparity(tmp.path() / "eight.png", 256.0), InputError);
+}
+
+TEST(EvaluateDisparityDirectories, PairsStemsAndNamesEveryMismatch) {
+  util::ScopedTempDir tmp;
+  const fs::path results = tmp.path() / "run", truth = tmp.path() / "truth";
+  fs::create_directories(results / "disparity");
+  fs::create_directories(truth);
+  cv::Mat map(8, 10, CV_32FC1, cv::Scalar(20));
+  io::WriteImageAtomic(results / "disparity" / "a.pfm", map);
+  io::WriteImageAtomic(results / "disparity" / "only_estimate.pfm", map);
+  cv::Mat shifted = map + 1.5;
+  io::WriteImageAtomic(results / "disparity" / "b.pfm", shifted);
+  io::WriteImageAtomic(truth / "a.pfm", map);
+  io::WriteImageAtomic(truth / "b.pfm", map);
+  io::WriteImageAtomic(truth / "only_truth.pfm", map);
+  const std::vector<DisparityItem> items = EvaluateDisparityDirectories(results, truth, {}, {});
+  ASSERT_EQ(items.size(), 4u);
+  EXPECT_TRUE(items[0].problem.empty());
+  EXPECT_EQ(items[0].scores.bad[0], 0);
+  EXPECT_EQ(items[1].scores.bad, (std::vector<long long>{80, 80, 0, 0}));
+  EXPECT_NE(items[2].problem.find("no truth"), std::string::npos);
+  EXPECT_NE(items[3].problem.find("no estimate"), std::string::npos);
+  const Table table = DisparityTable(items, {});
+  ASSERT_EQ(table.rows.size(), 5u);  // 4 stems and "all"
+  EXPECT_TRUE(table.rows[2][1].IsNotAvailable());
+  EXPECT_DOUBLE_EQ(table.rows[4][3].number(), 50.0);  // bad-0.5 over both scored maps
+  EXPECT_THROW(EvaluateDisparityDirectories(results, tmp.path() / "missing", {}, {}), InputError);
+  fs::remove(truth / "a.pfm");
+  fs::remove(truth / "b.pfm");
+  EXPECT_THROW(EvaluateDisparityDirectories(results, truth, {}, {}), InputError);
+}
+
+}  // namespace
+}  // namespace lunarnav::evaluation
