@@ -8,6 +8,7 @@
 #include <Eigen/Geometry>
 
 #include "io/atomic_file.h"
+#include "positioning/attitude.h"
 #include "util/check.h"
 
 namespace lunarnav::positioning {
@@ -80,9 +81,7 @@ void WriteTrajectoryTum(const std::filesystem::path& path, const std::vector<Tra
   s.reserve(kBlockBytes + 1024);
   s += "# timestamp tx ty tz qx qy qz qw (lunarnav; ENU frame, body x forward, y left, z up)\n";
   for (const TrajectorySample& p : trajectory) {
-    const Eigen::Quaterniond q = Eigen::AngleAxisd(M_PI / 2 - p.heading_rad, Eigen::Vector3d::UnitZ()) *
-                                 Eigen::AngleAxisd(-p.pitch_rad, Eigen::Vector3d::UnitY()) *
-                                 Eigen::AngleAxisd(-p.roll_rad, Eigen::Vector3d::UnitX());
+    const Eigen::Quaterniond q = EnuFromBody(p.heading_rad, p.pitch_rad, p.roll_rad);
     Put(&s, p.t_s, -1);
     for (double v : {p.x_m, p.y_m, p.z_m}) {
       s += ' ';

@@ -1,0 +1,226 @@
+#include "evaluation/trajectory_eval.h"
+
+#include <algorithm>
+#include <charconv>
+#include <cmath>
+#include <fstream>
+#include <sstream>
+
+#include <Eigen/SVD>
+#include <Eigen/Geometry>
+
+#include "positioning/attitude.h"
+#include "positioning/trajectory_io.h"
+#include "util/check.h"
+
+namespace lunarnav::evaluation {
+namespace fs = std::filesystem;
+
+namespace {
+
+constexpr double kRadToDeg = 180.0 / M_PI;
+
+double AngleDeg(const Eigen::Matrix3d& r) {
+  return kRadToDeg * Eigen::AngleAxisd(r).angle();
+}
+
+std::vector<StampedPose> ReadTum(const fs::path& path) {
+  std::ifstream in(path);
+  LN_CHECK_INPUT(in.good()) << path.string() << ": cannot open";
+  std::vector<StampedPose> poses;
+  std::string line;
+  for (int number = 1; std::getline(in, line); ++number) {
+    const auto first = line.find_first_not_of(" \t\r");
+    if (first == std::string::npos || line[first] == '#') continue;
+    std::istringstream fields(line);
+    double v[8];
+    for (double& x : v) {
+      fields >> x;
+      LN_CHECK_INPUT(static_cast<bool>(fields)) << path.string() << ":" << number
+                                                << ": expected 8 numbers (t x y z qx qy qz qw)";
+    }
+    std::string rest;
+    LN_CHECK_INPUT(!(fields >> rest)) << path.string() << ":" << number << ": more than 8 fields";
+    Eigen::Quaterniond q(v[7], v[4], v[5], v[6]);
+    LN_CHECK_INPUT(std::abs(q.norm() - 1.0) < 1e-3)
+        << path.string() << ":" << number << ": quaternion of norm " << q.norm() << " (expected 1)";
+    StampedPose p;
+    p.t_s = v[0];
+    p.world_from_body.linear() = q.normalized().toRotationMatrix();
+    p.world_from_body.translation() = Eigen::Vector3d(v[1], v[2], v[3]);
+    LN_CHECK_INPUT(poses.empty() || p.t_s > poses.back().t_s)
+        << path.string() << ":" << number << ": time stamps must increase";
+    poses.push_back(p);
+  }
+  return poses;
+}
+
+// Cumulative path length of the positions.
+std::vector<double> PathLengths(const std::vector<Eigen::Isometry3d>& poses) {
+  std::vector<double> s(poses.size(), 0.0);
+  for (std::size_t i = 1; i < poses.size(); ++i) {
+    s[i] = s[i - 1] + (poses[i].translation() - poses[i - 1].translation()).norm();
+  }
+  return s;
+}
+
+// Umeyama's least-squares rigid transform taking `from` points onto `to` points.
+Eigen::Isometry3d RigidAlignment(const std::vector<Eigen::Isometry3d>& from,
+                                 const std::vector<Eigen::Isometry3d>& to) {
+  Eigen::Matrix3Xd a(3, from.size()), b(3, to.size());
+  for (std::size_t i = 0; i < from.size(); ++i) {
+    a.col(i) = from[i].translation();
+    b.col(i) = to[i].translation();
+  }
+  Eigen::Isometry3d t = Eigen::Isometry3d::Identity();
+  t.matrix() = Eigen::umeyama(a, b, false);
+  return t;
+}
+
+}  // namespace
+
+std::string ToString(Alignment alignment) {
+  switch (alignment) {
+    case Alignment::kNone: return "none";
+    case Alignment::kStart: return "start";
+    case Alignment::kOrigin: return "origin";
+    case Alignment::kRigid: return "rigid";
+  }
+  return "?";
+}
+
+Alignment AlignmentFromString(const std::string& text) {
+  for (Alignment a : {Alignment::kNone, Alignment::kStart, Alignment::kOrigin, Alignment::kRigid}) {
+    if (text == ToString(a)) return a;
+  }
+  throw std::invalid_argument("alignment: none, start, origin or rigid, got '" + text + "'");
+}
+
+void TrajectoryEvalOptions::Validate() const {
+  LN_CHECK_ARG(rpe_delta_m > 0) << "RPE delta: must be > 0 m";
+  for (double s : drift_segments_m) LN_CHECK_ARG(s > 0) << "drift segments: must be > 0 m";
+  LN_CHECK_ARG(drift_step >= 1) << "drift step: must be >= 1";
+}
+
+ErrorStats ErrorStats::Of(std::vector<double> values) {
+  ErrorStats s;
+  s.count = static_cast<long>(values.size());
+  if (values.empty()) return s;
+  double sum = 0, sum_sq = 0;
+  for (double v : values) {
+    sum += v;
+    sum_sq += v * v;
+  }
+  const double n = static_cast<double>(values.size());
+  s.mean = sum / n;
+  s.rmse = std::sqrt(sum_sq / n);
+  s.std = std::sqrt(std::max(0.0, sum_sq / n - s.mean * s.mean));  // evo: population std
+  std::sort(values.begin(), values.end());
+  const std::size_t mid = values.size() / 2;
+  s.median = values.size() % 2 ? values[mid] : 0.5 * (values[mid - 1] + values[mid]);
+  s.min = values.front();
+  s.max = values.back();
+  return s;
+}
+
+std::vector<StampedPose> ReadPoses(const fs::path& path) {
+  if (path.extension() != ".csv") return ReadTum(path);
+  std::vector<StampedPose> poses;
+  for (const auto& sample : positioning::ReadTrajectoryCsv(path)) {
+    StampedPose p;
+    p.t_s = sample.t_s;
+    p.world_from_body.linear() =
+        positioning::EnuFromBody(sample.heading_rad, sample.pitch_rad, sample.roll_rad).toRotationMatrix();
+    p.world_from_body.translation() = Eigen::Vector3d(sample.x_m, sample.y_m, sample.z_m);
+    poses.push_back(p);
+  }
+  return poses;
+}
+
+Eigen::Isometry3d InterpolatePose(const std::vector<StampedPose>& truth, double t_s) {
+  LN_CHECK(!truth.empty() && t_s >= truth.front().t_s && t_s <= truth.back().t_s) << "t outside the truth";
+  auto after = std::lower_bound(truth.begin(), truth.end(), t_s,
+                                [](const StampedPose& p, double t) { return p.t_s < t; });
+  if (after == truth.begin()) return after->world_from_body;
+  const StampedPose& b = *after;
+  const StampedPose& a = *(after - 1);
+  const double w = (t_s - a.t_s) / (b.t_s - a.t_s);
+  Eigen::Isometry3d pose = Eigen::Isometry3d::Identity();
+  pose.translation() = (1 - w) * a.world_from_body.translation() + w * b.world_from_body.translation();
+  pose.linear() = Eigen::Quaterniond(a.world_from_body.linear())
+                      .slerp(w, Eigen::Quaterniond(b.world_from_body.linear()))
+                      .toRotationMatrix();
+  return pose;
+}
+
+TrajectoryErrors EvaluateTrajectory(const std::vector<StampedPose>& estimate,
+                                    const std::vector<StampedPose>& truth,
+                                    const TrajectoryEvalOptions& options) {
+  options.Validate();
+  std::vector<Eigen::Isometry3d> est, ref;
+  for (const StampedPose& p : estimate) {
+    if (truth.empty() || p.t_s < truth.front().t_s || p.t_s > truth.back().t_s) continue;
+    est.push_back(p.world_from_body);
+    ref.push_back(InterpolatePose(truth, p.t_s));
+  }
+  LN_CHECK_INPUT(est.size() >= 2) << "only " << est.size()
+                                  << " estimated poses fall inside the truth's time span";
+  TrajectoryErrors errors;
+  errors.poses_matched = static_cast<long>(est.size());
+
+  // Alignment, then APE.
+  Eigen::Isometry3d align = Eigen::Isometry3d::Identity();
+  switch (options.alignment) {
+    case Alignment::kNone: break;
+    case Alignment::kStart: align.translation() = ref[0].translation() - est[0].translation(); break;
+    case Alignment::kOrigin: align = ref[0] * est[0].inverse(); break;
+    case Alignment::kRigid: align = RigidAlignment(est, ref); break;
+  }
+  std::vector<double> ape_t, ape_r;
+  for (std::size_t i = 0; i < est.size(); ++i) {
+    const Eigen::Isometry3d e = ref[i].inverse() * (align * est[i]);
+    ape_t.push_back(e.translation().norm());
+    ape_r.push_back(AngleDeg(e.linear()));
+  }
+  errors.ape_translation_m = ErrorStats::Of(std::move(ape_t));
+  errors.ape_rotation_deg = ErrorStats::Of(std::move(ape_r));
+
+  // RPE over consecutive pairs rpe_delta_m apart along the true path.
+  const std::vector<double> s = PathLengths(ref);
+  errors.path_length_m = s.back();
+  std::vector<double> rpe_t, rpe_r;
+  auto relative_error = [&](std::size_t i, std::size_t j) {
+    return (ref[i].inverse() * ref[j]).inverse() * (est[i].inverse() * est[j]);
+  };
+  for (std::size_t i = 0; i < est.size();) {
+    const auto j = static_cast<std::size_t>(std::lower_bound(s.begin() + i, s.end(), s[i] + options.rpe_delta_m) -
+                                            s.begin());
+    if (j >= est.size()) break;
+    const Eigen::Isometry3d e = relative_error(i, j);
+    rpe_t.push_back(e.translation().norm());
+    rpe_r.push_back(AngleDeg(e.linear()));
+    i = j;
+  }
+  errors.rpe_translation_m = ErrorStats::Of(std::move(rpe_t));
+  errors.rpe_rotation_deg = ErrorStats::Of(std::move(rpe_r));
+
+  // KITTI drift.
+  double sum_t = 0, sum_r = 0;
+  for (std::size_t i = 0; i < est.size(); i += static_cast<std::size_t>(options.drift_step)) {
+    for (double length : options.drift_segments_m) {
+      const auto j = static_cast<std::size_t>(std::lower_bound(s.begin() + i, s.end(), s[i] + length) - s.begin());
+      if (j >= est.size()) continue;
+      const Eigen::Isometry3d e = relative_error(i, j);
+      sum_t += e.translation().norm() / length;
+      sum_r += AngleDeg(e.linear()) / length;
+      ++errors.drift_segments;
+    }
+  }
+  if (errors.drift_segments > 0) {
+    errors.drift_translation_pct = 100.0 * sum_t / errors.drift_segments;
+    errors.drift_rotation_deg_per_m = sum_r / errors.drift_segments;
+  }
+  return errors;
+}
+
+}  // namespace lunarnav::evaluation

@@ -1,0 +1,71 @@
+// Trajectory error against ground truth: absolute and relative pose error as evo defines
+// them (APE, RPE), and drift over path segments as the KITTI odometry benchmark defines it.
+#pragma once
+
+#include <filesystem>
+#include <string>
+#include <vector>
+
+#include <Eigen/Geometry>
+
+namespace lunarnav::evaluation {
+
+/// A pose in the ENU world frame: world_from_body (body x forward, y left, z up).
+struct StampedPose {
+  double t_s = 0;
+  Eigen::Isometry3d world_from_body = Eigen::Isometry3d::Identity();
+};
+
+/// Reads a trajectory: lunarnav's trajectory CSV (`.csv`, docs/formats.md) or TUM
+/// ("t x y z qx qy qz qw", any other extension). @throws InputError with file:line.
+std::vector<StampedPose> ReadPoses(const std::filesystem::path& path);
+
+/// How the estimate is aligned to the truth before absolute errors are taken.
+enum class Alignment {
+  kNone,      ///< As they are (both in one world frame, e.g. a compass-referenced ENU).
+  kStart,     ///< Translated so the first positions coincide (dead reckoning starts at 0).
+  kOrigin,    ///< The first poses made to coincide (evo's --align_origin).
+  kRigid      ///< Least-squares rotation and translation over all poses (Umeyama; evo -a).
+};
+std::string ToString(Alignment alignment);
+Alignment AlignmentFromString(const std::string& text);  ///< std::invalid_argument if unknown.
+
+struct TrajectoryEvalOptions {
+  Alignment alignment = Alignment::kStart;
+  /// RPE pairs: consecutive, non-overlapping pose pairs this far apart along the true path.
+  double rpe_delta_m = 1.0;
+  /// KITTI drift: segment lengths along the true path, from every `drift_step` pose.
+  std::vector<double> drift_segments_m = {5, 10, 20, 40};
+  int drift_step = 10;
+  void Validate() const;
+};
+
+/// evo's statistics of one error.
+struct ErrorStats {
+  long count = 0;
+  double rmse = NAN, mean = NAN, median = NAN, std = NAN, min = NAN, max = NAN;
+  static ErrorStats Of(std::vector<double> values);
+};
+
+struct TrajectoryErrors {
+  long poses_matched = 0;           ///< Estimate poses inside the truth's time span.
+  double path_length_m = 0;         ///< Of the truth over the matched span.
+  ErrorStats ape_translation_m, ape_rotation_deg;
+  ErrorStats rpe_translation_m, rpe_rotation_deg;
+  /// KITTI: translation error per distance travelled (%) and rotation error (deg/m),
+  /// averaged over all segments; NaN when the path is shorter than every segment.
+  double drift_translation_pct = NAN, drift_rotation_deg_per_m = NAN;
+  long drift_segments = 0;
+};
+
+/// The truth interpolated at the estimate's time stamps (linear in position, slerp in
+/// rotation; estimate poses outside the truth's span are dropped), then the errors.
+/// @throws InputError when fewer than 2 estimate poses fall inside the truth's span.
+TrajectoryErrors EvaluateTrajectory(const std::vector<StampedPose>& estimate,
+                                    const std::vector<StampedPose>& truth,
+                                    const TrajectoryEvalOptions& options);
+
+/// The truth's pose at time t (t inside its span), interpolated.
+Eigen::Isometry3d InterpolatePose(const std::vector<StampedPose>& truth, double t_s);
+
+}  // namespace lunarnav::evaluation

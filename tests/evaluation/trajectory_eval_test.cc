@@ -1,0 +1,136 @@
+#include "evaluation/trajectory_eval.h"
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <fstream>
+
+#include "positioning/trajectory_io.h"
+#include "util/errors.h"
+#include "util/testing.h"
+
+namespace lunarnav::evaluation {
+namespace {
+
+// A rover driving a 20 m straight line north, then a quarter circle of radius 10 m to the
+// east, at 0.5 m/s, sampled at 10 Hz; z follows a gentle slope.
+std::vector<positioning::TrajectorySample> Drive() {
+  std::vector<positioning::TrajectorySample> out;
+  const double v = 0.5, dt = 0.1;
+  const double straight_s = 20 / v, arc_s = (M_PI / 2 * 10) / v;
+  for (double t = 0; t <= straight_s + arc_s + 1e-9; t += dt) {
+    positioning::TrajectorySample p;
+    p.t_s = t;
+    if (t <= straight_s) {
+      p.x_m = 0;
+      p.y_m = v * t;
+      p.heading_rad = 0;
+    } else {
+      const double a = v * (t - straight_s) / 10;  // angle travelled on the arc
+      p.x_m = 10 - 10 * std::cos(a);
+      p.y_m = 20 + 10 * std::sin(a);
+      p.heading_rad = a;
+    }
+    p.z_m = 0.01 * p.y_m;
+    p.speed_mps = v;
+    out.push_back(p);
+  }
+  return out;
+}
+
+std::vector<StampedPose> Poses(const std::vector<positioning::TrajectorySample>& samples,
+                               const util::ScopedTempDir& tmp) {
+  positioning::WriteTrajectoryTum(tmp.path() / "t.tum", samples);
+  return ReadPoses(tmp.path() / "t.tum");
+}
+
+TEST(EvaluateTrajectory, ATrajectoryAgainstItselfHasNoError) {
+  util::ScopedTempDir tmp;
+  const auto poses = Poses(Drive(), tmp);
+  for (Alignment a : {Alignment::kNone, Alignment::kStart, Alignment::kOrigin, Alignment::kRigid}) {
+    TrajectoryEvalOptions options;
+    options.alignment = a;
+    const TrajectoryErrors e = EvaluateTrajectory(poses, poses, options);
+    EXPECT_EQ(e.poses_matched, static_cast<long>(poses.size()));
+    EXPECT_NEAR(e.ape_translation_m.max, 0, 1e-6) << ToString(a);
+    EXPECT_NEAR(e.ape_rotation_deg.max, 0, 1e-4) << ToString(a);
+    EXPECT_NEAR(e.rpe_translation_m.max, 0, 1e-6);
+    EXPECT_NEAR(e.drift_translation_pct, 0, 1e-6);
+    EXPECT_NEAR(e.path_length_m, 20 + M_PI / 2 * 10, 0.01);
+  }
+}
+
+TEST(EvaluateTrajectory, AShiftedCopyHasTheShiftAsAbsoluteErrorAndNoRelativeError) {
+  util::ScopedTempDir tmp;
+  const auto truth = Poses(Drive(), tmp);
+  auto shifted = truth;
+  const Eigen::Vector3d shift(0.3, -0.4, 0.0);  // 0.5 m
+  for (StampedPose& p : shifted) p.world_from_body.translation() += shift;
+  TrajectoryEvalOptions options;
+  options.alignment = Alignment::kNone;
+  TrajectoryErrors e = EvaluateTrajectory(shifted, truth, options);
+  EXPECT_NEAR(e.ape_translation_m.rmse, 0.5, 1e-6);
+  EXPECT_NEAR(e.ape_translation_m.min, 0.5, 1e-6);
+  EXPECT_NEAR(e.ape_translation_m.std, 0.0, 1e-6);
+  EXPECT_NEAR(e.rpe_translation_m.max, 0.0, 1e-6);
+  options.alignment = Alignment::kStart;
+  e = EvaluateTrajectory(shifted, truth, options);
+  EXPECT_NEAR(e.ape_translation_m.max, 0.0, 1e-6);
+}
+
+TEST(EvaluateTrajectory, AFivePercentLongOdometryDriftsFivePercent) {
+  util::ScopedTempDir tmp;
+  auto samples = Drive();
+  samples.resize(401);  // the 20 m straight line only
+  const auto truth = Poses(samples, tmp);
+  auto scaled = truth;
+  for (StampedPose& p : scaled) p.world_from_body.translation() *= 1.05;
+  const TrajectoryErrors e = EvaluateTrajectory(scaled, truth, {});
+  // KITTI divides by the nominal segment length; the true segments are at most one sample
+  // spacing (5 cm) longer, so the drift is 5 % to within 5 % x 0.05 / 5.
+  EXPECT_NEAR(e.drift_translation_pct, 5.0, 0.05);
+  EXPECT_NEAR(e.drift_rotation_deg_per_m, 0.0, 1e-6);
+  EXPECT_GT(e.drift_segments, 0);
+  // 5 % of the end point's distance from the start (20 m north, 0.2 m up).
+  EXPECT_NEAR(e.ape_translation_m.max, 0.05 * std::hypot(20.0, 0.2), 1e-6);
+  // RPE pairs are 1 m apart on the true path: each is 5 cm too long.
+  EXPECT_NEAR(e.rpe_translation_m.mean, 0.05, 1e-3);
+}
+
+TEST(EvaluateTrajectory, RigidAlignmentRemovesAConstantHeadingOffset) {
+  util::ScopedTempDir tmp;
+  const auto truth = Poses(Drive(), tmp);
+  auto rotated = truth;
+  const Eigen::Isometry3d yaw(Eigen::AngleAxisd(0.1, Eigen::Vector3d::UnitZ()));
+  for (StampedPose& p : rotated) p.world_from_body = yaw * p.world_from_body;
+  TrajectoryEvalOptions options;
+  options.alignment = Alignment::kStart;
+  EXPECT_GT(EvaluateTrajectory(rotated, truth, options).ape_translation_m.max, 1.0);
+  options.alignment = Alignment::kRigid;
+  const TrajectoryErrors e = EvaluateTrajectory(rotated, truth, options);
+  EXPECT_NEAR(e.ape_translation_m.max, 0.0, 1e-6);
+  EXPECT_NEAR(e.ape_rotation_deg.max, 0.0, 1e-4);
+}
+
+TEST(ReadPoses, CsvAndTumGiveTheSamePoses) {
+  util::ScopedTempDir tmp;
+  auto samples = Drive();
+  for (auto& s : samples) {
+    s.pitch_rad = 0.05;
+    s.roll_rad = -0.02;
+  }
+  positioning::WriteTrajectoryCsv(tmp.path() / "t.csv", samples);
+  positioning::WriteTrajectoryTum(tmp.path() / "t.tum", samples);
+  const auto a = ReadPoses(tmp.path() / "t.csv"), b = ReadPoses(tmp.path() / "t.tum");
+  ASSERT_EQ(a.size(), b.size());
+  for (std::size_t i = 0; i < a.size(); i += 37) {
+    EXPECT_TRUE(a[i].world_from_body.isApprox(b[i].world_from_body, 1e-6)) << i;
+  }
+  std::ofstream(tmp.path() / "bad.tum") << "0 1 2 3 0 0 0 1\n1 1 2 3 0 0 0.5 0.5\n";
+  EXPECT_THROW(ReadPoses(tmp.path() / "bad.tum"), InputError);
+  const auto far = std::vector<StampedPose>{{100, {}}, {101, {}}};
+  EXPECT_THROW(EvaluateTrajectory(far, a, {}), InputError);  // no overlap in time
+}
+
+}  // namespace
+}  // namespace lunarnav::evaluation
