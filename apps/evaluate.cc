@@ -1,10 +1,14 @@
 // evaluate: results against ground truth -> the paper's tables and figures.
 // docs/evaluate.md describes every subcommand, option and output.
+#include <algorithm>
 #include <filesystem>
+#include <sstream>
 #include <string>
 #include <vector>
 
 #include "evaluation/disparity_eval.h"
+#include "evaluation/figure.h"
+#include "evaluation/trials_eval.h"
 #include "io/atomic_file.h"
 #include "io/json_io.h"
 #include "util/cli.h"
@@ -68,6 +72,122 @@ int RunDisparity(const DisparityArgs& args, int argc, char** argv) {
   return failed > 0 ? kExitBatchPartial : kExitOk;
 }
 
+// One trial set of `evaluate trials`: NAME=TRAJECTORY,TRIALS[,TRUTH].
+struct TrialSetSpec {
+  std::string name;
+  fs::path trajectory, trials, truth;
+};
+
+TrialSetSpec ParseTrialSet(const std::string& text) {
+  const auto eq = text.find('=');
+  std::vector<std::string> paths;
+  if (eq != std::string::npos) {
+    std::string rest = text.substr(eq + 1);
+    for (std::size_t from = 0;;) {
+      const auto comma = rest.find(',', from);
+      paths.push_back(rest.substr(from, comma - from));
+      if (comma == std::string::npos) break;
+      from = comma + 1;
+    }
+  }
+  const bool ok = eq != std::string::npos && eq > 0 && (paths.size() == 2 || paths.size() == 3) &&
+                  std::none_of(paths.begin(), paths.end(), [](const std::string& p) { return p.empty(); });
+  if (!ok) {
+    throw std::invalid_argument("--set: expected NAME=TRAJECTORY,TRIALS[,TRUTH], got '" + text + "'");
+  }
+  TrialSetSpec spec{text.substr(0, eq), paths[0], paths[1], {}};
+  if (paths.size() == 3) spec.truth = paths[2];
+  return spec;
+}
+
+struct TrialsArgs {
+  std::vector<std::string> sets;
+  fs::path output_dir;
+  std::string alignment = "start";
+  evaluation::TrialsEvalOptions options;
+  evaluation::TrajectoryEvalOptions trajectory_options;
+};
+
+// The figure of `evaluate trials`: each trial's distance error against its length, per set.
+evaluation::FigureResult TrialsFigure(const fs::path& dir, const std::vector<TrialSetSpec>& specs) {
+  std::ostringstream gp;
+  gp << "set title \"Distance error of each commanded motion (Figure 7's trials)\"\n"
+     << "set xlabel \"true distance (m)\"\nset ylabel \"distance error (%)\"\nset grid\n"
+     << "set key outside right top\nset offsets graph 0.05, 0.05, 0.1, 0.1\nset xzeroaxis\n"
+     << "plot ";
+  for (std::size_t i = 0; i < specs.size(); ++i) {
+    // trial_details.csv: column 1 the set, 6 the true distance, 8 the distance error.
+    gp << (i ? ", \\\n     " : "") << "\"trial_details.csv\" using ((strcol(1) eq "
+       << evaluation::GnuplotString(specs[i].name) << ") ? $6 : 1/0):8 with points pt 7 ps 1.2 title "
+       << evaluation::GnuplotString(specs[i].name);
+  }
+  gp << "\n";
+  return evaluation::WriteFigure(dir, "trials", gp.str());
+}
+
+int RunTrials(const TrialsArgs& args, int argc, char** argv) {
+  util::Timer timer;
+  std::vector<TrialSetSpec> specs;
+  for (const std::string& text : args.sets) specs.push_back(ParseTrialSet(text));
+  evaluation::TrajectoryEvalOptions trajectory_options = args.trajectory_options;
+  trajectory_options.alignment = evaluation::AlignmentFromString(args.alignment);
+  trajectory_options.Validate();
+  args.options.Validate();
+  io::CreateOutputDirectory(args.output_dir);
+
+  std::vector<evaluation::TrialSetSummary> summaries;
+  std::vector<std::pair<std::string, std::vector<evaluation::TrialResult>>> details;
+  std::vector<std::pair<std::string, evaluation::TrajectoryErrors>> trajectory_errors;
+  json inputs = json::array();
+  for (const TrialSetSpec& spec : specs) {
+    const auto estimate = evaluation::ReadPoses(spec.trajectory);
+    const auto trials = evaluation::ReadTrials(spec.trials);
+    auto results = evaluation::EvaluateTrials(estimate, trials, args.options);
+    summaries.push_back(evaluation::SummarizeTrials(spec.name, results));
+    details.emplace_back(spec.name, std::move(results));
+    json input = {{"name", spec.name}, {"trajectory", spec.trajectory.string()}, {"trials", spec.trials.string()}};
+    if (!spec.truth.empty()) {
+      const auto truth = evaluation::ReadPoses(spec.truth);
+      trajectory_errors.emplace_back(spec.name, evaluation::EvaluateTrajectory(estimate, truth, trajectory_options));
+      input["truth"] = spec.truth.string();
+    }
+    inputs.push_back(input);
+  }
+  const evaluation::Table table = evaluation::TrialsTable(summaries);
+  const evaluation::Table details_table = evaluation::TrialDetailsTable(details);
+  evaluation::WriteTable(args.output_dir, "trials", table);
+  evaluation::WriteTable(args.output_dir, "trial_details", details_table);
+  json summary = SummaryHead("trials", argc, argv);
+  summary["inputs"] = inputs;
+  summary["options"] = {{"min_distance_m", args.options.min_distance_m},
+                        {"alignment", args.alignment},
+                        {"rpe_delta_m", trajectory_options.rpe_delta_m},
+                        {"drift_segments_m", trajectory_options.drift_segments_m},
+                        {"drift_step", trajectory_options.drift_step}};
+  long trial_count = 0;
+  for (const auto& s : summaries) trial_count += s.trials;
+  summary["counts"] = {{"sets", specs.size()}, {"trials", trial_count}};
+  summary["table"] = table.ToJson();
+  if (!trajectory_errors.empty()) {
+    const evaluation::Table errors_table = evaluation::TrajectoryErrorsTable(trajectory_errors, trajectory_options);
+    evaluation::WriteTable(args.output_dir, "trajectory_errors", errors_table);
+    summary["trajectory_errors"] = errors_table.ToJson();
+  }
+  const evaluation::FigureResult figure = TrialsFigure(args.output_dir, specs);
+  if (!figure.rendered) {
+    LN_LOG(Warning) << figure.png.string() << ": not drawn: " << figure.problem;
+  }
+  summary["figures"] = {{{"png", figure.png.filename().string()},
+                         {"data", "trial_details.csv"},
+                         {"rendered", figure.rendered},
+                         {"problem", figure.problem}}};
+  summary["timings_s"] = {{"total", timer.ElapsedSeconds()}};
+  io::WriteJsonAtomic(args.output_dir / "summary.json", summary);
+  LN_LOG(Info) << "evaluate trials: " << trial_count << " trials in " << specs.size() << " sets; "
+               << (args.output_dir / "trials.md").string();
+  return kExitOk;
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
@@ -98,9 +218,31 @@ int main(int argc, char** argv) {
       ->capture_default_str();
   disparity_cmd->add_option("-o,--output", disparity.output_dir, "output directory (created)")->required();
 
+  TrialsArgs trials;
+  CLI::App* trials_cmd = app.add_subcommand(
+      "trials", "commanded-motion trials: distance and orientation errors (Figure 7), APE/RPE/drift");
+  trials_cmd
+      ->add_option("--set", trials.sets,
+                   "a trial set NAME=TRAJECTORY,TRIALS[,TRUTH]: posfilter trajectory (.csv or TUM), trials "
+                   "file (lunarnav.trials/1), optional ground-truth trajectory; repeatable")
+      ->required();
+  trials_cmd->add_option("--min-distance", trials.options.min_distance_m,
+                         "trials shorter than this (m) get no distance error in percent")
+      ->capture_default_str();
+  trials_cmd->add_option("--align", trials.alignment, "APE alignment: none, start, origin or rigid")
+      ->capture_default_str();
+  trials_cmd->add_option("--rpe-delta", trials.trajectory_options.rpe_delta_m,
+                         "RPE pose pairs this far apart along the true path (m)")
+      ->capture_default_str();
+  trials_cmd->add_option("--drift-segments", trials.trajectory_options.drift_segments_m,
+                         "KITTI drift segment lengths (m, default 5,10,20,40)")
+      ->delimiter(',');
+  trials_cmd->add_option("-o,--output", trials.output_dir, "output directory (created)")->required();
+
   if (const auto exit_code = util::ParseCommandLine(&app, argc, argv, quiet)) return *exit_code;
   return util::RunMain([&]() -> int {
     if (disparity_cmd->parsed()) return RunDisparity(disparity, argc, argv);
+    if (trials_cmd->parsed()) return RunTrials(trials, argc, argv);
     return kExitUsage;
   });
 }

@@ -1,6 +1,7 @@
 // Integration tests of the evaluate tool.
 #include <gtest/gtest.h>
 
+#include <cmath>
 #include <filesystem>
 #include <fstream>
 
@@ -8,6 +9,7 @@
 
 #include "integration/run_tool.h"
 #include "io/json_io.h"
+#include "positioning/trajectory_io.h"
 #include "util/testing.h"
 
 namespace lunarnav {
@@ -55,6 +57,55 @@ TEST(EvaluateDisparity, ScoresStereoBatchOutputAgainstTheTestdataTruth) {
                                  eval.string()}, tmp.path()).exit_code, 3);
   EXPECT_EQ(RunTool("evaluate", {"disparity", run.string(), "-o", eval.string()}, tmp.path()).exit_code, 2);
   EXPECT_EQ(RunTool("evaluate", {}, tmp.path()).exit_code, 2);
+}
+
+TEST(EvaluateTrials, ScoresAPosfilterTrajectoryAgainstTapeMeasuredTrials) {
+  ScopedTempDir tmp;
+  const fs::path pos = tmp.path() / "pos", eval = tmp.path() / "eval";
+  ASSERT_EQ(RunTool("posfilter", {TestDataPath("telemetry/turning.csv").string(), "--sensors",
+                                  TestDataPath("telemetry/ratler_sensors.json").string(), "-o", pos.string(), "-q"},
+                    tmp.path()).exit_code, 0);
+  // Trials whose "true" end points are the computed ones pulled 20 % closer to the start
+  // (so the computed distance is 25 % long) and whose true turn is the computed one + 9 deg.
+  const auto samples = positioning::ReadTrajectoryCsv(pos / "trajectory.csv");
+  ASSERT_GT(samples.size(), 1000u);
+  nlohmann::json trials = nlohmann::json::array();
+  for (std::size_t a : {0ul, 400ul}) {
+    const auto& s = samples[a];
+    const auto& e = samples[a + 400];
+    trials.push_back({{"start", {{"t_s", s.t_s}, {"x_m", s.x_m}, {"y_m", s.y_m}, {"heading_deg", s.heading_rad * 180 / M_PI}}},
+                      {"end",
+                       {{"t_s", e.t_s},
+                        {"x_m", s.x_m + 0.8 * (e.x_m - s.x_m)},
+                        {"y_m", s.y_m + 0.8 * (e.y_m - s.y_m)},
+                        {"heading_deg", e.heading_rad * 180 / M_PI + 9}}}});
+  }
+  io::WriteJsonAtomic(tmp.path() / "trials.json", {{"format", "lunarnav.trials/1"}, {"trials", trials}});
+  const std::string set = "A=" + (pos / "trajectory.csv").string() + "," + (tmp.path() / "trials.json").string() +
+                          "," + (pos / "trajectory.tum").string();
+  const auto result = RunTool("evaluate", {"trials", "--set", set, "-o", eval.string()}, tmp.path());
+  ASSERT_EQ(result.exit_code, 0) << result.stderr_text;
+  for (const char* name : {"trials", "trial_details", "trajectory_errors"}) {
+    for (const char* ext : {".csv", ".json", ".md"}) EXPECT_TRUE(fs::exists(eval / (std::string(name) + ext)));
+  }
+  EXPECT_TRUE(fs::exists(eval / "trials.gp"));
+  const nlohmann::json summary = io::ReadJson(eval / "summary.json");
+  EXPECT_EQ(summary["counts"]["trials"], 2);
+  const nlohmann::json& row = summary["table"]["rows"][0];
+  EXPECT_NEAR(row["mean_distance"].get<double>(), 25.0, 0.05);
+  EXPECT_NEAR(row["stdev_distance"].get<double>(), 0.0, 0.05);
+  EXPECT_NEAR(row["mean_orient"].get<double>(), -100 * 9.0 / 360, 0.01);
+  // The trajectory against itself as truth has no error.
+  EXPECT_NEAR(summary["trajectory_errors"]["rows"][0]["ape_rmse"].get<double>(), 0.0, 1e-3);
+
+  // A malformed --set is a usage error; a trial outside the trajectory is bad input.
+  EXPECT_EQ(RunTool("evaluate", {"trials", "--set", "A=only-one-path", "-o", eval.string()}, tmp.path()).exit_code,
+            2);
+  trials[1]["end"]["t_s"] = 1e6;
+  io::WriteJsonAtomic(tmp.path() / "trials.json", {{"format", "lunarnav.trials/1"}, {"trials", trials}});
+  const auto outside = RunTool("evaluate", {"trials", "--set", set, "-o", eval.string()}, tmp.path());
+  EXPECT_EQ(outside.exit_code, 3);
+  EXPECT_EQ(outside.ErrorLines(), 1) << outside.stderr_text;
 }
 
 }  // namespace
