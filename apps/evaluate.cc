@@ -6,11 +6,14 @@
 #include <string>
 #include <vector>
 
+#include "evaluation/correlation_study.h"
 #include "evaluation/disparity_eval.h"
 #include "evaluation/figure.h"
 #include "evaluation/trials_eval.h"
 #include "io/atomic_file.h"
+#include "io/image_io.h"
 #include "io/json_io.h"
+#include "util/check.h"
 #include "util/cli.h"
 #include "util/errors.h"
 #include "util/log.h"
@@ -188,6 +191,59 @@ int RunTrials(const TrialsArgs& args, int argc, char** argv) {
   return kExitOk;
 }
 
+struct CorrelationArgs {
+  fs::path left, right, output_dir;
+  std::vector<int> pixel;
+  std::string reference = "right";
+  evaluation::CorrelationStudyOptions options;
+};
+
+int RunCorrelation(CorrelationArgs args, int argc, char** argv) {
+  util::Timer timer;
+  args.options.x = args.pixel[0];
+  args.options.y = args.pixel[1];
+  args.options.matcher.reference = stereo::ReferenceImageFromString(args.reference);
+  args.options.Validate();
+  const cv::Mat left = io::ReadGreyImage(args.left);
+  const cv::Mat right = io::ReadGreyImage(args.right);
+  LN_CHECK_INPUT(left.size() == right.size() && left.type() == right.type())
+      << args.left.string() << ", " << args.right.string() << ": the images differ in size or bit depth";
+  LN_CHECK_INPUT(args.options.x >= 0 && args.options.x < left.cols && args.options.y >= 0 &&
+                 args.options.y < left.rows)
+      << "--pixel " << args.options.x << "," << args.options.y << ": outside the " << left.cols << " x "
+      << left.rows << " image";
+  const evaluation::CorrelationStudy study = evaluation::RunCorrelationStudy(left, right, args.options);
+  io::CreateOutputDirectory(args.output_dir);
+  io::WriteFileAtomic(args.output_dir / "correlation_curves.csv", evaluation::CorrelationCurvesCsv(study));
+  const evaluation::Table table = evaluation::CorrelationPeaksTable(study);
+  evaluation::WriteTable(args.output_dir, "correlation", table);
+  const evaluation::FigureResult figure = evaluation::WriteFigure(
+      args.output_dir, "correlation", evaluation::CorrelationFigureCommands(study, "correlation_curves.csv"), 1200,
+      550);
+  if (!figure.rendered) {
+    LN_LOG(Warning) << figure.png.string() << ": not drawn: " << figure.problem;
+  }
+  json summary = SummaryHead("correlation", argc, argv);
+  summary["inputs"] = {{"left", args.left.string()}, {"right", args.right.string()}};
+  summary["options"] = {{"pixel", {args.options.x, args.options.y}},
+                        {"steps_x", args.options.steps_x},
+                        {"steps_y", args.options.steps_y},
+                        {"zoom_px", args.options.zoom_px},
+                        {"matcher", args.options.matcher.ToJson()}};
+  summary["counts"] = {{"curves", study.entries.size()},
+                       {"disparities", args.options.matcher.max_disparity_px - args.options.matcher.min_disparity_px + 1}};
+  summary["table"] = table.ToJson();
+  summary["figures"] = {{{"png", figure.png.filename().string()},
+                         {"data", "correlation_curves.csv"},
+                         {"rendered", figure.rendered},
+                         {"problem", figure.problem}}};
+  summary["timings_s"] = {{"total", timer.ElapsedSeconds()}};
+  io::WriteJsonAtomic(args.output_dir / "summary.json", summary);
+  LN_LOG(Info) << "evaluate correlation: " << study.entries.size() << " curves; "
+               << (args.output_dir / "correlation.md").string();
+  return kExitOk;
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
@@ -239,10 +295,39 @@ int main(int argc, char** argv) {
       ->delimiter(',');
   trials_cmd->add_option("-o,--output", trials.output_dir, "output directory (created)")->required();
 
+  CorrelationArgs correlation;
+  CLI::App* correlation_cmd = app.add_subcommand(
+      "correlation", "correlation curve C(d) at one pixel for several subsamplings (Figure 5)");
+  correlation_cmd->add_option("LEFT", correlation.left, "rectified left image")->required();
+  correlation_cmd->add_option("RIGHT", correlation.right, "rectified right image")->required();
+  correlation_cmd->add_option("--pixel", correlation.pixel, "X,Y: the pixel, in the reference image")
+      ->required()
+      ->delimiter(',')
+      ->expected(2);
+  correlation_cmd->add_option("--steps-x", correlation.options.steps_x, "column steps dx (default 1,3,5)")
+      ->delimiter(',');
+  correlation_cmd->add_option("--steps-y", correlation.options.steps_y, "row steps dy (default 1,2,4)")
+      ->delimiter(',');
+  correlation_cmd->add_option("--wx", correlation.options.matcher.half_window_x_px, "window half-width w_x (px)")
+      ->capture_default_str();
+  correlation_cmd->add_option("--wy", correlation.options.matcher.half_window_y_px, "window half-height w_y (px)")
+      ->capture_default_str();
+  correlation_cmd->add_option("--min-disparity", correlation.options.matcher.min_disparity_px, "d_min (px)")
+      ->capture_default_str();
+  correlation_cmd->add_option("--max-disparity", correlation.options.matcher.max_disparity_px, "d_max (px)")
+      ->capture_default_str();
+  correlation_cmd->add_option("--reference", correlation.reference, "reference image: right or left")
+      ->capture_default_str();
+  correlation_cmd->add_option("--zoom", correlation.options.zoom_px,
+                              "half-width of the magnified plot around the peak (px)")
+      ->capture_default_str();
+  correlation_cmd->add_option("-o,--output", correlation.output_dir, "output directory (created)")->required();
+
   if (const auto exit_code = util::ParseCommandLine(&app, argc, argv, quiet)) return *exit_code;
   return util::RunMain([&]() -> int {
     if (disparity_cmd->parsed()) return RunDisparity(disparity, argc, argv);
     if (trials_cmd->parsed()) return RunTrials(trials, argc, argv);
+    if (correlation_cmd->parsed()) return RunCorrelation(correlation, argc, argv);
     return kExitUsage;
   });
 }

