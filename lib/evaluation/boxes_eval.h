@@ -1,0 +1,71 @@
+// The box experiment of Krotkov & Hebert (1995) sec. 3.4, Figure 4: boxes whose front faces
+// are parallel to the X axis at known distances; E_Y is the RMS difference between the
+// measured Y of the points on a face and the face's true (tape-measured) Y.
+#pragma once
+
+#include <filesystem>
+#include <map>
+#include <string>
+#include <vector>
+
+#include <opencv2/core.hpp>
+
+#include "evaluation/table.h"
+
+namespace lunarnav::evaluation {
+
+/// A box face as a tape measure gives it, in the vehicle frame (X right, Y forward, Z up, m).
+struct BoxFace {
+  int index = 0;
+  double front_y_m = 0;
+  double x_min_m = 0, x_max_m = 0, z_min_m = 0, z_max_m = 0;
+};
+
+/// A box list (format "lunarnav.boxes/1", docs/formats.md): `boxes` for every frame, and
+/// per-frame lists under `frames` (stem -> faces) when the vehicle moved.
+struct BoxList {
+  std::vector<BoxFace> boxes;
+  std::map<std::string, std::vector<BoxFace>> frames;
+  /// The faces of frame `stem`: its own list if there is one, else `boxes`.
+  const std::vector<BoxFace>& For(const std::string& stem) const;
+};
+/// @throws InputError naming the file and the entry.
+BoxList ReadBoxList(const std::filesystem::path& path);
+
+struct BoxesEvalOptions {
+  /// Points within this margin (m) of a face's X or Z edges are not used: the edge pixels mix
+  /// the face with what lies beside, above or below it.
+  double edge_margin_m = 0.05;
+  /// A point in the face's X-Z extent belongs to the face when its Y is within this much of
+  /// the true Y, as a fraction of the true Y (what lies beyond or in front is another surface).
+  double y_gate_fraction = 0.25;
+  void Validate() const;
+};
+
+/// Sums over the points of one face in one or more maps.
+struct FaceErrors {
+  long points = 0;
+  double sum_error = 0, sum_sq_error = 0;  ///< Of (measured Y - true Y), metres.
+  void Add(const FaceErrors& other);
+  double Rms() const;   ///< E_Y; NaN without points.
+  double Mean() const;  ///< The bias; NaN without points.
+};
+
+/// The errors of each face (same order as `faces`) in one XYZ map (CV_32FC3, vehicle frame,
+/// NaN where there is no point).
+std::vector<FaceErrors> EvaluateBoxFaces(const cv::Mat& xyz, const std::vector<BoxFace>& faces,
+                                         const BoxesEvalOptions& options);
+
+/// One run of stereo-batch (one subsampling) scored over all its frames: per box distance
+/// (the true Y rounded to the centimetre), the pooled errors.
+struct BoxRunResult {
+  std::string name;        ///< e.g. "dx5_dy4".
+  int step_x = 1, step_y = 1;
+  std::map<long, FaceErrors> by_distance_cm;
+};
+
+/// Figure 4's table: one row per distance, E_Y (and point counts) per run, and the predicted
+/// error of the rig for a one-pixel disparity error where given (distance -> metres).
+Table BoxesTable(const std::vector<BoxRunResult>& runs, const std::map<long, double>& predicted_m);
+
+}  // namespace lunarnav::evaluation
