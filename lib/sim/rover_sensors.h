@@ -28,13 +28,17 @@ struct SensorErrorOptions {
   double compass_noise_corner_hz = 0.25;  ///< > 0.
   double compass_wander_deg = 0.5;        ///< RMS of slow magnetic disturbances (Gauss-Markov).
   double compass_wander_tau_s = 30.0;     ///< Their correlation time, > 0.
-  /// Transients from the drive motors' currents: degrees of deflection per deg/s of turn
-  /// rate, per deg/s^2 of turn acceleration and per m/s^2 of acceleration, smoothed with a
-  /// time constant compass_transient_tau_s.
-  double compass_turn_deg_per_dps = 1.0;
+  /// Dynamic transients: degrees of deflection per deg/s of turn rate, per deg/s^2 of turn
+  /// acceleration and per m/s^2 of acceleration, smoothed with a time constant
+  /// compass_transient_tau_s. The turn term is negative: the damping fluid swirls round with
+  /// a turn and drags the gimballed sensor along, so the compass reads behind the true
+  /// heading while the rover turns (on top of the noise filter's own lag; the Kalman filter
+  /// of sec. 4.1 exists because of this). The other terms are the jolts of the drive motors
+  /// starting and stopping.
+  double compass_turn_deg_per_dps = -1.5;
   double compass_turn_accel_deg_per_dps2 = 0.5;
   double compass_accel_deg_per_mps2 = 5.0;
-  double compass_transient_tau_s = 0.5;   ///< >= 0.
+  double compass_transient_tau_s = 1.0;   ///< >= 0.
   // Turn-rate gyro.
   double gyro_bias_dps = 1.0;             ///< RMS of the constant bias.
   double gyro_bias_walk_dps_per_sqrt_s = 0.002;  ///< Random walk of the bias.

@@ -50,6 +50,18 @@ std::optional<FaultKind> FaultKindFromString(const std::string& name) {
   return std::nullopt;
 }
 
+namespace {
+
+// A kind as typed on a command line: hyphens for underscores, a plural s.
+std::optional<FaultKind> FaultKindFromCommandLine(std::string name) {
+  std::replace(name.begin(), name.end(), '-', '_');
+  if (const auto kind = FaultKindFromString(name)) return kind;
+  if (!name.empty() && name.back() == 's') return FaultKindFromString(name.substr(0, name.size() - 1));
+  return std::nullopt;
+}
+
+}  // namespace
+
 bool IsRowFault(FaultKind kind) {
   return kind == FaultKind::kRepeatedTimestamp || kind == FaultKind::kOutOfOrderTimestamp;
 }
@@ -65,10 +77,10 @@ FaultSpec ParseFaultSpec(const std::string& text) {
   spec.text = text;
   const std::size_t kind_end = std::min(text.find_first_of(":@*~+"), text.size());
   const std::string kind = text.substr(0, kind_end);
-  const std::optional<FaultKind> k = FaultKindFromString(kind);
+  const std::optional<FaultKind> k = FaultKindFromCommandLine(kind);
   LN_CHECK_ARG(k.has_value()) << "fault '" << text << "': unknown kind '" << kind
-                              << "' (known: spike stuck dropout repeated_timestamp out_of_order_timestamp "
-                                 "out_of_range)";
+                              << "' (known: spikes stuck dropouts timestamps repeated_timestamp "
+                                 "out_of_order_timestamp out-of-range)";
   spec.kind = *k;
   std::size_t pos = kind_end;
   bool placed = false;
@@ -118,6 +130,18 @@ FaultSpec ParseFaultSpec(const std::string& text) {
     pos = end;
   }
   return spec;
+}
+
+std::vector<FaultSpec> ParseFaultSpecs(const std::string& text) {
+  const std::size_t kind_end = std::min(text.find_first_of(":@*~+"), text.size());
+  if (text.substr(0, kind_end) != "timestamps") return {ParseFaultSpec(text)};
+  const std::string rest = text.substr(kind_end);
+  LN_CHECK_ARG(rest.find('@') == std::string::npos)
+      << "fault '" << text << "': timestamps takes no @TIME (give repeated_timestamp@T or out_of_order_timestamp@T)";
+  std::vector<FaultSpec> specs = {ParseFaultSpec("repeated_timestamp" + rest),
+                                  ParseFaultSpec("out_of_order_timestamp" + rest)};
+  for (FaultSpec& s : specs) s.text = text;
+  return specs;
 }
 
 std::vector<InjectedFault> InjectFaults(const std::vector<FaultSpec>& specs, const telemetry::SensorModel& model,
@@ -266,11 +290,12 @@ std::vector<InjectedFault> InjectFaults(const std::vector<FaultSpec>& specs, con
 void WriteFaultsCsv(const std::filesystem::path& path, const std::vector<InjectedFault>& faults) {
   std::ostringstream s;
   s.imbue(std::locale::classic());
-  s << "# lunarnav injected faults: line in telemetry.csv of the first affected row, its time stamp (s),\n"
-    << "# channel (or row), kind, rows affected, count written and the count it replaced (row faults: time stamps, s)\n"
-    << "line,t_s,channel,kind,rows,value,original\n";
+  s << "# lunarnav injected faults: the first affected row of telemetry.csv (0-based data row, and its line in\n"
+    << "# the file), its time stamp (s), channel (or row), kind, rows affected, count written and the count it\n"
+    << "# replaced (row faults: time stamps, s)\n"
+    << "row,line,t_s,channel,kind,rows,value,original\n";
   for (const InjectedFault& f : faults) {
-    s << TelemetryCsvLine(f.row) << "," << FormatMicroseconds(f.t_us) << ","
+    s << f.row << "," << TelemetryCsvLine(f.row) << "," << FormatMicroseconds(f.t_us) << ","
       << (f.channel < 0 ? std::string("row") : telemetry::ToString(static_cast<Channel>(f.channel))) << ","
       << ToString(f.kind) << "," << f.rows << ",";
     if (IsRowFault(f.kind)) {

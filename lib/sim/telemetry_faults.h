@@ -49,8 +49,15 @@ struct FaultSpec {
   double Duration() const;
 };
 
-/// Parses one request. @throws std::invalid_argument naming the text and the problem.
+/// Parses one request. KIND is a kind's name (ToString) or a spelling of it with hyphens
+/// and/or a plural s ("spikes", "dropouts", "out-of-range").
+/// @throws std::invalid_argument naming the text and the problem.
 FaultSpec ParseFaultSpec(const std::string& text);
+
+/// As ParseFaultSpec, also accepting the group `timestamps` (a repeated and an out-of-order
+/// time stamp, each with the rest of the request: `timestamps*2` is two of each; it takes no
+/// @TIME, since the two would land on one row).
+std::vector<FaultSpec> ParseFaultSpecs(const std::string& text);
 
 /// One injected fault.
 struct InjectedFault {
@@ -73,9 +80,9 @@ struct InjectedFault {
 std::vector<InjectedFault> InjectFaults(const std::vector<FaultSpec>& specs, const telemetry::SensorModel& model,
                                         std::uint64_t seed, RawTelemetry* raw);
 
-/// Writes faults.csv atomically: `line,t_s,channel,kind,rows,value,original` per fault, in
-/// line order (line: in telemetry.csv; channel: a name or `row`; for row faults value and
-/// original are time stamps in seconds).
+/// Writes faults.csv atomically: `row,line,t_s,channel,kind,rows,value,original` per fault,
+/// in row order (row: 0-based data row of telemetry.csv; line: its line in the file;
+/// channel: a name or `row`; for row faults value and original are time stamps in seconds).
 void WriteFaultsCsv(const std::filesystem::path& path, const std::vector<InjectedFault>& faults);
 
 }  // namespace lunarnav::sim
