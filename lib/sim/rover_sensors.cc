@@ -126,7 +126,9 @@ std::int64_t DigitiseAnalog(const telemetry::ChannelModel& m, double value_rad, 
 
 std::int64_t DigitiseEncoder(const telemetry::ChannelModel& m, double travel_m, std::int64_t initial_count) {
   const double per_count = std::abs(m.MetresPerCount());
-  const std::int64_t turned = static_cast<std::int64_t>(std::floor(travel_m / per_count));
+  // A billionth of a count of slack, so that whole multiples of a count are not floored down
+  // by rounding of the division.
+  const std::int64_t turned = static_cast<std::int64_t>(std::floor(travel_m / per_count + 1e-9));
   const std::int64_t period = std::int64_t{1} << m.counter_bits;
   const std::int64_t c = (initial_count + m.sign * turned) % period;
   return c < 0 ? c + period : c;
