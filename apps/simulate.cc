@@ -37,6 +37,7 @@ struct TelemetryCommand {
         "Raw rover telemetry (sec. 4.1 sensors: 4 encoders, compass, 3 inclinometers, gyro) of the\n"
         "paper's commanded trials (sec. 4.2) or a traverse, with exact ground truth. Writes\n"
         "OUT_DIR/telemetry.csv, sensors.json, truth.csv, trials.json, faults.csv, summary.json.");
+    sub->fallthrough();  // the tool's own flags (-q, --version) may follow the subcommand
     std::vector<std::string> presets;
     for (const auto& [name, value] : sim::TelemetryPresetNames()) presets.push_back(name);
     sub->add_option("--preset", preset, "the setup (docs/simulate.md)")->required()->check(CLI::IsMember(presets));
@@ -60,7 +61,7 @@ struct TelemetryCommand {
         ->delimiter(',');
   }
 
-  int Run(int argc, char** argv) {
+  int Run(const nlohmann::json& invocation) {
     util::Timer timer;
     options.preset = sim::TelemetryPresetNames().at(preset);
     if (duration_s != 0) options.duration_s = duration_s;
@@ -76,7 +77,7 @@ struct TelemetryCommand {
                               {"subcommand", "telemetry"},
                               {"version", kVersion},
                               {"git_revision", kGitRevision},
-                              {"invocation", util::CommandLineJson(argc, argv)},
+                              {"invocation", invocation},
                               {"options", options.ToJson()},
                               {"seed", options.seed},
                               {"scenario", run.scenario.ToJson()},
@@ -90,11 +91,6 @@ struct TelemetryCommand {
   }
 };
 
-// `simulate stereo` (rendered stereo sequences, issue 4) goes here: a struct like
-// TelemetryCommand with AddTo and Run, registered and dispatched in main.
-
-// `simulate chessboard` (calibration views, issue 4) goes here, likewise.
-
 }  // namespace
 
 int main(int argc, char** argv) {
@@ -105,12 +101,14 @@ int main(int argc, char** argv) {
   app.fallthrough();  // -q and --version also after the subcommand
   TelemetryCommand telemetry;
   telemetry.AddTo(&app);
+  // Further subcommands register here, each from its own translation unit: `simulate stereo`
+  // (rendered stereo sequences) and `simulate chessboard` (calibration views), issue 4.
   bool quiet = false;
   util::AddCommonFlags(&app, &quiet);
   if (const auto exit_code = util::ParseCommandLine(&app, argc, argv, quiet)) return *exit_code;
 
-  return util::RunMain([&] {
-    if (telemetry.sub->parsed()) return telemetry.Run(argc, argv);
-    throw std::logic_error("simulate: no subcommand ran");
-  });
+  const nlohmann::json invocation = util::CommandLineJson(argc, argv);
+  if (app.got_subcommand(telemetry.sub)) return util::RunMain([&] { return telemetry.Run(invocation); });
+  // ...and are dispatched here, e.g. `if (app.got_subcommand("stereo")) return run_stereo(invocation, quiet);`.
+  return util::RunMain([]() -> int { throw std::logic_error("simulate: no subcommand to run"); });
 }
