@@ -1,0 +1,211 @@
+// Integration tests of `simulate telemetry`, and of posfilter on its logs.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <filesystem>
+#include <fstream>
+#include <map>
+#include <set>
+#include <sstream>
+#include <string>
+
+#include <nlohmann/json.hpp>
+
+#include "integration/run_tool.h"
+#include "io/json_io.h"
+#include "positioning/trajectory_io.h"
+#include "util/testing.h"
+
+namespace lunarnav {
+namespace {
+namespace fs = std::filesystem;
+using testing::RunTool;
+
+constexpr double kDeg = M_PI / 180.0;
+constexpr const char* kDataOutputs[] = {"telemetry.csv", "sensors.json", "truth.csv", "trials.json", "faults.csv"};
+
+std::string Slurp(const fs::path& path) {
+  std::ifstream in(path, std::ios::binary);
+  std::stringstream s;
+  s << in.rdbuf();
+  return s.str();
+}
+
+// Runs `simulate telemetry ARGS -o DIR` and expects success.
+void Simulate(std::vector<std::string> args, const fs::path& dir, const fs::path& scratch) {
+  args.insert(args.begin(), "telemetry");
+  args.insert(args.end(), {"-o", dir.string(), "-q"});
+  const testing::ToolRun run = RunTool("simulate", args, scratch);
+  ASSERT_EQ(run.exit_code, 0) << run.stderr_text;
+}
+
+void Posfilter(const fs::path& log_dir, const fs::path& out, const fs::path& scratch,
+               std::vector<std::string> extra = {}) {
+  std::vector<std::string> args = {(log_dir / "telemetry.csv").string(), "--sensors",
+                                   (log_dir / "sensors.json").string(), "-o", out.string(), "-q"};
+  args.insert(args.end(), extra.begin(), extra.end());
+  const testing::ToolRun run = RunTool("posfilter", args, scratch);
+  ASSERT_EQ(run.exit_code, 0) << run.stderr_text;
+}
+
+double WrapDeg(double d) { return std::remainder(d, 360.0); }
+
+TEST(Simulate, PosfilterOnATrialALogEndsNearTheTrueEndPose) {
+  util::ScopedTempDir tmp;
+  Simulate({"--preset", "trial-a"}, tmp.path() / "sim", tmp.path());
+  Posfilter(tmp.path() / "sim", tmp.path() / "pf", tmp.path());
+  const nlohmann::json trials = io::ReadJson(tmp.path() / "sim" / "trials.json");
+  const auto trajectory = positioning::ReadTrajectoryCsv(tmp.path() / "pf" / "trajectory.csv");
+  ASSERT_EQ(trials["trials"].size(), 6u);
+  double path_m = 0;
+  for (const auto& t : trials["trials"]) path_m += t["measured"]["path_length_m"].get<double>();
+  const nlohmann::json& end = trials["trials"].back()["end"];
+  const positioning::TrajectorySample& last = trajectory.back();
+  const double error_m = std::hypot(last.x_m - end["x_m"].get<double>(), last.y_m - end["y_m"].get<double>());
+  // 36 m of straight lines with 4 % wheel slip (trial A's untuned motion control): a few %.
+  EXPECT_GT(path_m, 35.0);
+  EXPECT_LT(error_m / path_m, 0.07) << error_m << " m off after " << path_m << " m";
+  EXPECT_LT(std::abs(WrapDeg(last.heading_rad / kDeg - end["heading_deg"].get<double>())), 5.0);
+  EXPECT_NEAR(last.z_m, end["z_m"].get<double>(), 0.03 * path_m);
+}
+
+// Heading error against truth.csv, RMS over every row, degrees.
+double RmsHeadingErrorDeg(const fs::path& trajectory_csv, const fs::path& truth_csv) {
+  const auto estimate = positioning::ReadTrajectoryCsv(trajectory_csv);
+  const auto truth = positioning::ReadTrajectoryCsv(truth_csv);
+  EXPECT_EQ(estimate.size(), truth.size());
+  double sum = 0;
+  for (std::size_t k = 0; k < std::min(estimate.size(), truth.size()); ++k) {
+    EXPECT_NEAR(estimate[k].t_s, truth[k].t_s, 1e-6);
+    sum += std::pow(WrapDeg((estimate[k].heading_rad - truth[k].heading_rad) / kDeg), 2);
+  }
+  return std::sqrt(sum / static_cast<double>(truth.size()));
+}
+
+TEST(Simulate, GyroGatedKalmanHeadingBeatsPlainLowPassOnArcs) {
+  // Trial C: arcs, during which the compass lags the turn (its transients) and the low-pass
+  // filter adds its own delay; the Kalman filter follows the gyro while turning.
+  util::ScopedTempDir tmp;
+  Simulate({"--preset", "trial-c"}, tmp.path() / "sim", tmp.path());
+  Posfilter(tmp.path() / "sim", tmp.path() / "kalman", tmp.path(), {"--heading", "kalman"});
+  Posfilter(tmp.path() / "sim", tmp.path() / "lowpass", tmp.path(), {"--heading", "lowpass"});
+  const double kalman = RmsHeadingErrorDeg(tmp.path() / "kalman" / "trajectory.csv", tmp.path() / "sim" / "truth.csv");
+  const double lowpass =
+      RmsHeadingErrorDeg(tmp.path() / "lowpass" / "trajectory.csv", tmp.path() / "sim" / "truth.csv");
+  EXPECT_LT(kalman, 0.5 * lowpass) << "kalman " << kalman << " deg, low-pass " << lowpass << " deg";
+  EXPECT_LT(kalman, 3.0);
+}
+
+// A row of a CSV file with '#' comments and a header, by column name.
+std::vector<std::map<std::string, std::string>> ReadCsv(const fs::path& path) {
+  std::ifstream in(path);
+  std::vector<std::string> header;
+  std::vector<std::map<std::string, std::string>> rows;
+  for (std::string line; std::getline(in, line);) {
+    if (line.empty() || line[0] == '#') continue;
+    std::vector<std::string> cells;
+    std::istringstream s(line);
+    for (std::string cell; std::getline(s, cell, ',');) cells.push_back(cell);
+    if (line.back() == ',') cells.emplace_back();
+    if (header.empty()) {
+      header = cells;
+      continue;
+    }
+    std::map<std::string, std::string> row;
+    for (std::size_t i = 0; i < header.size() && i < cells.size(); ++i) row[header[i]] = cells[i];
+    rows.push_back(row);
+  }
+  return rows;
+}
+
+TEST(Simulate, PosfilterScreeningReportsEveryInjectedFaultWhereFaultsCsvSaysItIs) {
+  // Trial B moves at 5-19 s, 23-33 s (turning), 36-48 s, 52-62 s (turning), 66-82 s, ...: the
+  // stuck runs are placed while their channels move (a stuck value at rest is no fault).
+  util::ScopedTempDir tmp;
+  Simulate({"--preset", "trial-b", "--faults",
+            "spike:compass@20,spike:pitch_left@30,spike:enc_fl@40,stuck:gyro_z@50+5,stuck:enc_rr@68+4,"
+            "dropout:roll@70,out-of-range:compass@80,out-of-range:enc_fr@90,repeated_timestamp@100,"
+            "out_of_order_timestamp@110"},
+           tmp.path() / "sim", tmp.path());
+  Posfilter(tmp.path() / "sim", tmp.path() / "pf", tmp.path(),
+            {"--screening-log", (tmp.path() / "screening.csv").string()});
+  const auto faults = ReadCsv(tmp.path() / "sim" / "faults.csv");
+  ASSERT_EQ(faults.size(), 10u);
+  std::set<std::pair<long, std::string>> events;  // (line, channel)
+  for (const auto& e : ReadCsv(tmp.path() / "screening.csv")) {
+    if (e.at("rule") != "encoder_wrap") events.insert({std::stol(e.at("line")), e.at("channel")});
+  }
+  for (const auto& f : faults) {
+    SCOPED_TRACE(f.at("kind") + " " + f.at("channel") + " at line " + f.at("line"));
+    const long line = std::stol(f.at("line")), rows = std::stol(f.at("rows"));
+    EXPECT_EQ(line, std::stol(f.at("row")) + 4);
+    // Spikes, out-of-range and time stamps on their line; a stuck run or a dropout somewhere
+    // within it or on the line where the channel comes back.
+    bool found = false;
+    for (long l = line; l <= line + (rows > 1 ? rows : 0) && !found; ++l) found = events.count({l, f.at("channel")}) > 0;
+    EXPECT_TRUE(found);
+  }
+}
+
+TEST(Simulate, SameSeedSameBytesOtherSeedOtherBytes) {
+  util::ScopedTempDir tmp;
+  const std::vector<std::string> args = {"--preset", "traverse", "--duration", "60", "--bits", "7",
+                                         "--faults", "spikes*2,timestamps"};
+  Simulate(args, tmp.path() / "a", tmp.path());
+  Simulate(args, tmp.path() / "b", tmp.path());
+  std::vector<std::string> other = args;
+  other.insert(other.end(), {"--seed", "2"});
+  Simulate(other, tmp.path() / "c", tmp.path());
+  for (const char* name : kDataOutputs) {
+    EXPECT_EQ(Slurp(tmp.path() / "a" / name), Slurp(tmp.path() / "b" / name)) << name;
+  }
+  EXPECT_NE(Slurp(tmp.path() / "a" / "telemetry.csv"), Slurp(tmp.path() / "c" / "telemetry.csv"));
+  const nlohmann::json summary = io::ReadJson(tmp.path() / "a" / "summary.json");
+  EXPECT_EQ(summary["tool"], "simulate");
+  EXPECT_EQ(summary["subcommand"], "telemetry");
+  EXPECT_EQ(summary["options"]["bits"], 7);
+  EXPECT_EQ(summary["counts"]["rows"], 601);
+  EXPECT_EQ(summary["counts"]["faults"], 4);
+}
+
+TEST(Simulate, TheTestdataFixtureIsWhatItsCommandWrites) {
+  // testdata/README.md: simulate telemetry --preset trial-a --seed 1 -o testdata/telemetry/trial-a
+  util::ScopedTempDir tmp;
+  Simulate({"--preset", "trial-a", "--seed", "1"}, tmp.path() / "sim", tmp.path());
+  for (const char* name : kDataOutputs) {
+    EXPECT_EQ(Slurp(tmp.path() / "sim" / name), Slurp(util::TestDataPath(std::string("telemetry/trial-a/") + name)))
+        << name << " differs: regenerate the fixture (testdata/README.md)";
+  }
+}
+
+TEST(Simulate, NoNoiseGivesIdealSensors) {
+  util::ScopedTempDir tmp;
+  Simulate({"--preset", "trial-b", "--duration", "30", "--no-noise"}, tmp.path() / "sim", tmp.path());
+  const nlohmann::json summary = io::ReadJson(tmp.path() / "sim" / "summary.json");
+  EXPECT_EQ(summary["options"]["noise_scale"], 0.0);
+  EXPECT_EQ(summary["sensor_error_draws"]["compass_bias_deg"], 0.0);
+  EXPECT_EQ(summary["sensor_error_draws"]["gyro_scale_error"], 0.0);
+}
+
+TEST(Simulate, BadArgumentsAreUsageErrorsWithOneErrorLine) {
+  util::ScopedTempDir tmp;
+  const std::string out = (tmp.path() / "out").string();
+  EXPECT_EQ(RunTool("simulate", {"telemetry", "--preset", "trial-x", "-o", out}, tmp.path()).exit_code, 2);
+  EXPECT_EQ(RunTool("simulate", {"telemetry", "--preset", "trial-a", "--bits", "8", "-o", out}, tmp.path()).exit_code,
+            2);
+  EXPECT_EQ(RunTool("simulate", {"--preset", "trial-a", "-o", out}, tmp.path()).exit_code, 2);  // no subcommand
+  for (const char* fault : {"bogus", "spike@1000", "timestamps@5", "stuck:nochannel"}) {
+    const testing::ToolRun run =
+        RunTool("simulate", {"telemetry", "--preset", "trial-a", "--faults", fault, "-o", out}, tmp.path());
+    EXPECT_EQ(run.exit_code, 2) << fault;
+    EXPECT_EQ(run.ErrorLines(), 1) << run.stderr_text;
+  }
+  EXPECT_FALSE(fs::exists(tmp.path() / "out" / "telemetry.csv"));
+  std::ofstream(tmp.path() / "file") << "x";
+  EXPECT_EQ(RunTool("simulate", {"telemetry", "--preset", "trial-a", "-o", (tmp.path() / "file").string()}, tmp.path())
+                .exit_code,
+            2);
+}
+
+}  // namespace
+}  // namespace lunarnav
