@@ -197,6 +197,27 @@ TEST(PredictXyzSigma, ReproducesThePapersErrorModelShape) {
   EXPECT_LT(sigma_z[1], 0.02);
 }
 
+TEST(PredictPointSigma, EqualsTheMapsValueAtThePointsPixel) {
+  const StereoRig rig = testing::IdealRectifiedRig(160, 120, 185, 0.9, testing::RollYaw(2.0, -3.0), -4.0);
+  for (ReferenceImage reference : {ReferenceImage::kRight, ReferenceImage::kLeft}) {
+    for (const Eigen::Vector3d& point : {Eigen::Vector3d(0.3, 4.0, 0.0), Eigen::Vector3d(-1.2, 7.0, 0.1)}) {
+      const RectifiedProjection p = ProjectToRectified(rig, point, reference);
+      // Put the point's disparity at its (rounded) pixel, and move the point onto that pixel's
+      // ray at the same depth, where the map's value applies.
+      const int x = static_cast<int>(std::lround(p.x_px)), y = static_cast<int>(std::lround(p.y_px));
+      ASSERT_TRUE(x >= 0 && x < 160 && y >= 0 && y < 120) << x << "," << y;
+      cv::Mat map(120, 160, CV_32FC1, cv::Scalar(std::numeric_limits<float>::quiet_NaN()));
+      map.at<float>(y, x) = static_cast<float>(p.disparity_px);
+      const cv::Vec3f on_ray = TriangulateDisparity(rig, map, reference).at<cv::Vec3f>(y, x);
+      const cv::Vec3f expected = PredictXyzSigma(rig, map, reference, 2.0).at<cv::Vec3f>(y, x);
+      const Eigen::Vector3d got =
+          PredictPointSigma(rig, Eigen::Vector3d(on_ray[0], on_ray[1], on_ray[2]), reference, 2.0);
+      for (int k = 0; k < 3; ++k) EXPECT_NEAR(got[k], expected[k], 1e-4 * (1 + expected[k])) << k;
+      EXPECT_NEAR(ProjectToRectified(rig, Eigen::Vector3d(on_ray[0], on_ray[1], on_ray[2]), reference).x_px, x, 1e-3);
+    }
+  }
+}
+
 TEST(TriangulateDisparity, NeedsARectifiedRigOfTheMapsSize) {
   const cv::Mat disparity(480, 640, CV_32FC1, cv::Scalar(10));
   EXPECT_THROW(TriangulateDisparity(testing::PaperRig(), disparity, ReferenceImage::kRight),
