@@ -78,7 +78,7 @@ int main(int argc, char** argv) {
       "--requests", requests_path,
       "CSV stem,y_min_m,y_max_m: each listed pair's own distance interval (needs --rig)");
   range_option->excludes(rows_option)->excludes(disparity_option)->needs(rig_option);
-  requests_option->excludes(rows_option)->excludes(disparity_option)->needs(rig_option);
+  requests_option->needs(rig_option);  // --rows and --disparity then serve the pairs not listed
   sigma_option->needs(rig_option);
   app.get_option("--ply")->needs(rig_option);
   app.add_flag("--resume", opt.resume, "skip pairs whose outputs are complete (same options)");
