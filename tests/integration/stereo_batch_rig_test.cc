@@ -280,27 +280,7 @@ TEST(StereoBatchRig, RequestsGiveEachPairItsOwnBand) {
   EXPECT_EQ(summary["pairs"][0]["result"]["window"]["request_line"], 3);
 }
 
-TEST(StereoBatchRig, ResumeRedoesAPairWhoseGeometryOutputIsMissing) {
-  Fixture fx;
-  const fs::path out = fx.tmp.path() / "out";
-  const std::vector<std::string> args = fx.Args(out, {"--disparity", "0:100", "--ply", "--xyz-sigma", "--resume"});
-  ASSERT_EQ(RunTool("stereo-batch", args, fx.tmp.path()).exit_code, 0);
-  fs::remove(out / "cloud" / "b.ply");
-  ASSERT_EQ(RunTool("stereo-batch", args, fx.tmp.path()).exit_code, 0);
-  nlohmann::json summary = io::ReadJson(out / "summary.json");
-  EXPECT_EQ(summary["counts"]["pairs_resumed"], 1);
-  EXPECT_EQ(summary["counts"]["pairs_ok"], 1);
-  EXPECT_EQ(summary["pairs"][1]["status"], "ok");
-  EXPECT_TRUE(fs::exists(out / "cloud" / "b.ply"));
-  // Another sigma_d: the geometry options changed, nothing is reused.
-  std::vector<std::string> other = fx.Args(out, {"--disparity", "0:100", "--ply", "--xyz-sigma", "2", "--resume"});
-  ASSERT_EQ(RunTool("stereo-batch", other, fx.tmp.path()).exit_code, 0);
-  summary = io::ReadJson(out / "summary.json");
-  EXPECT_EQ(summary["counts"]["pairs_resumed"], 0);
-  EXPECT_EQ(io::ReadExr(out / "xyz_sigma" / "a.exr").attributes.at("lunarnav:sigma_d_px").substr(0, 3), "2.0");
-}
-
-TEST(StereoBatchRig, ShardsWriteTheSameGeometryAsOneRun) {
+TEST(StereoBatchRig, ShardsAndResumeWriteTheSameGeometryAsOneRun) {
   Fixture fx;
   const fs::path single = fx.tmp.path() / "single", sharded = fx.tmp.path() / "sharded";
   const std::vector<std::string> geometry = {"--range-y", "3:9", "--ply", "--xyz-sigma"};
@@ -324,6 +304,24 @@ TEST(StereoBatchRig, ShardsWriteTheSameGeometryAsOneRun) {
     EXPECT_EQ(a.colours, b.colours) << stem;
   }
   EXPECT_EQ(io::ReadJson(sharded / "summary.shard-1-of-2.json")["pairs"][0]["result"]["window"]["source"], "range-y");
+
+  // Resume over the shards' directory: a pair whose cloud is missing is redone, the other is
+  // reused, and the combined summary has both.
+  fs::remove(sharded / "cloud" / "b.ply");
+  std::vector<std::string> resume = geometry;
+  resume.push_back("--resume");
+  ASSERT_EQ(RunTool("stereo-batch", fx.Args(sharded, resume), fx.tmp.path()).exit_code, 0);
+  nlohmann::json summary = io::ReadJson(sharded / "summary.json");
+  EXPECT_EQ(summary["counts"]["pairs_resumed"], 1);
+  EXPECT_EQ(summary["pairs"][1]["status"], "ok");
+  EXPECT_EQ(summary["pairs"][0]["result"]["window"], summary["pairs"][1]["result"]["window"]);
+  EXPECT_TRUE(fs::exists(sharded / "cloud" / "b.ply"));
+  // Another sigma_d changes the geometry options: nothing is reused.
+  resume[3] = "--xyz-sigma=2";
+  ASSERT_EQ(RunTool("stereo-batch", fx.Args(sharded, resume), fx.tmp.path()).exit_code, 0);
+  summary = io::ReadJson(sharded / "summary.json");
+  EXPECT_EQ(summary["counts"]["pairs_resumed"], 0);
+  EXPECT_EQ(io::ReadExr(sharded / "xyz_sigma" / "a.exr").attributes.at("lunarnav:sigma_d_px").substr(0, 3), "2.0");
 }
 
 TEST(StereoBatchRig, BadRigsAndRequestsHaveTheirExitCodes) {
