@@ -127,7 +127,11 @@ int main(int argc, char** argv) {
     const stereo::BatchSummary summary =
         stereo::RunStereoBatch(opt, input_dir, output_dir, util::CommandLineJson(argc, argv));
     LN_LOG(Info) << "stereo-batch: " << summary.BriefReport();
-    LN_LOG(Info) << "outputs in " << output_dir.string() << "/{disparity,confidence,rejections}, "
+    std::string dirs = "disparity,confidence,rejections";
+    if (opt.rig) dirs += ",xyz";
+    if (opt.write_ply) dirs += ",cloud";
+    if (opt.xyz_sigma_px) dirs += ",xyz_sigma";
+    LN_LOG(Info) << "outputs in " << output_dir.string() << "/{" << dirs << "}, "
                  << "summary in " << summary.summary_path.string();
     return summary.pairs_failed > 0 ? kExitBatchPartial : kExitOk;
   });
