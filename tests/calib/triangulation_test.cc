@@ -218,6 +218,30 @@ TEST(PredictPointSigma, EqualsTheMapsValueAtThePointsPixel) {
   }
 }
 
+TEST(PredictPointSigma, PapersRigOnGroundTargetsStraightAhead) {
+  // Sec. 3.2: "for targets from 0 to 20 meters, the Y error increases quadratically to almost
+  // 60 cm at 20 m, while the errors in X and Z do not exceed 6 cm"; sec. 3.4: "the theoretical
+  // error at 8 m is 10 cm". Ground targets (Z = 0) at X = 0, one-pixel disparity error (the
+  // table of docs/frames.md, printed by tests/tools/error_model_table).
+  const StereoRig rig = RectifiedPaperRig();
+  auto sigma = [&](double y) { return PredictPointSigma(rig, Eigen::Vector3d(0, y, 0), ReferenceImage::kRight, 1.0); };
+  for (double y = 1; y <= 20; y += 1) {
+    EXPECT_LT(sigma(y).x(), 0.06) << y;
+    EXPECT_LT(sigma(y).z(), 0.06) << y;
+    if (y >= 2) {
+      EXPECT_GT(sigma(y).y(), sigma(y).z()) << y;  // Y dominates beyond the nearest metre
+    }
+  }
+  EXPECT_NEAR(sigma(20).y(), 0.6, 0.06);
+  EXPECT_NEAR(sigma(8).y(), 0.10, 0.01);
+  // Quadratic: doubling the distance multiplies the error by about 4 (a little less, as the
+  // depth along the tilted axis grows slightly slower than Y).
+  for (double y : {5.0, 10.0}) {
+    EXPECT_GT(sigma(2 * y).y() / sigma(y).y(), 3.6) << y;
+    EXPECT_LT(sigma(2 * y).y() / sigma(y).y(), 4.0) << y;
+  }
+}
+
 TEST(TriangulateDisparity, NeedsARectifiedRigOfTheMapsSize) {
   const cv::Mat disparity(480, 640, CV_32FC1, cv::Scalar(10));
   EXPECT_THROW(TriangulateDisparity(testing::PaperRig(), disparity, ReferenceImage::kRight),
