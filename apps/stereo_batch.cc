@@ -4,7 +4,10 @@
 #include <iostream>
 #include <string>
 
+#include "calib/stereo_rig_io.h"
 #include "stereo/batch.h"
+#include "stereo/window_requests.h"
+#include "util/check.h"
 #include "util/cli.h"
 #include "util/errors.h"
 #include "util/log.h"
@@ -18,11 +21,14 @@ int main(int argc, char** argv) {
   CLI::App app{
       "Normalized-correlation stereo (Krotkov & Hebert 1995) over INPUT_DIR/left and\n"
       "INPUT_DIR/right (rectified pairs with the same file stems). Writes OUT_DIR/disparity/\n"
-      "<stem>.pfm, confidence/<stem>.tif, rejections/<stem>.png and summary.json.\n"
+      "<stem>.pfm, confidence/<stem>.tif, rejections/<stem>.png and summary.json; with --rig\n"
+      "also xyz/<stem>.exr (vehicle-frame XYZ), cloud/<stem>.ply, xyz_sigma/<stem>.exr.\n"
       "Exit codes: 0 ok, 1 internal error, 2 usage, 3 bad input, 4 some pairs failed."};
   stereo::BatchOptions opt;  // defaults (the paper's) live in the library
   fs::path input_dir, output_dir;
   std::string window = "25x17", step = "1x1", disparity = "0:127", rows, shard, reference = "right";
+  std::string rig_path, range_y, z_range, requests_path;
+  double xyz_sigma = 1.0;
   bool quiet = false;
   app.add_option("INPUT_DIR", input_dir, "directory holding left/ and right/")->required();
   app.add_option("-o,--output", output_dir, "output directory (created)")->required();
@@ -38,9 +44,11 @@ int main(int argc, char** argv) {
       ->capture_default_str();
   app.add_option("--median", opt.matcher.median_size, "filter 4: median size k (odd; 0 = off)")
       ->capture_default_str();
-  app.add_option("--disparity", disparity, "disparity range MIN:MAX, pixels, inclusive")
-      ->capture_default_str();
-  app.add_option("--rows", rows, "row band MIN:MAX of the reference image (default: all rows)");
+  CLI::Option* disparity_option =
+      app.add_option("--disparity", disparity, "disparity range MIN:MAX, pixels, inclusive")
+          ->capture_default_str();
+  CLI::Option* rows_option =
+      app.add_option("--rows", rows, "row band MIN:MAX of the reference image (default: all rows)");
   app.add_option("--step", step, "partial subsampling steps DXxDY")->capture_default_str();
   app.add_option("--reference", reference, "image the disparity map is referenced to")
       ->check(CLI::IsMember({"right", "left"}))
@@ -51,6 +59,28 @@ int main(int argc, char** argv) {
   app.add_option("--saturation-fraction", opt.frame_check.saturated_max_fraction,
                  "a frame with more than this fraction of pixels at full scale is saturated")
       ->capture_default_str();
+  CLI::Option* rig_option = app.add_option(
+      "--rig", rig_path, "rectified rig file (rectify's rig.json): also write xyz/<stem>.exr, vehicle frame");
+  app.add_flag("--ply", opt.write_ply, "also write cloud/<stem>.ply (needs --rig)");
+  CLI::Option* sigma_option =
+      app.add_option("--xyz-sigma", xyz_sigma,
+                     "also write xyz_sigma/<stem>.exr, the X Y Z error of a disparity error of SIGMA px "
+                     "(needs --rig)")
+          ->expected(0, 1)
+          ->default_str("1");
+  CLI::Option* range_option = app.add_option(
+      "--range-y", range_y,
+      "window selection: measure only Y in YMIN:YMAX metres (vehicle frame); replaces --rows and "
+      "--disparity (needs --rig)");
+  app.add_option(
+      "--z-range", z_range, "heights ZMIN:ZMAX metres of the objects for window selection (default -0.5:1)");
+  CLI::Option* requests_option = app.add_option(
+      "--requests", requests_path,
+      "CSV stem,y_min_m,y_max_m: each listed pair's own distance interval (needs --rig)");
+  range_option->excludes(rows_option)->excludes(disparity_option)->needs(rig_option);
+  requests_option->needs(rig_option);  // --rows and --disparity then serve the pairs not listed
+  sigma_option->needs(rig_option);
+  app.get_option("--ply")->needs(rig_option);
   app.add_flag("--resume", opt.resume, "skip pairs whose outputs are complete (same options)");
   app.add_option("--shard", shard, "K/N: process pairs K, K+N, K+2N, ... (0 <= K < N)");
   app.add_option("-j,--threads", opt.num_threads, "worker threads (0 = all cores)")
@@ -74,11 +104,34 @@ int main(int argc, char** argv) {
     }
     opt.matcher.reference = stereo::ReferenceImageFromString(reference);
     opt.show_progress = !quiet;
+    if (!rig_path.empty()) {
+      opt.rig = calib::ReadStereoRig(rig_path);
+      opt.rig_source = rig_path;
+    }
+    if (sigma_option->count() > 0) opt.xyz_sigma_px = xyz_sigma;
+    calib::RegionOfInterest region;  // the paper's heights unless --z-range
+    if (!z_range.empty()) {
+      LN_CHECK_ARG(!range_y.empty() || !requests_path.empty()) << "--z-range: needs --range-y or --requests";
+      std::tie(region.z_min_m, region.z_max_m) = util::ParseDoublePair(z_range, ':', "--z-range");
+    }
+    if (!range_y.empty()) {
+      std::tie(region.y_min_m, region.y_max_m) = util::ParseDoublePair(range_y, ':', "--range-y");
+      opt.region = region;
+    }
+    if (!requests_path.empty()) {
+      opt.requests = stereo::ReadWindowRequests(requests_path);
+      opt.requests_source = requests_path;
+      opt.requests_region = region;  // its heights; each request gives Y
+    }
 
     const stereo::BatchSummary summary =
         stereo::RunStereoBatch(opt, input_dir, output_dir, util::CommandLineJson(argc, argv));
     LN_LOG(Info) << "stereo-batch: " << summary.BriefReport();
-    LN_LOG(Info) << "outputs in " << output_dir.string() << "/{disparity,confidence,rejections}, "
+    std::string dirs = "disparity,confidence,rejections";
+    if (opt.rig) dirs += ",xyz";
+    if (opt.write_ply) dirs += ",cloud";
+    if (opt.xyz_sigma_px) dirs += ",xyz_sigma";
+    LN_LOG(Info) << "outputs in " << output_dir.string() << "/{" << dirs << "}, "
                  << "summary in " << summary.summary_path.string();
     return summary.pairs_failed > 0 ? kExitBatchPartial : kExitOk;
   });

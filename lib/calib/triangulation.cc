@@ -91,4 +91,32 @@ cv::Mat PredictXyzSigma(const StereoRig& rig, const cv::Mat& disparity_px, Refer
   });
 }
 
+RectifiedProjection ProjectToRectified(const StereoRig& rig, const Eigen::Vector3d& point_vehicle,
+                                       ReferenceImage reference) {
+  LN_CHECK_ARG(rig.rectified.has_value()) << "rig: not rectified (rectify the pair first)";
+  const RectifiedGeometry& g = *rig.rectified;
+  const Eigen::Vector3d in_rect = g.rect_from_left * (rig.VehicleFromLeft().inverse() * point_vehicle);
+  const Eigen::Vector3d l = g.P_left * in_rect.homogeneous(), r = g.P_right * in_rect.homogeneous();
+  RectifiedProjection p;
+  p.depth_m = in_rect.z();
+  p.x_px = reference == ReferenceImage::kRight ? r.x() / r.z() : l.x() / l.z();
+  p.y_px = l.y() / l.z();
+  p.disparity_px = l.x() / l.z() - r.x() / r.z();
+  return p;
+}
+
+Eigen::Vector3d PredictPointSigma(const StereoRig& rig, const Eigen::Vector3d& point_vehicle,
+                                  ReferenceImage reference, double sigma_d_px) {
+  LN_CHECK_ARG(std::isfinite(sigma_d_px) && sigma_d_px > 0) << "sigma_d: must be > 0 px";
+  const RectifiedProjection p = ProjectToRectified(rig, point_vehicle, reference);
+  LN_CHECK_ARG(p.depth_m > 0) << "point: behind the cameras";
+  const RectifiedGeometry& g = *rig.rectified;
+  const double f = g.P_left(0, 0), baseline_m = -g.P_right(0, 3) / f;
+  // dP/dd = -(z / (f B)) (P - C_ref), C_ref the reference camera's centre.
+  const Eigen::Isometry3d vehicle_from_left = rig.VehicleFromLeft();
+  const Eigen::Vector3d ref_offset_rect(reference == ReferenceImage::kRight ? baseline_m : 0.0, 0, 0);
+  const Eigen::Vector3d centre = vehicle_from_left * (g.rect_from_left.transpose() * ref_offset_rect);
+  return ((p.depth_m / (f * baseline_m)) * (point_vehicle - centre)).cwiseAbs() * sigma_d_px;
+}
+
 }  // namespace lunarnav::calib

@@ -40,4 +40,19 @@ cv::Mat TriangulateDisparity(const StereoRig& rig, const cv::Mat& disparity_px, 
 cv::Mat PredictXyzSigma(const StereoRig& rig, const cv::Mat& disparity_px, ReferenceImage reference,
                         double sigma_d_px);
 
+/// Where a vehicle-frame point appears in the rectified pair: the reference image's pixel
+/// (x, y) and the disparity d = x_left - x_right; depth_m is its depth in the rectified frame
+/// (<= 0: behind the cameras, x y d then meaningless). The pixel may lie outside the image.
+struct RectifiedProjection {
+  double x_px = 0, y_px = 0, disparity_px = 0, depth_m = 0;
+};
+RectifiedProjection ProjectToRectified(const StereoRig& rig, const Eigen::Vector3d& point_vehicle,
+                                       ReferenceImage reference);
+
+/// PredictXyzSigma for one vehicle-frame point (in front of the cameras; the point need not be
+/// inside the image): |dP/dd| sigma_d per axis, metres. The same value PredictXyzSigma gives
+/// at the point's pixel and disparity.
+Eigen::Vector3d PredictPointSigma(const StereoRig& rig, const Eigen::Vector3d& point_vehicle,
+                                  ReferenceImage reference, double sigma_d_px);
+
 }  // namespace lunarnav::calib

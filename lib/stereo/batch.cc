@@ -2,15 +2,22 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdint>
 #include <limits>
+#include <map>
 #include <mutex>
 #include <sstream>
 
+#include <opencv2/core.hpp>
 #include <tbb/enumerable_thread_specific.h>
 
+#include "calib/stereo_rig_io.h"
+#include "calib/triangulation.h"
 #include "io/atomic_file.h"
+#include "io/float_array_io.h"
 #include "io/image_io.h"
 #include "io/json_io.h"
+#include "io/ply_io.h"
 #include "stereo/ncc_matcher.h"
 #include "util/check.h"
 #include "util/log.h"
@@ -27,6 +34,22 @@ using nlohmann::json;
 namespace {
 
 constexpr const char* kSidecarFormat = "lunarnav.disparity/1";
+constexpr const char* kVehicleFrame = "vehicle: X right, Y forward (direction of travel), Z up, metres, origin at the mast base";
+
+// The window (row band and disparity range) one pair measures, and where it came from.
+struct PairWindow {
+  std::string source;  // "requests" or "range-y"
+  calib::RegionOfInterest region;
+  calib::ImageWindow window;
+  long request_line = 0;
+  nlohmann::json ToJson() const {
+    nlohmann::json j = window.ToJson();
+    j["source"] = source;
+    j["region"] = region.ToJson();
+    if (request_line > 0) j["request_line"] = request_line;
+    return j;
+  }
+};
 
 std::string ReferenceConvention(ReferenceImage reference) {
   return reference == ReferenceImage::kRight ? "x_left = x_right + d (right image reference)"
@@ -34,9 +57,14 @@ std::string ReferenceConvention(ReferenceImage reference) {
 }
 
 // True when the outputs of `stem` are complete and were made with the same options.
-bool OutputsComplete(const PairOutputPaths& paths, const json& options, json* sidecar) {
+bool OutputsComplete(const BatchOptions& batch, const PairOutputPaths& paths, const json& options,
+                     json* sidecar) {
+  std::vector<fs::path> files = {paths.disparity, paths.confidence, paths.rejections, paths.sidecar};
+  if (batch.rig) files.push_back(paths.xyz);
+  if (batch.write_ply) files.push_back(paths.cloud);
+  if (batch.xyz_sigma_px) files.push_back(paths.xyz_sigma);
   std::error_code ec;
-  for (const fs::path& p : {paths.disparity, paths.confidence, paths.rejections, paths.sidecar}) {
+  for (const fs::path& p : files) {
     if (!fs::is_regular_file(p, ec)) return false;
   }
   try {
@@ -49,12 +77,71 @@ bool OutputsComplete(const PairOutputPaths& paths, const json& options, json* si
 }
 
 struct PairTimings {
-  double read_s = 0, match_s = 0, write_s = 0;
+  double read_s = 0, match_s = 0, write_s = 0, xyz_s = 0;
 };
+
+// The 8-bit grey levels of the reference image, for the point cloud's colour.
+cv::Mat Grey8(const cv::Mat& image) {
+  if (image.depth() == CV_8U) return image;
+  cv::Mat grey;
+  image.convertTo(grey, CV_8U, 255.0 / 65535.0);
+  return grey;
+}
+
+// Triangulates the pair's disparity map and writes the enabled geometry outputs; returns their
+// description for the sidecar and adds the number of points to `result`.
+json WriteGeometry(const BatchOptions& options, const std::string& stem, const NccResult& match,
+                   const cv::Mat& reference_image, const PairOutputPaths& out, json* result) {
+  const calib::StereoRig& rig = *options.rig;
+  const calib::ReferenceImage reference = options.matcher.reference;
+  const cv::Mat xyz = calib::TriangulateDisparity(rig, match.disparity_px, reference);
+  const std::map<std::string, std::string> attributes = {
+      {"lunarnav:quantity", "XYZ"},  {"lunarnav:channels", "R=X G=Y B=Z"},
+      {"lunarnav:units", "m"},       {"lunarnav:frame", kVehicleFrame},
+      {"lunarnav:reference", ToString(reference)}, {"lunarnav:invalid", "NaN"},
+      {"lunarnav:stem", stem}};
+  io::WriteExrAtomic(out.xyz, xyz, {}, attributes);
+  const int points = cv::countNonZero(match.disparity_px == match.disparity_px);  // not NaN
+  json j;
+  j["xyz"] = {{"file", fs::relative(out.xyz, out.sidecar.parent_path()).string()},
+              {"dtype", "float32"},
+              {"channels", {"X", "Y", "Z"}},
+              {"units", "m"},
+              {"frame", kVehicleFrame},
+              {"invalid", "NaN"}};
+  std::int64_t finite_points = 0;
+  for (int y = 0; y < xyz.rows; ++y) {
+    const cv::Vec3f* row = xyz.ptr<cv::Vec3f>(y);
+    for (int x = 0; x < xyz.cols; ++x) finite_points += std::isfinite(row[x][0]) ? 1 : 0;
+  }
+  (*result)["points"] = finite_points;
+  (*result)["disparities_beyond_infinity"] = points - finite_points;
+  if (options.write_ply) {
+    const std::int64_t written = io::WritePlyAtomic(
+        out.cloud, xyz, Grey8(reference_image),
+        {"lunarnav stereo-batch " + std::string(kVersion), "pair " + stem,
+         std::string("frame ") + kVehicleFrame, "colour: grey level of the " + ToString(reference) + " image"});
+    j["cloud"] = {{"file", fs::relative(out.cloud, out.sidecar.parent_path()).string()}, {"points", written}};
+  }
+  if (options.xyz_sigma_px) {
+    const cv::Mat sigma = calib::PredictXyzSigma(rig, match.disparity_px, reference, *options.xyz_sigma_px);
+    std::map<std::string, std::string> sigma_attributes = attributes;
+    sigma_attributes["lunarnav:quantity"] = "predicted XYZ error of a disparity error of sigma_d";
+    sigma_attributes["lunarnav:sigma_d_px"] = std::to_string(*options.xyz_sigma_px);
+    io::WriteExrAtomic(out.xyz_sigma, sigma, {}, sigma_attributes);
+    j["xyz_sigma"] = {{"file", fs::relative(out.xyz_sigma, out.sidecar.parent_path()).string()},
+                      {"dtype", "float32"},
+                      {"channels", {"sigma_X", "sigma_Y", "sigma_Z"}},
+                      {"units", "m"},
+                      {"sigma_d_px", *options.xyz_sigma_px}};
+  }
+  return j;
+}
 
 // Reads, screens and matches one pair and writes its outputs. Throws InputError for a bad pair.
 json ProcessPair(const BatchOptions& options, const PairFiles& pair, const PairOutputPaths& out,
-                 const json& options_json, NccResult* result, PairTimings* timings) {
+                 const json& options_json, const PairWindow* window, NccResult* result,
+                 PairTimings* timings) {
   LN_CHECK_INPUT(pair.problem.empty()) << pair.problem;
   util::Timer timer;
   const cv::Mat left = io::ReadGreyImage(pair.left);
@@ -70,11 +157,24 @@ json ProcessPair(const BatchOptions& options, const PairFiles& pair, const PairO
       << " differs from the left image's " << left.cols << "x" << left.rows;
   LN_CHECK_INPUT(left.depth() == right.depth())
       << pair.right.string() << ": bit depth differs from the left image's";
+  if (options.rig) {
+    const calib::RectifiedGeometry& g = *options.rig->rectified;
+    LN_CHECK_INPUT(left.cols == g.width_px && left.rows == g.height_px)
+        << pair.left.string() << ": size " << left.cols << "x" << left.rows
+        << " differs from the rig's rectified size " << g.width_px << "x" << g.height_px << " ("
+        << options.rig_source << ")";
+  }
   timings->read_s = timer.ElapsedSeconds();
 
   timer.Restart();
   NccOptions matcher = options.matcher;
   matcher.num_threads = 0;  // the batch's arena
+  if (window != nullptr) {  // window selection: the band replaces the rows and range
+    matcher.min_row = window->window.min_row;
+    matcher.max_row = window->window.max_row;
+    matcher.min_disparity_px = window->window.min_disparity_px;
+    matcher.max_disparity_px = window->window.max_disparity_px;
+  }
   MatchStereoPair(matcher, left, right, result);
   timings->match_s = timer.ElapsedSeconds();
 
@@ -85,6 +185,15 @@ json ProcessPair(const BatchOptions& options, const PairFiles& pair, const PairO
   io::WriteImageAtomic(out.confidence, result->correlation);
   io::WriteImageAtomic(out.rejections, result->rejection);
   timings->write_s = timer.ElapsedSeconds();
+
+  json result_extra;
+  json geometry;
+  if (options.rig) {
+    timer.Restart();
+    geometry = WriteGeometry(options, pair.stem, *result,
+                             options.matcher.reference == ReferenceImage::kRight ? right : left, out, &result_extra);
+    timings->xyz_s = timer.ElapsedSeconds();
+  }
 
   json sidecar;
   sidecar["format"] = kSidecarFormat;
@@ -106,11 +215,15 @@ json ProcessPair(const BatchOptions& options, const PairFiles& pair, const PairO
   sidecar["rejections"] = {{"file", fs::relative(out.rejections, out.sidecar.parent_path()).string()},
                            {"dtype", "uint8"},
                            {"meaning", "rejection code per pixel (docs/formats.md)"}};
+  if (options.rig) sidecar["geometry"] = geometry;
   sidecar["options"] = options_json;
   sidecar["result"] = result->summary.ToJson();
+  if (window != nullptr) sidecar["result"]["window"] = window->ToJson();
+  if (!result_extra.is_null()) sidecar["result"].update(result_extra);
   sidecar["result"]["timings_ms"] = {{"read", 1e3 * timings->read_s},
                                      {"match", 1e3 * timings->match_s},
                                      {"write", 1e3 * timings->write_s}};
+  if (options.rig) sidecar["result"]["timings_ms"]["xyz"] = 1e3 * timings->xyz_s;
   sidecar["version"] = kVersion;
   io::WriteJsonAtomic(out.sidecar, sidecar);  // last: its presence marks the pair complete
   return sidecar["result"];
@@ -123,17 +236,50 @@ void BatchOptions::Validate() const {
   frame_check.Validate();
   io::CheckShard(shard_index, shard_count);
   LN_CHECK_ARG(num_threads >= 0) << "threads: must be >= 0";
+  LN_CHECK_ARG(rig || (!write_ply && !xyz_sigma_px && !region && requests.empty()))
+      << "ply, xyz-sigma, range-y and requests need the rig (--rig RIG.json)";
+  if (!rig) return;
+  LN_CHECK_ARG(rig->rectified.has_value())
+      << (rig_source.empty() ? std::string("rig") : rig_source)
+      << ": the rig has no rectified geometry; triangulation and window selection need the rectified rig "
+         "(the rig.json that rectify writes next to the rectified images)";
+  if (xyz_sigma_px) {
+    LN_CHECK_ARG(std::isfinite(*xyz_sigma_px) && *xyz_sigma_px > 0)
+        << "xyz-sigma: the disparity error must be > 0 px, got " << *xyz_sigma_px;
+  }
+  window_selection.Validate();
+  if (region) {
+    region->Validate();
+    const calib::ImageWindow w = calib::SelectWindow(*rig, *region, matcher.reference, window_selection);
+    LN_CHECK_ARG(w.visible) << "range-y: no point with Y in [" << region->y_min_m << ", " << region->y_max_m
+                            << "] m and Z in [" << region->z_min_m << ", " << region->z_max_m
+                            << "] m is seen by the " << ToString(matcher.reference) << " camera";
+  }
 }
 
 json BatchOptions::ToJson() const {
   json j = matcher.ToJson();
   j["frame_check"] = frame_check.ToJson();
+  if (rig) {
+    // The rig itself, not its file name: resuming with another rig redoes the pairs.
+    j["geometry"] = {{"rig", calib::StereoRigToJson(*rig)},
+                     {"ply", write_ply},
+                     {"xyz_sigma_d_px", xyz_sigma_px ? json(*xyz_sigma_px) : json(nullptr)}};
+    if (region || !requests.empty()) {
+      j["window_selection"] = {{"range", region ? region->ToJson() : json(nullptr)},
+                               {"requests", requests.empty() ? json(nullptr) : json(requests_source)},
+                               {"requests_z_m", {requests_region.z_min_m, requests_region.z_max_m}},
+                               {"disparity_margin_px", window_selection.disparity_margin_px}};
+    }
+  }
   return j;
 }
 
 PairOutputPaths OutputPathsFor(const fs::path& output_dir, const std::string& stem) {
   return {output_dir / "disparity" / (stem + ".pfm"), output_dir / "confidence" / (stem + ".tif"),
-          output_dir / "rejections" / (stem + ".png"), output_dir / "disparity" / (stem + ".json")};
+          output_dir / "rejections" / (stem + ".png"), output_dir / "disparity" / (stem + ".json"),
+          output_dir / "xyz" / (stem + ".exr"),        output_dir / "cloud" / (stem + ".ply"),
+          output_dir / "xyz_sigma" / (stem + ".exr")};
 }
 
 std::string SummaryFileName(const BatchOptions& options) {
@@ -165,7 +311,54 @@ BatchSummary RunStereoBatch(const BatchOptions& options, const fs::path& input_d
       << input_dir.string() << ": no image pairs in left/ and right/ (PNG, PGM, TIFF or JPEG)";
   const std::vector<const PairFiles*> shard =
       io::SelectShard(listing, options.shard_index, options.shard_count);
-  for (const char* sub : {"disparity", "confidence", "rejections"}) {
+
+  // Window selection: each requested pair's window (a request the camera cannot see is bad
+  // input, named by its line), and the window of every other pair when a range is given.
+  std::map<std::string, PairWindow> requested;
+  for (const WindowRequest& r : options.requests) {
+    PairWindow w;
+    w.source = "requests";
+    w.region = options.requests_region;
+    w.region.y_min_m = r.y_min_m;
+    w.region.y_max_m = r.y_max_m;
+    w.request_line = r.line;
+    w.window = calib::SelectWindow(*options.rig, w.region, options.matcher.reference, options.window_selection);
+    LN_CHECK_INPUT(w.window.visible)
+        << options.requests_source << ":" << r.line << ": no point with Y in [" << r.y_min_m << ", "
+        << r.y_max_m << "] m and Z in [" << w.region.z_min_m << ", " << w.region.z_max_m << "] m is seen by the "
+        << ToString(options.matcher.reference) << " camera";
+    requested.emplace(r.stem, w);
+  }
+  if (!options.requests.empty()) {
+    int unknown = 0;
+    std::string example;
+    for (const auto& [stem, w] : requested) {
+      const bool listed = std::any_of(listing.begin(), listing.end(), [&](const PairFiles& p) { return p.stem == stem; });
+      if (!listed && unknown++ == 0) example = stem;
+    }
+    if (unknown > 0) {
+      LN_LOG(Warning) << options.requests_source << ": " << unknown << " requested stem"
+                      << (unknown == 1 ? "" : "s") << " (e.g. '" << example << "') not among the pairs of "
+                      << input_dir.string();
+    }
+  }
+  std::optional<PairWindow> range_window;
+  if (options.region) {
+    range_window = PairWindow{"range-y", *options.region,
+                              calib::SelectWindow(*options.rig, *options.region, options.matcher.reference,
+                                                  options.window_selection),
+                              0};
+  }
+  auto window_for = [&](const std::string& stem) -> const PairWindow* {
+    if (const auto it = requested.find(stem); it != requested.end()) return &it->second;
+    return range_window ? &*range_window : nullptr;
+  };
+
+  std::vector<std::string> subdirectories = {"disparity", "confidence", "rejections"};
+  if (options.rig) subdirectories.push_back("xyz");
+  if (options.write_ply) subdirectories.push_back("cloud");
+  if (options.xyz_sigma_px) subdirectories.push_back("xyz_sigma");
+  for (const std::string& sub : subdirectories) {
     io::CreateOutputDirectory(output_dir / sub);
     io::RemoveStaleTempFiles(output_dir / sub);
   }
@@ -185,13 +378,17 @@ BatchSummary RunStereoBatch(const BatchOptions& options, const fs::path& input_d
     PairOutcome& outcome = summary.pairs[k];
     outcome.stem = pair.stem;
     const PairOutputPaths out = OutputPathsFor(output_dir, pair.stem);
+    const PairWindow* window = window_for(pair.stem);
+    json pair_options = options_json;
+    if (window != nullptr) pair_options["window"] = window->ToJson();
     json sidecar;
-    if (options.resume && OutputsComplete(out, options_json, &sidecar)) {
+    if (options.resume && OutputsComplete(options, out, pair_options, &sidecar)) {
       outcome.status = PairOutcome::Status::kResumed;
       outcome.result = sidecar["result"];
     } else {
       try {
-        outcome.result = ProcessPair(options, pair, out, options_json, &results.local(), &timings[k]);
+        outcome.result =
+            ProcessPair(options, pair, out, pair_options, window, &results.local(), &timings[k]);
         outcome.status = PairOutcome::Status::kOk;
       } catch (const InputError& e) {
         outcome.status = PairOutcome::Status::kFailed;
@@ -224,6 +421,10 @@ BatchSummary RunStereoBatch(const BatchOptions& options, const fs::path& input_d
     summary.read_seconds += timings[k].read_s;
     summary.match_seconds += timings[k].match_s;
     summary.write_seconds += timings[k].write_s;
+    summary.xyz_seconds += timings[k].xyz_s;
+    if (outcome.status != PairOutcome::Status::kFailed) {
+      summary.points += outcome.result.value("points", 0LL);
+    }
     pairs_json.push_back(std::move(entry));
   }
   summary.seconds = total_timer.ElapsedSeconds();
@@ -250,6 +451,18 @@ BatchSummary RunStereoBatch(const BatchOptions& options, const fs::path& input_d
                     {"read_sum", summary.read_seconds},
                     {"match_sum", summary.match_seconds},
                     {"write_sum", summary.write_seconds}};
+  if (options.rig) {
+    j["counts"]["points"] = summary.points;
+    j["timings_s"]["xyz_sum"] = summary.xyz_seconds;
+    j["geometry"] = {{"rig_file", options.rig_source},
+                     {"frame", kVehicleFrame},
+                     {"outputs", subdirectories}};
+    if (range_window) j["geometry"]["window_range_y"] = range_window->ToJson();
+    if (!options.requests.empty()) {
+      j["geometry"]["requests"] = {{"file", options.requests_source},
+                                   {"count", options.requests.size()}};
+    }
+  }
   j["peak_memory_mib"] = util::PeakResidentMemoryMiB();
   j["failed"] = failed_json;
   j["pairs"] = pairs_json;

@@ -3,14 +3,18 @@
 #pragma once
 
 #include <filesystem>
+#include <optional>
 #include <string>
 #include <vector>
 
 #include <nlohmann/json.hpp>
 
+#include "calib/stereo_rig.h"
+#include "calib/window_selection.h"
 #include "io/stereo_pairs.h"
 #include "stereo/frame_check.h"
 #include "stereo/ncc_options.h"
+#include "stereo/window_requests.h"
 
 namespace lunarnav::stereo {
 
@@ -27,6 +31,28 @@ struct BatchOptions {
   int shard_count = 1;
   int num_threads = 0;           ///< 0 = all cores.
   bool show_progress = true;     ///< Progress bar on stderr (only when it is a terminal).
+
+  /// Rig geometry (issue 3). With a rig (which must be rectified, its rectified size that of
+  /// the images), every pair's disparity is triangulated into OUT_DIR/xyz/<stem>.exr.
+  std::optional<calib::StereoRig> rig;
+  std::string rig_source;        ///< Where the rig came from (recorded in the summary).
+  bool write_ply = false;        ///< Also OUT_DIR/cloud/<stem>.ply (needs the rig).
+  /// Also OUT_DIR/xyz_sigma/<stem>.exr: the X, Y, Z error of a disparity error of this many
+  /// pixels (needs the rig). Unset = not written.
+  std::optional<double> xyz_sigma_px;
+  /// Window selection (sec. 3.3, needs the rig): the region every pair measures; its row band
+  /// and disparity range replace `matcher`'s. Unset = the matcher's own rows and range.
+  std::optional<calib::RegionOfInterest> region;
+  /// Per-pair distance intervals (the planner's requests); a listed pair measures
+  /// {Y in its interval, Z in requests_region's heights}; other pairs fall back to `region`,
+  /// or to the matcher's rows and range.
+  std::vector<WindowRequest> requests;
+  calib::RegionOfInterest requests_region;  ///< The heights for the requests (its Y is unused).
+  std::string requests_source;   ///< The requests file (for messages and the summary).
+  calib::WindowSelectionOptions window_selection;
+
+  /// Throws std::invalid_argument for bad options: geometry options without a rig, a rig
+  /// that is not rectified, a region that the reference camera does not see.
   void Validate() const;
   nlohmann::json ToJson() const;
 };
@@ -45,17 +71,19 @@ struct BatchSummary {
   int pairs_listed = 0;     ///< In INPUT_DIR.
   int pairs_in_shard = 0;
   int pairs_ok = 0, pairs_resumed = 0, pairs_failed = 0;
-  double seconds = 0, read_seconds = 0, match_seconds = 0, write_seconds = 0;
+  double seconds = 0, read_seconds = 0, match_seconds = 0, write_seconds = 0, xyz_seconds = 0;
   long long pixels_evaluated = 0, pixels_accepted = 0;
+  long long points = 0;     ///< Triangulated points (with a rig).
   std::vector<PairOutcome> pairs;  ///< Name order.
   std::filesystem::path summary_path;
   /// e.g. "3 pairs: 3 ok, 0 failed; accepted 71.2% of evaluated pixels; 0.52 s".
   std::string BriefReport() const;
 };
 
-/// Output paths of one pair.
+/// Output paths of one pair (xyz, cloud and xyz_sigma are written only when enabled).
 struct PairOutputPaths {
   std::filesystem::path disparity, confidence, rejections, sidecar;
+  std::filesystem::path xyz, cloud, xyz_sigma;
 };
 PairOutputPaths OutputPathsFor(const std::filesystem::path& output_dir, const std::string& stem);
 
@@ -63,12 +91,14 @@ PairOutputPaths OutputPathsFor(const std::filesystem::path& output_dir, const st
 std::string SummaryFileName(const BatchOptions& options);
 
 /// Matches every pair of the shard, writes OUT_DIR/{disparity,confidence,rejections}/<stem>.*
-/// and the run summary. A pair that cannot be read or is blank, saturated, mismatched or
+/// (and, with a rig, xyz/<stem>.exr, cloud/<stem>.ply, xyz_sigma/<stem>.exr as enabled) and
+/// the run summary, which records the window (row band, disparity range) each pair used. A pair that cannot be read or is blank, saturated, mismatched or
 /// unpaired is logged as one "error: pair <stem>: ..." line and counted as failed; the rest
 /// go on. Every file is written atomically.
 /// @param invocation  recorded in the summary (e.g. the command line).
-/// @throws InputError when INPUT_DIR is unusable or holds no pairs; std::invalid_argument for
-///         bad options; other exceptions for system failures (e.g. the disk is full).
+/// @throws InputError when INPUT_DIR is unusable or holds no pairs, or a request's interval
+///         is not seen by the camera (naming the requests file and line);
+///         std::invalid_argument for bad options; other exceptions for system failures (e.g. the disk is full).
 BatchSummary RunStereoBatch(const BatchOptions& options, const std::filesystem::path& input_dir,
                             const std::filesystem::path& output_dir,
                             const nlohmann::json& invocation = nullptr);

@@ -3,9 +3,13 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <algorithm>
 #include <limits>
+#include <utility>
+#include <vector>
 
 #include "calib/paper_rig.h"
+#include "calib/rectified_rig.h"
 
 namespace lunarnav::calib {
 namespace {
@@ -89,6 +93,80 @@ TEST(TriangulateDisparity, PixelToXyzToPixelIsTheIdentityForBothReferences) {
   }
 }
 
+// Ground truth for any reference and grid: known 3-D points (a ground plane with bumps, seen
+// by a rig whose rectified frame is rolled and yawed against the cameras and whose rectified
+// principal points differ) projected through P_left and P_right; the disparity of each grid
+// pixel of the reference image is the difference of the projected columns.
+struct SyntheticScene {
+  cv::Mat disparity;  // CV_32FC1, reference-image pixels, NaN off the grid
+  std::vector<std::pair<cv::Point, Eigen::Vector3d>> truth;
+};
+
+SyntheticScene ProjectKnownPoints(const StereoRig& rig, ReferenceImage reference, int step_x, int step_y) {
+  const RectifiedGeometry& g = *rig.rectified;
+  const Eigen::Isometry3d vehicle_from_left = rig.VehicleFromLeft();
+  // The rectified reference camera's centre and axes in the vehicle frame.
+  const Eigen::Matrix3d vehicle_from_rect = vehicle_from_left.linear() * g.rect_from_left.transpose();
+  const double f = g.P_left(0, 0), baseline = -g.P_right(0, 3) / f;
+  const Eigen::Vector3d centre =
+      vehicle_from_left * Eigen::Vector3d(g.rect_from_left.transpose() *
+                                          Eigen::Vector3d(reference == ReferenceImage::kRight ? baseline : 0, 0, 0));
+  const double c_x = reference == ReferenceImage::kRight ? g.P_right(0, 2) : g.P_left(0, 2);
+  SyntheticScene scene;
+  scene.disparity = cv::Mat(g.height_px, g.width_px, CV_32FC1, cv::Scalar(std::numeric_limits<float>::quiet_NaN()));
+  for (int y = 0; y < g.height_px; y += step_y) {
+    for (int x = 0; x < g.width_px; x += step_x) {
+      // The reference ray through (x, y) meets the terrain Z = 0.2 sin(X) cos(0.5 Y): found by
+      // bisection along the ray, so the point is known without any disparity formula.
+      const Eigen::Vector3d ray =
+          vehicle_from_rect * Eigen::Vector3d((x - c_x) / f, (y - g.P_left(1, 2)) / f, 1.0);
+      auto height_above = [&](double t) {
+        const Eigen::Vector3d p = centre + t * ray;
+        return p.z() - 0.2 * std::sin(p.x()) * std::cos(0.5 * p.y());
+      };
+      double lo = 0.1, hi = 60.0;
+      if (height_above(hi) > 0) continue;  // sky: no point
+      for (int k = 0; k < 80; ++k) (height_above(0.5 * (lo + hi)) > 0 ? lo : hi) = 0.5 * (lo + hi);
+      const Eigen::Vector3d point = centre + 0.5 * (lo + hi) * ray;
+      // P_left and P_right project points of the rectified (left) frame.
+      const Eigen::Vector3d in_rect = g.rect_from_left * (vehicle_from_left.inverse() * point);
+      const Eigen::Vector3d l = g.P_left * in_rect.homogeneous(), r = g.P_right * in_rect.homogeneous();
+      scene.disparity.at<float>(y, x) = static_cast<float>(l.x() / l.z() - r.x() / r.z());
+      scene.truth.emplace_back(cv::Point(x, y), point);
+    }
+  }
+  return scene;
+}
+
+TEST(TriangulateDisparity, ReproducesGroundTruthForBothReferencesAndSubsampledMaps) {
+  const StereoRig rig = testing::IdealRectifiedRig(160, 120, 185, 0.9, testing::RollYaw(2.0, -3.0), -4.0);
+  for (ReferenceImage reference : {ReferenceImage::kRight, ReferenceImage::kLeft}) {
+    for (const cv::Size step : {cv::Size(1, 1), cv::Size(4, 3)}) {
+      const SyntheticScene scene = ProjectKnownPoints(rig, reference, step.width, step.height);
+      ASSERT_GT(scene.truth.size(), 100u);
+      const cv::Mat xyz = TriangulateDisparity(rig, scene.disparity, reference);
+      double worst_m = 0;
+      for (const auto& [px, truth] : scene.truth) {
+        const cv::Vec3f p = xyz.at<cv::Vec3f>(px);
+        worst_m = std::max(worst_m, (Eigen::Vector3d(p[0], p[1], p[2]) - truth).norm() / truth.y());
+      }
+      // float32 disparities and coordinates: relative error ~1e-6 of the distance.
+      EXPECT_LT(worst_m, 1e-4) << ToString(reference) << " step " << step;
+      // Off the grid and in the sky: NaN in all three channels.
+      int nan_pixels = 0;
+      for (int y = 0; y < xyz.rows; ++y) {
+        for (int x = 0; x < xyz.cols; ++x) {
+          const bool has_disparity = std::isfinite(scene.disparity.at<float>(y, x));
+          const cv::Vec3f p = xyz.at<cv::Vec3f>(y, x);
+          EXPECT_EQ(std::isfinite(p[0]) && std::isfinite(p[1]) && std::isfinite(p[2]), has_disparity);
+          nan_pixels += std::isnan(p[0]) && std::isnan(p[1]) && std::isnan(p[2]);
+        }
+      }
+      EXPECT_EQ(nan_pixels, xyz.rows * xyz.cols - static_cast<int>(scene.truth.size()));
+    }
+  }
+}
+
 TEST(PredictXyzSigma, ReproducesThePapersErrorModelShape) {
   // Sec. 3.2: for a one-pixel disparity error, "the Y error increases quadratically to almost
   // 60 cm at 20 m, while the errors in X and Z do not exceed 6 cm". Targets straight ahead at
@@ -117,6 +195,51 @@ TEST(PredictXyzSigma, ReproducesThePapersErrorModelShape) {
   // at 20 m, and a quarter of that at 10 m (the paper's rig: under 6 cm).
   EXPECT_LT(sigma_z[2], 0.08);
   EXPECT_LT(sigma_z[1], 0.02);
+}
+
+TEST(PredictPointSigma, EqualsTheMapsValueAtThePointsPixel) {
+  const StereoRig rig = testing::IdealRectifiedRig(160, 120, 185, 0.9, testing::RollYaw(2.0, -3.0), -4.0);
+  for (ReferenceImage reference : {ReferenceImage::kRight, ReferenceImage::kLeft}) {
+    for (const Eigen::Vector3d& point : {Eigen::Vector3d(0.3, 4.0, 0.0), Eigen::Vector3d(-1.2, 7.0, 0.1)}) {
+      const RectifiedProjection p = ProjectToRectified(rig, point, reference);
+      // Put the point's disparity at its (rounded) pixel, and move the point onto that pixel's
+      // ray at the same depth, where the map's value applies.
+      const int x = static_cast<int>(std::lround(p.x_px)), y = static_cast<int>(std::lround(p.y_px));
+      ASSERT_TRUE(x >= 0 && x < 160 && y >= 0 && y < 120) << x << "," << y;
+      cv::Mat map(120, 160, CV_32FC1, cv::Scalar(std::numeric_limits<float>::quiet_NaN()));
+      map.at<float>(y, x) = static_cast<float>(p.disparity_px);
+      const cv::Vec3f on_ray = TriangulateDisparity(rig, map, reference).at<cv::Vec3f>(y, x);
+      const cv::Vec3f expected = PredictXyzSigma(rig, map, reference, 2.0).at<cv::Vec3f>(y, x);
+      const Eigen::Vector3d got =
+          PredictPointSigma(rig, Eigen::Vector3d(on_ray[0], on_ray[1], on_ray[2]), reference, 2.0);
+      for (int k = 0; k < 3; ++k) EXPECT_NEAR(got[k], expected[k], 1e-4 * (1 + expected[k])) << k;
+      EXPECT_NEAR(ProjectToRectified(rig, Eigen::Vector3d(on_ray[0], on_ray[1], on_ray[2]), reference).x_px, x, 1e-3);
+    }
+  }
+}
+
+TEST(PredictPointSigma, PapersRigOnGroundTargetsStraightAhead) {
+  // Sec. 3.2: "for targets from 0 to 20 meters, the Y error increases quadratically to almost
+  // 60 cm at 20 m, while the errors in X and Z do not exceed 6 cm"; sec. 3.4: "the theoretical
+  // error at 8 m is 10 cm". Ground targets (Z = 0) at X = 0, one-pixel disparity error (the
+  // table of docs/frames.md, printed by tests/tools/error_model_table).
+  const StereoRig rig = RectifiedPaperRig();
+  auto sigma = [&](double y) { return PredictPointSigma(rig, Eigen::Vector3d(0, y, 0), ReferenceImage::kRight, 1.0); };
+  for (double y = 1; y <= 20; y += 1) {
+    EXPECT_LT(sigma(y).x(), 0.06) << y;
+    EXPECT_LT(sigma(y).z(), 0.06) << y;
+    if (y >= 2) {
+      EXPECT_GT(sigma(y).y(), sigma(y).z()) << y;  // Y dominates beyond the nearest metre
+    }
+  }
+  EXPECT_NEAR(sigma(20).y(), 0.6, 0.06);
+  EXPECT_NEAR(sigma(8).y(), 0.10, 0.01);
+  // Quadratic: doubling the distance multiplies the error by about 4 (a little less, as the
+  // depth along the tilted axis grows slightly slower than Y).
+  for (double y : {5.0, 10.0}) {
+    EXPECT_GT(sigma(2 * y).y() / sigma(y).y(), 3.6) << y;
+    EXPECT_LT(sigma(2 * y).y() / sigma(y).y(), 4.0) << y;
+  }
 }
 
 TEST(TriangulateDisparity, NeedsARectifiedRigOfTheMapsSize) {

@@ -1,0 +1,86 @@
+// Window selection from distances (Krotkov & Hebert sec. 3.3): the planner asks for data in a
+// distance interval I_Y = [Y_min, Y_max]; the stereo module turns it into the subimage rows
+// [y_min, y_max] and the disparity range [d_min, d_max] that hold every point of the interval.
+#pragma once
+
+#include <string>
+
+#include <nlohmann/json.hpp>
+
+#include "calib/stereo_rig.h"
+#include "calib/triangulation.h"
+
+namespace lunarnav::calib {
+
+/// The part of the world the planner wants measured, in the vehicle frame (X right, Y forward,
+/// Z up, origin at the mast base): forward distances I_Y and the heights of the objects in the
+/// scene (the paper's Z_min, Z_max; parts of taller objects are simply not computed). X is
+/// free: the whole lateral extent the camera sees.
+struct RegionOfInterest {
+  double y_min_m = 4.2;   ///< Y_min, metres. The defaults are the paper's Figure 3 averages.
+  double y_max_m = 7.5;   ///< Y_max, metres; >= y_min_m.
+  double z_min_m = -0.5;  ///< Z_min, metres: the lowest point of interest (a ditch).
+  double z_max_m = 1.0;   ///< Z_max, metres; >= z_min_m. (The paper gives no values for Z.)
+  /// Throws std::invalid_argument naming the bad bound (not finite, min > max).
+  void Validate() const;
+  nlohmann::json ToJson() const;
+};
+
+/// Options of SelectWindow.
+struct WindowSelectionOptions {
+  /// Disparities added at each end of the range, pixels (>= 0). The matcher rejects a best
+  /// match at either end of the searched range (the `range_edge` rule, needed for the
+  /// parabolic fit); one more disparity at each end lets the points whose disparity rounds to
+  /// an end of the band still be measured.
+  int disparity_margin_px = 1;
+  void Validate() const;
+};
+
+/// The subimage and disparity range of a region (all bounds inclusive).
+struct ImageWindow {
+  /// False when no point of the region projects into the reference image (the band is then
+  /// empty: max < min).
+  bool visible = false;
+  int min_row = 0, max_row = -1;                    ///< Rows of the reference image.
+  int min_disparity_px = 0, max_disparity_px = -1;  ///< Disparities to search (with the margin).
+  /// The exact extremes over the region before rounding: rows and disparities, pixels.
+  double row_extent[2] = {0, 0};
+  double disparity_extent_px[2] = {0, 0};
+  /// True when the region comes so near the camera that its disparities exceed what any
+  /// pixel can match inside the other image (|d| > width - 1); the range is cut there.
+  bool disparity_clipped = false;
+  int image_width_px = 0, image_height_px = 0;
+
+  int Rows() const { return visible ? max_row - min_row + 1 : 0; }
+  int Disparities() const { return visible ? max_disparity_px - min_disparity_px + 1 : 0; }
+  /// Share of the image's rows in the band, [0, 1].
+  double RowFraction() const;
+  /// Share of an inclusive disparity range [d_min, d_max] (e.g. the full search without window
+  /// selection) that the band searches.
+  double DisparityFraction(int full_min_px, int full_max_px) const;
+  nlohmann::json ToJson() const;
+};
+
+/// Computes the row band and disparity range that contain every point of `region` visible in
+/// the reference image of a rectified rig.
+///
+/// The paper projects the boundary points (x = 0 and x = dim_x, Y = Y_min/max, Z = Z_min/max)
+/// into both images. That is exact only when the lines of constant Y and Z meet the image's
+/// left and right edges inside the image. In general the region seen by the camera is the
+/// polytope {Y_min <= Y <= Y_max, Z_min <= Z <= Z_max} cut by the four planes through the
+/// optical centre and the image edges (x = -0.5, x = width - 0.5, y = -0.5, y = height - 0.5,
+/// pixel centres at integers). Image row y is a ratio of affine functions of the point and the
+/// disparity d = f B / depth + (c_left - c_right) a monotone function of the (affine) depth, so
+/// both reach their extremes at the polytope's vertices: every intersection of three of those
+/// planes that satisfies all the constraints. (A far plane at 10^5 m bounds the polytope when
+/// the X axis's vanishing point lies inside the image; a near plane at 1 mm keeps it in front
+/// of the camera.) The extremes are rounded outward to whole rows (the pixel a point falls
+/// in) and whole disparities, the disparity range is widened by the margin, and rows are
+/// clipped to the image.
+/// @param rig  a rectified rig (std::invalid_argument otherwise).
+/// @param reference  the image the disparity map is referenced to (rows are shared; the
+///        lateral extent is that of this image).
+ImageWindow SelectWindow(const StereoRig& rig, const RegionOfInterest& region, ReferenceImage reference,
+                         const WindowSelectionOptions& options = {});
+
+}  // namespace lunarnav::calib

@@ -1,0 +1,39 @@
+// Float arrays as OpenEXR images: 1- to 4-channel float32 maps (XYZ, predicted errors), NaN
+// preserved, written atomically.
+#pragma once
+
+#include <filesystem>
+#include <map>
+#include <string>
+#include <vector>
+
+#include <opencv2/core.hpp>
+
+namespace lunarnav::io {
+
+/// An EXR image read back: the pixels and what the file says about them.
+struct ExrImage {
+  cv::Mat pixels;                                ///< CV_32FC(n), top row first.
+  std::vector<std::string> channel_names;        ///< As stored, e.g. {"R", "G", "B"}.
+  std::map<std::string, std::string> attributes;  ///< String header attributes (metadata).
+};
+
+/// Writes a float32 map as a scanline OpenEXR file (32-bit float channels, ZIP compression,
+/// lossless; NaN and infinities are kept as they are). The file is written under a hidden
+/// temporary name and renamed, so `path` holds the complete file or nothing.
+/// @param image  CV_32FC1 .. CV_32FC4, top row first; channel k of the Mat is channel k of
+///        the file.
+/// @param channel_names  one name per channel; empty = "Y" for one channel, "R","G","B"[,"A"]
+///        otherwise (the names common viewers and readers, OpenCV's included, understand).
+/// @param attributes  string metadata stored in the header (e.g. {"lunarnav:units", "m"}).
+/// @throws std::invalid_argument for an unsupported Mat or a name count mismatch;
+///         std::runtime_error when the file cannot be written.
+void WriteExrAtomic(const std::filesystem::path& path, const cv::Mat& image,
+                    const std::vector<std::string>& channel_names = {},
+                    const std::map<std::string, std::string>& attributes = {});
+
+/// Reads an OpenEXR (or any float image OpenImageIO reads) as float32.
+/// @throws InputError naming the file when it is missing, unreadable or not 2-D.
+ExrImage ReadExr(const std::filesystem::path& path);
+
+}  // namespace lunarnav::io

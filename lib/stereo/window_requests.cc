@@ -1,0 +1,85 @@
+#include "stereo/window_requests.h"
+
+#include <cmath>
+#include <fstream>
+#include <map>
+#include <sstream>
+
+#include "util/check.h"
+#include "util/errors.h"
+
+namespace lunarnav::stereo {
+namespace {
+
+std::string Trim(const std::string& s) {
+  const std::size_t begin = s.find_first_not_of(" \t\r");
+  if (begin == std::string::npos) return "";
+  const std::size_t end = s.find_last_not_of(" \t\r");
+  return s.substr(begin, end - begin + 1);
+}
+
+std::vector<std::string> SplitCells(const std::string& line) {
+  std::vector<std::string> cells;
+  std::size_t start = 0;
+  while (true) {
+    const std::size_t comma = line.find(',', start);
+    cells.push_back(Trim(line.substr(start, comma == std::string::npos ? std::string::npos : comma - start)));
+    if (comma == std::string::npos) return cells;
+    start = comma + 1;
+  }
+}
+
+double ParseMetres(const std::string& cell, const std::string& where, const char* column) {
+  std::size_t used = 0;
+  double value = NAN;
+  try {
+    value = std::stod(cell, &used);
+  } catch (const std::exception&) {
+    used = 0;
+  }
+  LN_CHECK_INPUT(!cell.empty() && used == cell.size() && std::isfinite(value))
+      << where << ": column '" << column << "': '" << cell << "' is not a finite number";
+  return value;
+}
+
+}  // namespace
+
+std::vector<WindowRequest> ReadWindowRequests(const std::filesystem::path& path) {
+  std::ifstream in(path);
+  LN_CHECK_INPUT(in.good()) << path.string() << ": cannot open the requests file";
+  const std::string source = path.string();
+  std::vector<WindowRequest> requests;
+  std::map<std::string, long> first_line;
+  bool have_header = false;
+  long line_number = 0;
+  for (std::string line; std::getline(in, line);) {
+    ++line_number;
+    const std::string trimmed = Trim(line);
+    if (trimmed.empty() || trimmed[0] == '#') continue;
+    const std::string where = source + ":" + std::to_string(line_number);
+    const std::vector<std::string> cells = SplitCells(trimmed);
+    if (!have_header) {
+      LN_CHECK_INPUT(cells == std::vector<std::string>({"stem", "y_min_m", "y_max_m"}))
+          << where << ": expected the header 'stem,y_min_m,y_max_m', got '" << trimmed << "'";
+      have_header = true;
+      continue;
+    }
+    LN_CHECK_INPUT(cells.size() == 3) << where << ": " << cells.size() << " cells, expected 3 (stem,y_min_m,y_max_m)";
+    WindowRequest r;
+    r.stem = cells[0];
+    r.line = line_number;
+    LN_CHECK_INPUT(!r.stem.empty()) << where << ": empty stem";
+    r.y_min_m = ParseMetres(cells[1], where, "y_min_m");
+    r.y_max_m = ParseMetres(cells[2], where, "y_max_m");
+    LN_CHECK_INPUT(r.y_min_m <= r.y_max_m)
+        << where << ": Y_min " << r.y_min_m << " m is greater than Y_max " << r.y_max_m << " m";
+    const auto [it, inserted] = first_line.emplace(r.stem, line_number);
+    LN_CHECK_INPUT(inserted) << where << ": stem '" << r.stem << "' already requested on line " << it->second;
+    requests.push_back(r);
+  }
+  LN_CHECK_INPUT(!in.bad()) << source << ": read error";
+  LN_CHECK_INPUT(have_header) << source << ": no header line (the file is empty)";
+  return requests;
+}
+
+}  // namespace lunarnav::stereo

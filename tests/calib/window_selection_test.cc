@@ -1,0 +1,304 @@
+#include "calib/window_selection.h"
+
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <cmath>
+#include <iomanip>
+#include <iostream>
+#include <limits>
+#include <random>
+#include <sstream>
+
+#include "calib/paper_rig.h"
+#include "calib/rectified_rig.h"
+
+namespace lunarnav::calib {
+namespace {
+
+constexpr double kInf = std::numeric_limits<double>::infinity();
+
+// The rig's projections, taken from its public pieces (poses, rectifying rotation, P_l, P_r),
+// independently of SelectWindow's half-spaces.
+struct Projector {
+  explicit Projector(const StereoRig& rig, ReferenceImage reference) : rig(rig), reference(reference) {
+    const RectifiedGeometry& g = *rig.rectified;
+    vehicle_from_rect = rig.VehicleFromLeft().linear() * g.rect_from_left.transpose();
+    centre = reference == ReferenceImage::kRight ? rig.VehicleFromRight().translation()
+                                                 : rig.VehicleFromLeft().translation();
+    f = g.P_left(0, 0);
+    c_x = reference == ReferenceImage::kRight ? g.P_right(0, 2) : g.P_left(0, 2);
+    c_y = g.P_left(1, 2);
+  }
+  // Rectified left-frame coordinates of a vehicle point.
+  Eigen::Vector3d InRect(const Eigen::Vector3d& p) const {
+    return rig.rectified->rect_from_left * (rig.VehicleFromLeft().inverse() * p);
+  }
+  // Row, disparity x_l - x_r, reference column and depth of a vehicle point.
+  struct Projection {
+    double row, disparity, column, depth;
+  };
+  Projection Project(const Eigen::Vector3d& p) const {
+    const Eigen::Vector3d q = InRect(p);
+    const Eigen::Vector3d l = rig.rectified->P_left * q.homogeneous();
+    const Eigen::Vector3d r = rig.rectified->P_right * q.homogeneous();
+    const double x_l = l.x() / l.z(), x_r = r.x() / r.z();
+    return {l.y() / l.z(), x_l - x_r, reference == ReferenceImage::kRight ? x_r : x_l, q.z()};
+  }
+  // The viewing ray of reference pixel (x, y), in the vehicle frame, unit depth.
+  Eigen::Vector3d Ray(double x, double y) const {
+    return vehicle_from_rect * Eigen::Vector3d((x - c_x) / f, (y - c_y) / f, 1.0);
+  }
+  const StereoRig& rig;
+  ReferenceImage reference;
+  Eigen::Matrix3d vehicle_from_rect;
+  Eigen::Vector3d centre;
+  double f, c_x, c_y;
+};
+
+// Tight bounds of a set of rows and disparities.
+struct Bounds {
+  double row_min = kInf, row_max = -kInf, d_min = kInf, d_max = -kInf;
+  long count = 0;
+  void Add(double row, double d) {
+    row_min = std::min(row_min, row);
+    row_max = std::max(row_max, row);
+    d_min = std::min(d_min, d);
+    d_max = std::max(d_max, d);
+    ++count;
+  }
+};
+
+struct Case {
+  const char* name;
+  RegionOfInterest region;
+};
+
+const Case kCases[] = {
+    {"paper Figure 3 interval", {4.2, 7.5, -0.5, 1.0}},
+    {"near", {2.0, 3.0, -0.3, 0.3}},
+    {"far, cut by the top edge", {10.0, 30.0, -0.5, 2.0}},
+    {"flat ground only", {5.0, 6.0, 0.0, 0.0}},
+    {"everything ahead", {1.6, 20.0, -1.0, 1.0}},
+};
+
+struct RigCase {
+  const char* name;
+  StereoRig rig;
+};
+
+std::vector<RigCase> Rigs() {
+  return {{"paper-like, aligned", testing::IdealRectifiedRig()},
+          {"half size, rectified frame rolled 4 deg and yawed 3 deg, c_r - c_l = -6 px",
+           testing::IdealRectifiedRig(320, 240, 370, 0.9, testing::RollYaw(4, 3), -6.0)}};
+}
+
+TEST(SelectWindow, ContainsEveryPixelWhoseRayMeetsTheRegionAndLittleElse) {
+  for (const RigCase& rc : Rigs()) {
+    const RectifiedGeometry& g = *rc.rig.rectified;
+    for (ReferenceImage reference : {ReferenceImage::kRight, ReferenceImage::kLeft}) {
+      const Projector proj(rc.rig, reference);
+      for (const Case& c : kCases) {
+        SCOPED_TRACE(std::string(rc.name) + ", " + ToString(reference) + ", " + c.name);
+        const ImageWindow w = SelectWindow(rc.rig, c.region, reference);
+        const int margin = WindowSelectionOptions().disparity_margin_px;
+        // Every pixel centre: the depths at which its ray is inside the slab form an interval;
+        // disparity is monotone in depth, so its ends bound the pixel's disparities.
+        Bounds pixels;
+        int outside = 0;
+        for (int y = 0; y < g.height_px; ++y) {
+          for (int x = 0; x < g.width_px; ++x) {
+            const Eigen::Vector3d ray = proj.Ray(x, y);
+            double lo = 1e-9, hi = kInf;
+            auto clip = [&](double a, double b) {  // a * depth + b >= 0
+              if (a > 0) lo = std::max(lo, -b / a);
+              else if (a < 0) hi = std::min(hi, -b / a);
+              else if (b < 0) hi = -kInf;
+            };
+            clip(ray.y(), proj.centre.y() - c.region.y_min_m);
+            clip(-ray.y(), c.region.y_max_m - proj.centre.y());
+            clip(ray.z(), proj.centre.z() - c.region.z_min_m);
+            clip(-ray.z(), c.region.z_max_m - proj.centre.z());
+            if (!(lo <= hi)) continue;
+            for (double depth : {lo, hi}) {
+              const auto p = proj.Project(proj.centre + depth * ray);
+              ASSERT_NEAR(p.row, y, 1e-6);  // the projector and the ray agree
+              pixels.Add(y, p.disparity);
+              const bool in = y >= w.min_row && y <= w.max_row && p.disparity >= w.min_disparity_px + margin &&
+                              p.disparity <= w.max_disparity_px - margin;
+              outside += !in;
+            }
+          }
+        }
+        ASSERT_GT(pixels.count, 0);
+        EXPECT_TRUE(w.visible);
+        EXPECT_EQ(outside, 0);
+        EXPECT_FALSE(w.disparity_clipped);
+        // Little else: the continuous region reaches at most half a pixel beyond the pixel
+        // centres (one row), and the disparities beyond the pixels' by rounding (< 1 px), the
+        // margin and the disparity change over half a pixel (< 0.5 px on these rigs).
+        EXPECT_GE(w.min_row, pixels.row_min - 1);
+        EXPECT_LE(w.max_row, pixels.row_max + 1);
+        EXPECT_GE(w.min_disparity_px, pixels.d_min - margin - 1.5);
+        EXPECT_LE(w.max_disparity_px, pixels.d_max + margin + 1.5);
+      }
+    }
+  }
+}
+
+TEST(SelectWindow, ContainsRandomPointsOfTheRegionSeenByTheReferenceImage) {
+  std::mt19937 rng(20240603);  // fixed seed
+  for (const RigCase& rc : Rigs()) {
+    const RectifiedGeometry& g = *rc.rig.rectified;
+    for (ReferenceImage reference : {ReferenceImage::kRight, ReferenceImage::kLeft}) {
+      const Projector proj(rc.rig, reference);
+      for (const Case& c : kCases) {
+        SCOPED_TRACE(std::string(rc.name) + ", " + ToString(reference) + ", " + c.name);
+        const ImageWindow w = SelectWindow(rc.rig, c.region, reference, WindowSelectionOptions{0});
+        std::uniform_real_distribution<double> Y(c.region.y_min_m, c.region.y_max_m);
+        std::uniform_real_distribution<double> Z(c.region.z_min_m, c.region.z_max_m);
+        std::uniform_real_distribution<double> column(-0.5, g.width_px - 0.5);
+        std::bernoulli_distribution coin(0.5);
+        // Half of the time a coordinate sits at one of its ends, so that the samples reach
+        // the region's faces, edges and corners (where the extremes are).
+        auto pick = [&](std::uniform_real_distribution<double>& u) {
+          return coin(rng) ? (coin(rng) ? u.a() : u.b()) : u(rng);
+        };
+        Bounds samples;
+        int outside = 0;
+        for (int i = 0; i < 100000; ++i) {
+          // A point of the slab (Y, Z) whose X puts it at a random column of the reference
+          // image: the column is a ratio of affine functions of X, solved for X.
+          const Eigen::Vector3d base(0, pick(Y), pick(Z));
+          const double x = pick(column);
+          const Eigen::Vector3d q0 = proj.vehicle_from_rect.transpose() * (base - proj.centre);
+          const Eigen::Vector3d e = proj.vehicle_from_rect.transpose() * Eigen::Vector3d::UnitX();
+          const double X = (proj.f * q0.x() - (x - proj.c_x) * q0.z()) / ((x - proj.c_x) * e.z() - proj.f * e.x());
+          const Eigen::Vector3d point(X, base.y(), base.z());
+          const auto p = proj.Project(point);
+          if (!(p.depth > 0) || p.row < -0.5 || p.row > g.height_px - 0.5) continue;  // not in the image
+          ASSERT_NEAR(p.column, x, 1e-6);
+          samples.Add(p.row, p.disparity);
+          const long row = std::lround(p.row);
+          outside += !(row >= w.min_row && row <= w.max_row && p.disparity >= w.min_disparity_px &&
+                       p.disparity <= w.max_disparity_px);
+        }
+        ASSERT_GT(samples.count, 1000);
+        EXPECT_EQ(outside, 0);
+        // Little else: with no margin, the band exceeds the samples' tight bounds by rounding
+        // (< 1 row, < 1 px) and by the gap between the samples and the true extremes.
+        EXPECT_GE(w.min_row, samples.row_min - 1.1);
+        EXPECT_LE(w.max_row, samples.row_max + 1.1);
+        EXPECT_GE(w.min_disparity_px, samples.d_min - 1.1);
+        EXPECT_LE(w.max_disparity_px, samples.d_max + 1.1);
+      }
+    }
+  }
+}
+
+TEST(SelectWindow, AgreesWithThePapersBoundaryPointsWhenTheyAreInView) {
+  // Aligned rig: lines of constant (Y, Z) are image rows, so the paper's eight boundary points
+  // (x = 0 and x = dim_x, Y = Y_min/max, Z = Z_min/max) give the exact band when all of them
+  // are in the image, as for this near interval.
+  const StereoRig rig = testing::IdealRectifiedRig();
+  const Projector proj(rig, ReferenceImage::kRight);
+  const RegionOfInterest region{3.0, 5.0, -0.3, 0.3};
+  const ImageWindow w = SelectWindow(rig, region, ReferenceImage::kRight, WindowSelectionOptions{0});
+  Bounds paper;
+  for (double Y : {region.y_min_m, region.y_max_m}) {
+    for (double Z : {region.z_min_m, region.z_max_m}) {
+      for (double x : {-0.5, 639.5}) {
+        // Solve for the X that puts (X, Y, Z) at column x (the camera's x is the vehicle's X).
+        const Eigen::Vector3d q0 = proj.vehicle_from_rect.transpose() * (Eigen::Vector3d(0, Y, Z) - proj.centre);
+        const auto p = proj.Project(Eigen::Vector3d(q0.z() * (x - proj.c_x) / proj.f - q0.x(), Y, Z));
+        ASSERT_NEAR(p.column, x, 1e-6);
+        ASSERT_TRUE(p.row > -0.5 && p.row < 479.5);
+        paper.Add(p.row, p.disparity);
+      }
+    }
+  }
+  EXPECT_NEAR(w.row_extent[0], paper.row_min, 1e-6);
+  EXPECT_NEAR(w.row_extent[1], paper.row_max, 1e-6);
+  EXPECT_NEAR(w.disparity_extent_px[0], paper.d_min, 1e-6);
+  EXPECT_NEAR(w.disparity_extent_px[1], paper.d_max, 1e-6);
+  // For the paper's Figure 3 interval the top boundary points (Z_max = 1 m at 4.2 m) lie above
+  // the image: the boundary points would give rows above the image and disparities of points
+  // nobody sees; the band stops at the top row, with the disparities of what is in view.
+  const ImageWindow fig3 = SelectWindow(rig, RegionOfInterest{4.2, 7.5, -0.5, 1.0}, ReferenceImage::kRight);
+  const auto hidden = proj.Project(Eigen::Vector3d(0, 4.2, 1.0));
+  EXPECT_LT(hidden.row, -0.5);
+  EXPECT_EQ(fig3.min_row, 0);
+  EXPECT_LT(fig3.disparity_extent_px[1], hidden.disparity);
+}
+
+TEST(SelectWindow, ShrinksWithTheIntervalAndReportsTheShareOfTheSearchKept) {
+  // The paper's Figure 2 argument: for Y_min = 5 m the subimage and the disparity range grow
+  // with Delta Y, and a small Delta Y keeps a small share of the work of a full search. The
+  // full search is the paper's Figure 1 configuration: every row, disparities of 2 m to 14 m.
+  // The table goes to the test log; docs/stereo-batch.md quotes it.
+  const StereoRig rig = testing::IdealRectifiedRig();
+  const RegionOfInterest full_region{2.0, 14.0, -0.5, 1.0};
+  const ImageWindow full = SelectWindow(rig, full_region, ReferenceImage::kRight);
+  std::ostringstream table;
+  table << "| I_Y (m) | rows | rows kept | disparities (px) | disparities kept | work kept |\n"
+        << "|---|---|---|---|---|---|\n";
+  auto add_row = [&](const RegionOfInterest& region) {
+    const ImageWindow w = SelectWindow(rig, region, ReferenceImage::kRight);
+    const double rows = w.RowFraction();
+    const double disparities = w.DisparityFraction(full.min_disparity_px, full.max_disparity_px);
+    table << std::fixed << std::setprecision(1) << "| " << region.y_min_m << " - " << region.y_max_m << " | "
+          << w.min_row << " - " << w.max_row << " | " << std::setprecision(0) << 100 * rows << " % | "
+          << w.min_disparity_px << " - " << w.max_disparity_px << " | " << 100 * disparities << " % | "
+          << 100 * rows * disparities << " % |\n";
+    return w;
+  };
+  add_row(full_region);
+  int previous_rows = 0, previous_disparities = 0;
+  std::vector<double> work;
+  for (double delta : {0.5, 1.0, 2.0, 4.0, 8.0}) {
+    const ImageWindow w = add_row(RegionOfInterest{5.0, 5.0 + delta, -0.5, 1.0});
+    ASSERT_TRUE(w.visible);
+    EXPECT_GE(w.Rows(), previous_rows) << delta;
+    EXPECT_GT(w.Disparities(), previous_disparities) << delta;
+    EXPECT_NEAR(w.RowFraction(), w.Rows() / 480.0, 1e-12);
+    previous_rows = w.Rows();
+    previous_disparities = w.Disparities();
+    work.push_back(w.RowFraction() * w.DisparityFraction(full.min_disparity_px, full.max_disparity_px));
+  }
+  add_row(RegionOfInterest{4.2, 7.5, -0.5, 1.0});
+  add_row(RegionOfInterest{4.2, 7.5, -0.2, 0.2});
+  // Half a metre at 5 m costs under 5 % of the full search (the rows above the one where
+  // the ground at 5 m - 0.5 m appears, the disparities of 5 m - 5.5 m), and the cost grows
+  // with the interval.
+  EXPECT_LT(work.front(), 0.05);
+  EXPECT_TRUE(std::is_sorted(work.begin(), work.end()));
+  EXPECT_LT(work.front(), work.back());
+  std::cout << table.str();
+}
+
+TEST(SelectWindow, ReportsRegionsOutOfSightAndClipsRegionsReachingTheCamera) {
+  const StereoRig rig = testing::IdealRectifiedRig();
+  // Behind the vehicle, and high above what the tilted cameras see.
+  EXPECT_FALSE(SelectWindow(rig, RegionOfInterest{-6.0, -2.0, -0.5, 1.0}, ReferenceImage::kRight).visible);
+  EXPECT_FALSE(SelectWindow(rig, RegionOfInterest{2.0, 4.0, 30.0, 40.0}, ReferenceImage::kRight).visible);
+  EXPECT_EQ(SelectWindow(rig, RegionOfInterest{-6.0, -2.0, -0.5, 1.0}, ReferenceImage::kRight).Rows(), 0);
+  // A region that holds the cameras: disparities grow without bound and are cut where no
+  // pixel can match inside the other image.
+  const ImageWindow w = SelectWindow(rig, RegionOfInterest{-1.0, 3.0, 0.0, 2.0}, ReferenceImage::kRight);
+  ASSERT_TRUE(w.visible);
+  EXPECT_TRUE(w.disparity_clipped);
+  EXPECT_EQ(w.max_disparity_px, 639);
+}
+
+TEST(SelectWindow, NeedsARectifiedRigAndAnOrderedRegion) {
+  EXPECT_THROW(SelectWindow(testing::PaperRig(), RegionOfInterest{}, ReferenceImage::kRight), std::invalid_argument);
+  const StereoRig rig = testing::IdealRectifiedRig();
+  EXPECT_THROW(SelectWindow(rig, RegionOfInterest{5.0, 4.0, 0.0, 1.0}, ReferenceImage::kRight), std::invalid_argument);
+  EXPECT_THROW(SelectWindow(rig, RegionOfInterest{4.0, 5.0, 1.0, 0.0}, ReferenceImage::kRight), std::invalid_argument);
+  EXPECT_THROW(SelectWindow(rig, RegionOfInterest{4.0, NAN, 0.0, 1.0}, ReferenceImage::kRight), std::invalid_argument);
+  EXPECT_THROW(SelectWindow(rig, RegionOfInterest{}, ReferenceImage::kRight, WindowSelectionOptions{-1}),
+               std::invalid_argument);
+}
+
+}  // namespace
+}  // namespace lunarnav::calib

@@ -1,0 +1,100 @@
+#include "io/float_array_io.h"
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <fstream>
+#include <limits>
+
+#include "io/atomic_file.h"
+#include "util/errors.h"
+#include "util/testing.h"
+
+namespace lunarnav::io {
+namespace {
+namespace fs = std::filesystem;
+
+constexpr float kNaN = std::numeric_limits<float>::quiet_NaN();
+constexpr float kInf = std::numeric_limits<float>::infinity();
+
+// A 3-channel map with distinct values, NaN holes and infinities.
+cv::Mat XyzLike() {
+  cv::Mat m(5, 7, CV_32FC3);
+  for (int y = 0; y < m.rows; ++y)
+    for (int x = 0; x < m.cols; ++x) m.at<cv::Vec3f>(y, x) = cv::Vec3f(x - 3.25f, 1e-3f * y, -1e6f / (x + 1));
+  m.at<cv::Vec3f>(0, 0) = cv::Vec3f(kNaN, kNaN, kNaN);
+  m.at<cv::Vec3f>(4, 6) = cv::Vec3f(kInf, -kInf, 1.0f);
+  return m;
+}
+
+bool SameBitsOrBothNaN(float a, float b) { return (std::isnan(a) && std::isnan(b)) || a == b; }
+
+TEST(WriteExrAtomic, RoundTripsThreeChannelsWithNaNExactly) {
+  util::ScopedTempDir tmp;
+  const fs::path path = tmp.path() / "sub" / "xyz.exr";
+  const cv::Mat m = XyzLike();
+  WriteExrAtomic(path, m, {}, {{"lunarnav:units", "m"}, {"lunarnav:frame", "vehicle"}});
+  const ExrImage back = ReadExr(path);
+  ASSERT_EQ(back.pixels.type(), CV_32FC3);
+  ASSERT_EQ(back.pixels.size(), m.size());
+  for (int y = 0; y < m.rows; ++y)
+    for (int x = 0; x < m.cols; ++x)
+      for (int k = 0; k < 3; ++k)
+        EXPECT_TRUE(SameBitsOrBothNaN(back.pixels.at<cv::Vec3f>(y, x)[k], m.at<cv::Vec3f>(y, x)[k]))
+            << x << "," << y << "," << k;
+  EXPECT_EQ(back.channel_names, (std::vector<std::string>{"R", "G", "B"}));
+  EXPECT_EQ(back.attributes.at("lunarnav:units"), "m");
+  EXPECT_EQ(back.attributes.at("lunarnav:frame"), "vehicle");
+  // It is an OpenEXR file (magic number 76 2f 31 01), and no temporary file is left.
+  std::ifstream in(path, std::ios::binary);
+  unsigned char magic[4] = {};
+  in.read(reinterpret_cast<char*>(magic), 4);
+  EXPECT_EQ(magic[0], 0x76);
+  EXPECT_EQ(magic[1], 0x2f);
+  EXPECT_EQ(magic[2], 0x31);
+  EXPECT_EQ(magic[3], 0x01);
+  for (const auto& entry : fs::directory_iterator(path.parent_path())) {
+    EXPECT_FALSE(IsTempFileName(entry.path())) << entry.path();
+  }
+}
+
+TEST(WriteExrAtomic, WritesOneChannelRoisAndNamedChannels) {
+  util::ScopedTempDir tmp;
+  cv::Mat big(10, 12, CV_32FC1, cv::Scalar(2.5));
+  big.at<float>(3, 4) = kNaN;
+  const cv::Mat roi = big(cv::Rect(2, 1, 6, 5));  // not contiguous
+  WriteExrAtomic(tmp.path() / "one.exr", roi);
+  const ExrImage one = ReadExr(tmp.path() / "one.exr");
+  ASSERT_EQ(one.pixels.type(), CV_32FC1);
+  ASSERT_EQ(one.pixels.size(), cv::Size(6, 5));
+  EXPECT_TRUE(std::isnan(one.pixels.at<float>(2, 2)));
+  EXPECT_EQ(one.pixels.at<float>(0, 0), 2.5f);
+  EXPECT_EQ(one.channel_names, std::vector<std::string>{"Y"});
+
+  WriteExrAtomic(tmp.path() / "named.exr", XyzLike(), {"X", "Y", "Z"});
+  EXPECT_EQ(ReadExr(tmp.path() / "named.exr").channel_names, (std::vector<std::string>{"X", "Y", "Z"}));
+}
+
+TEST(WriteExrAtomic, RefusesNonFloatMapsAndWrongChannelNames) {
+  util::ScopedTempDir tmp;
+  EXPECT_THROW(WriteExrAtomic(tmp.path() / "a.exr", cv::Mat(3, 3, CV_8UC1)), std::invalid_argument);
+  EXPECT_THROW(WriteExrAtomic(tmp.path() / "b.exr", cv::Mat()), std::invalid_argument);
+  EXPECT_THROW(WriteExrAtomic(tmp.path() / "c.exr", XyzLike(), {"X", "Y"}), std::invalid_argument);
+  EXPECT_FALSE(fs::exists(tmp.path() / "a.exr"));
+}
+
+TEST(ReadExr, ReportsMissingAndCorruptFiles) {
+  util::ScopedTempDir tmp;
+  EXPECT_THROW(ReadExr(tmp.path() / "none.exr"), InputError);
+  std::ofstream(tmp.path() / "junk.exr") << "not an image at all";
+  EXPECT_THROW(ReadExr(tmp.path() / "junk.exr"), InputError);
+  // A truncated EXR.
+  WriteExrAtomic(tmp.path() / "full.exr", cv::Mat(64, 64, CV_32FC3, cv::Scalar(1, 2, 3)));
+  std::ifstream in(tmp.path() / "full.exr", std::ios::binary);
+  const std::string bytes((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+  std::ofstream(tmp.path() / "cut.exr", std::ios::binary).write(bytes.data(), static_cast<std::streamsize>(bytes.size() / 2));
+  EXPECT_THROW(ReadExr(tmp.path() / "cut.exr"), InputError);
+}
+
+}  // namespace
+}  // namespace lunarnav::io
