@@ -38,7 +38,7 @@ struct ChessboardViewsOptions {
   double max_roll_deg = 30.0;    ///< In-plane rotation, uniform in +-this, degrees.
   double border_squares = 0.75;  ///< White plate margin around the squares, in squares.
   double margin_px = 2.0;        ///< The whole plate stays this far inside both images.
-  int samples_per_axis = 4;      ///< S: S x S samples per pixel, 1..16.
+  int samples_per_axis = 2;      ///< S: S x S samples per pixel, 1..16.
   double black = 30.0;           ///< Grey level of the black squares (0..255).
   double white = 215.0;          ///< Grey level of the white squares and plate.
   double background = 90.0;      ///< Grey level behind the board.
