@@ -1,9 +1,9 @@
 #include "sim/chessboard_views.h"
 
 #include <algorithm>
-#include <cstdio>
 #include <array>
 #include <cmath>
+#include <cstdio>
 #include <numeric>
 #include <random>
 

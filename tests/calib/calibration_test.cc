@@ -39,7 +39,8 @@ std::vector<StereoCorners> NoisyViews(const StereoRig& rig, int count, double no
 void ExpectRecovers(const StereoRig& truth, const CalibrationResult& result) {
   // The brief's tolerances: focal length within 0.5 %, principal point within a few pixels,
   // baseline within 1 %.
-  for (const auto& [estimated, expected] : {std::pair{&result.rig.left, &truth.left}, {&result.rig.right, &truth.right}}) {
+  for (const auto& [estimated, expected] :
+       {std::pair{&result.rig.left, &truth.left}, {&result.rig.right, &truth.right}}) {
     EXPECT_NEAR(estimated->K(0, 0), expected->K(0, 0), 0.005 * expected->K(0, 0));
     EXPECT_NEAR(estimated->K(1, 1), expected->K(1, 1), 0.005 * expected->K(1, 1));
     EXPECT_NEAR(estimated->K(0, 2), expected->K(0, 2), 3.0);
@@ -80,7 +81,9 @@ TEST(CalibrateStereoRig, RecoversThePaperRigFromNoisyCorners) {
   for (const StereoCorners& view : NoisyViews(truth, 6, 0.0, 99)) {
     const auto left = rectifier.RectifyPoints(std::vector<cv::Point2d>(view.left.begin(), view.left.end()), true);
     const auto right = rectifier.RectifyPoints(std::vector<cv::Point2d>(view.right.begin(), view.right.end()), false);
-    for (std::size_t i = 0; i < left.size(); ++i) max_row_error = std::max(max_row_error, std::abs(left[i].y - right[i].y));
+    for (std::size_t i = 0; i < left.size(); ++i) {
+      max_row_error = std::max(max_row_error, std::abs(left[i].y - right[i].y));
+    }
   }
   EXPECT_LT(max_row_error, 0.1);
   EXPECT_EQ(result.rig.mast.height_m, 1.2);  // the mast pose is passed through
@@ -121,7 +124,8 @@ TEST(CalibrateStereoRig, TooFewViewsIsAnInputError) {
 
 TEST(CalibrationResult, TableAndJsonListEveryView) {
   const StereoRig truth = testing::PaperRig();
-  CalibrationResult result = CalibrateStereoRig(CalibrationOptions(), cv::Size(640, 480), NoisyViews(truth, 6, 0.05, 5));
+  CalibrationResult result =
+      CalibrateStereoRig(CalibrationOptions(), cv::Size(640, 480), NoisyViews(truth, 6, 0.05, 5));
   ViewReport skipped;
   skipped.stem = "view_zzz";
   skipped.status = ViewReport::Status::kSkipped;

@@ -59,7 +59,8 @@ TEST(GenerateChessboardViews, ExactCornersFollowThePoseAndTheRig) {
     EXPECT_TRUE(view.left.empty());
     // Right corners: the board through right_from_left, projected by OpenCV directly.
     const Eigen::Matrix3d right_r = rig.right_from_left_R * view.left_from_board.linear();
-    const Eigen::Vector3d right_t = rig.right_from_left_R * view.left_from_board.translation() + rig.right_from_left_t_m;
+    const Eigen::Vector3d right_t =
+        rig.right_from_left_R * view.left_from_board.translation() + rig.right_from_left_t_m;
     cv::eigen2cv(right_r, r);
     cv::Mat rvec;
     cv::Rodrigues(r, rvec);
