@@ -101,6 +101,13 @@ TEST(CalibrateStereoRig, ExactCornersGiveAnExactRig) {
   EXPECT_NEAR(result.rig.left.K(0, 0), 740.0, 0.05);
   EXPECT_NEAR(result.rig.BaselineM(), truth.BaselineM(), 1e-4);
   EXPECT_LT(result.max_row_error_px, 1e-2);
+  // With k3 estimated too, the true k3 = 0 comes out (a model with more freedom that the
+  // data do not need).
+  options.estimate_k3 = true;
+  const CalibrationResult with_k3 = CalibrateStereoRig(options, cv::Size(640, 480), NoisyViews(truth, 8, 0.0, 3));
+  ASSERT_EQ(with_k3.rig.left.distortion.size(), 5u);
+  EXPECT_NEAR(with_k3.rig.left.distortion[4], 0.0, 1e-3);
+  EXPECT_NEAR(with_k3.rig.left.distortion[0], -0.12, 1e-3);
 }
 
 TEST(CalibrateStereoRig, FlagsAViewWithSwappedCorners) {
