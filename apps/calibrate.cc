@@ -1,0 +1,63 @@
+// calibrate: a stereo rig file from chessboard views. docs/calibrate.md describes every
+// option and output.
+#include <filesystem>
+#include <iostream>
+#include <string>
+
+#include "calib/calibration.h"
+#include "util/cli.h"
+#include "util/errors.h"
+#include "util/log.h"
+#include "util/parse.h"
+#include "util/run_main.h"
+
+namespace fs = std::filesystem;
+using namespace lunarnav;
+
+int main(int argc, char** argv) {
+  CLI::App app{
+      "Calibrates a stereo rig from chessboard views: INPUT_DIR/left and INPUT_DIR/right hold\n"
+      "the two images of each view with the same file stems. Writes the rig file (-o) and\n"
+      "summary.json beside it; prints the per-view table on stdout.\n"
+      "Exit codes: 0 ok, 1 internal error, 2 usage, 3 bad input (e.g. too few usable views),\n"
+      "4 calibrated, but some views had unreadable or mismatched images."};
+  calib::CalibrationOptions opt;  // defaults live in the library
+  fs::path input_dir, rig_path, summary_path;
+  std::string board = "9x6";
+  bool quiet = false;
+  app.add_option("INPUT_DIR", input_dir, "directory holding left/ and right/")->required();
+  app.add_option("-o,--output", rig_path, "rig file to write (JSON, lunarnav.rig/1)")->required();
+  app.add_option("--board", board, "inner corners COLSxROWS of the chessboard")->capture_default_str();
+  app.add_option("--square", opt.board.square_size_m, "side of one square, metres")->required();
+  app.add_option("--mast-height", opt.mast.height_m, "height of the head centre above the mast base, m")
+      ->capture_default_str();
+  app.add_option("--tilt", opt.mast.tilt_deg, "downward pitch of the optical axes, degrees")->capture_default_str();
+  app.add_option("--lateral", opt.mast.lateral_offset_m, "X of the head centre (right positive), m")
+      ->capture_default_str();
+  app.add_option("--forward", opt.mast.forward_offset_m, "Y of the head centre (forward positive), m")
+      ->capture_default_str();
+  app.add_option("--min-views", opt.min_views, "fewest views with the board found in both images")
+      ->capture_default_str();
+  app.add_flag("--k3", opt.estimate_k3, "estimate the radial coefficient k3 too (wide-angle lenses)");
+  app.add_flag("--fix-intrinsics", opt.fix_intrinsics,
+               "keep each camera's own calibration in the stereo step (default: refine jointly)");
+  app.add_option("--flag-rms", opt.flag_view_rms_px, "flag views whose RMS reprojection error exceeds this, px")
+      ->capture_default_str();
+  app.add_option("--summary", summary_path, "summary file (default: summary.json beside the rig file)");
+  app.add_option("-j,--threads", opt.num_threads, "corner detection threads (0 = all cores)")->capture_default_str();
+  util::AddCommonFlags(&app, &quiet);
+  if (const auto exit_code = util::ParseCommandLine(&app, argc, argv, quiet)) return *exit_code;
+
+  return util::RunMain([&] {
+    std::tie(opt.board.cols, opt.board.rows) = util::ParseIntPair(board, 'x', "--board");
+    opt.show_progress = !quiet;
+    if (summary_path.empty()) summary_path = rig_path.parent_path() / "summary.json";
+
+    const calib::CalibrationRun run =
+        calib::RunCalibration(opt, input_dir, rig_path, summary_path, util::CommandLineJson(argc, argv));
+    if (!quiet) std::cout << run.result.Table() << std::flush;
+    LN_LOG(Info) << "calibrate: " << run.result.BriefReport();
+    LN_LOG(Info) << "rig in " << run.rig_path.string() << ", summary in " << run.summary_path.string();
+    return run.result.views_failed > 0 ? kExitBatchPartial : kExitOk;
+  });
+}

@@ -1,0 +1,120 @@
+// Stereo calibration from chessboard views (the `calibrate` tool): corner detection in
+// INPUT_DIR/left and INPUT_DIR/right, OpenCV's calibrateCamera for each camera, then
+// stereoCalibrate for the pose between them, with the quality measures a user needs to
+// trust the result (reprojection errors per view, row error after rectification).
+#pragma once
+
+#include <cmath>
+#include <filesystem>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include <nlohmann/json.hpp>
+#include <opencv2/core.hpp>
+
+#include "calib/chessboard.h"
+#include "calib/stereo_rig.h"
+
+namespace lunarnav::calib {
+
+/// Options of a calibration. The camera model is OpenCV's pinhole with k1 k2 p1 p2 k3.
+struct CalibrationOptions {
+  ChessboardSpec board;  ///< --board COLSxROWS (inner corners), --square METRES.
+  MastPose mast;         ///< Written to the rig file as given (calibration cannot see it).
+  /// Fewest views with the board found in both images; fewer is an InputError. >= 3
+  /// (OpenCV's minimum for a unique solution is 3; 5 leaves a margin against bad views).
+  int min_views = 5;
+  /// Estimate k3 as well (wide-angle lenses). Off by default: with a few views of a small
+  /// board k3 is poorly determined and trades off against k1 k2 at the image corners.
+  bool estimate_k3 = false;
+  /// Keep each camera's intrinsics from its own calibrateCamera in stereoCalibrate
+  /// (CALIB_FIX_INTRINSIC); by default they are refined jointly with the pose, which uses
+  /// both images of every view (CALIB_USE_INTRINSIC_GUESS).
+  bool fix_intrinsics = false;
+  /// A view whose stereo RMS reprojection error exceeds this is flagged in the report
+  /// ("high"), pixels, > 0. It is still used.
+  double flag_view_rms_px = 1.0;
+  int num_threads = 0;        ///< Corner detection threads; 0 = all cores.
+  bool show_progress = true;  ///< Progress bar on stderr (only when it is a terminal).
+
+  /// @throws std::invalid_argument naming the option.
+  void Validate() const;
+  nlohmann::json ToJson() const;
+};
+
+/// The detected corners of one stereo view (both images), pixels, board order.
+struct StereoCorners {
+  std::string stem;
+  std::vector<cv::Point2f> left, right;
+};
+
+/// What happened to one view.
+struct ViewReport {
+  enum class Status {
+    kUsed,     ///< The board was found in both images; the view took part in the calibration.
+    kSkipped,  ///< The board was not found in one or both images.
+    kFailed    ///< An image is missing, unreadable or of another size.
+  };
+  std::string stem;
+  Status status = Status::kFailed;
+  std::string reason;  ///< For kSkipped and kFailed.
+  /// For kUsed: RMS reprojection error of the view's corners after stereoCalibrate, pixels.
+  double rms_left_px = NAN, rms_right_px = NAN;
+  /// For kUsed: mean and max |y_left - y_right| of the view's corners after rectification
+  /// with the calibrated rig, pixels (0 for a perfect calibration and detection).
+  double mean_row_error_px = NAN, max_row_error_px = NAN;
+};
+
+std::string ToString(ViewReport::Status status);
+
+/// The calibrated rig and its quality.
+struct CalibrationResult {
+  StereoRig rig;  ///< Raw calibration (no rectified geometry), with the options' mast pose.
+  double rms_stereo_px = NAN;  ///< stereoCalibrate's RMS reprojection error over both images.
+  double rms_left_px = NAN, rms_right_px = NAN;  ///< Each camera's calibrateCamera RMS.
+  /// Over the corners of all used views after rectification, |y_left - y_right|, pixels.
+  double mean_row_error_px = NAN, max_row_error_px = NAN;
+  std::vector<ViewReport> views;  ///< Name order; every listed view.
+  int views_listed = 0, views_used = 0, views_skipped = 0, views_failed = 0;
+
+  /// e.g. "12 views: 11 used, 1 skipped, 0 failed; RMS 0.08 px; row error 0.02 px".
+  std::string BriefReport() const;
+  /// The per-view table and the totals, one line each, for stdout.
+  std::string Table() const;
+  /// Results (not the rig itself) for summary.json.
+  nlohmann::json ToJson() const;
+};
+
+/// Calibrates a rig from detected corners: calibrateCamera per camera, then stereoCalibrate,
+/// then per-view errors and the row error after rectification (RectifyRig + Rectifier).
+/// @param image_size  the raw images' size.
+/// @param views  views with the board found in both images (corners in board order).
+/// @return a result whose `views` holds one kUsed report per input view (in input order).
+/// @throws InputError when fewer than options.min_views views are given, or OpenCV cannot
+///         calibrate them (degenerate poses); std::invalid_argument for bad options.
+CalibrationResult CalibrateStereoRig(const CalibrationOptions& options, const cv::Size& image_size,
+                                     const std::vector<StereoCorners>& views);
+
+/// What RunCalibration wrote.
+struct CalibrationRun {
+  CalibrationResult result;
+  std::filesystem::path rig_path, summary_path;
+  double seconds = 0, detect_seconds = 0, calibrate_seconds = 0;
+};
+
+/// The whole `calibrate` tool: lists the pairs of INPUT_DIR (left/, right/, same stems),
+/// detects the board in both images of each (in parallel), logs every view skipped (board
+/// not found) or failed (missing/unreadable image, other size) as one line, calibrates with
+/// the rest, and writes the rig file and the summary atomically.
+/// @param summary_path  where summary.json goes (options, counts, per-view table, timings).
+/// @param invocation  recorded in the summary (e.g. the command line).
+/// @throws InputError when INPUT_DIR is unusable or fewer than min_views views have the
+///         board in both images (the message lists how many and why the others were left
+///         out); std::invalid_argument for bad options.
+CalibrationRun RunCalibration(const CalibrationOptions& options, const std::filesystem::path& input_dir,
+                              const std::filesystem::path& rig_path,
+                              const std::filesystem::path& summary_path,
+                              const nlohmann::json& invocation = nullptr);
+
+}  // namespace lunarnav::calib

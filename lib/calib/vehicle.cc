@@ -1,0 +1,99 @@
+#include "calib/vehicle.h"
+
+#include <cmath>
+#include <set>
+
+#include "io/json_io.h"
+#include "util/check.h"
+
+namespace lunarnav::calib {
+namespace {
+
+constexpr const char* kFormat = "lunarnav.vehicle/1";
+
+void OnlyKeys(const nlohmann::json& j, const std::set<std::string>& allowed, const std::string& where) {
+  LN_CHECK_INPUT(j.is_object()) << where << ": expected an object";
+  for (const auto& [key, value] : j.items()) {
+    LN_CHECK_INPUT(allowed.count(key) > 0) << where << ": unknown field '" << key << "'";
+  }
+}
+
+double Number(const nlohmann::json& j, const char* key, const std::string& where) {
+  LN_CHECK_INPUT(j.contains(key)) << where << ": missing field '" << key << "'";
+  LN_CHECK_INPUT(j.at(key).is_number()) << where << "." << key << ": expected a number";
+  return j.at(key).get<double>();
+}
+
+void CheckPositive(double value, const std::string& where) {
+  LN_CHECK_INPUT(std::isfinite(value) && value > 0) << where << ": must be positive, got " << value;
+}
+
+}  // namespace
+
+void VehicleSpec::Validate(const std::string& source) const {
+  CheckPositive(max_speed_m_s, source + ".max_speed_m_s");
+  CheckPositive(sliding_friction, source + ".sliding_friction");
+  LN_CHECK_INPUT(std::isfinite(stop_time_s) && stop_time_s >= 0)
+      << source << ".stop_time_s: must be >= 0, got " << stop_time_s;
+  CheckPositive(width_m, source + ".width_m");
+  CheckPositive(wheel_diameter_m, source + ".wheel_diameter_m");
+  LN_CHECK_INPUT(std::isfinite(front_axle_y_m)) << source << ".front_axle_y_m: not finite";
+  const std::string r = source + ".requirements";
+  CheckPositive(requirements.fov_vehicle_widths, r + ".fov_vehicle_widths");
+  CheckPositive(requirements.obstacle_height_m, r + ".obstacle_height_m");
+  CheckPositive(requirements.obstacle_min_px, r + ".obstacle_min_px");
+  CheckPositive(requirements.far_range_m, r + ".far_range_m");
+}
+
+nlohmann::json VehicleSpecToJson(const VehicleSpec& v) {
+  return {{"format", kFormat},
+          {"name", v.name},
+          {"max_speed_m_s", v.max_speed_m_s},
+          {"sliding_friction", v.sliding_friction},
+          {"stop_time_s", v.stop_time_s},
+          {"width_m", v.width_m},
+          {"wheel_diameter_m", v.wheel_diameter_m},
+          {"front_axle_y_m", v.front_axle_y_m},
+          {"requirements", {{"fov_vehicle_widths", v.requirements.fov_vehicle_widths},
+                            {"obstacle_height_m", v.requirements.obstacle_height_m},
+                            {"obstacle_min_px", v.requirements.obstacle_min_px},
+                            {"far_range_m", v.requirements.far_range_m}}}};
+}
+
+VehicleSpec VehicleSpecFromJson(const nlohmann::json& j, const std::string& source) {
+  OnlyKeys(j,
+           {"format", "name", "description", "sources", "max_speed_m_s", "sliding_friction", "stop_time_s", "width_m",
+            "wheel_diameter_m", "front_axle_y_m", "requirements"},
+           source);
+  LN_CHECK_INPUT(j.contains("format") && j["format"] == kFormat)
+      << source << ".format: expected \"" << kFormat << "\"";
+  VehicleSpec v;
+  if (j.contains("name")) {
+    LN_CHECK_INPUT(j["name"].is_string()) << source << ".name: expected a string";
+    v.name = j["name"].get<std::string>();
+  }
+  v.max_speed_m_s = Number(j, "max_speed_m_s", source);
+  v.sliding_friction = Number(j, "sliding_friction", source);
+  v.stop_time_s = Number(j, "stop_time_s", source);
+  v.width_m = Number(j, "width_m", source);
+  v.wheel_diameter_m = Number(j, "wheel_diameter_m", source);
+  v.front_axle_y_m = Number(j, "front_axle_y_m", source);
+  if (j.contains("requirements")) {
+    const std::string r = source + ".requirements";
+    const nlohmann::json& rj = j["requirements"];
+    OnlyKeys(rj, {"fov_vehicle_widths", "obstacle_height_m", "obstacle_min_px", "far_range_m"}, r);
+    ImagingRequirements& q = v.requirements;
+    if (rj.contains("fov_vehicle_widths")) q.fov_vehicle_widths = Number(rj, "fov_vehicle_widths", r);
+    if (rj.contains("obstacle_height_m")) q.obstacle_height_m = Number(rj, "obstacle_height_m", r);
+    if (rj.contains("obstacle_min_px")) q.obstacle_min_px = Number(rj, "obstacle_min_px", r);
+    if (rj.contains("far_range_m")) q.far_range_m = Number(rj, "far_range_m", r);
+  }
+  v.Validate(source);
+  return v;
+}
+
+VehicleSpec ReadVehicleSpec(const std::filesystem::path& path) {
+  return VehicleSpecFromJson(io::ReadJson(path), path.string());
+}
+
+}  // namespace lunarnav::calib

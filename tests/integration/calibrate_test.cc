@@ -1,0 +1,154 @@
+// Integration tests of the calibrate tool on rendered chessboard views of a known rig.
+#include <gtest/gtest.h>
+
+#include <filesystem>
+#include <fstream>
+#include <memory>
+
+#include <nlohmann/json.hpp>
+#include <opencv2/core.hpp>
+
+#include "calib/paper_rig.h"
+#include "calib/rectify.h"
+#include "calib/stereo_rig_io.h"
+#include "integration/run_tool.h"
+#include "io/image_io.h"
+#include "io/json_io.h"
+#include "sim/chessboard_views.h"
+#include "util/testing.h"
+
+namespace lunarnav {
+namespace {
+namespace fs = std::filesystem;
+using testing::RunTool;
+
+// 12 views of the paper-like rig (640 x 480, 740 px, 0.9 m baseline, k1 = -0.12), rendered
+// once for the suite with 1 grey level of noise.
+class CalibrateTool : public ::testing::Test {
+ protected:
+  static void SetUpTestSuite() {
+    views_dir_ = new util::ScopedTempDir();
+    sim::ChessboardViewsOptions options;
+    options.num_views = 12;
+    options.noise_sigma = 1.0;
+    options.seed = 5;
+    views_ = new std::vector<sim::ChessboardView>(sim::GenerateChessboardViews(calib::testing::PaperRig(), options));
+    sim::WriteChessboardViews(views_dir_->path(), calib::testing::PaperRig(), options, *views_);
+  }
+  static void TearDownTestSuite() {
+    delete views_dir_;
+    delete views_;
+  }
+  // Copies views [0, count) into dir/left, dir/right.
+  static void CopyViews(const fs::path& dir, int count) {
+    for (const char* side : {"left", "right"}) {
+      fs::create_directories(dir / side);
+      for (int k = 0; k < count; ++k) {
+        const std::string name = sim::ChessboardViewStem(k) + ".png";
+        fs::copy_file(views_dir_->path() / side / name, dir / side / name);
+      }
+    }
+  }
+  static util::ScopedTempDir* views_dir_;
+  static std::vector<sim::ChessboardView>* views_;
+};
+util::ScopedTempDir* CalibrateTool::views_dir_ = nullptr;
+std::vector<sim::ChessboardView>* CalibrateTool::views_ = nullptr;
+
+TEST_F(CalibrateTool, RecoversTheRigAndSkipsAViewWithoutTheBoard) {
+  util::ScopedTempDir tmp;
+  CopyViews(tmp.path() / "in", 12);
+  // A 13th view in which the board is not to be seen.
+  const cv::Mat blank(480, 640, CV_8UC1, cv::Scalar(90));
+  io::WriteImageAtomic(tmp.path() / "in" / "left" / "view_blank.png", blank);
+  io::WriteImageAtomic(tmp.path() / "in" / "right" / "view_blank.png", blank);
+  const fs::path rig_path = tmp.path() / "out" / "rig.json";
+  const auto run = RunTool("calibrate",
+                           {(tmp.path() / "in").string(), "-o", rig_path.string(), "--board", "9x6", "--square",
+                            "0.1", "--mast-height", "1.4", "--tilt", "20", "-j", "2", "--quiet"},
+                           tmp.path());
+  ASSERT_EQ(run.exit_code, 0) << run.stderr_text;
+  EXPECT_EQ(run.ErrorLines(), 0);
+  EXPECT_NE(run.stderr_text.find("view_blank"), std::string::npos);  // a warning names it
+
+  const calib::StereoRig truth = calib::testing::PaperRig();
+  const calib::StereoRig rig = calib::ReadStereoRig(rig_path);
+  // The brief's tolerances: focal length 0.5 %, principal point a few pixels, baseline 1 %.
+  for (const auto& [estimated, expected] : {std::pair{&rig.left, &truth.left}, {&rig.right, &truth.right}}) {
+    EXPECT_NEAR(estimated->K(0, 0), expected->K(0, 0), 0.005 * expected->K(0, 0));
+    EXPECT_NEAR(estimated->K(1, 1), expected->K(1, 1), 0.005 * expected->K(1, 1));
+    EXPECT_NEAR(estimated->K(0, 2), expected->K(0, 2), 3.0);
+    EXPECT_NEAR(estimated->K(1, 2), expected->K(1, 2), 3.0);
+  }
+  EXPECT_NEAR(rig.BaselineM(), 0.9, 0.009);
+  EXPECT_EQ(rig.mast.height_m, 1.4);
+  EXPECT_EQ(rig.mast.tilt_deg, 20.0);
+
+  // After rectification with the estimated rig, the exact corners of every view lie on the
+  // same row within 0.1 px.
+  const calib::Rectifier rectifier(calib::RectifyRig(rig));
+  for (const sim::ChessboardView& view : *views_) {
+    const auto left = rectifier.RectifyPoints(view.left_corners_px, true);
+    const auto right = rectifier.RectifyPoints(view.right_corners_px, false);
+    for (std::size_t i = 0; i < left.size(); ++i) EXPECT_NEAR(left[i].y, right[i].y, 0.1) << i;
+  }
+
+  const nlohmann::json summary = io::ReadJson(tmp.path() / "out" / "summary.json");
+  EXPECT_EQ(summary["tool"], "calibrate");
+  EXPECT_EQ(summary["counts"]["views_listed"], 13);
+  EXPECT_EQ(summary["counts"]["views_used"], 12);
+  EXPECT_EQ(summary["counts"]["views_skipped"], 1);
+  ASSERT_EQ(summary["not_used"].size(), 1u);
+  EXPECT_EQ(summary["not_used"][0]["stem"], "view_blank");
+  EXPECT_EQ(summary["not_used"][0]["reason"], "board not found in either image");
+  // Rendered corners are detected to a few hundredths of a pixel, so the stereo RMS and the
+  // detected corners' row error are small.
+  EXPECT_LT(summary["rms_reprojection_px"]["stereo"].get<double>(), 0.1);
+  EXPECT_LT(summary["row_error_after_rectification_px"]["mean"].get<double>(), 0.1);
+  EXPECT_EQ(summary["views"].size(), 13u);
+  EXPECT_TRUE(summary["views"][0]["rms_left_px"].is_number());
+}
+
+TEST_F(CalibrateTool, TooFewUsableViewsIsBadInput) {
+  util::ScopedTempDir tmp;
+  CopyViews(tmp.path() / "in", 4);
+  const auto run = RunTool(
+      "calibrate", {(tmp.path() / "in").string(), "-o", (tmp.path() / "rig.json").string(), "--square", "0.1"},
+      tmp.path());
+  EXPECT_EQ(run.exit_code, 3) << run.stderr_text;
+  EXPECT_EQ(run.ErrorLines(), 1);
+  EXPECT_NE(run.stderr_text.find("only 4 of 4 views"), std::string::npos) << run.stderr_text;
+  EXPECT_FALSE(fs::exists(tmp.path() / "rig.json"));
+}
+
+TEST_F(CalibrateTool, AnUnreadableViewIsReportedAndTheRestCalibrates) {
+  util::ScopedTempDir tmp;
+  CopyViews(tmp.path() / "in", 6);
+  std::ofstream(tmp.path() / "in" / "left" / "view_bad.png") << "not a png";
+  std::ofstream(tmp.path() / "in" / "right" / "view_bad.png") << "not a png";
+  const auto run = RunTool("calibrate",
+                           {(tmp.path() / "in").string(), "-o", (tmp.path() / "rig.json").string(), "--square",
+                            "0.1", "--summary", (tmp.path() / "s.json").string()},
+                           tmp.path());
+  EXPECT_EQ(run.exit_code, 4) << run.stderr_text;
+  EXPECT_EQ(run.ErrorLines(), 1);
+  EXPECT_TRUE(fs::exists(tmp.path() / "rig.json"));
+  const nlohmann::json summary = io::ReadJson(tmp.path() / "s.json");
+  EXPECT_EQ(summary["counts"]["views_failed"], 1);
+  EXPECT_EQ(summary["not_used"][0]["status"], "failed");
+}
+
+TEST_F(CalibrateTool, BadOptionsAreUsageErrors) {
+  util::ScopedTempDir tmp;
+  CopyViews(tmp.path() / "in", 1);
+  const std::string in = (tmp.path() / "in").string(), out = (tmp.path() / "rig.json").string();
+  EXPECT_EQ(RunTool("calibrate", {in, "-o", out, "--square", "0.1", "--board", "2x6"}, tmp.path()).exit_code, 2);
+  EXPECT_EQ(RunTool("calibrate", {in, "-o", out, "--square", "-1"}, tmp.path()).exit_code, 2);
+  EXPECT_EQ(RunTool("calibrate", {in, "-o", out}, tmp.path()).exit_code, 2);  // --square is required
+  EXPECT_EQ(RunTool("calibrate", {in, "-o", out, "--square", "0.1", "--tilt", "95"}, tmp.path()).exit_code, 2);
+  EXPECT_EQ(RunTool("calibrate", {(tmp.path() / "none").string(), "-o", out, "--square", "0.1"}, tmp.path()).exit_code,
+            3);
+}
+
+}  // namespace
+}  // namespace lunarnav
