@@ -6,11 +6,15 @@
 #include <string>
 #include <vector>
 
+#include "calib/stereo_rig_io.h"
+#include "calib/triangulation.h"
+#include "evaluation/boxes_eval.h"
 #include "evaluation/correlation_study.h"
 #include "evaluation/disparity_eval.h"
 #include "evaluation/figure.h"
 #include "evaluation/trials_eval.h"
 #include "io/atomic_file.h"
+#include "io/float_array_io.h"
 #include "io/image_io.h"
 #include "io/json_io.h"
 #include "util/check.h"
@@ -244,6 +248,129 @@ int RunCorrelation(CorrelationArgs args, int argc, char** argv) {
   return kExitOk;
 }
 
+struct BoxesArgs {
+  std::vector<fs::path> runs;
+  fs::path boxes, rig, output_dir;
+  double sigma_d_px = 1.0;
+  evaluation::BoxesEvalOptions options;
+};
+
+// One stereo-batch run's XYZ maps scored against the box list.
+evaluation::BoxRunResult ScoreBoxRun(const fs::path& run, const evaluation::BoxList& boxes,
+                                     const evaluation::BoxesEvalOptions& options, json* run_json, int* failed) {
+  const json summary = io::ReadJson(run / "summary.json");
+  LN_CHECK_INPUT(summary.value("tool", "") == "stereo-batch")
+      << (run / "summary.json").string() << ": not a stereo-batch summary";
+  evaluation::BoxRunResult result;
+  const json& step = summary["options"]["step_px"];
+  LN_CHECK_INPUT(step.is_array() && step.size() == 2) << (run / "summary.json").string() << ": no options.step_px";
+  result.step_x = step[0].get<int>();
+  result.step_y = step[1].get<int>();
+  result.name = "dx" + std::to_string(result.step_x) + "_dy" + std::to_string(result.step_y);
+  const fs::path xyz_dir = run / "xyz";
+  LN_CHECK_INPUT(fs::is_directory(xyz_dir)) << xyz_dir.string() << ": no XYZ maps (run stereo-batch with --rig)";
+  std::vector<fs::path> files;
+  for (const auto& entry : fs::directory_iterator(xyz_dir)) {
+    if (entry.path().extension() == ".exr") files.push_back(entry.path());
+  }
+  std::sort(files.begin(), files.end());
+  LN_CHECK_INPUT(!files.empty()) << xyz_dir.string() << ": no .exr files";
+  long maps = 0;
+  for (const fs::path& file : files) {
+    const std::string stem = file.stem().string();
+    try {
+      const io::ExrImage xyz = io::ReadExr(file);
+      LN_CHECK_INPUT(xyz.pixels.type() == CV_32FC3) << file.string() << ": expected 3 channels (X, Y, Z)";
+      const auto& faces = boxes.For(stem);
+      const auto errors = evaluation::EvaluateBoxFaces(xyz.pixels, faces, options);
+      for (std::size_t k = 0; k < faces.size(); ++k) {
+        result.by_distance_cm[std::lround(faces[k].front_y_m * 100)].Add(errors[k]);
+      }
+      ++maps;
+    } catch (const InputError& e) {
+      ++*failed;
+      LN_LOG(Error) << "pair " << stem << ": " << e.what();
+    }
+  }
+  *run_json = {{"dir", run.string()}, {"name", result.name}, {"maps", maps}, {"step_px", {result.step_x, result.step_y}}};
+  return result;
+}
+
+// Figure 4: E_Y against Y per subsampling, with the predicted 1-pixel curve.
+evaluation::FigureResult BoxesFigure(const fs::path& dir, const std::vector<evaluation::BoxRunResult>& runs,
+                                     bool predicted) {
+  std::ostringstream gp;
+  gp << "set title \"Error in measured distance against distance, per subsampling (Figure 4)\"\n"
+     << "set xlabel \"Y (m)\"\nset ylabel \"E_Y (m)\"\nset grid\nset key top left\n"
+     << "set offsets graph 0.03, 0.03, 0.05, 0\nset yrange [0:*]\nplot ";
+  int column = 2;
+  bool first = true;
+  if (predicted) {
+    gp << "\"boxes.csv\" using 1:2 with lines lw 2 dt 2 lc rgb \"black\" title \"predicted, 1 px\"";
+    first = false;
+    ++column;
+  }
+  for (const auto& run : runs) {
+    gp << (first ? "" : ", \\\n     ") << "\"boxes.csv\" using 1:" << column << " with linespoints pt 7 title \"("
+       << run.step_x << ", " << run.step_y << ")\"";
+    first = false;
+    column += 3;  // E_Y, bias, points
+  }
+  gp << "\n";
+  return evaluation::WriteFigure(dir, "boxes", gp.str());
+}
+
+int RunBoxes(const BoxesArgs& args, int argc, char** argv) {
+  util::Timer timer;
+  args.options.Validate();
+  LN_CHECK_ARG(args.sigma_d_px > 0) << "--sigma-d: must be > 0";
+  const evaluation::BoxList boxes = evaluation::ReadBoxList(args.boxes);
+  io::CreateOutputDirectory(args.output_dir);
+  std::vector<evaluation::BoxRunResult> runs;
+  json runs_json = json::array();
+  int failed = 0;
+  for (const fs::path& run : args.runs) {
+    json run_json;
+    runs.push_back(ScoreBoxRun(run, boxes, args.options, &run_json, &failed));
+    runs_json.push_back(run_json);
+  }
+  // The predicted E_Y of a one-pixel disparity error at the centre of each face.
+  std::map<long, double> predicted;
+  if (!args.rig.empty()) {
+    const calib::StereoRig rig = calib::ReadStereoRig(args.rig);
+    LN_CHECK_ARG(rig.rectified.has_value()) << args.rig.string() << ": not a rectified rig";
+    std::vector<evaluation::BoxFace> faces = boxes.boxes;
+    for (const auto& [stem, list] : boxes.frames) faces.insert(faces.end(), list.begin(), list.end());
+    for (const auto& f : faces) {
+      const Eigen::Vector3d centre(0.5 * (f.x_min_m + f.x_max_m), f.front_y_m, 0.5 * (f.z_min_m + f.z_max_m));
+      predicted[std::lround(f.front_y_m * 100)] =
+          calib::PredictPointSigma(rig, centre, calib::ReferenceImage::kRight, args.sigma_d_px).y();
+    }
+  }
+  const evaluation::Table table = evaluation::BoxesTable(runs, predicted);
+  evaluation::WriteTable(args.output_dir, "boxes", table);
+  const evaluation::FigureResult figure = BoxesFigure(args.output_dir, runs, !predicted.empty());
+  if (!figure.rendered) {
+    LN_LOG(Warning) << figure.png.string() << ": not drawn: " << figure.problem;
+  }
+  json summary = SummaryHead("boxes", argc, argv);
+  summary["inputs"] = {{"runs", runs_json}, {"boxes", args.boxes.string()}, {"rig", args.rig.string()}};
+  summary["options"] = {{"edge_margin_m", args.options.edge_margin_m},
+                        {"y_gate_fraction", args.options.y_gate_fraction},
+                        {"sigma_d_px", args.sigma_d_px}};
+  summary["counts"] = {{"runs", runs.size()}, {"distances", table.rows.size()}, {"failed_maps", failed}};
+  summary["table"] = table.ToJson();
+  summary["figures"] = {{{"png", figure.png.filename().string()},
+                         {"data", "boxes.csv"},
+                         {"rendered", figure.rendered},
+                         {"problem", figure.problem}}};
+  summary["timings_s"] = {{"total", timer.ElapsedSeconds()}};
+  io::WriteJsonAtomic(args.output_dir / "summary.json", summary);
+  LN_LOG(Info) << "evaluate boxes: " << runs.size() << " runs, " << table.rows.size() << " distances; "
+               << (args.output_dir / "boxes.md").string();
+  return failed > 0 ? kExitBatchPartial : kExitOk;
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
@@ -323,11 +450,29 @@ int main(int argc, char** argv) {
       ->capture_default_str();
   correlation_cmd->add_option("-o,--output", correlation.output_dir, "output directory (created)")->required();
 
+  BoxesArgs boxes;
+  CLI::App* boxes_cmd = app.add_subcommand(
+      "boxes", "box experiment: E_Y of box faces against distance per subsampling (Figure 4)");
+  boxes_cmd->add_option("RUN_DIR", boxes.runs, "stereo-batch output directories run with --rig (one per (dx, dy))")
+      ->required();
+  boxes_cmd->add_option("--boxes", boxes.boxes, "box list (lunarnav.boxes/1), e.g. simulate's truth/boxes.json")
+      ->required();
+  boxes_cmd->add_option("--rig", boxes.rig, "rectified rig file: adds the predicted error of --sigma-d px");
+  boxes_cmd->add_option("--sigma-d", boxes.sigma_d_px, "disparity error of the predicted curve (px)")
+      ->capture_default_str();
+  boxes_cmd->add_option("--edge-margin", boxes.options.edge_margin_m, "face points this close to an edge are left out (m)")
+      ->capture_default_str();
+  boxes_cmd->add_option("--y-gate", boxes.options.y_gate_fraction,
+                        "a point belongs to a face when |Y - true Y| <= this x true Y")
+      ->capture_default_str();
+  boxes_cmd->add_option("-o,--output", boxes.output_dir, "output directory (created)")->required();
+
   if (const auto exit_code = util::ParseCommandLine(&app, argc, argv, quiet)) return *exit_code;
   return util::RunMain([&]() -> int {
     if (disparity_cmd->parsed()) return RunDisparity(disparity, argc, argv);
     if (trials_cmd->parsed()) return RunTrials(trials, argc, argv);
     if (correlation_cmd->parsed()) return RunCorrelation(correlation, argc, argv);
+    if (boxes_cmd->parsed()) return RunBoxes(boxes, argc, argv);
     return kExitUsage;
   });
 }
