@@ -25,6 +25,7 @@ std::function<int(const nlohmann::json&, bool)> RegisterStereoCommand(CLI::App& 
       "Renders stereo pairs of the paper's rig (0.9 m baseline, 1.5 m up, 25 deg down, 640x480,\n"
       "f = 740 px) by ray casting, with ground truth: OUT_DIR/left, right, truth/, rig.json,\n"
       "summary.json (docs/simulate-stereo.md).");
+  cmd->fallthrough();  // the tool's own flags (-q, --version) may follow the subcommand
   cmd->add_option("-o,--output", state->output_dir, "output directory (created)")->required();
   cmd->add_option("--preset", o.preset, "scene: terrain (rocky height field) or boxes (sec. 3.4)")
       ->check(CLI::IsMember({"terrain", "boxes"}))

@@ -247,12 +247,14 @@ std::optional<double> Terrain::Intersect(const Eigen::Vector3d& origin, const Ei
   int ix = node_of(ox + dx * t0, x0, level, level_nx_[level]);
   int iy = node_of(oy + dy * t0, y0, level, level_ny_[level]);
   const int sx = dx > 0 ? 1 : -1, sy = dy > 0 ? 1 : -1;
+  // Reciprocals: the node-boundary crossings below are the inner loop's only divisions.
+  const double inv_dx = dx != 0 ? 1.0 / dx : 0.0, inv_dy = dy != 0 ? 1.0 / dy : 0.0;
   double t = t0;
   for (int guard = 0; guard < 10000000; ++guard) {
     const double size = c * static_cast<double>(1 << (kLevelShift * level));
     const double bx = x0 + (ix + (dx > 0 ? 1 : 0)) * size, by = y0 + (iy + (dy > 0 ? 1 : 0)) * size;
-    const double tx = dx != 0 ? (bx - ox) / dx : std::numeric_limits<double>::infinity();
-    const double ty = dy != 0 ? (by - oy) / dy : std::numeric_limits<double>::infinity();
+    const double tx = dx != 0 ? (bx - ox) * inv_dx : std::numeric_limits<double>::infinity();
+    const double ty = dy != 0 ? (by - oy) * inv_dy : std::numeric_limits<double>::infinity();
     const double t_exit = std::max(t, std::min({tx, ty, t1}));
     const double z_low = oz + dz * (dz < 0 ? t_exit : t);
     const float node_max = levels_[level][static_cast<std::size_t>(iy) * level_nx_[level] + ix];

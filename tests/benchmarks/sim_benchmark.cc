@@ -47,7 +47,7 @@ void BM_RenderPaperPair(benchmark::State& state) {
   }
 }
 BENCHMARK(BM_RenderPaperPair)
-    ->Args({2, 1})->Args({2, 0})->Args({1, 1})
+    ->Args({2, 1})->Args({2, 0})->Args({1, 1})->Args({1, 0})
     ->Unit(benchmark::kMillisecond)->UseRealTime()->Repetitions(3)->ReportAggregatesOnly(true);
 
 }  // namespace
