@@ -59,7 +59,7 @@ struct StereoSimOptions {
   int rays_per_pixel = 4;        ///< A square: 1, 4, 9, ..., 64.
 
   // Sequence (sec. 4.2's speeds: 310 images over 150 m at 0.15 m/s).
-  int frames = 1;                 ///< Frames; -1 = the preset's default (terrain 1, boxes 1).
+  int frames = 1;                 ///< Frames along the trajectory, >= 1.
   double speed_mps = 0.15;        ///< Vehicle speed.
   double interval_s = 3.2;        ///< Time between frames (0.48 m at 0.15 m/s).
   double turn_radius_m = 0.0;     ///< 0: straight; > 0 a right-hand arc, < 0 a left-hand one.
