@@ -23,13 +23,45 @@ constexpr std::uint64_t kReliefSalt = 0x52454C49;  // "RELI"
 constexpr std::uint64_t kRockSalt = 0x524F434B;    // "ROCK"
 constexpr std::uint64_t kAlbedoSalt = 0x414C4245;  // "ALBE"
 
-double Relief(const TerrainOptions& o, double x, double y) {
+// floor for |x| < 2^62 without a library call.
+inline double FastFloor(double x) {
+  const auto t = static_cast<double>(static_cast<std::int64_t>(x));
+  return t > x ? t - 1.0 : t;
+}
+
+// sim::ValueNoise2 with its seed already mixed (static_cast<std::uint32_t>(Mix64(seed))):
+// the same lattice hash and quintic interpolation, so the same values (random.cc).
+inline double LatticeValue(std::int64_t ix, std::int64_t iy, std::uint32_t seed) {
+  std::uint32_t h = seed ^ static_cast<std::uint32_t>(ix) * 0x85EBCA6Bu ^ static_cast<std::uint32_t>(iy) * 0xC2B2AE35u;
+  h ^= h >> 16;
+  h *= 0x7FEB352Du;
+  h ^= h >> 15;
+  h *= 0x846CA68Bu;
+  h ^= h >> 16;
+  return static_cast<double>(h) * (2.0 / 4294967296.0) - 1.0;
+}
+
+inline double MixedValueNoise2(double x, double y, std::uint32_t s) {
+  const double fx = FastFloor(x), fy = FastFloor(y);
+  const auto ix = static_cast<std::int64_t>(fx), iy = static_cast<std::int64_t>(fy);
+  const double tx = x - fx, ty = y - fy;
+  const double sx = tx * tx * tx * (tx * (tx * 6 - 15) + 10);
+  const double sy = ty * ty * ty * (ty * (ty * 6 - 15) + 10);
+  const double v00 = LatticeValue(ix, iy, s), v10 = LatticeValue(ix + 1, iy, s);
+  const double v01 = LatticeValue(ix, iy + 1, s), v11 = LatticeValue(ix + 1, iy + 1, s);
+  const double top = v00 + sx * (v10 - v00);
+  const double bottom = v01 + sx * (v11 - v01);
+  return top + sy * (bottom - top);
+}
+
+// seeds: static_cast<std::uint32_t>(Mix64((seed ^ kReliefSalt) + k)), k = 0, 1, 2, so that
+// MixedValueNoise2(..., seeds[k]) = ValueNoise2(..., (seed ^ kReliefSalt) + k).
+double Relief(const TerrainOptions& o, const std::uint32_t* seeds, double x, double y) {
   double h = o.slope_x * x + o.slope_y * y;
   if (o.relief_amplitude_m > 0) {
     const double l = o.relief_wavelength_m;
-    const double n = ValueNoise2(x / l, y / l, o.seed ^ kReliefSalt) +
-                     0.5 * ValueNoise2(2 * x / l, 2 * y / l, (o.seed ^ kReliefSalt) + 1) +
-                     0.25 * ValueNoise2(4 * x / l, 4 * y / l, (o.seed ^ kReliefSalt) + 2);
+    const double n = MixedValueNoise2(x / l, y / l, seeds[0]) + 0.5 * MixedValueNoise2(2 * x / l, 2 * y / l, seeds[1]) +
+                     0.25 * MixedValueNoise2(4 * x / l, 4 * y / l, seeds[2]);
     h += o.relief_amplitude_m * n / 1.75;
   }
   return h;
@@ -107,6 +139,13 @@ nlohmann::json TerrainOptions::ToJson() const {
 Terrain::Terrain(const TerrainOptions& options) : options_(options) {
   options_.Validate();
   const TerrainOptions& o = options_;
+  inv_cell_ = 1.0 / o.cell_m;
+  double spacing = o.texture_finest_m;
+  for (int k = 0; k < o.texture_octaves; ++k, spacing *= 2) {
+    octave_seeds_.push_back(static_cast<std::uint32_t>(Mix64((o.seed ^ kAlbedoSalt) + static_cast<std::uint64_t>(k))));
+    octave_spacing_.push_back(spacing);
+    octave_inv_spacing_.push_back(1.0 / spacing);
+  }
   const double c = o.cell_m;
   const double cells_x = std::ceil((o.max_x_m - o.min_x_m) / c), cells_y = std::ceil((o.max_y_m - o.min_y_m) / c);
   LN_CHECK_ARG(cells_x * cells_y <= 2e8) << "terrain: " << cells_x << " x " << cells_y
@@ -128,6 +167,10 @@ Terrain::Terrain(const TerrainOptions& options) : options_(options) {
     });
   }
   const auto band_reach = static_cast<std::int64_t>(std::ceil(reach)) + 1;
+  std::uint32_t relief_seeds[3];
+  for (int k = 0; k < 3; ++k) {
+    relief_seeds[k] = static_cast<std::uint32_t>(Mix64((o.seed ^ kReliefSalt) + static_cast<std::uint64_t>(k)));
+  }
 
   tbb::parallel_for(0, ny_, [&](int j) {
     const double y = o.min_y_m + j * c;
@@ -148,7 +191,7 @@ Terrain::Terrain(const TerrainOptions& options) : options_(options) {
         }
       }
     }
-    for (int i = 0; i < nx_; ++i) row[i] = static_cast<float>(Relief(o, o.min_x_m + i * c, y) + rock[i]);
+    for (int i = 0; i < nx_; ++i) row[i] = static_cast<float>(Relief(o, relief_seeds, o.min_x_m + i * c, y) + rock[i]);
   });
 
   // Level 0: the maximum of each cell's four corners bounds its bilinear patch.
@@ -194,8 +237,8 @@ double Terrain::HeightAt(double x_m, double y_m) const {
 Eigen::Vector2d Terrain::VertexGradient(int i, int j) const {
   const int i0 = std::max(i - 1, 0), i1 = std::min(i + 1, nx_ - 1);
   const int j0 = std::max(j - 1, 0), j1 = std::min(j + 1, ny_ - 1);
-  const double c = options_.cell_m;
-  return {(H(i1, j) - H(i0, j)) / ((i1 - i0) * c), (H(i, j1) - H(i, j0)) / ((j1 - j0) * c)};
+  const double sx = (i1 - i0 == 2 ? 0.5 : 1.0) * inv_cell_, sy = (j1 - j0 == 2 ? 0.5 : 1.0) * inv_cell_;
+  return {(H(i1, j) - H(i0, j)) * sx, (H(i, j1) - H(i, j0)) * sy};
 }
 
 Eigen::Vector3d Terrain::NormalAt(double x_m, double y_m) const {
@@ -211,7 +254,16 @@ Eigen::Vector3d Terrain::NormalAt(double x_m, double y_m) const {
 
 double Terrain::AlbedoAt(double x_m, double y_m, double footprint_m) const {
   const TerrainOptions& o = options_;
-  const double n = FractalNoise2(x_m, y_m, o.seed ^ kAlbedoSalt, o.texture_finest_m, o.texture_octaves, footprint_m);
+  // FractalNoise2(x, y, seed ^ kAlbedoSalt, finest, octaves, footprint) with the per-octave
+  // work hoisted out (same values up to the rounding of x / spacing; terrain_test checks it).
+  double sum = 0;
+  const double inv_footprint = footprint_m > 0 ? 1.0 / footprint_m : 0.0;
+  for (std::size_t k = 0; k < octave_seeds_.size(); ++k) {
+    const double w = footprint_m > 0 ? std::clamp(octave_spacing_[k] * inv_footprint - 1.0, 0.0, 1.0) : 1.0;
+    if (w > 0) sum += w * MixedValueNoise2(x_m * octave_inv_spacing_[k], y_m * octave_inv_spacing_[k], octave_seeds_[k]);
+  }
+  constexpr double kValueNoiseSigma = 0.45;  // as in FractalNoise2
+  const double n = sum / (kValueNoiseSigma * std::sqrt(static_cast<double>(o.texture_octaves)));
   return std::clamp(o.albedo_mean + o.albedo_sigma * n, 0.02, 1.0);
 }
 

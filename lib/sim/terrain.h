@@ -81,6 +81,10 @@ class Terrain {
   Eigen::Vector2d VertexGradient(int i, int j) const;
 
   TerrainOptions options_;
+  // The albedo's octaves, hoisted out of the per-sample loop: lattice seed and 1 / spacing.
+  std::vector<std::uint32_t> octave_seeds_;
+  std::vector<double> octave_inv_spacing_, octave_spacing_;
+  double inv_cell_ = 0;
   int nx_ = 0, ny_ = 0;             // vertices
   std::vector<float> heights_;      // ny_ x nx_, row-major; vertex (i, j) at (x0 + i c, y0 + j c)
   // levels_[L]: maxima of blocks of 4^L x 4^L cells; dims level_nx_[L] x level_ny_[L].

@@ -2,6 +2,7 @@
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 
 #include "sim/random.h"
@@ -97,6 +98,35 @@ TEST(Terrain, RocksStandOutAndAlbedoIsWorldAnchored) {
     }
   }
   EXPECT_TRUE(std::isnan(with_rocks.HeightAt(50, 0)));
+}
+
+TEST(Terrain, AlbedoAndReliefAreTheDocumentedNoiseFunctions) {
+  // The terrain evaluates its noise with the per-octave work hoisted out; the values must be
+  // those of sim::FractalNoise2 and sim::ValueNoise2 as documented.
+  TerrainOptions o = SmallTerrain();
+  o.rock_density_per_m2 = 0;
+  o.slope_x = 0.01;
+  const Terrain terrain(o);
+  constexpr std::uint64_t kAlbedoSalt = 0x414C4245, kReliefSalt = 0x52454C49;
+  SplitMix64 rng(9);
+  for (int k = 0; k < 200; ++k) {
+    const double x = rng.Uniform(-3, 3), y = rng.Uniform(0, 8), footprint = k % 2 ? 0.0 : rng.Uniform(0, 0.2);
+    const double n = FractalNoise2(x, y, o.seed ^ kAlbedoSalt, o.texture_finest_m, o.texture_octaves, footprint);
+    const double albedo = std::clamp(o.albedo_mean + o.albedo_sigma * n, 0.02, 1.0);
+    EXPECT_NEAR(terrain.AlbedoAt(x, y, footprint), albedo, 1e-9);
+  }
+  // At a grid vertex the surface is the relief: slope plus three octaves of ValueNoise2.
+  for (int k = 0; k < 50; ++k) {
+    const int i = static_cast<int>(rng.Uniform(0, terrain.GridWidth() - 1));
+    const int j = static_cast<int>(rng.Uniform(0, terrain.GridHeight() - 1));
+    const double x = o.min_x_m + i * o.cell_m, y = o.min_y_m + j * o.cell_m, l = o.relief_wavelength_m;
+    const std::uint64_t s = o.seed ^ kReliefSalt;
+    const double relief = o.slope_x * x + o.relief_amplitude_m *
+                                              (ValueNoise2(x / l, y / l, s) + 0.5 * ValueNoise2(2 * x / l, 2 * y / l, s + 1) +
+                                               0.25 * ValueNoise2(4 * x / l, 4 * y / l, s + 2)) /
+                                              1.75;
+    EXPECT_NEAR(terrain.HeightAt(x, y), relief, 1e-6);
+  }
 }
 
 TEST(Terrain, InvalidOptionsAreUsageErrors) {
