@@ -293,8 +293,9 @@ std::optional<double> Terrain::Intersect(const Eigen::Vector3d& origin, const Ei
   const int top = static_cast<int>(levels_.size()) - 1;
   int level = top;
   auto node_of = [&](double p, double origin_m, int lvl, int count) {
-    const double size = c * static_cast<double>(1 << (kLevelShift * lvl));
-    return std::clamp(static_cast<int>(std::floor((p - origin_m) / size)), 0, count - 1);
+    // Within an ulp of the division; on a node boundary either neighbour is a valid start.
+    const double inv_size = inv_cell_ / static_cast<double>(1 << (kLevelShift * lvl));
+    return std::clamp(static_cast<int>(FastFloor((p - origin_m) * inv_size)), 0, count - 1);
   };
   int ix = node_of(ox + dx * t0, x0, level, level_nx_[level]);
   int iy = node_of(oy + dy * t0, y0, level, level_ny_[level]);
