@@ -55,8 +55,7 @@ std::function<int(const nlohmann::json&, bool)> RegisterStereoCommand(CLI::App& 
   cmd->add_option("--seed", o.seed, "scene, texture and noise seed (same seed, same bytes)")->capture_default_str();
   cmd->add_option("-j,--threads", o.num_threads, "worker threads (0 = all cores)")->capture_default_str();
 
-  return [state, cmd](const nlohmann::json& invocation, bool quiet) {
-    (void)cmd;
+  return [state](const nlohmann::json& invocation, bool quiet) {
     return util::RunMain([&] {
       sim::StereoSimOptions opt = state->options;
       opt.lens_distortion = !state->no_distortion;

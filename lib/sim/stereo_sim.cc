@@ -4,7 +4,6 @@
 #include <cmath>
 #include <cstdio>
 #include <limits>
-#include <mutex>
 #include <sstream>
 
 #include <opencv2/imgcodecs.hpp>
