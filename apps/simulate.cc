@@ -8,6 +8,7 @@
 
 #include "io/atomic_file.h"
 #include "io/json_io.h"
+#include "apps/simulate_stereo_cli.h"
 #include "sim/rover_telemetry.h"
 #include "util/cli.h"
 #include "util/errors.h"
@@ -101,14 +102,14 @@ int main(int argc, char** argv) {
   app.fallthrough();  // -q and --version also after the subcommand
   TelemetryCommand telemetry;
   telemetry.AddTo(&app);
-  // Further subcommands register here, each from its own translation unit: `simulate stereo`
-  // (rendered stereo sequences) and `simulate chessboard` (calibration views), issue 4.
+  // `simulate stereo` (rendered stereo sequences) registers from its own translation unit.
+  const auto run_stereo = apps::RegisterStereoCommand(app);
   bool quiet = false;
   util::AddCommonFlags(&app, &quiet);
   if (const auto exit_code = util::ParseCommandLine(&app, argc, argv, quiet)) return *exit_code;
 
   const nlohmann::json invocation = util::CommandLineJson(argc, argv);
   if (app.got_subcommand(telemetry.sub)) return util::RunMain([&] { return telemetry.Run(invocation); });
-  // ...and are dispatched here, e.g. `if (app.got_subcommand("stereo")) return run_stereo(invocation, quiet);`.
+  if (app.got_subcommand("stereo")) return run_stereo(invocation, quiet);
   return util::RunMain([]() -> int { throw std::logic_error("simulate: no subcommand to run"); });
 }

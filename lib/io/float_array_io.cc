@@ -39,6 +39,9 @@ void WriteExrAtomic(const fs::path& path, const cv::Mat& image, const std::vecto
   OIIO::ImageSpec spec(image.cols, image.rows, channels, OIIO::TypeDesc::FLOAT);
   spec.channelnames = names;
   spec.attribute("compression", "zip");
+  // OpenImageIO stamps files with the time of writing unless told otherwise; an empty stamp
+  // keeps the bytes a function of the data, so reruns and shards give identical files.
+  spec.attribute("DateTime", "");
   for (const auto& [key, value] : attributes) spec.attribute(key, value);
 
   if (!path.parent_path().empty()) fs::create_directories(path.parent_path());
