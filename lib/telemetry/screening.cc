@@ -190,20 +190,24 @@ class Screener {
     const int ch = static_cast<int>(c);
     const ChannelModel& m = model_[c];
     std::vector<double>& v = out_.value[ch];
-    // The accepted samples, compacted: rows, values and times.
-    std::vector<std::size_t>& idx = accepted_row_;
-    std::vector<double>& value = accepted_value_;
-    std::vector<double>& time = accepted_t_;
-    idx.clear();
-    value.clear();
-    time.clear();
-    for (std::size_t k = 0; k < v.size(); ++k) {
-      if (std::isnan(v[k])) continue;
-      idx.push_back(k);
-      value.push_back(v[k]);
-      time.push_back(out_.t_s[k]);
+    // The accepted samples: their values and times, compacted when some are missing or were
+    // rejected.
+    const std::size_t count =
+        static_cast<std::size_t>(std::count_if(v.begin(), v.end(), [](double x) { return !std::isnan(x); }));
+    const bool dense = count == v.size();
+    if (!dense) {
+      accepted_row_.clear();
+      accepted_value_.clear();
+      accepted_t_.clear();
+      for (std::size_t k = 0; k < v.size(); ++k) {
+        if (std::isnan(v[k])) continue;
+        accepted_row_.push_back(k);
+        accepted_value_.push_back(v[k]);
+        accepted_t_.push_back(out_.t_s[k]);
+      }
     }
-    const std::size_t count = idx.size();
+    const double* const value = dense ? v.data() : accepted_value_.data();
+    const double* const time = dense ? out_.t_s.data() : accepted_t_.data();
     const std::size_t h = static_cast<std::size_t>(o_.hampel_half_window);
     const std::size_t window = 2 * h + 1;  // odd
     if (count < window) return;
@@ -242,7 +246,7 @@ class Screener {
       for (std::size_t i = 0; i < window; ++i) scratch[i] = std::abs(residual[i] - med);
       const double sigma = std::max(1.4826 * util::SmallMedian(scratch.data(), window), channel_sigma);
       const double d = std::abs(mine - med);
-      if (d > o_.hampel_threshold * sigma && d > min_dev) spikes.push_back(idx[p]);
+      if (d > o_.hampel_threshold * sigma && d > min_dev) spikes.push_back(dense ? p : accepted_row_[p]);
     }
     for (std::size_t k : spikes) {
       Record(k, ch, ScreeningRule::kSpike, (*raw_[ch])[k]);
