@@ -6,11 +6,10 @@
 #include <unistd.h>
 
 #include <algorithm>
+#include <cerrno>
 #include <charconv>
 #include <cmath>
-#include <fstream>
 #include <limits>
-#include <sstream>
 #include <string_view>
 
 #include "util/check.h"
@@ -167,29 +166,37 @@ TelemetryLog ParseTelemetryCsv(std::string_view text, const std::string& source,
 }
 
 TelemetryLog ReadTelemetryCsv(const std::filesystem::path& path, const SensorModel& model) {
-  // A regular file is mapped, not copied (long logs are hundreds of megabytes).
   const int fd = ::open(path.c_str(), O_RDONLY | O_CLOEXEC);
   LN_CHECK_INPUT(fd >= 0) << path.string() << ": cannot open";
+  const struct Close {
+    int fd;
+    ~Close() { ::close(fd); }
+  } close_at_return{fd};
+  // A regular file is mapped, not copied (long logs are hundreds of megabytes); anything else
+  // (a pipe) is read.
   struct stat info {};
-  const bool regular = ::fstat(fd, &info) == 0 && S_ISREG(info.st_mode) && info.st_size > 0;
-  void* const mapped = regular ? ::mmap(nullptr, static_cast<std::size_t>(info.st_size), PROT_READ,
-                                        MAP_PRIVATE | MAP_POPULATE, fd, 0)
-                               : MAP_FAILED;
-  ::close(fd);
-  if (mapped != MAP_FAILED) {
-    struct Unmap {
-      void* data;
-      std::size_t size;
-      ~Unmap() { ::munmap(data, size); }
-    } unmap{mapped, static_cast<std::size_t>(info.st_size)};
-    return ParseTelemetryCsv(std::string_view(static_cast<const char*>(mapped), unmap.size), path.string(), model);
+  if (::fstat(fd, &info) == 0 && S_ISREG(info.st_mode) && info.st_size > 0) {
+    const std::size_t size = static_cast<std::size_t>(info.st_size);
+    void* const mapped = ::mmap(nullptr, size, PROT_READ, MAP_PRIVATE | MAP_POPULATE, fd, 0);
+    if (mapped != MAP_FAILED) {
+      const struct Unmap {
+        void* data;
+        std::size_t size;
+        ~Unmap() { ::munmap(data, size); }
+      } unmap_at_return{mapped, size};
+      return ParseTelemetryCsv(std::string_view(static_cast<const char*>(mapped), size), path.string(), model);
+    }
   }
-  std::ifstream in(path, std::ios::binary);
-  LN_CHECK_INPUT(in.good()) << path.string() << ": cannot open";
-  std::ostringstream text;
-  text << in.rdbuf();
-  LN_CHECK_INPUT(!in.bad()) << path.string() << ": read error";
-  return ParseTelemetryCsv(text.str(), path.string(), model);
+  std::string text;
+  char buffer[1 << 16];
+  while (true) {
+    const ssize_t n = ::read(fd, buffer, sizeof(buffer));
+    if (n == 0) break;
+    if (n < 0 && errno == EINTR) continue;
+    LN_CHECK_INPUT(n > 0) << path.string() << ": read error";
+    text.append(buffer, static_cast<std::size_t>(n));
+  }
+  return ParseTelemetryCsv(text, path.string(), model);
 }
 
 }  // namespace lunarnav::telemetry
