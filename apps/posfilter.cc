@@ -65,8 +65,9 @@ int main(int argc, char** argv) {
     progress.Increment();
     for (const std::string& note : result.notes) LN_LOG(Info) << "posfilter: " << note;
 
-    positioning::WriteTrajectoryCsv(output_dir / "trajectory.csv", result.motion.trajectory);
-    positioning::WriteTrajectoryTum(output_dir / "trajectory.tum", result.motion.trajectory);
+    positioning::TrajectoryWriter writer(output_dir / "trajectory.csv", output_dir / "trajectory.tum");
+    for (const positioning::TrajectorySample& pose : result.motion.trajectory) writer.Add(pose);
+    writer.Commit();
     if (!screening_log.empty()) telemetry::WriteScreeningLog(screening_log, result.screened);
     if (!streams.empty()) positioning::WriteHeadingStreamsCsv(streams, log, model, result);
     nlohmann::json summary = result.SummaryJson();

@@ -17,26 +17,30 @@ constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
 // Linear interpolation in time over NaN gaps, holding the end values; empty when fewer than
 // two samples are valid.
 std::vector<double> FillGaps(const std::vector<double>& t, const std::vector<double>& v) {
-  std::vector<std::size_t> valid;
-  for (std::size_t k = 0; k < v.size(); ++k) {
-    if (!std::isnan(v[k])) valid.push_back(k);
-  }
-  if (valid.size() < 2) return {};
-  std::vector<double> out(v.size());
-  std::size_t next = 0;
-  for (std::size_t k = 0; k < v.size(); ++k) {
-    while (next < valid.size() && valid[next] < k) ++next;
-    if (next < valid.size() && valid[next] == k) {
-      out[k] = v[k];
-    } else if (next == 0) {
-      out[k] = v[valid.front()];
-    } else if (next == valid.size()) {
-      out[k] = v[valid.back()];
-    } else {
-      const std::size_t a = valid[next - 1], b = valid[next];
-      const double f = (t[k] - t[a]) / (t[b] - t[a]);
-      out[k] = v[a] + f * (v[b] - v[a]);
+  const std::size_t n = v.size();
+  const std::size_t valid = static_cast<std::size_t>(
+      std::count_if(v.begin(), v.end(), [](double x) { return !std::isnan(x); }));
+  if (valid < 2) return {};
+  std::vector<double> out = v;
+  for (std::size_t k = 0; k < n;) {
+    if (!std::isnan(v[k])) {
+      ++k;
+      continue;
     }
+    std::size_t b = k;  // the run of missing samples [k, b)
+    while (b < n && std::isnan(v[b])) ++b;
+    for (std::size_t q = k; q < b; ++q) {
+      if (k == 0) {
+        out[q] = v[b];
+      } else if (b == n) {
+        out[q] = v[k - 1];
+      } else {
+        const std::size_t a = k - 1;
+        const double f = (t[q] - t[a]) / (t[b] - t[a]);
+        out[q] = v[a] + f * (v[b] - v[a]);
+      }
+    }
+    k = b;
   }
   return out;
 }

@@ -2,6 +2,7 @@
 
 #include <charconv>
 #include <cmath>
+#include <cstring>
 #include <fstream>
 #include <sstream>
 
@@ -15,91 +16,157 @@ namespace lunarnav::positioning {
 namespace {
 constexpr double kDeg = 180.0 / M_PI;
 
-// Locale-independent formatting: `decimals` (0..9) digits after the point, or the shortest
-// text that reads back to the same double when decimals < 0. Fixed-point goes through a
-// rounded integer (std::to_chars with a precision is several times slower).
-void Put(std::string* out, double v, int decimals) {
-  char buf[64];
-  if (decimals < 0 || !(std::abs(v) < 9e9)) {
-    const std::to_chars_result r = std::to_chars(buf, buf + sizeof(buf), v);
-    out->append(buf, r.ptr);
-    return;
+// Output is built in blocks of about this size and streamed to the file; one row is far
+// shorter than the slack.
+constexpr std::size_t kBlockBytes = 1 << 20;
+constexpr std::size_t kRowSlack = 1024;
+
+// "00" "01" ... "99".
+constexpr char kDigitPairs[201] =
+    "00010203040506070809101112131415161718192021222324252627282930313233343536373839"
+    "40414243444546474849505152535455565758596061626364656667686970717273747576777879"
+    "8081828384858687888990919293949596979899";
+
+// Locale-independent formatting into a buffer with room for 32 characters; returns the end.
+// The shortest text that reads back to the same double.
+char* PutShortest(char* out, double v) { return std::to_chars(out, out + 32, v).ptr; }
+
+constexpr long long Pow10(int n) { return n == 0 ? 1 : 10 * Pow10(n - 1); }
+
+// kDecimals (even, 2..8) digits after the point, rounded half away from zero; values of
+// 9e9 and beyond (and NaN) as PutShortest. Fixed-point goes through a rounded integer
+// (std::to_chars with a precision is several times slower).
+template <int kDecimals>
+char* PutFixed(char* out, double v) {
+  static_assert(kDecimals >= 2 && kDecimals <= 8 && kDecimals % 2 == 0);
+  if (!(std::abs(v) < 9e9)) return PutShortest(out, v);
+  constexpr long long kScale = Pow10(kDecimals);
+  // std::llround, inline: x - trunc(x) is exact, so the halfway test is too.
+  const double x = v * static_cast<double>(kScale);
+  long long scaled = static_cast<long long>(x);
+  const double fraction = x - static_cast<double>(scaled);
+  if (fraction >= 0.5) {
+    ++scaled;
+  } else if (fraction <= -0.5) {
+    --scaled;
   }
-  static constexpr long long kPow10[] = {1, 10, 100, 1000, 10000, 100000, 1000000, 10000000,
-                                         100000000, 1000000000};
-  const long long scale = kPow10[decimals];
-  const long long scaled = std::llround(v * static_cast<double>(scale));
   const unsigned long long magnitude = static_cast<unsigned long long>(scaled < 0 ? -scaled : scaled);
-  if (scaled < 0) out->push_back('-');
-  char* end = std::to_chars(buf, buf + sizeof(buf), magnitude / scale).ptr;
-  out->append(buf, end);
-  if (decimals == 0) return;
-  out->push_back('.');
-  unsigned long long fraction = magnitude % scale;
-  char digits[16];
-  for (int i = decimals - 1; i >= 0; --i) {
-    digits[i] = static_cast<char>('0' + fraction % 10);
-    fraction /= 10;
+  if (scaled < 0) *out++ = '-';
+  out = std::to_chars(out, out + 24, magnitude / kScale).ptr;
+  *out++ = '.';
+  unsigned long long digits = magnitude % kScale;
+  for (int i = kDecimals - 2; i >= 0; i -= 2) {
+    std::memcpy(out + i, kDigitPairs + 2 * (digits % 100), 2);
+    digits /= 100;
   }
-  out->append(digits, static_cast<std::size_t>(decimals));
+  return out + kDecimals;
+}
+
+// Heading in degrees, [0, 360).
+double HeadingDeg(double heading_rad) {
+  double heading = heading_rad * kDeg;
+  if (!(heading >= 0 && heading < 360.0)) {  // fmod leaves [0, 360) as it is
+    heading = std::fmod(heading, 360.0);
+    if (heading < 0) heading += 360.0;
+  }
+  return heading;
 }
 }  // namespace
 
-// Output is built in blocks of about this size and streamed to the file.
-constexpr std::size_t kBlockBytes = 1 << 20;
+// One output file: rows are formatted straight into a block that is written out when full.
+class TrajectoryWriter::Output {
+ public:
+  Output(const std::filesystem::path& path, std::string_view header)
+      : file_(path), block_(kBlockBytes + kRowSlack) {
+    file_.Write(header);
+  }
+  // Where the next row goes (room for kRowSlack bytes).
+  char* cursor() { return block_.data() + used_; }
+  // The row ends at `end`.
+  void Advance(char* end) {
+    used_ = static_cast<std::size_t>(end - block_.data());
+    if (used_ >= kBlockBytes) Flush();
+  }
+  void Commit() {
+    Flush();
+    file_.Commit();
+  }
+
+ private:
+  void Flush() {
+    file_.Write(std::string_view(block_.data(), used_));
+    used_ = 0;
+  }
+  io::AtomicOutputFile file_;
+  std::vector<char> block_;
+  std::size_t used_ = 0;
+};
+
+TrajectoryWriter::TrajectoryWriter(const std::filesystem::path& csv_path, const std::filesystem::path& tum_path) {
+  if (!csv_path.empty()) {
+    csv_ = std::make_unique<Output>(
+        csv_path,
+        "# lunarnav trajectory: frame x east, y north, z up (m), origin at the start;\n"
+        "# heading clockwise from north (deg, [0, 360)), pitch nose up (deg), roll right side down (deg)\n"
+        "t_s,x_m,y_m,z_m,heading_deg,pitch_deg,roll_deg,speed_mps\n");
+  }
+  if (!tum_path.empty()) {
+    tum_ = std::make_unique<Output>(
+        tum_path, "# timestamp tx ty tz qx qy qz qw (lunarnav; ENU frame, body x forward, y left, z up)\n");
+  }
+}
+
+TrajectoryWriter::~TrajectoryWriter() = default;
+
+void TrajectoryWriter::Add(const TrajectorySample& p) {
+  // Time (as read) and position (0.1 mm) are the same text in both files: formatted once.
+  char prefix[4 * 32];
+  char* end = PutShortest(prefix, p.t_s);
+  for (double v : {p.x_m, p.y_m, p.z_m}) {
+    *end++ = ',';
+    end = PutFixed<4>(end, v);
+  }
+  const std::size_t prefix_size = static_cast<std::size_t>(end - prefix);
+  if (csv_) {
+    char* out = csv_->cursor();
+    std::memcpy(out, prefix, prefix_size);
+    out += prefix_size;
+    for (double v : {HeadingDeg(p.heading_rad), p.pitch_rad * kDeg, p.roll_rad * kDeg, p.speed_mps}) {
+      *out++ = ',';
+      out = PutFixed<4>(out, v);  // 0.0001 deg, 0.1 mm/s
+    }
+    *out++ = '\n';
+    csv_->Advance(out);
+  }
+  if (tum_) {
+    const Eigen::Quaterniond q = EnuFromBody(p.heading_rad, p.pitch_rad, p.roll_rad);
+    char* out = tum_->cursor();
+    for (std::size_t i = 0; i < prefix_size; ++i) out[i] = prefix[i] == ',' ? ' ' : prefix[i];
+    out += prefix_size;
+    for (double v : {q.x(), q.y(), q.z(), q.w()}) {
+      *out++ = ' ';
+      out = PutFixed<8>(out, v);
+    }
+    *out++ = '\n';
+    tum_->Advance(out);
+  }
+}
+
+void TrajectoryWriter::Commit() {
+  if (csv_) csv_->Commit();
+  if (tum_) tum_->Commit();
+}
 
 void WriteTrajectoryCsv(const std::filesystem::path& path, const std::vector<TrajectorySample>& trajectory) {
-  io::AtomicOutputFile file(path);
-  std::string s;
-  s.reserve(kBlockBytes + 1024);
-  s += "# lunarnav trajectory: frame x east, y north, z up (m), origin at the start;\n";
-  s += "# heading clockwise from north (deg, [0, 360)), pitch nose up (deg), roll right side down (deg)\n";
-  s += "t_s,x_m,y_m,z_m,heading_deg,pitch_deg,roll_deg,speed_mps\n";
-  for (const TrajectorySample& p : trajectory) {
-    double heading = std::fmod(p.heading_rad * kDeg, 360.0);
-    if (heading < 0) heading += 360.0;
-    Put(&s, p.t_s, -1); s += ',';  // as read
-    Put(&s, p.x_m, 4); s += ',';    // 0.1 mm
-    Put(&s, p.y_m, 4); s += ',';
-    Put(&s, p.z_m, 4); s += ',';
-    Put(&s, heading, 4); s += ',';  // 0.0001 deg
-    Put(&s, p.pitch_rad * kDeg, 4); s += ',';
-    Put(&s, p.roll_rad * kDeg, 4); s += ',';
-    Put(&s, p.speed_mps, 4); s += '\n';
-    if (s.size() >= kBlockBytes) {
-      file.Write(s);
-      s.clear();
-    }
-  }
-  file.Write(s);
-  file.Commit();
+  TrajectoryWriter writer(path, {});
+  for (const TrajectorySample& p : trajectory) writer.Add(p);
+  writer.Commit();
 }
 
 void WriteTrajectoryTum(const std::filesystem::path& path, const std::vector<TrajectorySample>& trajectory) {
-  io::AtomicOutputFile file(path);
-  std::string s;
-  s.reserve(kBlockBytes + 1024);
-  s += "# timestamp tx ty tz qx qy qz qw (lunarnav; ENU frame, body x forward, y left, z up)\n";
-  for (const TrajectorySample& p : trajectory) {
-    const Eigen::Quaterniond q = EnuFromBody(p.heading_rad, p.pitch_rad, p.roll_rad);
-    Put(&s, p.t_s, -1);
-    for (double v : {p.x_m, p.y_m, p.z_m}) {
-      s += ' ';
-      Put(&s, v, 4);
-    }
-    for (double v : {q.x(), q.y(), q.z(), q.w()}) {
-      s += ' ';
-      Put(&s, v, 8);
-    }
-    s += ' ';
-    s.back() = '\n';
-    if (s.size() >= kBlockBytes) {
-      file.Write(s);
-      s.clear();
-    }
-  }
-  file.Write(s);
-  file.Commit();
+  TrajectoryWriter writer({}, path);
+  for (const TrajectorySample& p : trajectory) writer.Add(p);
+  writer.Commit();
 }
 
 std::vector<TrajectorySample> ReadTrajectoryCsv(const std::filesystem::path& path) {

@@ -2,6 +2,7 @@
 #pragma once
 
 #include <filesystem>
+#include <memory>
 #include <vector>
 
 #include "positioning/dead_reckoning.h"
@@ -16,6 +17,26 @@ void WriteTrajectoryCsv(const std::filesystem::path& path, const std::vector<Tra
 /// y left, z up) into the ENU frame: yaw = 90 deg - heading about z, then -pitch about y
 /// (nose up), then -roll about x (right side down).
 void WriteTrajectoryTum(const std::filesystem::path& path, const std::vector<TrajectorySample>& trajectory);
+
+/// Writes a trajectory pose by pose, as it is computed, to the CSV and/or the TUM file (an
+/// empty path skips that file); the text is that of WriteTrajectoryCsv and WriteTrajectoryTum.
+/// Both files are atomic: they appear under their names at Commit(), and a writer destroyed
+/// without Commit() (an exception on the way) leaves nothing behind.
+class TrajectoryWriter {
+ public:
+  TrajectoryWriter(const std::filesystem::path& csv_path, const std::filesystem::path& tum_path);
+  ~TrajectoryWriter();
+  TrajectoryWriter(const TrajectoryWriter&) = delete;
+  TrajectoryWriter& operator=(const TrajectoryWriter&) = delete;
+
+  void Add(const TrajectorySample& pose);
+  /// Flushes and renames the files onto their names.
+  void Commit();
+
+ private:
+  class Output;
+  std::unique_ptr<Output> csv_, tum_;
+};
 
 /// Reads a file written by WriteTrajectoryCsv. @throws InputError with file:line.
 std::vector<TrajectorySample> ReadTrajectoryCsv(const std::filesystem::path& path);

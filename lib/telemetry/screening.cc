@@ -17,18 +17,16 @@ constexpr int kRowSlot = kNumChannels;
 // A rate-limit rejection run this long means the signal really moved: accept it from there.
 constexpr int kRebaselineAfter = 3;
 
-double SmallMedian(std::vector<double>* v) { return util::SmallMedian(v->data(), v->size()); }
-
-// Median of v, for estimates of a typical interval or noise level: long arrays are
-// subsampled evenly to at most 65536 values (plenty for a robust level, and linear time).
-double Median(std::vector<double> v) {
+// Median of value(0), ..., value(count - 1), for estimates of a typical interval or noise
+// level: long sequences are subsampled evenly to at most 65536 values (plenty for a robust
+// level, and linear time), and only those values are computed.
+template <typename Value>
+double SubsampledMedian(std::size_t count, Value value) {
   constexpr std::size_t kMaxSamples = 65536;
-  if (v.size() > kMaxSamples) {
-    const std::size_t stride = (v.size() + kMaxSamples - 1) / kMaxSamples;
-    std::size_t out = 0;
-    for (std::size_t i = 0; i < v.size(); i += stride) v[out++] = v[i];
-    v.resize(out);
-  }
+  const std::size_t stride = count > kMaxSamples ? (count + kMaxSamples - 1) / kMaxSamples : 1;
+  std::vector<double> v;
+  v.reserve(count / stride + 1);
+  for (std::size_t i = 0; i < count; i += stride) v.push_back(value(i));
   if (v.empty()) return kNaN;
   const std::size_t mid = v.size() / 2;
   std::nth_element(v.begin(), v.begin() + mid, v.end());
@@ -61,39 +59,40 @@ class Screener {
   }
 
   void ScreenRows() {
+    out_.row.reserve(log_.size());
+    out_.t_s.reserve(log_.size());
+    out_.line.reserve(log_.size());
     double last_t = -std::numeric_limits<double>::infinity();
     for (std::size_t i = 0; i < log_.size(); ++i) {
       const double t = log_.t_s[i];
-      if (!keep_.empty() && (t == last_t || t < last_t)) {
+      if (!out_.row.empty() && (t == last_t || t < last_t)) {
         const ScreeningRule rule =
             t == last_t ? ScreeningRule::kRepeatedTimestamp : ScreeningRule::kOutOfOrderTimestamp;
         out_.events.push_back({log_.line[i], t, -1, rule, t});
         ++out_.counts[static_cast<int>(rule)][kRowSlot];
         continue;
       }
-      keep_.push_back(i);
       out_.row.push_back(i);
       out_.t_s.push_back(t);
       out_.line.push_back(log_.line[i]);
       last_t = t;
     }
-    if (out_.t_s.size() < 2) return;
-    std::vector<double> dt(out_.t_s.size() - 1);
-    for (std::size_t k = 1; k < out_.t_s.size(); ++k) dt[k - 1] = out_.t_s[k] - out_.t_s[k - 1];
-    const double typical = Median(dt);
-    for (std::size_t k = 1; k < out_.t_s.size(); ++k) {
-      if (dt[k - 1] > o_.gap_factor * typical) Record(k, -1, ScreeningRule::kGap, out_.t_s[k]);
+    const std::vector<double>& t = out_.t_s;
+    if (t.size() < 2) return;
+    const double typical = SubsampledMedian(t.size() - 1, [&](std::size_t k) { return t[k + 1] - t[k]; });
+    for (std::size_t k = 1; k < t.size(); ++k) {
+      if (t[k] - t[k - 1] > o_.gap_factor * typical) Record(k, -1, ScreeningRule::kGap, t[k]);
     }
   }
 
   void ScreenChannel(Channel c) {
     const int ch = static_cast<int>(c);
     const ChannelModel& m = model_[c];
-    const std::size_t n = keep_.size();
+    const std::size_t n = out_.row.size();
     // The raw counts of the kept rows: the log's own array when no row was dropped.
-    if (keep_.size() != log_.size()) {
+    if (n != log_.size()) {
       raw_copy_[ch].resize(n);
-      for (std::size_t k = 0; k < n; ++k) raw_copy_[ch][k] = log_.counts[ch][keep_[k]];
+      for (std::size_t k = 0; k < n; ++k) raw_copy_[ch][k] = log_.counts[ch][out_.row[k]];
       raw_[ch] = &raw_copy_[ch];
     } else {
       raw_[ch] = &log_.counts[ch];
@@ -103,17 +102,18 @@ class Screener {
     v.assign(n, kNaN);
 
     // Dropouts: silences much longer than the channel's own sampling interval.
-    std::vector<std::size_t> present;
+    std::vector<std::size_t>& present = present_;
+    present.clear();
     present.reserve(n);
     for (std::size_t k = 0; k < n; ++k) {
       if (!std::isnan(raw[k])) present.push_back(k);
     }
     if (present.size() >= 3) {
-      std::vector<double> gaps;
-      for (std::size_t p = 1; p < present.size(); ++p) gaps.push_back(out_.t_s[present[p]] - out_.t_s[present[p - 1]]);
-      const double typical = Median(gaps);
+      const std::vector<double>& t = out_.t_s;
+      auto gap = [&](std::size_t p) { return t[present[p]] - t[present[p - 1]]; };  // p >= 1
+      const double typical = SubsampledMedian(present.size() - 1, [&](std::size_t i) { return gap(i + 1); });
       for (std::size_t p = 1; p < present.size(); ++p) {
-        if (gaps[p - 1] > o_.gap_factor * typical) Record(present[p], ch, ScreeningRule::kDropout, raw[present[p]]);
+        if (gap(p) > o_.gap_factor * typical) Record(present[p], ch, ScreeningRule::kDropout, raw[present[p]]);
       }
     }
 
@@ -190,53 +190,63 @@ class Screener {
     const int ch = static_cast<int>(c);
     const ChannelModel& m = model_[c];
     std::vector<double>& v = out_.value[ch];
-    std::vector<std::size_t> idx;
-    for (std::size_t k = 0; k < v.size(); ++k) {
-      if (!std::isnan(v[k])) idx.push_back(k);
+    // The accepted samples: their values and times, compacted when some are missing or were
+    // rejected.
+    const std::size_t count =
+        static_cast<std::size_t>(std::count_if(v.begin(), v.end(), [](double x) { return !std::isnan(x); }));
+    const bool dense = count == v.size();
+    if (!dense) {
+      accepted_row_.clear();
+      accepted_value_.clear();
+      accepted_t_.clear();
+      for (std::size_t k = 0; k < v.size(); ++k) {
+        if (std::isnan(v[k])) continue;
+        accepted_row_.push_back(k);
+        accepted_value_.push_back(v[k]);
+        accepted_t_.push_back(out_.t_s[k]);
+      }
     }
-    const int h = o_.hampel_half_window;
-    if (static_cast<int>(idx.size()) < 2 * h + 1) return;
+    const double* const value = dense ? v.data() : accepted_value_.data();
+    const double* const time = dense ? out_.t_s.data() : accepted_t_.data();
+    const std::size_t h = static_cast<std::size_t>(o_.hampel_half_window);
+    const std::size_t window = 2 * h + 1;  // odd
+    if (count < window) return;
     const double unit = std::abs(m.ToRadians(1.0) - m.ToRadians(0.0));
     const double min_dev = o_.hampel_min_counts * unit;
-    const std::vector<double>& t = out_.t_s;
     // The channel's noise level, from its second differences (for white noise their variance
     // is 6 sigma^2): a floor under each window's own estimate, which from a handful of
     // samples is often far too small.
-    std::vector<double> second(idx.size() - 2);
-    for (std::size_t q = 1; q + 1 < idx.size(); ++q) {
-      second[q - 1] = std::abs(v[idx[q + 1]] - 2.0 * v[idx[q]] + v[idx[q - 1]]);
-    }
-    const double channel_sigma = 1.4826 * Median(std::move(second)) / std::sqrt(6.0);
+    const double channel_sigma = 1.4826 *
+                                 SubsampledMedian(count - 2, [&](std::size_t q) {
+                                   return std::abs(value[q + 2] - 2.0 * value[q + 1] + value[q]);
+                                 }) /
+                                 std::sqrt(6.0);
     // Slopes between consecutive accepted samples, once: slope[q] joins q-1 and q.
-    std::vector<double> all_slopes(idx.size());
-    for (std::size_t q = 1; q < idx.size(); ++q) {
-      all_slopes[q] = (v[idx[q]] - v[idx[q - 1]]) / (t[idx[q]] - t[idx[q - 1]]);
-    }
-    std::vector<double> slopes, residual, dev;
+    std::vector<double>& slope = accepted_slope_;
+    slope.resize(count);
+    for (std::size_t q = 1; q < count; ++q) slope[q] = (value[q] - value[q - 1]) / (time[q] - time[q - 1]);
+    std::vector<double> residual(window), scratch(window);
     std::vector<std::size_t> spikes;
     const double smallest_threshold = std::max(o_.hampel_threshold * channel_sigma, min_dev);
-    for (std::size_t p = 0; p < idx.size(); ++p) {
-      const std::size_t lo = std::min(p >= static_cast<std::size_t>(h) ? p - h : 0, idx.size() - 1 - 2 * h);
-      const std::size_t hi = lo + 2 * h;
-      slopes.assign(all_slopes.begin() + static_cast<std::ptrdiff_t>(lo) + 1,
-                    all_slopes.begin() + static_cast<std::ptrdiff_t>(hi) + 1);
-      const double slope = SmallMedian(&slopes);
-      residual.clear();
-      for (std::size_t q = lo; q <= hi; ++q) residual.push_back(v[idx[q]] - slope * (t[idx[q]] - t[idx[p]]));
-      const double mine = v[idx[p]];
+    for (std::size_t p = 0; p < count; ++p) {
+      const std::size_t lo = std::min(p >= h ? p - h : 0, count - window);
+      std::copy_n(slope.begin() + static_cast<std::ptrdiff_t>(lo) + 1, window - 1, scratch.begin());
+      const double trend = util::SmallMedian(scratch.data(), window - 1);
+      const double mine = value[p];
+      double farthest = 0;
+      for (std::size_t i = 0; i < window; ++i) {
+        residual[i] = value[lo + i] - trend * (time[lo + i] - time[p]);
+        farthest = std::max(farthest, std::abs(mine - residual[i]));
+      }
       // Exact shortcut: with an odd window the residuals' median is one of them, so when all
       // lie within the smallest possible threshold of this sample it is no spike.
-      double farthest = 0;
-      for (double e : residual) farthest = std::max(farthest, std::abs(mine - e));
-      if (residual.size() % 2 == 1 && farthest <= smallest_threshold) continue;
-      const double med = SmallMedian(&residual);
-      dev.clear();
-      for (std::size_t q = lo; q <= hi; ++q) {
-        dev.push_back(std::abs(v[idx[q]] - slope * (t[idx[q]] - t[idx[p]]) - med));
-      }
-      const double sigma = std::max(1.4826 * SmallMedian(&dev), channel_sigma);
+      if (farthest <= smallest_threshold) continue;
+      scratch = residual;
+      const double med = util::SmallMedian(scratch.data(), window);
+      for (std::size_t i = 0; i < window; ++i) scratch[i] = std::abs(residual[i] - med);
+      const double sigma = std::max(1.4826 * util::SmallMedian(scratch.data(), window), channel_sigma);
       const double d = std::abs(mine - med);
-      if (d > o_.hampel_threshold * sigma && d > min_dev) spikes.push_back(idx[p]);
+      if (d > o_.hampel_threshold * sigma && d > min_dev) spikes.push_back(dense ? p : accepted_row_[p]);
     }
     for (std::size_t k : spikes) {
       Record(k, ch, ScreeningRule::kSpike, (*raw_[ch])[k]);
@@ -252,8 +262,10 @@ class Screener {
       if (!out_.Has(other)) return -1;
       const std::vector<double>& w = out_.value[o];
       double first = kNaN, last = kNaN, integral = 0, prev_t = kNaN, prev_w = kNaN;
-      for (std::size_t k = 0; k < w.size(); ++k) {
-        if (out_.t_s[k] < t0 || out_.t_s[k] > t1 || std::isnan(w[k])) continue;
+      // Time stamps increase strictly: the samples in [t0, t1] are one stretch.
+      const auto begin = std::lower_bound(out_.t_s.begin(), out_.t_s.end(), t0) - out_.t_s.begin();
+      for (std::size_t k = static_cast<std::size_t>(begin); k < w.size() && out_.t_s[k] <= t1; ++k) {
+        if (std::isnan(w[k])) continue;
         if (std::isnan(first)) first = w[k];
         last = w[k];
         if (!std::isnan(prev_t)) integral += 0.5 * (w[k] + prev_w) * (out_.t_s[k] - prev_t);
@@ -317,9 +329,11 @@ class Screener {
   const TelemetryLog& log_;
   const SensorModel& model_;
   const ScreeningOptions& o_;
-  std::vector<std::size_t> keep_;  // log rows kept
   std::array<const std::vector<double>*, kNumChannels> raw_{};  // raw counts of kept rows
   std::array<std::vector<double>, kNumChannels> raw_copy_;      // when rows were dropped
+  // Work space, reused from channel to channel.
+  std::vector<std::size_t> present_, accepted_row_;
+  std::vector<double> accepted_value_, accepted_t_, accepted_slope_;
   ScreenedLog out_;
 };
 

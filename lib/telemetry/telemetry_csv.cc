@@ -1,10 +1,15 @@
 #include "telemetry/telemetry_csv.h"
 
+#include <fcntl.h>
+#include <sys/mman.h>
+#include <sys/stat.h>
+#include <unistd.h>
+
+#include <algorithm>
+#include <cerrno>
 #include <charconv>
 #include <cmath>
-#include <fstream>
 #include <limits>
-#include <sstream>
 #include <string_view>
 
 #include "util/check.h"
@@ -16,6 +21,30 @@ std::string_view Trim(std::string_view s) {
   while (!s.empty() && (s.front() == ' ' || s.front() == '\t')) s.remove_prefix(1);
   while (!s.empty() && (s.back() == ' ' || s.back() == '\t' || s.back() == '\r')) s.remove_suffix(1);
   return s;
+}
+
+// Cell `index` (0-based) of a line that has it.
+std::string_view SplitCell(std::string_view line, int index) {
+  for (; index > 0; --index) line.remove_prefix(line.find(',') + 1);
+  return line.substr(0, line.find(','));
+}
+
+// Reads one trimmed cell: a time stamp (a finite decimal number) or a count (an integer,
+// optionally with a '+'; an empty cell is a missing sample, NaN). False when it is neither.
+bool ParseCell(std::string_view cell, bool time, double* value) {
+  const char* const end = cell.data() + cell.size();
+  if (time) {
+    const auto [ptr, ec] = std::from_chars(cell.data(), end, *value);
+    return !cell.empty() && ec == std::errc() && ptr == end && std::isfinite(*value);
+  }
+  if (cell.empty()) {
+    *value = std::numeric_limits<double>::quiet_NaN();
+    return true;
+  }
+  long long count = 0;
+  const auto [ptr, ec] = std::from_chars(cell.data() + (cell.front() == '+' ? 1 : 0), end, count);
+  *value = static_cast<double>(count);
+  return ec == std::errc() && ptr == end;
 }
 
 // Splits one line at commas into `cells` (views into the line); returns the count.
@@ -33,8 +62,7 @@ int SplitCells(std::string_view line, std::vector<std::string_view>* cells) {
 
 }  // namespace
 
-TelemetryLog ParseTelemetryCsv(const std::string& text, const std::string& source,
-                               const SensorModel& model) {
+TelemetryLog ParseTelemetryCsv(std::string_view text, const std::string& source, const SensorModel& model) {
   TelemetryLog log;
   log.source = source;
   const std::string_view all(text);
@@ -99,43 +127,38 @@ TelemetryLog ParseTelemetryCsv(const std::string& text, const std::string& sourc
     if (role[c] >= 0) sink[c] = &log.counts[role[c]];
   }
 
-  // Rows. A reservation from the file size avoids regrowing the arrays.
-  const std::size_t estimate = (all.size() - pos) / (8 * static_cast<std::size_t>(num_columns) + 1) + 16;
+  // Rows. The arrays are reserved for the number of lines left (an upper bound).
+  const std::size_t estimate = static_cast<std::size_t>(std::count(all.begin() + pos, all.end(), '\n')) + 1;
   log.t_s.reserve(estimate);
   log.line.reserve(estimate);
   for (auto* s : sink) {
     if (s != nullptr) s->reserve(estimate);
   }
-  const double nan = std::numeric_limits<double>::quiet_NaN();
+  std::vector<double> row(num_columns);
   while (next_line(&line)) {
     const std::string_view trimmed = Trim(line);
     if (trimmed.empty() || trimmed.front() == '#') continue;
-    const int n = SplitCells(line, &cells);
+    // Cells are parsed as they are split; the first error is reported after the cell count
+    // has been checked.
+    int n = 0, bad = -1;
+    std::size_t start = 0;
+    while (true) {
+      const std::size_t comma = line.find(',', start);
+      const std::string_view cell =
+          Trim(line.substr(start, comma == std::string_view::npos ? line.npos : comma - start));
+      if (n < num_columns && bad < 0 && role[n] != -1 && !ParseCell(cell, role[n] == -2, &row[n])) bad = n;
+      ++n;
+      if (comma == std::string_view::npos) break;
+      start = comma + 1;
+    }
     LN_CHECK_INPUT(n == num_columns) << source << ":" << line_number << ": " << n << " cells, the header has "
                                      << num_columns;
+    LN_CHECK_INPUT(bad < 0) << source << ":" << line_number << ": column '" << header[bad] << "': '"
+                            << Trim(SplitCell(line, bad)) << "' is not "
+                            << (bad == time_column ? "a time stamp" : "an integer count");
+    log.t_s.push_back(row[time_column]);
     for (int c = 0; c < num_columns; ++c) {
-      const std::string_view cell = cells[c];
-      if (c == time_column) {
-        double t = 0;
-        const auto [ptr, ec] = std::from_chars(cell.data(), cell.data() + cell.size(), t);
-        LN_CHECK_INPUT(!cell.empty() && ec == std::errc() && ptr == cell.data() + cell.size() &&
-                       std::isfinite(t))
-            << source << ":" << line_number << ": column '" << header[c] << "': '" << cell
-            << "' is not a time stamp";
-        log.t_s.push_back(t);
-      } else if (sink[c] != nullptr) {
-        if (cell.empty()) {
-          sink[c]->push_back(nan);
-          continue;
-        }
-        long long count = 0;
-        const char* first = cell.data() + (cell.front() == '+' ? 1 : 0);
-        const auto [ptr, ec] = std::from_chars(first, cell.data() + cell.size(), count);
-        LN_CHECK_INPUT(ec == std::errc() && ptr == cell.data() + cell.size())
-            << source << ":" << line_number << ": column '" << header[c] << "': '" << cell
-            << "' is not an integer count";
-        sink[c]->push_back(static_cast<double>(count));
-      }
+      if (sink[c] != nullptr) sink[c]->push_back(row[c]);
     }
     log.line.push_back(line_number);
   }
@@ -143,14 +166,36 @@ TelemetryLog ParseTelemetryCsv(const std::string& text, const std::string& sourc
 }
 
 TelemetryLog ReadTelemetryCsv(const std::filesystem::path& path, const SensorModel& model) {
-  std::ifstream in(path, std::ios::binary);
-  LN_CHECK_INPUT(in.good()) << path.string() << ": cannot open";
+  const int fd = ::open(path.c_str(), O_RDONLY | O_CLOEXEC);
+  LN_CHECK_INPUT(fd >= 0) << path.string() << ": cannot open";
+  const struct Close {
+    int fd;
+    ~Close() { ::close(fd); }
+  } close_at_return{fd};
+  // A regular file is mapped, not copied (long logs are hundreds of megabytes); anything else
+  // (a pipe) is read.
+  struct stat info {};
+  if (::fstat(fd, &info) == 0 && S_ISREG(info.st_mode) && info.st_size > 0) {
+    const std::size_t size = static_cast<std::size_t>(info.st_size);
+    void* const mapped = ::mmap(nullptr, size, PROT_READ, MAP_PRIVATE | MAP_POPULATE, fd, 0);
+    if (mapped != MAP_FAILED) {
+      const struct Unmap {
+        void* data;
+        std::size_t size;
+        ~Unmap() { ::munmap(data, size); }
+      } unmap_at_return{mapped, size};
+      return ParseTelemetryCsv(std::string_view(static_cast<const char*>(mapped), size), path.string(), model);
+    }
+  }
   std::string text;
-  in.seekg(0, std::ios::end);
-  text.resize(static_cast<std::size_t>(in.tellg()));
-  in.seekg(0);
-  in.read(text.data(), static_cast<std::streamsize>(text.size()));
-  LN_CHECK_INPUT(in.good() || in.eof()) << path.string() << ": read error";
+  char buffer[1 << 16];
+  while (true) {
+    const ssize_t n = ::read(fd, buffer, sizeof(buffer));
+    if (n == 0) break;
+    if (n < 0 && errno == EINTR) continue;
+    LN_CHECK_INPUT(n > 0) << path.string() << ": read error";
+    text.append(buffer, static_cast<std::size_t>(n));
+  }
   return ParseTelemetryCsv(text, path.string(), model);
 }
 

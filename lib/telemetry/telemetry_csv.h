@@ -4,6 +4,7 @@
 #include <array>
 #include <filesystem>
 #include <string>
+#include <string_view>
 #include <vector>
 
 #include "telemetry/sensor_model.h"
@@ -37,7 +38,6 @@ struct TelemetryLog {
 TelemetryLog ReadTelemetryCsv(const std::filesystem::path& path, const SensorModel& model);
 
 /// The same from text already in memory; `source` names it in errors.
-TelemetryLog ParseTelemetryCsv(const std::string& text, const std::string& source,
-                               const SensorModel& model);
+TelemetryLog ParseTelemetryCsv(std::string_view text, const std::string& source, const SensorModel& model);
 
 }  // namespace lunarnav::telemetry

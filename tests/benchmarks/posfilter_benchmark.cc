@@ -2,6 +2,7 @@
 // as CSV and TUM, as the tool does).
 //
 //   build/bin/posfilter_benchmark
+//   build/bin/posfilter_benchmark --write-log FILE   (the log as a file, for scripts/bench-posfilter)
 //
 // The log: 2 million rows (55 hours at 10 Hz) of a rover driving and turning, with sensor
 // noise, in the format of testdata/telemetry/ratler_sensors.json.
@@ -10,8 +11,10 @@
 #include <cmath>
 #include <cstdio>
 #include <filesystem>
+#include <fstream>
 #include <random>
 #include <string>
+#include <string_view>
 
 #include "positioning/posfilter.h"
 #include "positioning/trajectory_io.h"
@@ -70,8 +73,9 @@ void BM_PosfilterEndToEnd(benchmark::State& state) {
   for (auto _ : state) {
     const telemetry::TelemetryLog log = telemetry::ParseTelemetryCsv(text, "benchmark.csv", Model());
     const positioning::PosfilterResult r = positioning::RunPosfilter(log, Model(), positioning::PosfilterOptions{});
-    positioning::WriteTrajectoryCsv(out, r.motion.trajectory);
-    positioning::WriteTrajectoryTum(tum, r.motion.trajectory);
+    positioning::TrajectoryWriter writer(out, tum);  // both files in one pass, as the tool
+    for (const positioning::TrajectorySample& pose : r.motion.trajectory) writer.Add(pose);
+    writer.Commit();
     benchmark::DoNotOptimize(r.motion.distance_m);
   }
   std::filesystem::remove(out);
@@ -101,4 +105,20 @@ BENCHMARK(BM_ScreenOnly)->Unit(benchmark::kMillisecond)->UseRealTime()->Iteratio
 
 }  // namespace
 
-BENCHMARK_MAIN();
+int main(int argc, char** argv) {
+  if (argc == 3 && std::string_view(argv[1]) == "--write-log") {
+    std::ofstream file(argv[2], std::ios::binary);
+    file << Log();
+    file.close();
+    if (!file) {
+      std::fprintf(stderr, "error: %s: cannot write\n", argv[2]);
+      return 1;
+    }
+    return 0;
+  }
+  benchmark::Initialize(&argc, argv);
+  if (benchmark::ReportUnrecognizedArguments(argc, argv)) return 2;
+  benchmark::RunSpecifiedBenchmarks();
+  benchmark::Shutdown();
+  return 0;
+}

@@ -4,6 +4,7 @@
 
 #include <cmath>
 #include <fstream>
+#include <limits>
 #include <sstream>
 
 #include <Eigen/Geometry>
@@ -50,6 +51,50 @@ TEST(TrajectoryTum, QuaternionPointsTheBodyXAxisAlongTheHeading) {
   EXPECT_NEAR(forward.x(), std::cos(0.1), 1e-7);  // east
   EXPECT_NEAR(forward.y(), 0.0, 1e-7);
   EXPECT_NEAR(forward.z(), std::sin(0.1), 1e-7);  // up
+}
+
+std::string ReadAll(const std::filesystem::path& path) {
+  std::ifstream in(path, std::ios::binary);
+  std::ostringstream text;
+  text << in.rdbuf();
+  return text.str();
+}
+
+// The exact text, rounding and special values included (as written before the writer was
+// made faster): time as the shortest text that reads back, 4 decimals (8 for quaternions)
+// rounded half away from zero, no "-0.0000", magnitudes of 9e9 and beyond and NaN as the
+// shortest text, headings in [0, 360).
+TEST(TrajectoryWriter, WritesBothFilesInOnePassWithTheDocumentedText) {
+  util::ScopedTempDir tmp;
+  std::vector<TrajectorySample> poses(3);
+  poses[0] = {0.1, 0.00005, -0.00004, -1.23456, -0.1, 0.25, -0.125, 0.7};
+  poses[1] = {1234567.891, 123456.78915, -2e9, 9e9, 2 * M_PI, -M_PI / 2, 1e-9, 1e10};
+  poses[2] = {1e-7, 0, 0, 0, 7.5, 0, 0, std::numeric_limits<double>::quiet_NaN()};
+  TrajectoryWriter writer(tmp.path() / "t.csv", tmp.path() / "t.tum");
+  for (const TrajectorySample& p : poses) writer.Add(p);
+  EXPECT_FALSE(std::filesystem::exists(tmp.path() / "t.csv"));  // not before Commit
+  writer.Commit();
+  EXPECT_EQ(ReadAll(tmp.path() / "t.csv"),
+            "# lunarnav trajectory: frame x east, y north, z up (m), origin at the start;\n"
+            "# heading clockwise from north (deg, [0, 360)), pitch nose up (deg), roll right side down (deg)\n"
+            "t_s,x_m,y_m,z_m,heading_deg,pitch_deg,roll_deg,speed_mps\n"
+            "0.1,0.0001,0.0000,-1.2346,354.2704,14.3239,-7.1620,0.7000\n"
+            "1234567.891,123456.7892,-2000000000.0000,9e+09,0.0000,-90.0000,0.0000,1e+10\n"
+            "1e-07,0.0000,0.0000,0.0000,69.7183,0.0000,0.0000,nan\n");
+  EXPECT_EQ(ReadAll(tmp.path() / "t.tum"),
+            "# timestamp tx ty tz qx qy qz qw (lunarnav; ENU frame, body x forward, y left, z up)\n"
+            "0.1 0.0001 0.0000 -1.2346 0.13384966 -0.03752261 0.73956539 0.65857372\n"
+            "1234567.891 123456.7892 -2000000000.0000 9e+09 0.50000000 -0.50000000 -0.50000000 -0.50000000\n"
+            "1e-07 0.0000 0.0000 0.0000 0.00000000 0.00000000 -0.17606820 -0.98437797\n");
+}
+
+TEST(TrajectoryWriter, LeavesNothingBehindWithoutCommit) {
+  util::ScopedTempDir tmp;
+  {
+    TrajectoryWriter writer(tmp.path() / "t.csv", {});
+    writer.Add(TrajectorySample{});
+  }
+  EXPECT_TRUE(std::filesystem::is_empty(tmp.path()));
 }
 
 }  // namespace

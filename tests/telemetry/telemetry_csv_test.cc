@@ -1,10 +1,14 @@
 #include "telemetry/telemetry_csv.h"
 
 #include <gtest/gtest.h>
+#include <sys/stat.h>
 
 #include <cmath>
+#include <fstream>
+#include <thread>
 
 #include "util/errors.h"
+#include "util/testing.h"
 
 namespace lunarnav::telemetry {
 namespace {
@@ -58,6 +62,42 @@ TEST(ParseTelemetryCsv, ErrorsNameTheFileAndLine) {
   expect_error("t,compass\n0,1\n0.1,1.5\n", "log.csv:3");
   expect_error("t,compass\n0,1\n0.1\n", "log.csv:3: 1 cells, the header has 2");
   expect_error("t,compass\nx,1\n", "log.csv:2: column 't': 'x' is not a time stamp");
+  // The cell count is checked before the cells' text; the text is quoted trimmed.
+  expect_error("t,compass\n0,1\nx,abc,3\n", "log.csv:3: 3 cells, the header has 2");
+  expect_error("t,compass\n0,1\n0.1, a b \r\n", "log.csv:3: column 'compass': 'a b' is not an integer count");
+}
+
+void ExpectSameLog(const TelemetryLog& a, const TelemetryLog& b) {
+  EXPECT_EQ(a.t_s, b.t_s);
+  EXPECT_EQ(a.line, b.line);
+  for (int c = 0; c < kNumChannels; ++c) {
+    ASSERT_EQ(a.counts[c].size(), b.counts[c].size()) << c;
+    for (std::size_t k = 0; k < a.counts[c].size(); ++k) {
+      EXPECT_TRUE(a.counts[c][k] == b.counts[c][k] || (std::isnan(a.counts[c][k]) && std::isnan(b.counts[c][k])))
+          << "channel " << c << ", row " << k;
+    }
+  }
+}
+
+// Regular files are mapped, other files (a pipe here) read: the same log either way.
+TEST(ReadTelemetryCsv, ReadsFilesAndPipesAlike) {
+  util::ScopedTempDir tmp;
+  const std::string text = "t,compass,enc_fl\n0.0,100,5\n0.1,,7\n0.2,102,+9";  // no final newline
+  const TelemetryLog expected = ParseTelemetryCsv(text, "log.csv", Model());
+  ASSERT_EQ(expected.size(), 3u);
+  std::ofstream(tmp.path() / "log.csv", std::ios::binary) << text;
+  ExpectSameLog(ReadTelemetryCsv(tmp.path() / "log.csv", Model()), expected);
+
+  const std::filesystem::path pipe = tmp.path() / "pipe.csv";
+  ASSERT_EQ(mkfifo(pipe.c_str(), 0600), 0);
+  std::thread writer([&] { std::ofstream(pipe, std::ios::binary) << text; });
+  const TelemetryLog from_pipe = ReadTelemetryCsv(pipe, Model());
+  writer.join();
+  ExpectSameLog(from_pipe, expected);
+
+  std::ofstream(tmp.path() / "empty.csv").close();
+  EXPECT_THROW(ReadTelemetryCsv(tmp.path() / "empty.csv", Model()), InputError);
+  EXPECT_THROW(ReadTelemetryCsv(tmp.path() / "missing.csv", Model()), InputError);
 }
 
 }  // namespace
