@@ -146,5 +146,42 @@ TEST(EvaluateCorrelation, FindsTheTrueDisparityAtEverySubsampling) {
                     tmp.path()).exit_code, 2);
 }
 
+TEST(EvaluateBoxes, SimulatedBoxExperimentStaysWithinThePredictedError) {
+  ScopedTempDir tmp;
+  const fs::path sim = tmp.path() / "sim";
+  // The box experiment of sec. 3.4 at half the paper's resolution (and focal length).
+  ASSERT_EQ(RunTool("simulate", {"stereo", "--preset", "boxes", "--rectified", "--width", "320", "--height", "240",
+                                 "--focal", "370", "-o", sim.string(), "-q"},
+                    tmp.path()).exit_code, 0);
+  std::vector<std::string> args = {"boxes"};
+  for (const char* step : {"1x1", "5x4"}) {
+    const fs::path run = tmp.path() / (std::string("run-") + step);
+    ASSERT_EQ(RunTool("stereo-batch", {sim.string(), "-o", run.string(), "--rig", (sim / "rig.json").string(),
+                                       "--disparity", "0:160", "--window", "13x9", "--step", step, "-q"},
+                      tmp.path()).exit_code, 0);
+    args.push_back(run.string());
+  }
+  const fs::path eval = tmp.path() / "eval";
+  args.insert(args.end(), {"--boxes", (sim / "truth" / "boxes.json").string(), "--rig", (sim / "rig.json").string(),
+                           "-o", eval.string()});
+  const auto result = RunTool("evaluate", args, tmp.path());
+  ASSERT_EQ(result.exit_code, 0) << result.stderr_text;
+  EXPECT_TRUE(fs::exists(eval / "boxes.csv"));
+  EXPECT_TRUE(fs::exists(eval / "boxes.gp"));
+  const nlohmann::json rows = io::ReadJson(eval / "summary.json")["table"]["rows"];
+  ASSERT_EQ(rows.size(), 7u);  // boxes at 2, 3, ..., 8 m
+  for (const auto& row : rows) {
+    // Full resolution: every face measured, within the rig's predicted 1-pixel error
+    // (the matcher's sub-pixel disparities are better than 1 px).
+    EXPECT_GT(row["points_dx1_dy1"].get<double>(), 100) << row.dump();
+    EXPECT_LT(row["e_y_dx1_dy1"].get<double>(), row["predicted_1px"].get<double>()) << row.dump();
+    EXPECT_GT(row["points_dx5_dy4"].get<double>(), 0) << row.dump();
+  }
+  // A run without XYZ maps is bad input; no box list is a usage error.
+  fs::remove_all(tmp.path() / "run-5x4" / "xyz");
+  EXPECT_EQ(RunTool("evaluate", args, tmp.path()).exit_code, 3);
+  EXPECT_EQ(RunTool("evaluate", {"boxes", args[1], "-o", eval.string()}, tmp.path()).exit_code, 2);
+}
+
 }  // namespace
 }  // namespace lunarnav
