@@ -3,13 +3,19 @@
 #include <filesystem>
 #include <iostream>
 #include <string>
+#include <vector>
 
 #include "calib/calibration.h"
+#include "calib/stereo_rig_io.h"
+#include "io/json_io.h"
+#include "util/check.h"
 #include "util/cli.h"
 #include "util/errors.h"
 #include "util/log.h"
 #include "util/parse.h"
 #include "util/run_main.h"
+#include "util/timer.h"
+#include "util/version.h"
 
 namespace fs = std::filesystem;
 using namespace lunarnav;
@@ -20,15 +26,25 @@ int main(int argc, char** argv) {
       "the two images of each view with the same file stems. Writes the rig file (-o) and\n"
       "summary.json beside it; prints the per-view table on stdout.\n"
       "Exit codes: 0 ok, 1 internal error, 2 usage, 3 bad input (e.g. too few usable views),\n"
-      "4 calibrated, but some views had unreadable or mismatched images."};
+      "4 calibrated, but some views had unreadable or mismatched images.\n"
+      "With --from-opencv, imports an existing OpenCV stereo calibration instead (no views)."};
   calib::CalibrationOptions opt;  // defaults live in the library
   fs::path input_dir, rig_path, summary_path;
   std::string board = "9x6";
   bool quiet = false;
-  app.add_option("INPUT_DIR", input_dir, "directory holding left/ and right/")->required();
+  std::vector<fs::path> opencv_files;
+  std::string image_size;
+  app.add_option("INPUT_DIR", input_dir, "directory holding left/ and right/");
+  app.add_option("--from-opencv", opencv_files,
+                 "INTRINSICS.yml EXTRINSICS.yml: import OpenCV's stereo calibration (M1 D1 M2 D2; R T) as its "
+                 "stereo_calib sample writes it, instead of calibrating; --square is then the metres per unit of T")
+      ->expected(2);
+  app.add_option("--image-size", image_size, "WIDTHxHEIGHT of the calibrated images (with --from-opencv)");
   app.add_option("-o,--output", rig_path, "rig file to write (JSON, lunarnav.rig/1)")->required();
   app.add_option("--board", board, "inner corners COLSxROWS of the chessboard")->capture_default_str();
-  app.add_option("--square", opt.board.square_size_m, "side of one square, metres")->required();
+  app.add_option("--square", opt.board.square_size_m,
+                 "side of one square, metres (with --from-opencv: metres per unit of T; 1 if T is in metres)")
+      ->required();
   app.add_option("--mast-height", opt.mast.height_m, "height of the head centre above the mast base, m")
       ->capture_default_str();
   app.add_option("--tilt", opt.mast.tilt_deg, "downward pitch of the optical axes, degrees")->capture_default_str();
@@ -49,9 +65,33 @@ int main(int argc, char** argv) {
   if (const auto exit_code = util::ParseCommandLine(&app, argc, argv, quiet)) return *exit_code;
 
   return util::RunMain([&] {
+    LN_CHECK_ARG(input_dir.empty() != opencv_files.empty()) << "give INPUT_DIR (views) or --from-opencv, not both";
+    if (summary_path.empty()) summary_path = rig_path.parent_path() / "summary.json";
+    if (!opencv_files.empty()) {
+      // Import: the rig file from OpenCV's YAML, the mast pose from the command line.
+      util::Timer timer;
+      LN_CHECK_ARG(!image_size.empty()) << "--from-opencv needs --image-size WIDTHxHEIGHT";
+      const auto [width, height] = util::ParseIntPair(image_size, 'x', "--image-size");
+      const calib::StereoRig rig = calib::ReadOpenCvCalibration(opencv_files[0], opencv_files[1], width, height,
+                                                                opt.board.square_size_m, opt.mast);
+      calib::WriteStereoRig(rig_path, rig);
+      io::WriteJsonAtomic(summary_path, {{"tool", "calibrate"},
+                                         {"mode", "import"},
+                                         {"version", kVersion},
+                                         {"git_revision", kGitRevision},
+                                         {"invocation", util::CommandLineJson(argc, argv)},
+                                         {"inputs", {{"intrinsics", opencv_files[0].string()},
+                                                     {"extrinsics", opencv_files[1].string()}}},
+                                         {"options", {{"image_size_px", {width, height}},
+                                                      {"metres_per_unit", opt.board.square_size_m}}},
+                                         {"outputs", {{"rig", rig_path.string()}}},
+                                         {"timings_s", {{"total", timer.ElapsedSeconds()}}}});
+      LN_LOG(Info) << "calibrate: imported " << opencv_files[0].string() << " and " << opencv_files[1].string()
+                   << " into " << rig_path.string();
+      return kExitOk;
+    }
     std::tie(opt.board.cols, opt.board.rows) = util::ParseIntPair(board, 'x', "--board");
     opt.show_progress = !quiet;
-    if (summary_path.empty()) summary_path = rig_path.parent_path() / "summary.json";
 
     const calib::CalibrationRun run =
         calib::RunCalibration(opt, input_dir, rig_path, summary_path, util::CommandLineJson(argc, argv));

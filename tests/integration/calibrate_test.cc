@@ -6,7 +6,9 @@
 #include <memory>
 
 #include <nlohmann/json.hpp>
+#include <Eigen/Core>
 #include <opencv2/core.hpp>
+#include <opencv2/core/eigen.hpp>
 
 #include "calib/paper_rig.h"
 #include "calib/rectify.h"
@@ -148,6 +150,59 @@ TEST_F(CalibrateTool, BadOptionsAreUsageErrors) {
   EXPECT_EQ(RunTool("calibrate", {in, "-o", out, "--square", "0.1", "--tilt", "95"}, tmp.path()).exit_code, 2);
   EXPECT_EQ(RunTool("calibrate", {(tmp.path() / "none").string(), "-o", out, "--square", "0.1"}, tmp.path()).exit_code,
             3);
+}
+
+}  // namespace
+}  // namespace lunarnav
+
+namespace lunarnav {
+namespace {
+
+// An existing OpenCV calibration (stereo_calib's intrinsics.yml + extrinsics.yml, T in units
+// of 25 mm squares) imported into a rig file that the other tools read.
+TEST(CalibrateImport, ReadsOpenCvStereoCalibration) {
+  util::ScopedTempDir tmp;
+  const calib::StereoRig truth = calib::testing::PaperRig();
+  {
+    cv::FileStorage in((tmp.path() / "intrinsics.yml").string(), cv::FileStorage::WRITE);
+    cv::Mat m1, m2;
+    cv::eigen2cv(truth.left.K, m1);
+    cv::eigen2cv(truth.right.K, m2);
+    in << "M1" << m1 << "D1" << cv::Mat(truth.left.distortion).t() << "M2" << m2 << "D2"
+       << cv::Mat(truth.right.distortion).t();
+    cv::FileStorage ex((tmp.path() / "extrinsics.yml").string(), cv::FileStorage::WRITE);
+    cv::Mat r, t;
+    cv::eigen2cv(truth.right_from_left_R, r);
+    const Eigen::Vector3d t_squares = truth.right_from_left_t_m / 0.025;
+    cv::eigen2cv(t_squares, t);
+    ex << "R" << r << "T" << t;
+  }
+  const fs::path rig = tmp.path() / "out" / "rig.json";
+  const auto result = RunTool("calibrate", {"--from-opencv", (tmp.path() / "intrinsics.yml").string(),
+                                            (tmp.path() / "extrinsics.yml").string(), "--image-size", "640x480",
+                                            "--square", "0.025", "--mast-height", "1.5", "--tilt", "25", "-o",
+                                            rig.string(), "-q"},
+                              tmp.path());
+  ASSERT_EQ(result.exit_code, 0) << result.stderr_text;
+  const calib::StereoRig imported = calib::ReadStereoRig(rig);
+  EXPECT_TRUE(imported.left.K.isApprox(truth.left.K, 1e-12));
+  EXPECT_TRUE(imported.right_from_left_t_m.isApprox(truth.right_from_left_t_m, 1e-9));
+  EXPECT_NEAR(imported.mast.tilt_deg, 25, 1e-12);
+  EXPECT_EQ(imported.width_px, 640);
+  EXPECT_EQ(imported.height_px, 480);
+  EXPECT_EQ(io::ReadJson(tmp.path() / "out" / "summary.json")["mode"], "import");
+  // Without the image size, or with views too: usage errors; a missing file: bad input.
+  EXPECT_EQ(RunTool("calibrate", {"--from-opencv", (tmp.path() / "intrinsics.yml").string(),
+                                  (tmp.path() / "extrinsics.yml").string(), "--square", "0.025", "-o", rig.string()},
+                    tmp.path()).exit_code, 2);
+  EXPECT_EQ(RunTool("calibrate", {tmp.path().string(), "--from-opencv", (tmp.path() / "intrinsics.yml").string(),
+                                  (tmp.path() / "extrinsics.yml").string(), "--image-size", "640x480", "--square",
+                                  "0.025", "-o", rig.string()},
+                    tmp.path()).exit_code, 2);
+  EXPECT_EQ(RunTool("calibrate", {"--from-opencv", (tmp.path() / "none.yml").string(),
+                                  (tmp.path() / "extrinsics.yml").string(), "--image-size", "640x480", "--square",
+                                  "0.025", "-o", rig.string()},
+                    tmp.path()).exit_code, 3);
 }
 
 }  // namespace
