@@ -233,9 +233,9 @@ std::string TimingCurveCsv(const TimingStudy& study) {
 
 std::string TimingFigureCommands(const TimingStudy& study, const std::string& curve_csv) {
   std::ostringstream gp;
-  gp << "set title \"Stereo time against the width of the distance interval (Y_min = " << study.options.y_min_m
+  gp << "set title \"Stereo time against the width of the distance interval (Y_{min} = " << study.options.y_min_m
      << " m), normalised to the largest\"\n"
-     << "set xlabel \"{/Symbol D}Y = Y_max - Y_min (m)\"\nset ylabel \"normalised\"\nset grid\n"
+     << "set xlabel \"{/Symbol D}Y = Y_{max} - Y_{min} (m)\"\nset ylabel \"normalised\"\nset grid\n"
      << "set key left top box opaque\nset yrange [0:1.05]\nset offsets graph 0.02, 0.02, 0, 0\n"
      << "plot " << GnuplotString(curve_csv)
      << " using 1:3 skip 1 with linespoints pt 7 ps 1.2 lw 2 title \"measured time\", \\\n     "
