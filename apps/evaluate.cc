@@ -1,7 +1,9 @@
 // evaluate: results against ground truth -> the paper's tables and figures.
 // docs/evaluate.md describes every subcommand, option and output.
 #include <algorithm>
+#include <cmath>
 #include <filesystem>
+#include <map>
 #include <sstream>
 #include <string>
 #include <vector>
@@ -12,15 +14,21 @@
 #include "evaluation/correlation_study.h"
 #include "evaluation/disparity_eval.h"
 #include "evaluation/figure.h"
+#include "evaluation/request_study.h"
+#include "evaluation/timing_study.h"
 #include "evaluation/trials_eval.h"
 #include "io/atomic_file.h"
 #include "io/float_array_io.h"
 #include "io/image_io.h"
 #include "io/json_io.h"
+#include "io/stereo_pairs.h"
+#include "stereo/ncc_matcher.h"
 #include "util/check.h"
 #include "util/cli.h"
 #include "util/errors.h"
 #include "util/log.h"
+#include "util/parse.h"
+#include "util/progress.h"
 #include "util/run_main.h"
 #include "util/timer.h"
 #include "util/version.h"
@@ -248,6 +256,127 @@ int RunCorrelation(CorrelationArgs args, int argc, char** argv) {
   return kExitOk;
 }
 
+struct TimingArgs {
+  fs::path pairs, rig, output_dir;
+  std::string window = "25x17", step = "1x1", disparity = "0:127", z_range = "-0.5:1", reference = "right";
+  int max_pairs = 0;
+  evaluation::TimingStudyOptions options;
+};
+
+int RunTiming(TimingArgs args, int argc, char** argv, bool quiet) {
+  util::Timer timer;
+  evaluation::TimingStudyOptions& options = args.options;
+  std::tie(options.matcher.half_window_x_px, options.matcher.half_window_y_px) =
+      util::ParseIntPair(args.window, 'x', "--window");
+  std::tie(options.matcher.step_x_px, options.matcher.step_y_px) = util::ParseIntPair(args.step, 'x', "--step");
+  std::tie(options.matcher.min_disparity_px, options.matcher.max_disparity_px) =
+      util::ParseIntPair(args.disparity, ':', "--disparity");
+  std::tie(options.z_min_m, options.z_max_m) = util::ParseDoublePair(args.z_range, ':', "--z-range");
+  options.matcher.reference = stereo::ReferenceImageFromString(args.reference);
+  LN_CHECK_ARG(args.max_pairs >= 0) << "--max-pairs: must be >= 0 (0 = all)";
+  const calib::StereoRig rig = calib::ReadStereoRig(args.rig);
+  const evaluation::TimingStudy plan = evaluation::PlanTimingStudy(rig, options);  // bad options: exit 2 first
+
+  std::vector<io::PairFiles> listing = io::ListStereoPairs(args.pairs);
+  LN_CHECK_INPUT(!listing.empty()) << args.pairs.string() << ": no image pairs in left/ and right/";
+  if (args.max_pairs > 0 && listing.size() > static_cast<std::size_t>(args.max_pairs)) listing.resize(args.max_pairs);
+  std::vector<std::pair<cv::Mat, cv::Mat>> images;
+  json stems = json::array();
+  for (const io::PairFiles& pair : listing) {
+    LN_CHECK_INPUT(pair.problem.empty()) << "pair " << pair.stem << ": " << pair.problem;
+    images.emplace_back(io::ReadGreyImage(pair.left), io::ReadGreyImage(pair.right));
+    LN_CHECK_INPUT(images.back().first.size() == images.back().second.size() &&
+                   images.back().first.type() == images.back().second.type())
+        << pair.right.string() << ": size or bit depth differs from the left image's";
+    LN_CHECK_INPUT(images.back().first.cols == plan.width_px && images.back().first.rows == plan.height_px)
+        << pair.left.string() << ": size " << images.back().first.cols << "x" << images.back().first.rows
+        << " differs from the rig's rectified size " << plan.width_px << "x" << plan.height_px << " ("
+        << args.rig.string() << ")";
+    stems.push_back(pair.stem);
+  }
+  io::CreateOutputDirectory(args.output_dir);
+  util::ProgressBar progress(options.repeat * (options.delta_y_m.size() + 1), "evaluate timing", !quiet);
+  const evaluation::TimingStudy study =
+      evaluation::RunTimingStudy(rig, images, options, [&] { progress.Increment(); });
+
+  const evaluation::Table table = evaluation::TimingTable(study);
+  evaluation::WriteTable(args.output_dir, "timing", table);
+  io::WriteFileAtomic(args.output_dir / "timing_curve.csv", evaluation::TimingCurveCsv(study));
+  const evaluation::FigureResult figure =
+      evaluation::WriteFigure(args.output_dir, "timing", evaluation::TimingFigureCommands(study, "timing_curve.csv"));
+  if (!figure.rendered) {
+    LN_LOG(Warning) << figure.png.string() << ": not drawn: " << figure.problem;
+  }
+  json summary = SummaryHead("timing", argc, argv);
+  summary["inputs"] = {{"pairs", args.pairs.string()}, {"rig", args.rig.string()}, {"stems", stems}};
+  summary["options"] = options.ToJson();
+  summary["options"]["max_pairs"] = args.max_pairs;
+  summary["counts"] = {{"pairs", study.pairs}, {"windows", study.points.size() + 1}, {"repeat", options.repeat}};
+  summary["kernel"] = stereo::ActiveKernelName();
+  json repeats = json::array();
+  for (const auto& p : study.points) repeats.push_back({{"delta_y_m", *p.delta_y_m}, {"window", p.window.ToJson()},
+                                                        {"repeat_s", p.repeat_seconds},
+                                                        {"evaluated_pixels", p.evaluated_pixels}});
+  repeats.push_back({{"delta_y_m", nullptr}, {"window", study.full.window.ToJson()},
+                     {"repeat_s", study.full.repeat_seconds}, {"evaluated_pixels", study.full.evaluated_pixels}});
+  summary["windows"] = repeats;
+  summary["table"] = table.ToJson();
+  summary["figures"] = {{{"png", figure.png.filename().string()},
+                         {"data", "timing_curve.csv"},
+                         {"rendered", figure.rendered},
+                         {"problem", figure.problem}}};
+  summary["timings_s"] = {{"total", timer.ElapsedSeconds()}};
+  io::WriteJsonAtomic(args.output_dir / "summary.json", summary);
+  LN_LOG(Info) << "evaluate timing: " << study.points.size() << " windows x " << study.pairs << " pairs x "
+               << options.repeat << " runs; " << (args.output_dir / "timing.md").string();
+  return kExitOk;
+}
+
+struct RequestsArgs {
+  fs::path run, output_dir;
+  double tolerance = 0.10;
+};
+
+int RunRequests(const RequestsArgs& args, int argc, char** argv) {
+  util::Timer timer;
+  LN_CHECK_ARG(std::isfinite(args.tolerance) && args.tolerance >= 0 && args.tolerance <= 1)
+      << "--tolerance: must be in [0, 1] (0.1 = 10 %), got " << args.tolerance;
+  int without_window = 0;
+  const evaluation::RequestStudy study =
+      evaluation::SummarizeRequests(evaluation::ReadRequestWindows(args.run, &without_window), args.tolerance);
+  io::CreateOutputDirectory(args.output_dir);
+  const evaluation::Table table = evaluation::RequestsTable(study);
+  const evaluation::Table pairs_table = evaluation::RequestPairsTable(study);
+  evaluation::WriteTable(args.output_dir, "requests", table);
+  evaluation::WriteTable(args.output_dir, "request_pairs", pairs_table);
+  const evaluation::FigureResult figure = evaluation::WriteFigure(
+      args.output_dir, "requests", evaluation::RequestsFigureCommands(study, "request_pairs.csv"), 900, 900);
+  if (!figure.rendered) {
+    LN_LOG(Warning) << figure.png.string() << ": not drawn: " << figure.problem;
+  }
+  if (without_window > 0) {
+    LN_LOG(Warning) << args.run.string() << ": " << without_window
+                    << " pair(s) matched without window selection are left out";
+  }
+  json summary = SummaryHead("requests", argc, argv);
+  summary["inputs"] = {{"run", args.run.string()}};
+  summary["options"] = {{"tolerance", args.tolerance}};
+  summary["counts"] = {{"pairs", study.windows.size()},
+                       {"without_window", without_window},
+                       {"within", study.within_count},
+                       {"steady_from", study.steady_from}};
+  summary["table"] = table.ToJson();
+  summary["figures"] = {{{"png", figure.png.filename().string()},
+                         {"data", "request_pairs.csv"},
+                         {"rendered", figure.rendered},
+                         {"problem", figure.problem}}};
+  summary["timings_s"] = {{"total", timer.ElapsedSeconds()}};
+  io::WriteJsonAtomic(args.output_dir / "summary.json", summary);
+  LN_LOG(Info) << "evaluate requests: " << study.windows.size() << " pairs, " << study.within_count << " within "
+               << 100 * args.tolerance << " %; " << (args.output_dir / "requests.md").string();
+  return kExitOk;
+}
+
 struct BoxesArgs {
   std::vector<fs::path> runs;
   fs::path boxes, rig, output_dir;
@@ -450,6 +579,44 @@ int main(int argc, char** argv) {
       ->capture_default_str();
   correlation_cmd->add_option("-o,--output", correlation.output_dir, "output directory (created)")->required();
 
+  TimingArgs timing;
+  CLI::App* timing_cmd = app.add_subcommand(
+      "timing", "stereo time against the width dY of the requested distance interval (Figure 2)");
+  timing_cmd->add_option("PAIRS", timing.pairs, "directory of rectified pairs (left/, right/)")->required();
+  timing_cmd->add_option("--rig", timing.rig, "rectified rig file (rectify's rig.json)")->required();
+  timing_cmd->add_option("--y-min", timing.options.y_min_m, "Y_min of every interval (m)")->capture_default_str();
+  timing_cmd->add_option("--delta-y", timing.options.delta_y_m, "interval widths dY (m, default 1,2,...,15)")
+      ->delimiter(',');
+  timing_cmd->add_option("--z-range", timing.z_range, "heights ZMIN:ZMAX of the objects (m)")->capture_default_str();
+  timing_cmd->add_option("--window", timing.window, "half-sizes WXxWY of the correlation window")
+      ->capture_default_str();
+  timing_cmd->add_option("--step", timing.step, "partial subsampling steps DXxDY")->capture_default_str();
+  timing_cmd->add_option("--disparity", timing.disparity,
+                         "disparity range MIN:MAX of the whole-image search (the reference row)")
+      ->capture_default_str();
+  timing_cmd->add_option("--reference", timing.reference, "image the disparity map is referenced to")
+      ->check(CLI::IsMember({"right", "left"}))
+      ->capture_default_str();
+  timing_cmd->add_option("--repeat", timing.options.repeat, "timed runs per window (the median is kept)")
+      ->capture_default_str();
+  timing_cmd->add_option("--max-pairs", timing.max_pairs, "time only the first N pairs (0 = all)")
+      ->capture_default_str();
+  timing_cmd->add_option("-j,--threads", timing.options.matcher.num_threads,
+                         "matcher threads (1 = serial, the steadiest timing; 0 = all cores)")
+      ->capture_default_str();
+  timing_cmd->add_option("-o,--output", timing.output_dir, "output directory (created)")->required();
+
+  RequestsArgs requests;
+  CLI::App* requests_cmd = app.add_subcommand(
+      "requests", "mean and range of the requested rows, disparities and distances over a run (Figure 3)");
+  requests_cmd->add_option("RUN", requests.run,
+                           "stereo-batch output directory of a run with --rig and --requests or --range-y")
+      ->required();
+  requests_cmd->add_option("--tolerance", requests.tolerance,
+                           "a pair is steady when its bounds are within this fraction of their means")
+      ->capture_default_str();
+  requests_cmd->add_option("-o,--output", requests.output_dir, "output directory (created)")->required();
+
   BoxesArgs boxes;
   CLI::App* boxes_cmd = app.add_subcommand(
       "boxes", "box experiment: E_Y of box faces against distance per subsampling (Figure 4)");
@@ -473,6 +640,8 @@ int main(int argc, char** argv) {
     if (trials_cmd->parsed()) return RunTrials(trials, argc, argv);
     if (correlation_cmd->parsed()) return RunCorrelation(correlation, argc, argv);
     if (boxes_cmd->parsed()) return RunBoxes(boxes, argc, argv);
+    if (timing_cmd->parsed()) return RunTiming(timing, argc, argv, quiet);
+    if (requests_cmd->parsed()) return RunRequests(requests, argc, argv);
     return kExitUsage;
   });
 }

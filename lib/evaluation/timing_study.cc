@@ -1,0 +1,247 @@
+#include "evaluation/timing_study.h"
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+#include <sstream>
+
+#include "evaluation/figure.h"
+#include "stereo/ncc_matcher.h"
+#include "util/check.h"
+#include "util/timer.h"
+
+namespace lunarnav::evaluation {
+namespace {
+
+constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
+
+double WorkShare(const calib::ImageWindow& w, int height_px, int full_disparities) {
+  const double full = static_cast<double>(height_px) * full_disparities;
+  return full > 0 ? static_cast<double>(w.Rows()) * w.Disparities() / full : kNaN;
+}
+
+stereo::NccOptions MatcherFor(const stereo::NccOptions& matcher, const calib::ImageWindow& w) {
+  stereo::NccOptions m = matcher;
+  m.min_row = w.min_row;
+  m.max_row = w.max_row;
+  m.min_disparity_px = w.min_disparity_px;
+  m.max_disparity_px = w.max_disparity_px;
+  return m;
+}
+
+}  // namespace
+
+void TimingStudyOptions::Validate() const {
+  matcher.Validate();
+  window_selection.Validate();
+  LN_CHECK_ARG(std::isfinite(y_min_m)) << "y-min: must be a finite distance in metres";
+  LN_CHECK_ARG(!delta_y_m.empty()) << "delta-y: at least one interval width";
+  for (double d : delta_y_m) {
+    LN_CHECK_ARG(std::isfinite(d) && d >= 0) << "delta-y: widths must be >= 0 m, got " << d;
+  }
+  LN_CHECK_ARG(repeat >= 1) << "repeat: must be >= 1, got " << repeat;
+  calib::RegionOfInterest region{y_min_m, y_min_m, z_min_m, z_max_m};
+  region.Validate();
+}
+
+nlohmann::json TimingStudyOptions::ToJson() const {
+  return {{"y_min_m", y_min_m},
+          {"delta_y_m", delta_y_m},
+          {"z_m", {z_min_m, z_max_m}},
+          {"disparity_margin_px", window_selection.disparity_margin_px},
+          {"repeat", repeat},
+          {"matcher", matcher.ToJson()}};
+}
+
+std::vector<double> NormaliseToLargest(const std::vector<double>& values) {
+  double largest = -std::numeric_limits<double>::infinity();
+  for (double v : values) {
+    if (std::isfinite(v)) largest = std::max(largest, v);
+  }
+  std::vector<double> out(values.size(), kNaN);
+  if (!(largest > 0)) return out;
+  for (std::size_t i = 0; i < values.size(); ++i) {
+    if (std::isfinite(values[i])) out[i] = values[i] / largest;
+  }
+  return out;
+}
+
+double Median(std::vector<double> values) {
+  if (values.empty()) return kNaN;
+  std::sort(values.begin(), values.end());
+  const std::size_t n = values.size();
+  return n % 2 == 1 ? values[n / 2] : 0.5 * (values[n / 2 - 1] + values[n / 2]);
+}
+
+TimingStudy PlanTimingStudy(const calib::StereoRig& rig, const TimingStudyOptions& options) {
+  options.Validate();
+  LN_CHECK_ARG(rig.rectified.has_value())
+      << "rig: no rectified geometry; window selection needs the rectified rig (the rig.json that rectify writes)";
+  TimingStudy study;
+  study.options = options;
+  study.width_px = rig.rectified->width_px;
+  study.height_px = rig.rectified->height_px;
+  const int full_disparities = options.matcher.max_disparity_px - options.matcher.min_disparity_px + 1;
+  for (double dy : options.delta_y_m) {
+    const calib::RegionOfInterest region{options.y_min_m, options.y_min_m + dy, options.z_min_m, options.z_max_m};
+    TimingPoint p;
+    p.delta_y_m = dy;
+    p.window = calib::SelectWindow(rig, region, options.matcher.reference, options.window_selection);
+    LN_CHECK_ARG(p.window.visible) << "delta-y " << dy << ": no point with Y in [" << region.y_min_m << ", "
+                                   << region.y_max_m << "] m and Z in [" << region.z_min_m << ", "
+                                   << region.z_max_m << "] m is seen by the "
+                                   << calib::ToString(options.matcher.reference) << " camera";
+    p.work_share = WorkShare(p.window, study.height_px, full_disparities);
+    study.points.push_back(std::move(p));
+  }
+  calib::ImageWindow& w = study.full.window;
+  w.visible = true;
+  w.min_row = 0;
+  w.max_row = study.height_px - 1;
+  w.min_disparity_px = options.matcher.min_disparity_px;
+  w.max_disparity_px = options.matcher.max_disparity_px;
+  w.row_extent[0] = w.min_row;
+  w.row_extent[1] = w.max_row;
+  w.disparity_extent_px[0] = w.min_disparity_px;
+  w.disparity_extent_px[1] = w.max_disparity_px;
+  w.image_width_px = study.width_px;
+  w.image_height_px = study.height_px;
+  study.full.work_share = 1.0;
+  return study;
+}
+
+void NormaliseTimingStudy(TimingStudy* study) {
+  std::vector<double> seconds, work;
+  for (const TimingPoint& p : study->points) {
+    seconds.push_back(p.seconds);
+    work.push_back(p.work_share);
+  }
+  const std::vector<double> time_n = NormaliseToLargest(seconds), work_n = NormaliseToLargest(work);
+  double largest_seconds = kNaN, largest_work = kNaN;
+  for (std::size_t i = 0; i < study->points.size(); ++i) {
+    TimingPoint& p = study->points[i];
+    p.time_normalised = time_n[i];
+    p.work_normalised = work_n[i];
+    p.time_share = study->full.seconds > 0 ? p.seconds / study->full.seconds : kNaN;
+    if (time_n[i] == 1.0) largest_seconds = p.seconds;
+    if (work_n[i] == 1.0) largest_work = p.work_share;
+  }
+  TimingPoint& f = study->full;
+  f.time_normalised = largest_seconds > 0 ? f.seconds / largest_seconds : kNaN;
+  f.work_normalised = largest_work > 0 ? f.work_share / largest_work : kNaN;
+  f.time_share = f.seconds > 0 ? 1.0 : kNaN;
+}
+
+TimingStudy RunTimingStudy(const calib::StereoRig& rig, const std::vector<std::pair<cv::Mat, cv::Mat>>& pairs,
+                           const TimingStudyOptions& options, const std::function<void()>& progress) {
+  TimingStudy study = PlanTimingStudy(rig, options);
+  LN_CHECK_INPUT(!pairs.empty()) << "timing: no image pairs";
+  for (std::size_t i = 0; i < pairs.size(); ++i) {
+    const cv::Mat& left = pairs[i].first;
+    LN_CHECK_INPUT(left.cols == study.width_px && left.rows == study.height_px)
+        << "pair " << i << ": size " << left.cols << "x" << left.rows << " differs from the rig's rectified size "
+        << study.width_px << "x" << study.height_px;
+  }
+  study.pairs = static_cast<int>(pairs.size());
+  std::vector<TimingPoint*> all;
+  for (TimingPoint& p : study.points) all.push_back(&p);
+  all.push_back(&study.full);
+
+  stereo::NccResult result;  // maps reused, as stereo-batch does
+  // Warm-up (untimed): allocates the maps and brings code and images into the caches.
+  stereo::MatchStereoPair(MatcherFor(options.matcher, study.full.window), pairs[0].first, pairs[0].second, &result);
+  for (int round = 0; round < options.repeat; ++round) {
+    for (TimingPoint* p : all) {
+      const stereo::NccOptions matcher = MatcherFor(options.matcher, p->window);
+      double total = 0;
+      long long evaluated = 0;
+      for (const auto& [left, right] : pairs) {
+        util::Timer timer;
+        stereo::MatchStereoPair(matcher, left, right, &result);
+        total += timer.ElapsedSeconds();
+        evaluated += result.summary.evaluated_pixels;
+      }
+      p->repeat_seconds.push_back(total / static_cast<double>(pairs.size()));
+      p->evaluated_pixels = evaluated;
+      if (progress) progress();
+    }
+  }
+  for (TimingPoint* p : all) p->seconds = Median(p->repeat_seconds);
+  NormaliseTimingStudy(&study);
+  return study;
+}
+
+Table TimingTable(const TimingStudy& study) {
+  Table t;
+  t.title = "Stereo time against the width of the distance interval, Y_min = " +
+            Cell::Number(study.options.y_min_m).Format(1) + " m (Figure 2)";
+  t.columns = {{"delta_y", "m", "ΔY (m)", 2},
+               {"y_max", "m", "Y_max (m)", 2},
+               {"row_min", "px", "y_min", 0},
+               {"row_max", "px", "y_max", 0},
+               {"rows", "", "rows", 0},
+               {"d_min", "px", "d_min", 0},
+               {"d_max", "px", "d_max", 0},
+               {"disparities", "", "disparities", 0},
+               {"work_share", "pct", "rows×disparities (% of image)", 1},
+               {"time", "ms", "time per pair (ms)", 2},
+               {"time_normalised", "", "time / largest", 3},
+               {"work_normalised", "", "work / largest", 3},
+               {"time_share", "pct", "time (% of image)", 1}};
+  auto add = [&](const TimingPoint& p) {
+    const std::string whole = "whole image, no window selection";
+    const Cell dy = p.delta_y_m ? Cell::Number(*p.delta_y_m) : Cell::NotAvailable(whole);
+    const Cell ymax = p.delta_y_m ? Cell::Number(study.options.y_min_m + *p.delta_y_m) : Cell::NotAvailable(whole);
+    const calib::ImageWindow& w = p.window;
+    t.AddRow({dy, ymax, Cell::Number(w.min_row), Cell::Number(w.max_row), Cell::Number(w.Rows()),
+              Cell::Number(w.min_disparity_px), Cell::Number(w.max_disparity_px), Cell::Number(w.Disparities()),
+              Cell::NumberOr(100 * p.work_share, "no work"), Cell::NumberOr(1e3 * p.seconds, "not timed"),
+              Cell::NumberOr(p.time_normalised, "not timed"), Cell::NumberOr(p.work_normalised, "no work"),
+              Cell::NumberOr(100 * p.time_share, "not timed")});
+  };
+  for (const TimingPoint& p : study.points) add(p);
+  add(study.full);
+  std::ostringstream n1, n2;
+  n1 << "Times are medians of " << study.options.repeat << " runs of the mean matching time over " << study.pairs
+     << " pair(s) of " << study.width_px << "x" << study.height_px
+     << " px; they depend on the machine and its load: only the normalised shape compares with the paper's Figure 2.";
+  n2 << "Windows by window selection (sec. 3.3) for Z in [" << study.options.z_min_m << ", " << study.options.z_max_m
+     << "] m; the last row searches every row and the disparities " << study.options.matcher.min_disparity_px << ":"
+     << study.options.matcher.max_disparity_px
+     << "; 'work' is rows × disparities, the cost window selection predicts.";
+  t.notes = {n1.str(), n2.str()};
+  return t;
+}
+
+std::string TimingCurveCsv(const TimingStudy& study) {
+  std::ostringstream s;
+  s << "delta_y_m,y_max_m,time_normalised,work_normalised,time_ms,rows,disparities\n";
+  s.precision(6);
+  auto num = [](double v) {
+    std::ostringstream o;
+    o.precision(6);
+    if (std::isfinite(v)) o << v; else o << "nan";
+    return o.str();
+  };
+  for (const TimingPoint& p : study.points) {
+    s << num(*p.delta_y_m) << "," << num(study.options.y_min_m + *p.delta_y_m) << "," << num(p.time_normalised)
+      << "," << num(p.work_normalised) << "," << num(1e3 * p.seconds) << "," << p.window.Rows() << ","
+      << p.window.Disparities() << "\n";
+  }
+  return s.str();
+}
+
+std::string TimingFigureCommands(const TimingStudy& study, const std::string& curve_csv) {
+  std::ostringstream gp;
+  gp << "set title \"Stereo time against the width of the distance interval (Y_{min} = " << study.options.y_min_m
+     << " m), normalised to the largest\"\n"
+     << "set xlabel \"{/Symbol D}Y = Y_{max} - Y_{min} (m)\"\nset ylabel \"normalised\"\nset grid\n"
+     << "set key left top box opaque\nset yrange [0:1.05]\nset offsets graph 0.02, 0.02, 0, 0\n"
+     << "plot " << GnuplotString(curve_csv)
+     << " using 1:3 skip 1 with linespoints pt 7 ps 1.2 lw 2 title \"measured time\", \\\n     "
+     << GnuplotString(curve_csv)
+     << " using 1:4 skip 1 with linespoints pt 4 ps 1.0 dt 2 title \"predicted: rows x disparities\"\n";
+  return gp.str();
+}
+
+}  // namespace lunarnav::evaluation
