@@ -3,8 +3,8 @@
 #include <gtest/gtest.h>
 
 #include <opencv2/core.hpp>
-#include <opencv2/core/eigen.hpp>
 
+#include "calib/opencv_calibration_files.h"
 #include "calib/paper_rig.h"
 #include "util/errors.h"
 #include "util/testing.h"
@@ -68,20 +68,7 @@ TEST(ReadOpenCvCalibration, AgreesWithTheJsonItProduces) {
   // units of 10 cm squares.
   util::ScopedTempDir tmp;
   const StereoRig truth = testing::PaperRig();
-  {
-    cv::FileStorage in((tmp.path() / "intrinsics.yml").string(), cv::FileStorage::WRITE);
-    cv::Mat m1, m2;
-    cv::eigen2cv(truth.left.K, m1);
-    cv::eigen2cv(truth.right.K, m2);
-    in << "M1" << m1 << "D1" << cv::Mat(truth.left.distortion).t() << "M2" << m2 << "D2"
-       << cv::Mat(truth.right.distortion).t();
-    cv::FileStorage ex((tmp.path() / "extrinsics.yml").string(), cv::FileStorage::WRITE);
-    cv::Mat r, t;
-    cv::eigen2cv(truth.right_from_left_R, r);
-    const Eigen::Vector3d t_squares = truth.right_from_left_t_m / 0.1;
-    cv::eigen2cv(t_squares, t);
-    ex << "R" << r << "T" << t;
-  }
+  testing::WriteOpenCvCalibration(tmp.path(), truth, 0.1);
   const StereoRig imported = ReadOpenCvCalibration(tmp.path() / "intrinsics.yml", tmp.path() / "extrinsics.yml",
                                                    640, 480, 0.1, truth.mast);
   EXPECT_TRUE(imported.right_from_left_t_m.isApprox(truth.right_from_left_t_m, 1e-12));

@@ -6,10 +6,9 @@
 #include <memory>
 
 #include <nlohmann/json.hpp>
-#include <Eigen/Core>
 #include <opencv2/core.hpp>
-#include <opencv2/core/eigen.hpp>
 
+#include "calib/opencv_calibration_files.h"
 #include "calib/paper_rig.h"
 #include "calib/rectify.h"
 #include "calib/stereo_rig_io.h"
@@ -163,20 +162,7 @@ namespace {
 TEST(CalibrateImport, ReadsOpenCvStereoCalibration) {
   util::ScopedTempDir tmp;
   const calib::StereoRig truth = calib::testing::PaperRig();
-  {
-    cv::FileStorage in((tmp.path() / "intrinsics.yml").string(), cv::FileStorage::WRITE);
-    cv::Mat m1, m2;
-    cv::eigen2cv(truth.left.K, m1);
-    cv::eigen2cv(truth.right.K, m2);
-    in << "M1" << m1 << "D1" << cv::Mat(truth.left.distortion).t() << "M2" << m2 << "D2"
-       << cv::Mat(truth.right.distortion).t();
-    cv::FileStorage ex((tmp.path() / "extrinsics.yml").string(), cv::FileStorage::WRITE);
-    cv::Mat r, t;
-    cv::eigen2cv(truth.right_from_left_R, r);
-    const Eigen::Vector3d t_squares = truth.right_from_left_t_m / 0.025;
-    cv::eigen2cv(t_squares, t);
-    ex << "R" << r << "T" << t;
-  }
+  calib::testing::WriteOpenCvCalibration(tmp.path(), truth, 0.025);
   const fs::path rig = tmp.path() / "out" / "rig.json";
   const auto result = RunTool("calibrate", {"--from-opencv", (tmp.path() / "intrinsics.yml").string(),
                                             (tmp.path() / "extrinsics.yml").string(), "--image-size", "640x480",
