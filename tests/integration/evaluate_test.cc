@@ -89,7 +89,10 @@ TEST(EvaluateTrials, ScoresAPosfilterTrajectoryAgainstTapeMeasuredTrials) {
   for (const char* name : {"trials", "trial_details", "trajectory_errors"}) {
     for (const char* ext : {".csv", ".json", ".md"}) EXPECT_TRUE(fs::exists(eval / (std::string(name) + ext)));
   }
+  // The figure is drawn (gnuplot is one of the project's dependencies) and not empty.
   EXPECT_TRUE(fs::exists(eval / "trials.gp"));
+  ASSERT_TRUE(fs::exists(eval / "trials.png"));
+  EXPECT_GT(fs::file_size(eval / "trials.png"), 5000u);
   const nlohmann::json summary = io::ReadJson(eval / "summary.json");
   EXPECT_EQ(summary["counts"]["trials"], 2);
   const nlohmann::json& row = summary["table"]["rows"][0];
@@ -123,6 +126,8 @@ TEST(EvaluateCorrelation, FindsTheTrueDisparityAtEverySubsampling) {
   ASSERT_EQ(result.exit_code, 0) << result.stderr_text;
   EXPECT_TRUE(fs::exists(out / "correlation_curves.csv"));
   EXPECT_TRUE(fs::exists(out / "correlation.gp"));
+  ASSERT_TRUE(fs::exists(out / "correlation.png"));
+  EXPECT_GT(fs::file_size(out / "correlation.png"), 5000u);
   const nlohmann::json rows = io::ReadJson(out / "summary.json")["table"]["rows"];
   ASSERT_EQ(rows.size(), 9u);
   for (const auto& row : rows) {
@@ -168,6 +173,8 @@ TEST(EvaluateBoxes, SimulatedBoxExperimentStaysWithinThePredictedError) {
   ASSERT_EQ(result.exit_code, 0) << result.stderr_text;
   EXPECT_TRUE(fs::exists(eval / "boxes.csv"));
   EXPECT_TRUE(fs::exists(eval / "boxes.gp"));
+  ASSERT_TRUE(fs::exists(eval / "boxes.png"));
+  EXPECT_GT(fs::file_size(eval / "boxes.png"), 5000u);
   const nlohmann::json rows = io::ReadJson(eval / "summary.json")["table"]["rows"];
   ASSERT_EQ(rows.size(), 7u);  // boxes at 2, 3, ..., 8 m
   for (const auto& row : rows) {
