@@ -126,6 +126,19 @@ TEST(SimulateChessboard, SameSeedSameBytesOtherSeedOtherBytes) {
   EXPECT_EQ(Slurp(tmp.path() / "a" / "rig.json"), Slurp(tmp.path() / "c" / "rig.json"));  // the seed moves the board only
 }
 
+TEST(SimulateChessboard, TheTestdataFixtureIsWhatItsCommandWrites) {
+  // testdata/README.md: simulate chessboard --views 6 --noise 0 --seed 1 -o testdata/chessboard
+  ScopedTempDir tmp;
+  Simulate(tmp.path() / "cb", {"--views", "6", "--noise", "0", "--seed", "1"}, tmp.path());
+  const std::vector<std::string> files = DataFiles(tmp.path() / "cb");
+  EXPECT_EQ(files, DataFiles(util::TestDataPath("chessboard")));
+  EXPECT_EQ(files.size(), 14u);
+  for (const std::string& f : files) {
+    EXPECT_EQ(Slurp(tmp.path() / "cb" / f), Slurp(util::TestDataPath("chessboard/" + f)))
+        << f << " differs: regenerate the fixture (testdata/README.md)";
+  }
+}
+
 TEST(SimulateChessboard, BadOptionsAreUsageErrorsWithOneErrorLine) {
   ScopedTempDir tmp;
   const fs::path out = tmp.path() / "out";
