@@ -126,6 +126,27 @@ TEST(SimulateChessboard, SameSeedSameBytesOtherSeedOtherBytes) {
   EXPECT_EQ(Slurp(tmp.path() / "a" / "rig.json"), Slurp(tmp.path() / "c" / "rig.json"));  // the seed moves the board only
 }
 
+TEST(SimulateChessboard, TheRigIsTheOneSimulateStereoRendersWithTheSameRigOptions) {
+  // So that calibrating on `simulate chessboard` output calibrates `simulate stereo`'s rig.
+  ScopedTempDir tmp;
+  const std::vector<std::string> rig = {"--width", "160", "--height", "120", "--focal", "185", "--baseline", "0.5",
+                                        "--tilt", "20", "--no-rotation"};
+  std::vector<std::string> chessboard = rig;
+  chessboard.insert(chessboard.end(), {"--views", "1", "--square", "0.05"});
+  Simulate(tmp.path() / "cb", chessboard, tmp.path());
+  std::vector<std::string> stereo = {"stereo", "-o", (tmp.path() / "st").string(), "--terrain-cell", "0.05",
+                                     "--rays", "1", "-q"};
+  stereo.insert(stereo.end(), rig.begin(), rig.end());
+  const auto run = RunTool("simulate", stereo, tmp.path());
+  ASSERT_EQ(run.exit_code, 0) << run.stderr_text;
+  EXPECT_EQ(Slurp(tmp.path() / "cb" / "rig.json"), Slurp(tmp.path() / "st" / "rig.json"));
+  const calib::StereoRig read = calib::ReadStereoRig(tmp.path() / "cb" / "rig.json");
+  EXPECT_EQ(read.left.K(0, 0), 185.0);
+  EXPECT_NEAR(read.BaselineM(), 0.5, 1e-12);
+  EXPECT_EQ(read.mast.tilt_deg, 20.0);
+  EXPECT_TRUE(read.right_from_left_R.isIdentity(0.0));
+}
+
 TEST(SimulateChessboard, TheTestdataFixtureIsWhatItsCommandWrites) {
   // testdata/README.md: simulate chessboard --views 6 --noise 0 --seed 1 -o testdata/chessboard
   ScopedTempDir tmp;
