@@ -8,6 +8,7 @@
 
 #include "io/atomic_file.h"
 #include "io/json_io.h"
+#include "apps/simulate_chessboard_cli.h"
 #include "apps/simulate_stereo_cli.h"
 #include "sim/rover_telemetry.h"
 #include "util/cli.h"
@@ -104,6 +105,8 @@ int main(int argc, char** argv) {
   telemetry.AddTo(&app);
   // `simulate stereo` (rendered stereo sequences) registers from its own translation unit.
   const auto run_stereo = apps::RegisterStereoCommand(app);
+  // `simulate chessboard` (calibration views) likewise.
+  const auto run_chessboard = apps::RegisterChessboardCommand(app);
   bool quiet = false;
   util::AddCommonFlags(&app, &quiet);
   if (const auto exit_code = util::ParseCommandLine(&app, argc, argv, quiet)) return *exit_code;
@@ -111,5 +114,6 @@ int main(int argc, char** argv) {
   const nlohmann::json invocation = util::CommandLineJson(argc, argv);
   if (app.got_subcommand(telemetry.sub)) return util::RunMain([&] { return telemetry.Run(invocation); });
   if (app.got_subcommand("stereo")) return run_stereo(invocation, quiet);
+  if (app.got_subcommand("chessboard")) return run_chessboard(invocation, quiet);
   return util::RunMain([]() -> int { throw std::logic_error("simulate: no subcommand to run"); });
 }

@@ -1,5 +1,5 @@
 // Synthetic stereo views of a chessboard target, with the exact corner positions, for
-// testing calibration (and, later, `simulate chessboard`).
+// testing calibration and for `simulate chessboard` (sim/chessboard_sim.h).
 //
 // A planar board (black and white squares on a white plate with a margin, in front of a
 // uniform background) is placed in N poses in front of a stereo rig; both cameras image it
