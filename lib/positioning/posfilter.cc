@@ -220,7 +220,9 @@ nlohmann::json PosfilterResult::SummaryJson() const {
   if (kalman_used) {
     j["heading_kalman"] = {{"compass_updates", heading.compass_updates},
                            {"gyro_updates", heading.gyro_updates},
-                           {"gyro_bias_dps", heading.gyro_bias_radps * 180.0 / M_PI}};
+                           {"gyro_bias_dps", heading.gyro_bias_radps * 180.0 / M_PI},
+                           {"gyro_scale_error", heading.gyro_scale_error},
+                           {"gyro_scale_sigma", heading.gyro_scale_sigma}};
   }
   const double duration = screened.t_s.empty() ? 0.0 : screened.t_s.back() - screened.t_s.front();
   j["motion"] = {{"distance_m", motion.distance_m},
