@@ -92,8 +92,10 @@ TEST(Simulate, GyroGatedKalmanHeadingBeatsPlainLowPassOnArcs) {
   const double kalman = RmsHeadingErrorDeg(tmp.path() / "kalman" / "trajectory.csv", tmp.path() / "sim" / "truth.csv");
   const double lowpass =
       RmsHeadingErrorDeg(tmp.path() / "lowpass" / "trajectory.csv", tmp.path() / "sim" / "truth.csv");
+  // Measured when written: 1.57 against 7.24 deg (2.15 deg before the filter estimated the
+  // gyro's scale and smoothed its compass gate).
   EXPECT_LT(kalman, 0.5 * lowpass) << "kalman " << kalman << " deg, low-pass " << lowpass << " deg";
-  EXPECT_LT(kalman, 3.0);
+  EXPECT_LT(kalman, 2.0);
 }
 
 // A row of a CSV file with '#' comments and a header, by column name.
