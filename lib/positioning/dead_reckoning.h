@@ -24,14 +24,26 @@ struct DeadReckoningInputs {
   std::vector<double> roll_rad;      ///< Filtered roll; empty = 0.
   /// Cumulative travel of each wheel, metres (NaN where missing); absent wheels are empty.
   std::array<std::vector<double>, 4> wheel_m;
+  /// Each wheel's encoder resolution, metres per count (0 = unknown): the slip test's
+  /// tolerance never falls below the quantisation of the travel it compares.
+  std::array<double, 4> wheel_resolution_m{};
 };
 
 struct DeadReckoningOptions {
-  /// A wheel whose step differs from the median of the wheels by more than
-  /// max(slip_min_m, slip_fraction * |median|) is down-weighted (weight = (tolerance /
-  /// excess)^2) and counted as slipping when its weight falls below one half.
+  /// Slip test. Each wheel's travel over the last slip_window_s (at least one step) is
+  /// compared with the median of the wheels' travels over the same window; a wheel that
+  /// differs by more than the tolerance max(slip_min_m, slip_fraction * |median|,
+  /// slip_resolution_counts * resolution) has its step down-weighted (weight = (tolerance /
+  /// excess)^2) and counted as slipping when its weight falls below one half. resolution is
+  /// the coarsest wheel's metres per count: a travel read from two quantised counts is off by
+  /// less than a count, so quantisation alone is (almost) never taken for slip, and because
+  /// the window's travels telescope, every wheel weighted 1 gives exactly the wheels' mean
+  /// travel, whatever the resolution.
   double slip_fraction = 0.2;
   double slip_min_m = 0.01;
+  double slip_window_s = 1.0;
+  double slip_resolution_counts = 1.0;
+  void Validate() const;
 };
 
 struct DeadReckoningResult {

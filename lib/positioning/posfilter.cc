@@ -67,8 +67,7 @@ void PosfilterOptions::Validate() const {
   LN_CHECK_ARG(filter_order >= 1 && filter_order <= 8) << "order: must be in 1..8";
   LN_CHECK_ARG(cutoff_hz > 0 && std::isfinite(cutoff_hz)) << "cutoff: must be > 0 Hz";
   LN_CHECK_ARG(stationary_min_s > 0) << "stationary time: must be > 0";
-  LN_CHECK_ARG(dead_reckoning.slip_fraction > 0 && dead_reckoning.slip_min_m > 0)
-      << "slip tolerances: must be > 0";
+  dead_reckoning.Validate();
 }
 
 nlohmann::json PosfilterOptions::ToJson() const {
@@ -77,7 +76,9 @@ nlohmann::json PosfilterOptions::ToJson() const {
                       {"mode", ToString(mode)}}},
           {"heading", ToString(heading)},
           {"kalman", kalman.ToJson()},
-          {"slip", {{"fraction", dead_reckoning.slip_fraction}, {"min_m", dead_reckoning.slip_min_m}}},
+          {"slip", {{"fraction", dead_reckoning.slip_fraction}, {"min_m", dead_reckoning.slip_min_m},
+                    {"window_s", dead_reckoning.slip_window_s},
+                    {"resolution_counts", dead_reckoning.slip_resolution_counts}}},
           {"stationary_min_s", stationary_min_s}};
 }
 
@@ -117,6 +118,7 @@ PosfilterResult RunPosfilter(const telemetry::TelemetryLog& log, const telemetry
     const double mpc = model[wheels[i]].MetresPerCount();
     for (double& c : counts) c *= mpc;
     in.wheel_m[i] = std::move(counts);
+    in.wheel_resolution_m[i] = std::abs(mpc);
     ++wheel_count;
   }
   LN_CHECK_INPUT(wheel_count > 0) << log.source.string() << ": no usable encoder channel";
@@ -218,7 +220,9 @@ nlohmann::json PosfilterResult::SummaryJson() const {
   if (kalman_used) {
     j["heading_kalman"] = {{"compass_updates", heading.compass_updates},
                            {"gyro_updates", heading.gyro_updates},
-                           {"gyro_bias_dps", heading.gyro_bias_radps * 180.0 / M_PI}};
+                           {"gyro_bias_dps", heading.gyro_bias_radps * 180.0 / M_PI},
+                           {"gyro_scale_error", heading.gyro_scale_error},
+                           {"gyro_scale_sigma", heading.gyro_scale_sigma}};
   }
   const double duration = screened.t_s.empty() ? 0.0 : screened.t_s.back() - screened.t_s.front();
   j["motion"] = {{"distance_m", motion.distance_m},

@@ -23,6 +23,11 @@ void HeadingKalmanOptions::Validate() const {
       << "heading filter: noise levels must be > 0";
   LN_CHECK_ARG(turn_gate_dps > 0 && accel_gate_dps2 > 0 && gate_gain >= 0)
       << "heading filter: gates must be > 0 and the gain >= 0";
+  LN_CHECK_ARG(gate_smoothing_s >= 0 && std::isfinite(gate_smoothing_s))
+      << "heading filter: gate smoothing must be >= 0 s";
+  LN_CHECK_ARG(gyro_scale_sigma >= 0 && gyro_scale_sigma < 0.5 && gyro_scale_walk_per_sqrt_s >= 0 &&
+               std::isfinite(gyro_scale_walk_per_sqrt_s))
+      << "heading filter: gyro scale sigma must be in [0, 0.5) and its walk >= 0";
   LN_CHECK_ARG(std::isfinite(initial_heading_deg)) << "initial heading: not finite";
 }
 
@@ -30,6 +35,8 @@ nlohmann::json HeadingKalmanOptions::ToJson() const {
   return {{"compass_sigma_deg", compass_sigma_deg}, {"gyro_sigma_dps", gyro_sigma_dps},
           {"rate_walk_dps2", rate_walk_dps2},       {"turn_gate_dps", turn_gate_dps},
           {"accel_gate_dps2", accel_gate_dps2},     {"gate_gain", gate_gain},
+          {"gate_smoothing_s", gate_smoothing_s},       {"gyro_scale_sigma", gyro_scale_sigma},
+          {"gyro_scale_walk_per_sqrt_s", gyro_scale_walk_per_sqrt_s},
           {"estimate_gyro_bias", estimate_gyro_bias}, {"initial_heading_deg", initial_heading_deg}};
 }
 
@@ -50,9 +57,14 @@ HeadingEstimate FilterHeading(const HeadingInputs& in, const HeadingKalmanOption
   const double r_gyro = std::pow(o.gyro_sigma_dps * kDeg, 2);
   const double q_rate = std::pow(o.rate_walk_dps2 * kDeg, 2);  // per second
 
+  // State: heading, true heading rate, gyro scale error s (the gyro reads (1 + s) x rate).
+  // Without the scale state s stays 0 with no variance, and the filter is the 2-state one.
+  const bool estimate_scale = o.gyro_scale_sigma > 0;
+  const double q_scale = std::pow(o.gyro_scale_walk_per_sqrt_s, 2);  // per second
   // Initial state: the first compass reading (else the given heading), rate 0, uncertain.
-  Eigen::Vector2d x(o.initial_heading_deg * kDeg, 0.0);
-  Eigen::Matrix2d p = Eigen::Vector2d(std::pow(10 * kDeg, 2), std::pow(5 * kDeg, 2)).asDiagonal();
+  Eigen::Vector3d x(o.initial_heading_deg * kDeg, 0.0, 0.0);
+  Eigen::Matrix3d p =
+      Eigen::Vector3d(std::pow(10 * kDeg, 2), std::pow(5 * kDeg, 2), std::pow(o.gyro_scale_sigma, 2)).asDiagonal();
   bool initialised = false;
   if (have_compass) {
     for (std::size_t k = 0; k < n; ++k) {
@@ -68,20 +80,27 @@ HeadingEstimate FilterHeading(const HeadingInputs& in, const HeadingKalmanOption
 
   double bias_sum = 0;
   long bias_count = 0;
-  double previous_gyro = std::numeric_limits<double>::quiet_NaN(), previous_gyro_t = 0;
-  double gate_rate = 0, gate_accel = 0;  // latest gyro turn rate and its change, rad/s, rad/s^2
+  // The gate's turn rate and acceleration: the gyro's rate low-passed (first order, time
+  // constant gate_smoothing_s) and that rate's derivative low-passed the same way. A damped
+  // compass's transients are smoothed functions of the motion, and so is the gate: it falls
+  // as the transient dies out after a turn, and the gyro's sample-to-sample noise (a
+  // differentiated noisy rate reads several deg/s^2 at rest) does not gate a steady rover.
+  double gate_rate = 0, gate_accel = 0, gate_time = std::numeric_limits<double>::quiet_NaN();
   for (std::size_t k = 0; k < n; ++k) {
     // Predict.
     if (k > 0) {
       const double dt = in.t_s[k] - in.t_s[k - 1];
-      Eigen::Matrix2d f;
-      f << 1, dt, 0, 1;
+      Eigen::Matrix3d f = Eigen::Matrix3d::Identity();
+      f(0, 1) = dt;
       x = f * x;
-      Eigen::Matrix2d q;
-      q << dt * dt * dt / 3, dt * dt / 2, dt * dt / 2, dt;
-      p = f * p * f.transpose() + q_rate * q;
+      Eigen::Matrix3d q = Eigen::Matrix3d::Zero();
+      q(0, 0) = q_rate * dt * dt * dt / 3;
+      q(0, 1) = q(1, 0) = q_rate * dt * dt / 2;
+      q(1, 1) = q_rate * dt;
+      q(2, 2) = estimate_scale ? q_scale * dt : 0.0;
+      p = f * p * f.transpose() + q;
     }
-    // Gyro: measures the rate (after removing the bias).
+    // Gyro: measures (1 + s) x the rate (after removing the bias); linearised (EKF).
     if (have_gyro && !std::isnan(in.gyro_radps[k])) {
       const double raw = in.gyro_radps[k];
       if (o.estimate_gyro_bias && !in.stationary.empty() && in.stationary[k]) {
@@ -90,16 +109,22 @@ HeadingEstimate FilterHeading(const HeadingInputs& in, const HeadingKalmanOption
       }
       const double bias = bias_count > 0 ? bias_sum / bias_count : 0.0;
       const double rate = raw - bias;
-      if (!std::isnan(previous_gyro) && in.t_s[k] > previous_gyro_t) {
-        gate_accel = (rate - previous_gyro) / (in.t_s[k] - previous_gyro_t);
+      if (std::isnan(gate_time) || o.gate_smoothing_s == 0) {
+        gate_accel = std::isnan(gate_time) || in.t_s[k] <= gate_time ? 0.0 : (rate - gate_rate) / (in.t_s[k] - gate_time);
+        gate_rate = rate;
+      } else if (in.t_s[k] > gate_time) {
+        const double dt = in.t_s[k] - gate_time;
+        const double alpha = 1.0 - std::exp(-dt / o.gate_smoothing_s);
+        const double previous = gate_rate;
+        gate_rate += alpha * (rate - gate_rate);
+        gate_accel += alpha * ((gate_rate - previous) / dt - gate_accel);
       }
-      previous_gyro = rate;
-      previous_gyro_t = in.t_s[k];
-      gate_rate = rate;
-      const double s = p(1, 1) + r_gyro;
-      const Eigen::Vector2d gain = p.col(1) / s;
-      x += gain * (rate - x(1));
-      p -= gain * p.row(1);
+      gate_time = in.t_s[k];
+      const Eigen::RowVector3d h(0.0, 1.0 + x(2), estimate_scale ? x(1) : 0.0);
+      const double s = h * p * h.transpose() + r_gyro;
+      const Eigen::Vector3d gain = p * h.transpose() / s;
+      x += gain * (rate - (1.0 + x(2)) * x(1));
+      p -= gain * h * p;
       ++out.gyro_updates;
     }
     // Compass: measures the heading; believed little while turning or accelerating.
@@ -108,15 +133,18 @@ HeadingEstimate FilterHeading(const HeadingInputs& in, const HeadingKalmanOption
                                                std::pow(gate_accel / (o.accel_gate_dps2 * kDeg), 2));
       const double innovation = WrapPi(in.compass_rad[k] - x(0));
       const double s = p(0, 0) + r_compass * gate;
-      const Eigen::Vector2d gain = p.col(0) / s;
+      const Eigen::Vector3d gain = p.col(0) / s;
       x += gain * innovation;
       p -= gain * p.row(0);
       ++out.compass_updates;
     }
+    p = 0.5 * (p + p.transpose());
     out.heading_rad[k] = x(0);
     out.rate_radps[k] = x(1);
     out.heading_sigma_rad[k] = std::sqrt(std::max(0.0, p(0, 0)));
   }
+  out.gyro_scale_error = x(2);
+  out.gyro_scale_sigma = std::sqrt(std::max(0.0, p(2, 2)));
   out.gyro_bias_radps = bias_count > 0 ? bias_sum / bias_count : 0.0;
   return out;
 }

@@ -21,6 +21,17 @@ struct HeadingKalmanOptions {
   double turn_gate_dps = 2.0;           ///< > 0.
   double accel_gate_dps2 = 4.0;         ///< > 0.
   double gate_gain = 100.0;             ///< >= 0; 0 = no gating.
+  /// w and a are the gyro's rate and its change low-passed with this time constant (first
+  /// order; 0 = the raw rate and its sample-to-sample change): the compass's transients,
+  /// smoothed by its damping, die out over about this time after a turn, and the gyro's noise
+  /// (which, differentiated, reads several deg/s^2 at rest) does not gate a steady rover. >= 0.
+  double gate_smoothing_s = 0.5;
+  /// Gyro scale factor: the gyro reads (1 + s) times the true rate; s is a third state with
+  /// this prior standard deviation (a rate gyro's scale error is typically 1-3 %), so a turn
+  /// makes the heading as uncertain as the gyro's scale makes it, and the compass, trusted
+  /// again after the turn, corrects both the heading and s. 0 = no scale state. >= 0.
+  double gyro_scale_sigma = 0.02;
+  double gyro_scale_walk_per_sqrt_s = 1e-4;  ///< Random walk of s (temperature drift). >= 0.
   /// Gyro bias: estimated as the mean gyro reading while the wheels stand still (stationary).
   bool estimate_gyro_bias = true;
   double initial_heading_deg = 0.0;     ///< Used only when there is no compass.
@@ -41,6 +52,8 @@ struct HeadingEstimate {
   std::vector<double> rate_radps;
   std::vector<double> heading_sigma_rad;
   double gyro_bias_radps = 0;           ///< Final bias estimate.
+  double gyro_scale_error = 0;          ///< Final estimate of s (0 without the scale state).
+  double gyro_scale_sigma = 0;          ///< Its standard deviation.
   int compass_updates = 0, gyro_updates = 0;
 };
 

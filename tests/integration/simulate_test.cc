@@ -92,8 +92,10 @@ TEST(Simulate, GyroGatedKalmanHeadingBeatsPlainLowPassOnArcs) {
   const double kalman = RmsHeadingErrorDeg(tmp.path() / "kalman" / "trajectory.csv", tmp.path() / "sim" / "truth.csv");
   const double lowpass =
       RmsHeadingErrorDeg(tmp.path() / "lowpass" / "trajectory.csv", tmp.path() / "sim" / "truth.csv");
+  // Measured when written: 1.57 against 7.24 deg (2.15 deg before the filter estimated the
+  // gyro's scale and smoothed its compass gate).
   EXPECT_LT(kalman, 0.5 * lowpass) << "kalman " << kalman << " deg, low-pass " << lowpass << " deg";
-  EXPECT_LT(kalman, 3.0);
+  EXPECT_LT(kalman, 2.0);
 }
 
 // A row of a CSV file with '#' comments and a header, by column name.
@@ -117,6 +119,42 @@ std::vector<std::map<std::string, std::string>> ReadCsv(const fs::path& path) {
   }
   return rows;
 }
+
+TEST(Simulate, SevenAndTenBitLogsOfTheSameDriveGiveTheSameDistance) {
+  // Trial B: straight lines with slip and bursts of spinning wheels, turns in place. At 7 bits
+  // a wheel count is 4.9 cm, more than a wheel turns in one sample; the slip test must not take
+  // that quantisation for slip, nor the path length count its back and forth.
+  util::ScopedTempDir tmp;
+  double distance[2] = {0, 0};
+  long slip_events[2] = {0, 0};
+  double wheel_travel_m = 0;
+  const char* bits[2] = {"10", "7"};
+  for (int b = 0; b < 2; ++b) {
+    const fs::path sim = tmp.path() / (std::string("sim") + bits[b]);
+    Simulate({"--preset", "trial-b", "--bits", bits[b]}, sim, tmp.path());
+    Posfilter(sim, tmp.path() / (std::string("pf") + bits[b]), tmp.path());
+    const nlohmann::json summary = io::ReadJson(tmp.path() / (std::string("pf") + bits[b]) / "summary.json");
+    distance[b] = summary["motion"]["distance_m"].get<double>();
+    slip_events[b] = summary["motion"]["slip_events"].get<long>();
+    if (b == 0) {
+      const auto truth = ReadCsv(sim / "truth.csv");
+      ASSERT_FALSE(truth.empty());
+      for (const char* w : {"wheel_fl_m", "wheel_fr_m", "wheel_rl_m", "wheel_rr_m"}) {
+        wheel_travel_m += 0.25 * std::stod(truth.back().at(w));
+      }
+    }
+  }
+  // Measured when written: 23.92 and 23.88 m, the wheels' mean travel 23.91 m (before: 24.49
+  // and 27.68 m).
+  EXPECT_NEAR(distance[1], distance[0], 0.02 * distance[0]);
+  EXPECT_NEAR(distance[0], wheel_travel_m, 0.02 * wheel_travel_m);
+  EXPECT_NEAR(distance[1], wheel_travel_m, 0.02 * wheel_travel_m);
+  // The wheels' bursts of spinning while turning (+40 % for 1 s) are still slip at 10 bits
+  // (measured: 22 wheel-steps; at 7 bits, where such a burst is less than a count, 2).
+  EXPECT_GT(slip_events[0], 0);
+  EXPECT_LT(slip_events[1], 100);  // before: 1055, quantisation taken for slip
+}
+
 
 TEST(Simulate, PosfilterScreeningReportsEveryInjectedFaultWhereFaultsCsvSaysItIs) {
   // Trial B moves at 5-19 s, 23-33 s (turning), 36-48 s, 52-62 s (turning), 66-82 s, ...: the

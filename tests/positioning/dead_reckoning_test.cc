@@ -3,6 +3,7 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <random>
 
 namespace lunarnav::positioning {
 namespace {
@@ -69,6 +70,86 @@ TEST(DeadReckon, ASlippingWheelIsDownWeighted) {
   const DeadReckoningResult r = DeadReckon(in, {});
   EXPECT_NEAR(r.trajectory.back().y_m, 5.0, 0.1);  // a plain mean would give 5.4
   EXPECT_EQ(r.slip_events, 100);
+}
+
+// A drive of a skid-steered rover (track 0.84 m, the wheels' differential 1.5 x the track's):
+// straight 10 m, a 90 deg turn in place, an arc of radius 5 m through 90 deg, straight 10 m,
+// at 10 Hz, each wheel's rim turning a few % further than the ground (a slowly varying slip
+// per wheel, never beyond the slip tolerance). Returns the inputs with the wheels read by
+// encoders of `counts_per_metre` (each from its own random starting phase) and the wheels'
+// true mean travel.
+DeadReckoningInputs SkidSteeredDrive(double metres_per_count, double* true_travel_m) {
+  std::mt19937 rng(7);
+  std::uniform_real_distribution<double> phase(0.0, 1.0);
+  const double half_track = 0.5 * 1.5 * 0.84;
+  struct Segment { double seconds, speed_mps, turn_radps; };
+  const Segment segments[] = {{2, 0, 0}, {25, 0.4, 0}, {9, 0, 10 * kDeg}, {19.6, 0.4, 0.08}, {25, 0.4, 0}, {2, 0, 0}};
+  DeadReckoningInputs in;
+  std::array<double, 4> rim{}, offset{};
+  for (double& o : offset) o = phase(rng);
+  const double side[4] = {1, -1, 1, -1};
+  double t = 0, heading = 0;
+  *true_travel_m = 0;
+  auto sample = [&]() {
+    in.t_s.push_back(t);
+    in.heading_rad.push_back(heading);
+    for (int i = 0; i < 4; ++i) {
+      in.wheel_m[i].push_back(std::floor(rim[i] / metres_per_count + offset[i]) * metres_per_count);
+    }
+  };
+  sample();
+  for (const Segment& s : segments) {
+    for (int k = 0; k < static_cast<int>(std::lround(s.seconds / 0.1)); ++k) {
+      t += 0.1;
+      heading += s.turn_radps * 0.1;
+      for (int i = 0; i < 4; ++i) {
+        const double slip = 1.03 + 0.04 * std::sin(0.3 * t + i);  // 3 % +- 4 %
+        rim[i] += slip * (s.speed_mps + side[i] * s.turn_radps * half_track) * 0.1;
+      }
+      sample();
+    }
+  }
+  for (const double r : rim) *true_travel_m += 0.25 * r;
+  return in;
+}
+
+TEST(DeadReckon, SevenAndTenBitEncodersGiveTheSameDistance) {
+  const double wheel_circumference = 2 * M_PI * 0.25;
+  double travel7 = 0, travel10 = 0;
+  DeadReckoningInputs in7 = SkidSteeredDrive(wheel_circumference / 32, &travel7);    // 4.9 cm
+  DeadReckoningInputs in10 = SkidSteeredDrive(wheel_circumference / 256, &travel10);  // 6 mm
+  in7.wheel_resolution_m.fill(wheel_circumference / 32);
+  in10.wheel_resolution_m.fill(wheel_circumference / 256);
+  const DeadReckoningResult r7 = DeadReckon(in7, {});
+  const DeadReckoningResult r10 = DeadReckon(in10, {});
+  ASSERT_NEAR(travel7, travel10, 1e-9);
+  EXPECT_NEAR(r10.distance_m, travel10, 0.01 * travel10);
+  EXPECT_NEAR(r7.distance_m, travel7, 0.02 * travel7);
+  EXPECT_NEAR(r7.distance_m, r10.distance_m, 0.02 * r10.distance_m);
+  // Neither quantisation nor the turn in place (the sides' wheels turning opposite ways) is slip.
+  EXPECT_EQ(r10.slip_events, 0);
+  EXPECT_LE(r7.slip_events, 5);
+  const TrajectorySample& e7 = r7.trajectory.back();
+  const TrajectorySample& e10 = r10.trajectory.back();
+  EXPECT_LT(std::hypot(e7.x_m - e10.x_m, e7.y_m - e10.y_m), 0.02 * r10.distance_m);
+}
+
+TEST(DeadReckon, ASlippingWheelInATurnInPlaceIsDownWeighted) {
+  // Turning in place: left wheels forward, right wheels back, 5 cm per step; the front left
+  // wheel spins 60 % fast. The rover does not move; a plain mean would move it 1.5 cm a step.
+  DeadReckoningInputs in;
+  for (int k = 0; k < 50; ++k) {
+    in.t_s.push_back(0.1 * k);
+    in.heading_rad.push_back(0.1 * k);
+    in.wheel_m[0].push_back(0.05 * 1.6 * k);
+    in.wheel_m[1].push_back(-0.05 * k);
+    in.wheel_m[2].push_back(0.05 * k);
+    in.wheel_m[3].push_back(-0.05 * k);
+  }
+  const DeadReckoningResult r = DeadReckon(in, {});
+  EXPECT_EQ(r.slip_events, 49);
+  EXPECT_LT(std::hypot(r.trajectory.back().x_m, r.trajectory.back().y_m), 0.05);
+  EXPECT_LT(r.distance_m, 0.1);  // a plain mean: 0.74 m
 }
 
 }  // namespace
