@@ -14,35 +14,44 @@ namespace {
 using telemetry::Channel;
 constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
 
-// Linear interpolation in time over NaN gaps, holding the end values; empty when fewer than
-// two samples are valid.
-std::vector<double> FillGaps(const std::vector<double>& t, const std::vector<double>& v) {
+// Linear interpolation in time over NaN gaps of `v`, in place, holding the end values; false
+// (and `v` untouched) when fewer than two samples are valid.
+bool FillGaps(const std::vector<double>& t, std::vector<double>* values) {
+  std::vector<double>& v = *values;
   const std::size_t n = v.size();
   const std::size_t valid = static_cast<std::size_t>(
       std::count_if(v.begin(), v.end(), [](double x) { return !std::isnan(x); }));
-  if (valid < 2) return {};
-  std::vector<double> out = v;
+  if (valid < 2) return false;
   for (std::size_t k = 0; k < n;) {
     if (!std::isnan(v[k])) {
       ++k;
       continue;
     }
-    std::size_t b = k;  // the run of missing samples [k, b)
+    std::size_t b = k;  // the run of missing samples [k, b), between valid samples k - 1 and b
     while (b < n && std::isnan(v[b])) ++b;
     for (std::size_t q = k; q < b; ++q) {
       if (k == 0) {
-        out[q] = v[b];
+        v[q] = v[b];
       } else if (b == n) {
-        out[q] = v[k - 1];
+        v[q] = v[k - 1];
       } else {
         const std::size_t a = k - 1;
         const double f = (t[q] - t[a]) / (t[b] - t[a]);
-        out[q] = v[a] + f * (v[b] - v[a]);
+        v[q] = v[a] + f * (v[b] - v[a]);
       }
     }
     k = b;
   }
-  return out;
+  return true;
+}
+
+// Whether `v` has at least `count` valid (not NaN) samples.
+bool HasValid(const std::vector<double>& v, std::size_t count) {
+  std::size_t valid = 0;
+  for (double x : v) {
+    if (!std::isnan(x) && ++valid >= count) return true;
+  }
+  return false;
 }
 
 // The median sampling interval (from at most 65536 evenly spread intervals).
@@ -87,7 +96,7 @@ PosfilterResult RunPosfilter(const telemetry::TelemetryLog& log, const telemetry
   options.Validate();
   PosfilterResult r;
   r.screened = telemetry::ScreenTelemetry(log, model, options.screening);
-  const telemetry::ScreenedLog& s = r.screened;
+  telemetry::ScreenedLog& s = r.screened;
   const std::vector<double>& t = s.t_s;
   LN_CHECK_INPUT(t.size() >= 2) << log.source.string() << ": fewer than two usable rows";
   r.sample_rate_hz = 1.0 / MedianInterval(t);
@@ -95,19 +104,24 @@ PosfilterResult RunPosfilter(const telemetry::TelemetryLog& log, const telemetry
       << log.source.string() << ": the cut-off " << options.cutoff_hz
       << " Hz is not below half the sample rate (" << r.sample_rate_hz << " Hz)";
   r.design = telemetry::DesignLowPass(options.filter, options.filter_order, options.cutoff_hz, r.sample_rate_hz);
-  auto lowpass = [&](const std::vector<double>& v) {
-    return options.mode == FilterMode::kCausal ? telemetry::FilterCausal(r.design, v)
-                                               : telemetry::FilterZeroPhase(r.design, v);
+  // Channels are filtered in place.
+  auto lowpass = [&](std::vector<double>* v) {
+    if (options.mode == FilterMode::kCausal) {
+      telemetry::FilterCausalInPlace(r.design, v->data(), v->size());
+    } else {
+      *v = telemetry::FilterZeroPhase(r.design, *v);
+    }
   };
+  // A channel's screened values with the gaps filled, or empty when it has fewer than two.
   auto filled = [&](Channel c) -> std::vector<double> {
     if (!s.Has(c)) return {};
-    std::vector<double> v = FillGaps(t, s.value[static_cast<int>(c)]);
-    if (!v.empty()) r.channels_used.push_back(telemetry::ToString(c));
+    std::vector<double> v = s.value[static_cast<int>(c)];
+    if (!FillGaps(t, &v)) return {};
+    r.channels_used.push_back(telemetry::ToString(c));
     return v;
   };
 
   DeadReckoningInputs in;
-  in.t_s = t;
   // Wheels: cumulative metres.
   const Channel wheels[4] = {Channel::kEncoderFrontLeft, Channel::kEncoderFrontRight,
                              Channel::kEncoderRearLeft, Channel::kEncoderRearRight};
@@ -124,38 +138,43 @@ PosfilterResult RunPosfilter(const telemetry::TelemetryLog& log, const telemetry
   LN_CHECK_INPUT(wheel_count > 0) << log.source.string() << ": no usable encoder channel";
 
   // Pitch: the mean of the filtered left and right inclinometers.
-  const std::vector<double> pitch_left = filled(Channel::kPitchLeft);
-  const std::vector<double> pitch_right = filled(Channel::kPitchRight);
-  if (!pitch_left.empty() || !pitch_right.empty()) {
-    const std::vector<double> a = pitch_left.empty() ? pitch_right : lowpass(pitch_left);
-    const std::vector<double> b = pitch_right.empty() ? a : lowpass(pitch_right);
-    in.pitch_rad.resize(t.size());
-    for (std::size_t k = 0; k < t.size(); ++k) in.pitch_rad[k] = 0.5 * (a[k] + b[k]);
-    if (pitch_left.empty() || pitch_right.empty()) r.notes.push_back("one pitch inclinometer: pitch from the other");
+  std::vector<double> pitch_left = filled(Channel::kPitchLeft);
+  std::vector<double> pitch_right = filled(Channel::kPitchRight);
+  if (!pitch_left.empty() && !pitch_right.empty()) {
+    lowpass(&pitch_left);
+    lowpass(&pitch_right);
+    for (std::size_t k = 0; k < t.size(); ++k) pitch_left[k] = 0.5 * (pitch_left[k] + pitch_right[k]);
+    in.pitch_rad = std::move(pitch_left);
+  } else if (!pitch_left.empty() || !pitch_right.empty()) {
+    in.pitch_rad = std::move(pitch_left.empty() ? pitch_right : pitch_left);
+    lowpass(&in.pitch_rad);
+    r.notes.push_back("one pitch inclinometer: pitch from the other");
   } else {
     r.notes.push_back("no pitch inclinometers: flat ground (z = 0)");
   }
-  const std::vector<double> roll = filled(Channel::kRoll);
-  if (!roll.empty()) in.roll_rad = lowpass(roll);
+  pitch_right = {};  // freed now, not at the end
+  std::vector<double> roll = filled(Channel::kRoll);
+  if (!roll.empty()) {
+    lowpass(&roll);
+    in.roll_rad = std::move(roll);
+  }
 
   // Heading.
-  const std::vector<double> compass = filled(Channel::kCompass);
-  const bool have_gyro = s.Has(Channel::kGyroZ) &&
-                         std::any_of(s.value[static_cast<int>(Channel::kGyroZ)].begin(),
-                                     s.value[static_cast<int>(Channel::kGyroZ)].end(),
-                                     [](double v) { return !std::isnan(v); });
+  const int compass = static_cast<int>(Channel::kCompass), gyro = static_cast<int>(Channel::kGyroZ);
+  const bool have_compass = s.Has(Channel::kCompass) && HasValid(s.value[compass], 2);
+  if (have_compass) r.channels_used.push_back(telemetry::ToString(Channel::kCompass));
+  const bool have_gyro = s.Has(Channel::kGyroZ) && HasValid(s.value[gyro], 1);
   if (have_gyro) r.channels_used.push_back("gyro_z");
-  if (options.heading == HeadingMethod::kLowPass && !compass.empty()) {
-    in.heading_rad = lowpass(compass);
-  } else if (!compass.empty() || have_gyro) {
+  if (options.heading == HeadingMethod::kLowPass && have_compass) {
+    in.heading_rad = s.value[compass];
+    FillGaps(t, &in.heading_rad);
+    lowpass(&in.heading_rad);
+  } else if (have_compass || have_gyro) {
     if (options.heading == HeadingMethod::kLowPass) {
       r.notes.push_back("no compass: heading from the gyro by the Kalman filter");
     }
-    if (compass.empty()) r.notes.push_back("no compass: heading from the gyro, relative to the start");
+    if (!have_compass) r.notes.push_back("no compass: heading from the gyro, relative to the start");
     telemetry::HeadingInputs h;
-    h.t_s = t;
-    if (!compass.empty()) h.compass_rad = s.value[static_cast<int>(Channel::kCompass)];
-    if (have_gyro) h.gyro_radps = s.value[static_cast<int>(Channel::kGyroZ)];
     // Stationary: no wheel has moved over the last stationary_min_s.
     h.stationary.assign(t.size(), 0);
     std::size_t since = 0;  // first index of the current still stretch
@@ -167,14 +186,26 @@ PosfilterResult RunPosfilter(const telemetry::TelemetryLog& log, const telemetry
       if (moved) since = k;
       h.stationary[k] = !moved && t[k] - t[since] >= options.stationary_min_s;
     }
+    // The filter's inputs hold their arrays by value: the screened arrays are lent to it
+    // (moved in and back), not copied.
+    h.t_s = std::move(s.t_s);
+    if (have_compass) h.compass_rad = std::move(s.value[compass]);
+    if (have_gyro) h.gyro_radps = std::move(s.value[gyro]);
     r.heading = telemetry::FilterHeading(h, options.kalman);
+    s.t_s = std::move(h.t_s);
+    if (have_compass) s.value[compass] = std::move(h.compass_rad);
+    if (have_gyro) s.value[gyro] = std::move(h.gyro_radps);
     r.kalman_used = true;
-    in.heading_rad = r.heading.heading_rad;
   } else {
     r.notes.push_back("no compass and no gyro: constant heading");
     in.heading_rad.assign(t.size(), options.kalman.initial_heading_deg * M_PI / 180.0);
   }
+  // Lent likewise: the time stamps, and the Kalman filter's heading.
+  in.t_s = std::move(s.t_s);
+  if (r.kalman_used) in.heading_rad = std::move(r.heading.heading_rad);
   r.motion = DeadReckon(in, options.dead_reckoning);
+  s.t_s = std::move(in.t_s);
+  if (r.kalman_used) r.heading.heading_rad = std::move(in.heading_rad);
   return r;
 }
 

@@ -167,22 +167,26 @@ nlohmann::json LowPassDesign::ToJson() const {
           {"sos", sos}};
 }
 
-std::vector<double> FilterCausal(const LowPassDesign& design, const std::vector<double>& x) {
-  std::vector<double> y = x;
-  if (y.empty()) return y;
-  double level = y.front();  // the steady-state input (and output: unit DC gain) of each stage
+void FilterCausalInPlace(const LowPassDesign& design, double* x, std::size_t n) {
+  if (n == 0) return;
+  const double level = x[0];  // the steady-state input (and output: unit DC gain) of each stage
   for (const Biquad& q : design.sections) {
     // Transposed direct form II, state at the steady state of a constant input `level`.
     double s1 = level * (q.b1 + q.b2 - q.a1 - q.a2);
     double s2 = level * (q.b2 - q.a2);
-    for (double& v : y) {
-      const double in = v;
+    for (std::size_t k = 0; k < n; ++k) {
+      const double in = x[k];
       const double out = q.b0 * in + s1;
       s1 = q.b1 * in - q.a1 * out + s2;
       s2 = q.b2 * in - q.a2 * out;
-      v = out;
+      x[k] = out;
     }
   }
+}
+
+std::vector<double> FilterCausal(const LowPassDesign& design, const std::vector<double>& x) {
+  std::vector<double> y = x;
+  FilterCausalInPlace(design, y.data(), y.size());
   return y;
 }
 

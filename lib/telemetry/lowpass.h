@@ -7,6 +7,7 @@
 #pragma once
 
 #include <complex>
+#include <cstddef>
 #include <string>
 #include <vector>
 
@@ -61,6 +62,9 @@ double BesselDelayNormalizedCutoff(int order);
 /// Runs the filter forward (causal, as on the vehicle), starting in the steady state of the
 /// first sample so that the output does not ramp up from zero.
 std::vector<double> FilterCausal(const LowPassDesign& design, const std::vector<double>& x);
+
+/// The same in place: `x` (n samples) is replaced by the filter's output.
+void FilterCausalInPlace(const LowPassDesign& design, double* x, std::size_t n);
 
 /// Runs the filter forward and backward (zero phase, magnitude squared), with the ends
 /// extended by odd reflection to avoid start-up transients. The reflection pivots on the end

@@ -233,11 +233,15 @@ class Screener {
       std::copy_n(slope.begin() + static_cast<std::ptrdiff_t>(lo) + 1, window - 1, scratch.begin());
       const double trend = util::SmallMedian(scratch.data(), window - 1);
       const double mine = value[p];
-      double farthest = 0;
-      for (std::size_t i = 0; i < window; ++i) {
-        residual[i] = value[lo + i] - trend * (time[lo + i] - time[p]);
+      for (std::size_t i = 0; i < window; ++i) residual[i] = value[lo + i] - trend * (time[lo + i] - time[p]);
+      // The largest distance, in two independent chains (the values are finite, so the
+      // order does not matter).
+      double farthest = std::abs(mine - residual[window - 1]), farthest_odd = 0;
+      for (std::size_t i = 0; i + 1 < window; i += 2) {
         farthest = std::max(farthest, std::abs(mine - residual[i]));
+        farthest_odd = std::max(farthest_odd, std::abs(mine - residual[i + 1]));
       }
+      farthest = std::max(farthest, farthest_odd);
       // Exact shortcut: with an odd window the residuals' median is one of them, so when all
       // lie within the smallest possible threshold of this sample it is no spike.
       if (farthest <= smallest_threshold) continue;

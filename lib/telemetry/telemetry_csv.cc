@@ -9,6 +9,8 @@
 #include <cerrno>
 #include <charconv>
 #include <cmath>
+#include <cstdint>
+#include <cstring>
 #include <limits>
 #include <string_view>
 
@@ -45,6 +47,42 @@ bool ParseCell(std::string_view cell, bool time, double* value) {
   const auto [ptr, ec] = std::from_chars(cell.data() + (cell.front() == '+' ? 1 : 0), end, count);
   *value = static_cast<double>(count);
   return ec == std::errc() && ptr == end;
+}
+
+// The common row, read in one scan: no spaces, time stamps as std::from_chars reads them,
+// counts of digits only (at most 18) or empty. Fills row[c] for the used columns (roles as in
+// ParseTelemetryCsv: -2 time, -1 unused, else a channel); false for any other row, which the
+// general path then reads (and reports, when it is bad). Both give the same values.
+bool ParsePlainRow(std::string_view line, const std::vector<int>& role, double* row) {
+  const char* p = line.data();
+  const char* const end = p + line.size();
+  const int num_columns = static_cast<int>(role.size());
+  for (int c = 0; c < num_columns; ++c) {
+    if (role[c] == -2) {
+      const char* const comma = static_cast<const char*>(std::memchr(p, ',', static_cast<std::size_t>(end - p)));
+      const char* const cell_end = comma == nullptr ? end : comma;
+      const auto [ptr, ec] = std::from_chars(p, cell_end, row[c]);
+      if (p == cell_end || ec != std::errc() || ptr != cell_end || !std::isfinite(row[c])) return false;
+      p = cell_end;
+    } else if (role[c] == -1) {
+      while (p != end && *p != ',') ++p;
+    } else if (p == end || *p == ',') {
+      row[c] = std::numeric_limits<double>::quiet_NaN();
+    } else {
+      const char* const start = p;
+      std::uint64_t count = 0;
+      while (p != end && static_cast<unsigned>(*p - '0') < 10) count = 10 * count + static_cast<unsigned>(*p++ - '0');
+      if (p - start > 18) return false;
+      row[c] = static_cast<double>(static_cast<long long>(count));
+    }
+    if (c + 1 < num_columns) {
+      if (p == end || *p != ',') return false;
+      ++p;
+    } else if (p != end) {
+      return false;
+    }
+  }
+  return true;
 }
 
 // Splits one line at commas into `cells` (views into the line); returns the count.
@@ -138,24 +176,26 @@ TelemetryLog ParseTelemetryCsv(std::string_view text, const std::string& source,
   while (next_line(&line)) {
     const std::string_view trimmed = Trim(line);
     if (trimmed.empty() || trimmed.front() == '#') continue;
-    // Cells are parsed as they are split; the first error is reported after the cell count
-    // has been checked.
-    int n = 0, bad = -1;
-    std::size_t start = 0;
-    while (true) {
-      const std::size_t comma = line.find(',', start);
-      const std::string_view cell =
-          Trim(line.substr(start, comma == std::string_view::npos ? line.npos : comma - start));
-      if (n < num_columns && bad < 0 && role[n] != -1 && !ParseCell(cell, role[n] == -2, &row[n])) bad = n;
-      ++n;
-      if (comma == std::string_view::npos) break;
-      start = comma + 1;
+    if (!ParsePlainRow(line, role, row.data())) {
+      // Any other row: cells are parsed as they are split; the first error is reported after
+      // the cell count has been checked.
+      int n = 0, bad = -1;
+      std::size_t start = 0;
+      while (true) {
+        const std::size_t comma = line.find(',', start);
+        const std::string_view cell =
+            Trim(line.substr(start, comma == std::string_view::npos ? line.npos : comma - start));
+        if (n < num_columns && bad < 0 && role[n] != -1 && !ParseCell(cell, role[n] == -2, &row[n])) bad = n;
+        ++n;
+        if (comma == std::string_view::npos) break;
+        start = comma + 1;
+      }
+      LN_CHECK_INPUT(n == num_columns) << source << ":" << line_number << ": " << n << " cells, the header has "
+                                       << num_columns;
+      LN_CHECK_INPUT(bad < 0) << source << ":" << line_number << ": column '" << header[bad] << "': '"
+                              << Trim(SplitCell(line, bad)) << "' is not "
+                              << (bad == time_column ? "a time stamp" : "an integer count");
     }
-    LN_CHECK_INPUT(n == num_columns) << source << ":" << line_number << ": " << n << " cells, the header has "
-                                     << num_columns;
-    LN_CHECK_INPUT(bad < 0) << source << ":" << line_number << ": column '" << header[bad] << "': '"
-                            << Trim(SplitCell(line, bad)) << "' is not "
-                            << (bad == time_column ? "a time stamp" : "an integer count");
     log.t_s.push_back(row[time_column]);
     for (int c = 0; c < num_columns; ++c) {
       if (sink[c] != nullptr) sink[c]->push_back(row[c]);

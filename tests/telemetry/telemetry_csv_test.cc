@@ -25,6 +25,36 @@ SensorModel Model() {
                              "model");
 }
 
+// Plain rows take a fast path, rows with spaces, signs or CR the general one: both must read
+// the same values (and the fast path must not accept what the general one rejects).
+TEST(ParseTelemetryCsv, PlainAndDecoratedRowsReadAlike) {
+  const std::string header = "t,compass,enc_fl,extra\n";
+  const std::string plain =
+      header + "0.1,100,5,x\n1e-1,,0007,\n12345.678,1023,999999999999,9\n-2.5,-3,0,\n";
+  const std::string decorated =
+      header + " 0.1 , 100 , +5 , x\r\n1e-1 ,, 0007,\n12345.678, 1023 ,+999999999999 ,9\n-2.5,-3, 0 ,\r\n";
+  const TelemetryLog a = ParseTelemetryCsv(plain, "plain.csv", Model());
+  const TelemetryLog b = ParseTelemetryCsv(decorated, "decorated.csv", Model());
+  ASSERT_EQ(a.size(), 4u);
+  ASSERT_EQ(b.size(), 4u);
+  const std::vector<double> compass = {100, std::nan(""), 1023, -3};
+  const std::vector<double> encoder = {5, 7, 999999999999, 0};
+  for (std::size_t i = 0; i < 4; ++i) {
+    EXPECT_EQ(a.t_s[i], b.t_s[i]);
+    for (const TelemetryLog* log : {&a, &b}) {
+      const double c = log->counts[static_cast<int>(Channel::kCompass)][i];
+      EXPECT_TRUE(std::isnan(compass[i]) ? std::isnan(c) : c == compass[i]) << "row " << i;
+      EXPECT_EQ(log->counts[static_cast<int>(Channel::kEncoderFrontLeft)][i], encoder[i]) << "row " << i;
+    }
+  }
+  EXPECT_EQ(a.t_s[1], 0.1);
+  EXPECT_EQ(a.t_s[2], 12345.678);
+  for (const char* bad : {"0.1,1.5,5,x\n", "0.1,5,5\n", "0.1,5,5,x,y\n", "0.1,5a,5,x\n", "inf,5,5,x\n",
+                          "0.1,++5,5,x\n", "0.1,5,99999999999999999999,x\n"}) {
+    EXPECT_THROW(ParseTelemetryCsv(header + bad, "bad.csv", Model()), InputError) << bad;
+  }
+}
+
 TEST(ParseTelemetryCsv, ReadsColumnsByNameWithGapsAndComments) {
   const std::string text =
       "# logger v2\n"
