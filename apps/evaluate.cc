@@ -32,6 +32,7 @@
 #include "util/run_main.h"
 #include "util/timer.h"
 #include "util/version.h"
+#include "util/summary.h"
 
 namespace fs = std::filesystem;
 using namespace lunarnav;
@@ -41,11 +42,9 @@ namespace {
 
 // The summary.json every subcommand writes next to its tables.
 json SummaryHead(const std::string& subcommand, int argc, char** argv) {
-  return {{"tool", "evaluate"},
-          {"subcommand", subcommand},
-          {"version", kVersion},
-          {"git_revision", kGitRevision},
-          {"invocation", util::CommandLineJson(argc, argv)}};
+  json head = util::SummaryHead("evaluate", util::CommandLineJson(argc, argv));
+  head["subcommand"] = subcommand;
+  return head;
 }
 
 struct DisparityArgs {

@@ -14,6 +14,7 @@
 #include "util/run_main.h"
 #include "util/timer.h"
 #include "util/version.h"
+#include "util/summary.h"
 
 namespace fs = std::filesystem;
 using namespace lunarnav;
@@ -71,10 +72,7 @@ int main(int argc, char** argv) {
     if (!screening_log.empty()) telemetry::WriteScreeningLog(screening_log, result.screened);
     if (!streams.empty()) positioning::WriteHeadingStreamsCsv(streams, log, model, result);
     nlohmann::json summary = result.SummaryJson();
-    summary["tool"] = "posfilter";
-    summary["version"] = kVersion;
-    summary["git_revision"] = kGitRevision;
-    summary["invocation"] = util::CommandLineJson(argc, argv);
+    summary.update(util::SummaryHead("posfilter", util::CommandLineJson(argc, argv)));
     summary["inputs"] = {{"telemetry", telemetry_csv.string()}, {"sensors", sensors.string()}};
     summary["sensor_model"] = model.ToJson();
     summary["options"] = opt.ToJson();

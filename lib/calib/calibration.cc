@@ -20,6 +20,7 @@
 #include "util/progress.h"
 #include "util/timer.h"
 #include "util/version.h"
+#include "util/summary.h"
 
 namespace lunarnav::calib {
 namespace fs = std::filesystem;
@@ -341,11 +342,7 @@ CalibrationRun RunCalibration(const CalibrationOptions& options, const fs::path&
   WriteStereoRig(rig_path, result.rig);
   run.seconds = total_timer.ElapsedSeconds();
 
-  json j;
-  j["tool"] = "calibrate";
-  j["version"] = kVersion;
-  j["git_revision"] = kGitRevision;
-  j["invocation"] = invocation;
+  json j = util::SummaryHead("calibrate", invocation);
   j["inputs"] = {{"input_dir", input_dir.string()}};
   j["outputs"] = {{"rig", rig_path.string()}};
   j["options"] = options.ToJson();

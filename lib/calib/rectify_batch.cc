@@ -15,6 +15,7 @@
 #include "util/resources.h"
 #include "util/timer.h"
 #include "util/version.h"
+#include "util/summary.h"
 
 namespace lunarnav::calib {
 namespace fs = std::filesystem;
@@ -187,11 +188,7 @@ RectifyBatchSummary RunRectifyBatch(const RectifyBatchOptions& options, const St
   }
   summary.seconds = total_timer.ElapsedSeconds();
 
-  json j;
-  j["tool"] = "rectify";
-  j["version"] = kVersion;
-  j["git_revision"] = kGitRevision;
-  j["invocation"] = invocation;
+  json j = util::SummaryHead("rectify", invocation);
   j["input_dir"] = input_dir.string();
   j["output_dir"] = output_dir.string();
   j["rig"] = {{"input", rig_source},

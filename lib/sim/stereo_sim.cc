@@ -24,6 +24,7 @@
 #include "util/resources.h"
 #include "util/timer.h"
 #include "util/version.h"
+#include "util/summary.h"
 
 namespace lunarnav::sim {
 namespace fs = std::filesystem;
@@ -420,11 +421,7 @@ StereoSimSummary RunStereoSimulation(const StereoSimOptions& options, const fs::
   }
   summary.frames = options.frames;
   summary.seconds = total.ElapsedSeconds();
-  json j;
-  j["tool"] = "simulate stereo";
-  j["version"] = kVersion;
-  j["git_revision"] = kGitRevision;
-  j["invocation"] = invocation;
+  json j = util::SummaryHead("simulate stereo", invocation);
   j["output_dir"] = output_dir.string();
   j["options"] = options.ToJson();
   j["render"] = render_options.ToJson();

@@ -26,6 +26,7 @@
 #include "util/resources.h"
 #include "util/timer.h"
 #include "util/version.h"
+#include "util/summary.h"
 
 namespace lunarnav::stereo {
 namespace fs = std::filesystem;
@@ -429,11 +430,7 @@ BatchSummary RunStereoBatch(const BatchOptions& options, const fs::path& input_d
   }
   summary.seconds = total_timer.ElapsedSeconds();
 
-  json j;
-  j["tool"] = "stereo-batch";
-  j["version"] = kVersion;
-  j["git_revision"] = kGitRevision;
-  j["invocation"] = invocation;
+  json j = util::SummaryHead("stereo-batch", invocation);
   j["input_dir"] = input_dir.string();
   j["output_dir"] = output_dir.string();
   j["options"] = options_json;
