@@ -14,8 +14,8 @@
 #include "util/log.h"
 #include "util/parse.h"
 #include "util/run_main.h"
+#include "util/summary.h"
 #include "util/timer.h"
-#include "util/version.h"
 
 namespace fs = std::filesystem;
 using namespace lunarnav;
@@ -75,17 +75,13 @@ int main(int argc, char** argv) {
       const calib::StereoRig rig = calib::ReadOpenCvCalibration(opencv_files[0], opencv_files[1], width, height,
                                                                 opt.board.square_size_m, opt.mast);
       calib::WriteStereoRig(rig_path, rig);
-      io::WriteJsonAtomic(summary_path, {{"tool", "calibrate"},
-                                         {"mode", "import"},
-                                         {"version", kVersion},
-                                         {"git_revision", kGitRevision},
-                                         {"invocation", util::CommandLineJson(argc, argv)},
-                                         {"inputs", {{"intrinsics", opencv_files[0].string()},
-                                                     {"extrinsics", opencv_files[1].string()}}},
-                                         {"options", {{"image_size_px", {width, height}},
-                                                      {"metres_per_unit", opt.board.square_size_m}}},
-                                         {"outputs", {{"rig", rig_path.string()}}},
-                                         {"timings_s", {{"total", timer.ElapsedSeconds()}}}});
+      nlohmann::json summary = util::SummaryHead("calibrate", util::CommandLineJson(argc, argv));
+      summary["mode"] = "import";
+      summary["inputs"] = {{"intrinsics", opencv_files[0].string()}, {"extrinsics", opencv_files[1].string()}};
+      summary["options"] = {{"image_size_px", {width, height}}, {"metres_per_unit", opt.board.square_size_m}};
+      summary["outputs"] = {{"rig", rig_path.string()}};
+      summary["timings_s"] = {{"total", timer.ElapsedSeconds()}};
+      io::WriteJsonAtomic(summary_path, summary);
       LN_LOG(Info) << "calibrate: imported " << opencv_files[0].string() << " and " << opencv_files[1].string()
                    << " into " << rig_path.string();
       return kExitOk;

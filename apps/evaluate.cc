@@ -31,7 +31,6 @@
 #include "util/progress.h"
 #include "util/run_main.h"
 #include "util/timer.h"
-#include "util/version.h"
 #include "util/summary.h"
 
 namespace fs = std::filesystem;

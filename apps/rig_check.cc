@@ -13,7 +13,7 @@
 #include "util/errors.h"
 #include "util/log.h"
 #include "util/run_main.h"
-#include "util/version.h"
+#include "util/summary.h"
 
 namespace fs = std::filesystem;
 using namespace lunarnav;
@@ -45,13 +45,10 @@ int main(int argc, char** argv) {
     const calib::RigCheckResult result = calib::CheckRig(rig, vehicle, gravity);
     if (!quiet) std::cout << result.Table() << std::flush;
     if (!json_path.empty()) {
-      nlohmann::json j = {{"tool", "rig-check"},
-                          {"version", kVersion},
-                          {"git_revision", kGitRevision},
-                          {"invocation", util::CommandLineJson(argc, argv)},
-                          {"inputs", {{"rig", rig_path.string()}, {"vehicle", vehicle_path.string()}}},
-                          {"options", {{"gravity", calib::ToString(gravity)}}},
-                          {"vehicle", calib::VehicleSpecToJson(vehicle)}};
+      nlohmann::json j = util::SummaryHead("rig-check", util::CommandLineJson(argc, argv));
+      j["inputs"] = {{"rig", rig_path.string()}, {"vehicle", vehicle_path.string()}};
+      j["options"] = {{"gravity", calib::ToString(gravity)}};
+      j["vehicle"] = calib::VehicleSpecToJson(vehicle);
       j.update(result.ToJson());
       io::WriteJsonAtomic(json_path, j);
     }

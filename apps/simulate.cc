@@ -15,8 +15,8 @@
 #include "util/errors.h"
 #include "util/log.h"
 #include "util/run_main.h"
+#include "util/summary.h"
 #include "util/timer.h"
-#include "util/version.h"
 
 namespace fs = std::filesystem;
 using namespace lunarnav;
@@ -75,18 +75,16 @@ struct TelemetryCommand {
     io::CreateOutputDirectory(output_dir);  // before the work, not after it
     const sim::RoverTelemetry run = sim::SimulateRoverTelemetry(options);
     sim::WriteRoverTelemetry(output_dir, run, options);
-    nlohmann::json summary = {{"tool", "simulate"},
-                              {"subcommand", "telemetry"},
-                              {"version", kVersion},
-                              {"git_revision", kGitRevision},
-                              {"invocation", invocation},
-                              {"options", options.ToJson()},
-                              {"seed", options.seed},
-                              {"scenario", run.scenario.ToJson()},
-                              {"sensor_error_draws", run.draws.ToJson()},
-                              {"outputs", {"telemetry.csv", "sensors.json", "truth.csv", "trials.json", "faults.csv"}},
-                              {"counts", run.CountsJson()},
-                              {"seconds", timer.ElapsedSeconds()}};  // summary.json alone varies from run to run
+    nlohmann::json summary = util::SummaryHead("simulate", invocation);
+    summary.update(nlohmann::json{
+        {"subcommand", "telemetry"},
+        {"options", options.ToJson()},
+        {"seed", options.seed},
+        {"scenario", run.scenario.ToJson()},
+        {"sensor_error_draws", run.draws.ToJson()},
+        {"outputs", {"telemetry.csv", "sensors.json", "truth.csv", "trials.json", "faults.csv"}},
+        {"counts", run.CountsJson()},
+        {"seconds", timer.ElapsedSeconds()}});  // summary.json alone varies from run to run
     io::WriteJsonAtomic(output_dir / "summary.json", summary);
     LN_LOG(Info) << "simulate telemetry: " << run.BriefReport() << "; outputs in " << output_dir.string();
     return kExitOk;

@@ -19,7 +19,6 @@
 #include "util/parallel.h"
 #include "util/progress.h"
 #include "util/timer.h"
-#include "util/version.h"
 #include "util/summary.h"
 
 namespace lunarnav::calib {

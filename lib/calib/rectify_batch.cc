@@ -14,7 +14,6 @@
 #include "util/progress.h"
 #include "util/resources.h"
 #include "util/timer.h"
-#include "util/version.h"
 #include "util/summary.h"
 
 namespace lunarnav::calib {

@@ -11,8 +11,8 @@
 #include "util/check.h"
 #include "util/log.h"
 #include "util/parallel.h"
+#include "util/summary.h"
 #include "util/timer.h"
-#include "util/version.h"
 
 namespace lunarnav::sim {
 namespace fs = std::filesystem;
@@ -116,12 +116,9 @@ ChessboardSimSummary RunChessboardSimulation(const ChessboardSimOptions& options
   summary.seconds = total.ElapsedSeconds();
   summary.summary_path = output_dir / "summary.json";
   const calib::ChessboardSpec& board = options.views.board;
-  io::WriteJsonAtomic(summary.summary_path,
-                      {{"tool", "simulate chessboard"},
-                       {"version", kVersion},
-                       {"git_revision", kGitRevision},
-                       {"invocation", invocation},
-                       {"output_dir", output_dir.string()},
+  nlohmann::json head = util::SummaryHead("simulate", invocation);
+  head["subcommand"] = "chessboard";
+  nlohmann::json body = {{"output_dir", output_dir.string()},
                        {"options", options.ToJson()},
                        {"seed", options.views.seed},
                        {"rig", RigSummary(rig)},
@@ -133,7 +130,9 @@ ChessboardSimSummary RunChessboardSimulation(const ChessboardSimOptions& options
                        {"stems", stems},
                        {"timings_s", {{"render", summary.render_seconds},
                                       {"write", summary.write_seconds},
-                                      {"total", summary.seconds}}}});
+                                      {"total", summary.seconds}}}};
+  head.update(body);
+  io::WriteJsonAtomic(summary.summary_path, head);
   return summary;
 }
 

@@ -22,9 +22,8 @@
 #include "util/parse.h"
 #include "util/progress.h"
 #include "util/resources.h"
-#include "util/timer.h"
-#include "util/version.h"
 #include "util/summary.h"
+#include "util/timer.h"
 
 namespace lunarnav::sim {
 namespace fs = std::filesystem;
@@ -421,7 +420,8 @@ StereoSimSummary RunStereoSimulation(const StereoSimOptions& options, const fs::
   }
   summary.frames = options.frames;
   summary.seconds = total.ElapsedSeconds();
-  json j = util::SummaryHead("simulate stereo", invocation);
+  json j = util::SummaryHead("simulate", invocation);
+  j["subcommand"] = "stereo";
   j["output_dir"] = output_dir.string();
   j["options"] = options.ToJson();
   j["render"] = render_options.ToJson();

@@ -68,7 +68,8 @@ TEST(SimulateChessboard, CalibrateRecoversTheTrueRig) {
   }
   EXPECT_FALSE(fs::exists(sim / "left" / "view_008.png"));
   const nlohmann::json summary = io::ReadJson(sim / "summary.json");
-  EXPECT_EQ(summary["tool"], "simulate chessboard");
+  EXPECT_EQ(summary["tool"], "simulate");
+  EXPECT_EQ(summary["subcommand"], "chessboard");
   EXPECT_EQ(summary["counts"]["views"], 8);
   EXPECT_EQ(summary["options"]["views"]["board"]["inner_corners"], nlohmann::json({9, 6}));
 

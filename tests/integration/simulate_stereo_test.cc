@@ -42,7 +42,8 @@ TEST(SimulateStereo, WritesASequenceThatRectifyReadsAsItIs) {
     EXPECT_TRUE(fs::is_regular_file(sim / f)) << f;
   }
   const nlohmann::json summary = io::ReadJson(sim / "summary.json");
-  EXPECT_EQ(summary["tool"], "simulate stereo");
+  EXPECT_EQ(summary["tool"], "simulate");
+  EXPECT_EQ(summary["subcommand"], "stereo");
   EXPECT_EQ(summary["counts"]["frames"], 2);
   EXPECT_EQ(summary["counts"]["faults"], 1);
   EXPECT_EQ(summary["frames"][1]["fault"], "saturated");
