@@ -37,36 +37,7 @@ std::uint64_t SplitMix64::Next() {
   return z ^ (z >> 31);
 }
 
-namespace {
-
-// Lattice value in [-1, 1): a cheap 32-bit mix of the coordinates (lowbias32, C. Wellons),
-// enough for texture; seeded through Mix64 once per call.
-inline double Lattice(std::int64_t ix, std::int64_t iy, std::uint32_t seed) {
-  std::uint32_t h = seed ^ static_cast<std::uint32_t>(ix) * 0x85EBCA6Bu ^
-                    static_cast<std::uint32_t>(iy) * 0xC2B2AE35u;
-  h ^= h >> 16;
-  h *= 0x7FEB352Du;
-  h ^= h >> 15;
-  h *= 0x846CA68Bu;
-  h ^= h >> 16;
-  return static_cast<double>(h) * (2.0 / 4294967296.0) - 1.0;
-}
-
-}  // namespace
-
-double ValueNoise2(double x, double y, std::uint64_t seed) {
-  const auto s = static_cast<std::uint32_t>(Mix64(seed));
-  const double fx = std::floor(x), fy = std::floor(y);
-  const auto ix = static_cast<std::int64_t>(fx), iy = static_cast<std::int64_t>(fy);
-  const double tx = x - fx, ty = y - fy;
-  const double sx = tx * tx * tx * (tx * (tx * 6 - 15) + 10);
-  const double sy = ty * ty * ty * (ty * (ty * 6 - 15) + 10);
-  const double v00 = Lattice(ix, iy, s), v10 = Lattice(ix + 1, iy, s);
-  const double v01 = Lattice(ix, iy + 1, s), v11 = Lattice(ix + 1, iy + 1, s);
-  const double top = v00 + sx * (v10 - v00);
-  const double bottom = v01 + sx * (v11 - v01);
-  return top + sy * (bottom - top);
-}
+double ValueNoise2(double x, double y, std::uint64_t seed) { return ValueNoise2Mixed(x, y, NoiseSeed(seed)); }
 
 }  // namespace lunarnav::sim
 

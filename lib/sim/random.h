@@ -44,6 +44,41 @@ class SplitMix64 {
 /// the quintic smoothstep (C2). The value at (x, y) depends only on (x, y, seed).
 double ValueNoise2(double x, double y, std::uint64_t seed);
 
+/// The 32-bit seed ValueNoise2 mixes from `seed`, for callers that evaluate one seed many
+/// times (the terrain's octaves): mix once, then call ValueNoise2Mixed.
+inline std::uint32_t NoiseSeed(std::uint64_t seed) { return static_cast<std::uint32_t>(Mix64(seed)); }
+
+/// ValueNoise2 with its seed already mixed: ValueNoise2Mixed(x, y, NoiseSeed(s)) equals
+/// ValueNoise2(x, y, s). Inline: it is the inner loop of texture and relief. |x|, |y| < 2^62.
+inline double ValueNoise2Mixed(double x, double y, std::uint32_t mixed_seed) {
+  // Lattice value in [-1, 1): a cheap 32-bit mix of the coordinates (lowbias32, C. Wellons).
+  const auto lattice = [mixed_seed](std::int64_t ix, std::int64_t iy) {
+    std::uint32_t h = mixed_seed ^ static_cast<std::uint32_t>(ix) * 0x85EBCA6Bu ^
+                      static_cast<std::uint32_t>(iy) * 0xC2B2AE35u;
+    h ^= h >> 16;
+    h *= 0x7FEB352Du;
+    h ^= h >> 15;
+    h *= 0x846CA68Bu;
+    h ^= h >> 16;
+    return static_cast<double>(h) * (2.0 / 4294967296.0) - 1.0;
+  };
+  // floor without a library call.
+  const auto floor = [](double v) {
+    const auto t = static_cast<double>(static_cast<std::int64_t>(v));
+    return t > v ? t - 1.0 : t;
+  };
+  const double fx = floor(x), fy = floor(y);
+  const auto ix = static_cast<std::int64_t>(fx), iy = static_cast<std::int64_t>(fy);
+  const double tx = x - fx, ty = y - fy;
+  const double sx = tx * tx * tx * (tx * (tx * 6 - 15) + 10);
+  const double sy = ty * ty * ty * (ty * (ty * 6 - 15) + 10);
+  const double v00 = lattice(ix, iy), v10 = lattice(ix + 1, iy);
+  const double v01 = lattice(ix, iy + 1), v11 = lattice(ix + 1, iy + 1);
+  const double top = v00 + sx * (v10 - v00);
+  const double bottom = v01 + sx * (v11 - v01);
+  return top + sy * (bottom - top);
+}
+
 }  // namespace lunarnav::sim
 
 namespace lunarnav::sim {

@@ -29,39 +29,14 @@ inline double FastFloor(double x) {
   return t > x ? t - 1.0 : t;
 }
 
-// sim::ValueNoise2 with its seed already mixed (static_cast<std::uint32_t>(Mix64(seed))):
-// the same lattice hash and quintic interpolation, so the same values (random.cc).
-inline double LatticeValue(std::int64_t ix, std::int64_t iy, std::uint32_t seed) {
-  std::uint32_t h = seed ^ static_cast<std::uint32_t>(ix) * 0x85EBCA6Bu ^ static_cast<std::uint32_t>(iy) * 0xC2B2AE35u;
-  h ^= h >> 16;
-  h *= 0x7FEB352Du;
-  h ^= h >> 15;
-  h *= 0x846CA68Bu;
-  h ^= h >> 16;
-  return static_cast<double>(h) * (2.0 / 4294967296.0) - 1.0;
-}
-
-inline double MixedValueNoise2(double x, double y, std::uint32_t s) {
-  const double fx = FastFloor(x), fy = FastFloor(y);
-  const auto ix = static_cast<std::int64_t>(fx), iy = static_cast<std::int64_t>(fy);
-  const double tx = x - fx, ty = y - fy;
-  const double sx = tx * tx * tx * (tx * (tx * 6 - 15) + 10);
-  const double sy = ty * ty * ty * (ty * (ty * 6 - 15) + 10);
-  const double v00 = LatticeValue(ix, iy, s), v10 = LatticeValue(ix + 1, iy, s);
-  const double v01 = LatticeValue(ix, iy + 1, s), v11 = LatticeValue(ix + 1, iy + 1, s);
-  const double top = v00 + sx * (v10 - v00);
-  const double bottom = v01 + sx * (v11 - v01);
-  return top + sy * (bottom - top);
-}
-
-// seeds: static_cast<std::uint32_t>(Mix64((seed ^ kReliefSalt) + k)), k = 0, 1, 2, so that
-// MixedValueNoise2(..., seeds[k]) = ValueNoise2(..., (seed ^ kReliefSalt) + k).
+// seeds: NoiseSeed((seed ^ kReliefSalt) + k), k = 0, 1, 2, so that
+// ValueNoise2Mixed(..., seeds[k]) = ValueNoise2(..., (seed ^ kReliefSalt) + k).
 double Relief(const TerrainOptions& o, const std::uint32_t* seeds, double x, double y) {
   double h = o.slope_x * x + o.slope_y * y;
   if (o.relief_amplitude_m > 0) {
     const double l = o.relief_wavelength_m;
-    const double n = MixedValueNoise2(x / l, y / l, seeds[0]) + 0.5 * MixedValueNoise2(2 * x / l, 2 * y / l, seeds[1]) +
-                     0.25 * MixedValueNoise2(4 * x / l, 4 * y / l, seeds[2]);
+    const double n = ValueNoise2Mixed(x / l, y / l, seeds[0]) + 0.5 * ValueNoise2Mixed(2 * x / l, 2 * y / l, seeds[1]) +
+                     0.25 * ValueNoise2Mixed(4 * x / l, 4 * y / l, seeds[2]);
     h += o.relief_amplitude_m * n / 1.75;
   }
   return h;
@@ -142,7 +117,7 @@ Terrain::Terrain(const TerrainOptions& options) : options_(options) {
   inv_cell_ = 1.0 / o.cell_m;
   double spacing = o.texture_finest_m;
   for (int k = 0; k < o.texture_octaves; ++k, spacing *= 2) {
-    octave_seeds_.push_back(static_cast<std::uint32_t>(Mix64((o.seed ^ kAlbedoSalt) + static_cast<std::uint64_t>(k))));
+    octave_seeds_.push_back(NoiseSeed((o.seed ^ kAlbedoSalt) + static_cast<std::uint64_t>(k)));
     octave_spacing_.push_back(spacing);
     octave_inv_spacing_.push_back(1.0 / spacing);
   }
@@ -169,7 +144,7 @@ Terrain::Terrain(const TerrainOptions& options) : options_(options) {
   const auto band_reach = static_cast<std::int64_t>(std::ceil(reach)) + 1;
   std::uint32_t relief_seeds[3];
   for (int k = 0; k < 3; ++k) {
-    relief_seeds[k] = static_cast<std::uint32_t>(Mix64((o.seed ^ kReliefSalt) + static_cast<std::uint64_t>(k)));
+    relief_seeds[k] = NoiseSeed((o.seed ^ kReliefSalt) + static_cast<std::uint64_t>(k));
   }
 
   tbb::parallel_for(0, ny_, [&](int j) {
@@ -260,7 +235,7 @@ double Terrain::AlbedoAt(double x_m, double y_m, double footprint_m) const {
   const double inv_footprint = footprint_m > 0 ? 1.0 / footprint_m : 0.0;
   for (std::size_t k = 0; k < octave_seeds_.size(); ++k) {
     const double w = footprint_m > 0 ? std::clamp(octave_spacing_[k] * inv_footprint - 1.0, 0.0, 1.0) : 1.0;
-    if (w > 0) sum += w * MixedValueNoise2(x_m * octave_inv_spacing_[k], y_m * octave_inv_spacing_[k], octave_seeds_[k]);
+    if (w > 0) sum += w * ValueNoise2Mixed(x_m * octave_inv_spacing_[k], y_m * octave_inv_spacing_[k], octave_seeds_[k]);
   }
   constexpr double kValueNoiseSigma = 0.45;  // as in FractalNoise2
   const double n = sum / (kValueNoiseSigma * std::sqrt(static_cast<double>(o.texture_octaves)));
