@@ -3,9 +3,11 @@
 
 #include <sys/wait.h>
 
+#include <algorithm>
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
+#include <iterator>
 #include <sstream>
 #include <string>
 #include <vector>
@@ -47,6 +49,25 @@ inline ToolRun RunTool(const std::string& tool, const std::vector<std::string>& 
   text << in.rdbuf();
   run.stderr_text = text.str();
   return run;
+}
+
+/// The whole content of a file (empty if it cannot be read).
+inline std::string ReadFileBytes(const std::filesystem::path& path) {
+  std::ifstream in(path, std::ios::binary);
+  return {std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>()};
+}
+
+/// Every file under `dir` but summary.json (timings, revision), by relative path, sorted: the
+/// outputs that must be identical from run to run.
+inline std::vector<std::string> DataFiles(const std::filesystem::path& dir) {
+  std::vector<std::string> files;
+  for (const auto& entry : std::filesystem::recursive_directory_iterator(dir)) {
+    if (entry.is_regular_file() && entry.path().filename() != "summary.json") {
+      files.push_back(std::filesystem::relative(entry.path(), dir).string());
+    }
+  }
+  std::sort(files.begin(), files.end());
+  return files;
 }
 
 }  // namespace lunarnav::testing

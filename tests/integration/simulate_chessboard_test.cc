@@ -24,25 +24,6 @@ namespace fs = std::filesystem;
 using testing::RunTool;
 using util::ScopedTempDir;
 
-std::string Slurp(const fs::path& path) {
-  std::ifstream in(path, std::ios::binary);
-  std::stringstream s;
-  s << in.rdbuf();
-  return s.str();
-}
-
-// Every file under `dir` but summary.json (timings, revision), by relative path.
-std::vector<std::string> DataFiles(const fs::path& dir) {
-  std::vector<std::string> files;
-  for (const auto& entry : fs::recursive_directory_iterator(dir)) {
-    if (entry.is_regular_file() && entry.path().filename() != "summary.json") {
-      files.push_back(fs::relative(entry.path(), dir).string());
-    }
-  }
-  std::sort(files.begin(), files.end());
-  return files;
-}
-
 // `simulate chessboard -o DIR ARGS -q`, expecting success.
 void Simulate(const fs::path& dir, const std::vector<std::string>& args, const fs::path& scratch) {
   std::vector<std::string> all = {"chessboard", "-o", dir.string(), "-q"};
@@ -118,13 +99,13 @@ TEST(SimulateChessboard, SameSeedSameBytesOtherSeedOtherBytes) {
   std::vector<std::string> other = args;
   other.insert(other.end(), {"--seed", "2"});
   Simulate(tmp.path() / "c", other, tmp.path());
-  const std::vector<std::string> files = DataFiles(tmp.path() / "a");
-  EXPECT_EQ(files, DataFiles(tmp.path() / "b"));
+  const std::vector<std::string> files = testing::DataFiles(tmp.path() / "a");
+  EXPECT_EQ(files, testing::DataFiles(tmp.path() / "b"));
   EXPECT_EQ(files.size(), 8u);  // 3 + 3 images, rig.json, truth.json
-  for (const std::string& f : files) EXPECT_EQ(Slurp(tmp.path() / "a" / f), Slurp(tmp.path() / "b" / f)) << f;
-  EXPECT_NE(Slurp(tmp.path() / "a" / "left" / "view_000.png"), Slurp(tmp.path() / "c" / "left" / "view_000.png"));
-  EXPECT_NE(Slurp(tmp.path() / "a" / "truth.json"), Slurp(tmp.path() / "c" / "truth.json"));
-  EXPECT_EQ(Slurp(tmp.path() / "a" / "rig.json"), Slurp(tmp.path() / "c" / "rig.json"));  // the seed moves the board only
+  for (const std::string& f : files) EXPECT_EQ(testing::ReadFileBytes(tmp.path() / "a" / f), testing::ReadFileBytes(tmp.path() / "b" / f)) << f;
+  EXPECT_NE(testing::ReadFileBytes(tmp.path() / "a" / "left" / "view_000.png"), testing::ReadFileBytes(tmp.path() / "c" / "left" / "view_000.png"));
+  EXPECT_NE(testing::ReadFileBytes(tmp.path() / "a" / "truth.json"), testing::ReadFileBytes(tmp.path() / "c" / "truth.json"));
+  EXPECT_EQ(testing::ReadFileBytes(tmp.path() / "a" / "rig.json"), testing::ReadFileBytes(tmp.path() / "c" / "rig.json"));  // the seed moves the board only
 }
 
 TEST(SimulateChessboard, TheRigIsTheOneSimulateStereoRendersWithTheSameRigOptions) {
@@ -140,7 +121,7 @@ TEST(SimulateChessboard, TheRigIsTheOneSimulateStereoRendersWithTheSameRigOption
   stereo.insert(stereo.end(), rig.begin(), rig.end());
   const auto run = RunTool("simulate", stereo, tmp.path());
   ASSERT_EQ(run.exit_code, 0) << run.stderr_text;
-  EXPECT_EQ(Slurp(tmp.path() / "cb" / "rig.json"), Slurp(tmp.path() / "st" / "rig.json"));
+  EXPECT_EQ(testing::ReadFileBytes(tmp.path() / "cb" / "rig.json"), testing::ReadFileBytes(tmp.path() / "st" / "rig.json"));
   const calib::StereoRig read = calib::ReadStereoRig(tmp.path() / "cb" / "rig.json");
   EXPECT_EQ(read.left.K(0, 0), 185.0);
   EXPECT_NEAR(read.BaselineM(), 0.5, 1e-12);
@@ -152,11 +133,11 @@ TEST(SimulateChessboard, TheTestdataFixtureIsWhatItsCommandWrites) {
   // testdata/README.md: simulate chessboard --views 6 --noise 0 --seed 1 -o testdata/chessboard
   ScopedTempDir tmp;
   Simulate(tmp.path() / "cb", {"--views", "6", "--noise", "0", "--seed", "1"}, tmp.path());
-  const std::vector<std::string> files = DataFiles(tmp.path() / "cb");
-  EXPECT_EQ(files, DataFiles(util::TestDataPath("chessboard")));
+  const std::vector<std::string> files = testing::DataFiles(tmp.path() / "cb");
+  EXPECT_EQ(files, testing::DataFiles(util::TestDataPath("chessboard")));
   EXPECT_EQ(files.size(), 14u);
   for (const std::string& f : files) {
-    EXPECT_EQ(Slurp(tmp.path() / "cb" / f), Slurp(util::TestDataPath("chessboard/" + f)))
+    EXPECT_EQ(testing::ReadFileBytes(tmp.path() / "cb" / f), testing::ReadFileBytes(util::TestDataPath("chessboard/" + f)))
         << f << " differs: regenerate the fixture (testdata/README.md)";
   }
 }

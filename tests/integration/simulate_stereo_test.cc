@@ -59,25 +59,6 @@ TEST(SimulateStereo, WritesASequenceThatRectifyReadsAsItIs) {
   EXPECT_GT(cv::mean(left)[0], 40);
 }
 
-std::string Slurp(const fs::path& path) {
-  std::ifstream in(path, std::ios::binary);
-  std::stringstream s;
-  s << in.rdbuf();
-  return s.str();
-}
-
-// Every file under `dir` but summary.json (timings, revision), by relative path.
-std::vector<std::string> DataFiles(const fs::path& dir) {
-  std::vector<std::string> files;
-  for (const auto& entry : fs::recursive_directory_iterator(dir)) {
-    if (entry.is_regular_file() && entry.path().filename() != "summary.json") {
-      files.push_back(fs::relative(entry.path(), dir).string());
-    }
-  }
-  std::sort(files.begin(), files.end());
-  return files;
-}
-
 TEST(SimulateStereo, TheBoxesFixtureIsWhatItsCommandWrites) {
   // testdata/README.md: simulate stereo --preset boxes --rectified --width 320 --height 240
   //                     --focal 370 --seed 1 -o testdata/boxes
@@ -88,11 +69,11 @@ TEST(SimulateStereo, TheBoxesFixtureIsWhatItsCommandWrites) {
                             "--focal", "370", "--seed", "1", "-o", sim.string(), "-q"},
                            tmp.path());
   ASSERT_EQ(run.exit_code, 0) << run.stderr_text;
-  const std::vector<std::string> files = DataFiles(sim);
-  EXPECT_EQ(files, DataFiles(util::TestDataPath("boxes")));
+  const std::vector<std::string> files = testing::DataFiles(sim);
+  EXPECT_EQ(files, testing::DataFiles(util::TestDataPath("boxes")));
   EXPECT_EQ(files.size(), 8u);  // 2 images, disparity, xyz, labels, poses, boxes, rig
   for (const std::string& f : files) {
-    EXPECT_EQ(Slurp(sim / f), Slurp(util::TestDataPath("boxes/" + f)))
+    EXPECT_EQ(testing::ReadFileBytes(sim / f), testing::ReadFileBytes(util::TestDataPath("boxes/" + f)))
         << f << " differs: regenerate the fixture (testdata/README.md)";
   }
 }

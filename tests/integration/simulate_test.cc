@@ -24,13 +24,6 @@ using testing::RunTool;
 constexpr double kDeg = M_PI / 180.0;
 constexpr const char* kDataOutputs[] = {"telemetry.csv", "sensors.json", "truth.csv", "trials.json", "faults.csv"};
 
-std::string Slurp(const fs::path& path) {
-  std::ifstream in(path, std::ios::binary);
-  std::stringstream s;
-  s << in.rdbuf();
-  return s.str();
-}
-
 // Runs `simulate telemetry ARGS -o DIR` and expects success.
 void Simulate(std::vector<std::string> args, const fs::path& dir, const fs::path& scratch) {
   args.insert(args.begin(), "telemetry");
@@ -195,9 +188,9 @@ TEST(Simulate, SameSeedSameBytesOtherSeedOtherBytes) {
   other.insert(other.end(), {"--seed", "2"});
   Simulate(other, tmp.path() / "c", tmp.path());
   for (const char* name : kDataOutputs) {
-    EXPECT_EQ(Slurp(tmp.path() / "a" / name), Slurp(tmp.path() / "b" / name)) << name;
+    EXPECT_EQ(testing::ReadFileBytes(tmp.path() / "a" / name), testing::ReadFileBytes(tmp.path() / "b" / name)) << name;
   }
-  EXPECT_NE(Slurp(tmp.path() / "a" / "telemetry.csv"), Slurp(tmp.path() / "c" / "telemetry.csv"));
+  EXPECT_NE(testing::ReadFileBytes(tmp.path() / "a" / "telemetry.csv"), testing::ReadFileBytes(tmp.path() / "c" / "telemetry.csv"));
   const nlohmann::json summary = io::ReadJson(tmp.path() / "a" / "summary.json");
   EXPECT_EQ(summary["tool"], "simulate");
   EXPECT_EQ(summary["subcommand"], "telemetry");
@@ -211,7 +204,7 @@ TEST(Simulate, TheTestdataFixtureIsWhatItsCommandWrites) {
   util::ScopedTempDir tmp;
   Simulate({"--preset", "trial-a", "--seed", "1"}, tmp.path() / "sim", tmp.path());
   for (const char* name : kDataOutputs) {
-    EXPECT_EQ(Slurp(tmp.path() / "sim" / name), Slurp(util::TestDataPath(std::string("telemetry/trial-a/") + name)))
+    EXPECT_EQ(testing::ReadFileBytes(tmp.path() / "sim" / name), testing::ReadFileBytes(util::TestDataPath(std::string("telemetry/trial-a/") + name)))
         << name << " differs: regenerate the fixture (testdata/README.md)";
   }
 }

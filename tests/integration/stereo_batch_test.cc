@@ -45,11 +45,6 @@ fs::path CopyPairs(const fs::path& dir) {
   return in;
 }
 
-std::string ReadBytes(const fs::path& path) {
-  std::ifstream in(path, std::ios::binary);
-  return {std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>()};
-}
-
 TEST(StereoBatch, MatchesTheTestdataPairsAgainstTheirGroundTruth) {
   ScopedTempDir tmp;
   const fs::path out = tmp.path() / "out";
@@ -95,7 +90,7 @@ TEST(StereoBatch, ReportsAndSkipsBadPairs) {
   ScopedTempDir tmp;
   const fs::path in = CopyPairs(tmp.path());
   // frame0001: truncated right image.
-  const std::string bytes = ReadBytes(in / "right" / "frame0001.png");
+  const std::string bytes = testing::ReadFileBytes(in / "right" / "frame0001.png");
   std::ofstream(in / "right" / "frame0001.png", std::ios::binary | std::ios::trunc)
       .write(bytes.data(), static_cast<std::streamsize>(bytes.size() / 2));
   // frame0002: the left image is smaller.
@@ -162,7 +157,7 @@ TEST(StereoBatch, ShardsTogetherEqualTheSingleRun) {
   for (const char* stem : kStems) {
     for (const auto& [dir, ext] : {std::pair{"disparity", ".pfm"}, {"confidence", ".tif"}, {"rejections", ".png"}}) {
       const fs::path a = single / dir / (std::string(stem) + ext), b = sharded / dir / (std::string(stem) + ext);
-      EXPECT_EQ(ReadBytes(a), ReadBytes(b)) << a;
+      EXPECT_EQ(testing::ReadFileBytes(a), testing::ReadFileBytes(b)) << a;
     }
   }
   EXPECT_EQ(io::ReadJson(sharded / "summary.shard-0-of-2.json")["counts"]["pairs_in_shard"], 2);
