@@ -86,19 +86,39 @@ HeadingEstimate FilterHeading(const HeadingInputs& in, const HeadingKalmanOption
   // as the transient dies out after a turn, and the gyro's sample-to-sample noise (a
   // differentiated noisy rate reads several deg/s^2 at rest) does not gate a steady rover.
   double gate_rate = 0, gate_accel = 0, gate_time = std::numeric_limits<double>::quiet_NaN();
+  // The covariance as plain numbers: P, a 3x3 matrix updated in place every sample. Each
+  // expression is the one the matrix form (F P F' + Q, P - K H P, ...) reduces to once the
+  // known zeros and ones of F and H are taken out, so the arithmetic, and the result, is the
+  // same to the last bit; written out it is several times faster than general 3x3 products.
+  double xh = x(0), xr = x(1), xs = x(2);
+  double P[3][3];
+  for (int i = 0; i < 3; ++i) {
+    for (int j = 0; j < 3; ++j) P[i][j] = p(i, j);
+  }
+  double alpha_dt = std::numeric_limits<double>::quiet_NaN(), alpha = 0;  // alpha for the last dt
+  const double turn_gate = o.turn_gate_dps * kDeg, accel_gate = o.accel_gate_dps2 * kDeg;
   for (std::size_t k = 0; k < n; ++k) {
-    // Predict.
+    // Predict: F = [1 dt 0; 0 1 0; 0 0 1].
     if (k > 0) {
       const double dt = in.t_s[k] - in.t_s[k - 1];
-      Eigen::Matrix3d f = Eigen::Matrix3d::Identity();
-      f(0, 1) = dt;
-      x = f * x;
-      Eigen::Matrix3d q = Eigen::Matrix3d::Zero();
-      q(0, 0) = q_rate * dt * dt * dt / 3;
-      q(0, 1) = q(1, 0) = q_rate * dt * dt / 2;
-      q(1, 1) = q_rate * dt;
-      q(2, 2) = estimate_scale ? q_scale * dt : 0.0;
-      p = f * p * f.transpose() + q;
+      xh = xh + dt * xr;
+      double fp[3][3];  // F P: row 0 gains dt times row 1
+      for (int j = 0; j < 3; ++j) {
+        fp[0][j] = P[0][j] + dt * P[1][j];
+        fp[1][j] = P[1][j];
+        fp[2][j] = P[2][j];
+      }
+      for (int i = 0; i < 3; ++i) {  // (F P) F': column 0 gains dt times column 1
+        P[i][0] = fp[i][0] + dt * fp[i][1];
+        P[i][1] = fp[i][1];
+        P[i][2] = fp[i][2];
+      }
+      const double q01 = q_rate * dt * dt / 2;
+      P[0][0] += q_rate * dt * dt * dt / 3;
+      P[0][1] += q01;
+      P[1][0] += q01;
+      P[1][1] += q_rate * dt;
+      P[2][2] += estimate_scale ? q_scale * dt : 0.0;
     }
     // Gyro: measures (1 + s) x the rate (after removing the bias); linearised (EKF).
     if (have_gyro && !std::isnan(in.gyro_radps[k])) {
@@ -114,37 +134,61 @@ HeadingEstimate FilterHeading(const HeadingInputs& in, const HeadingKalmanOption
         gate_rate = rate;
       } else if (in.t_s[k] > gate_time) {
         const double dt = in.t_s[k] - gate_time;
-        const double alpha = 1.0 - std::exp(-dt / o.gate_smoothing_s);
+        if (dt != alpha_dt) {  // the same interval as last time (the usual case): the same alpha
+          alpha = 1.0 - std::exp(-dt / o.gate_smoothing_s);
+          alpha_dt = dt;
+        }
         const double previous = gate_rate;
         gate_rate += alpha * (rate - gate_rate);
         gate_accel += alpha * ((gate_rate - previous) / dt - gate_accel);
       }
       gate_time = in.t_s[k];
-      const Eigen::RowVector3d h(0.0, 1.0 + x(2), estimate_scale ? x(1) : 0.0);
-      const double s = h * p * h.transpose() + r_gyro;
-      const Eigen::Vector3d gain = p * h.transpose() / s;
-      x += gain * (rate - (1.0 + x(2)) * x(1));
-      p -= gain * h * p;
+      // H = [0, 1 + s, rate] (rate only with the scale state).
+      const double h1 = 1.0 + xs, h2 = estimate_scale ? xr : 0.0;
+      double hp[3];  // H P
+      for (int j = 0; j < 3; ++j) hp[j] = h1 * P[1][j] + h2 * P[2][j];
+      const double s = (hp[1] * h1 + hp[2] * h2) + r_gyro;
+      double gain[3];
+      for (int i = 0; i < 3; ++i) gain[i] = (P[i][1] * h1 + P[i][2] * h2) / s;
+      const double innovation = rate - (1.0 + xs) * xr;
+      xh += gain[0] * innovation;
+      xr += gain[1] * innovation;
+      xs += gain[2] * innovation;
+      double khp[3][3];  // (K H) P
+      for (int i = 0; i < 3; ++i) {
+        const double k1 = gain[i] * h1, k2 = gain[i] * h2;
+        for (int j = 0; j < 3; ++j) khp[i][j] = k1 * P[1][j] + k2 * P[2][j];
+      }
+      for (int i = 0; i < 3; ++i) {
+        for (int j = 0; j < 3; ++j) P[i][j] -= khp[i][j];
+      }
       ++out.gyro_updates;
     }
     // Compass: measures the heading; believed little while turning or accelerating.
     if (have_compass && !std::isnan(in.compass_rad[k])) {
-      const double gate = 1.0 + o.gate_gain * (std::pow(gate_rate / (o.turn_gate_dps * kDeg), 2) +
-                                               std::pow(gate_accel / (o.accel_gate_dps2 * kDeg), 2));
-      const double innovation = WrapPi(in.compass_rad[k] - x(0));
-      const double s = p(0, 0) + r_compass * gate;
-      const Eigen::Vector3d gain = p.col(0) / s;
-      x += gain * innovation;
-      p -= gain * p.row(0);
+      const double gate = 1.0 + o.gate_gain * (std::pow(gate_rate / turn_gate, 2) +
+                                               std::pow(gate_accel / accel_gate, 2));
+      const double innovation = WrapPi(in.compass_rad[k] - xh);
+      const double s = P[0][0] + r_compass * gate;
+      const double gain[3] = {P[0][0] / s, P[1][0] / s, P[2][0] / s};
+      xh += gain[0] * innovation;
+      xr += gain[1] * innovation;
+      xs += gain[2] * innovation;
+      const double row0[3] = {P[0][0], P[0][1], P[0][2]};
+      for (int i = 0; i < 3; ++i) {
+        for (int j = 0; j < 3; ++j) P[i][j] -= gain[i] * row0[j];
+      }
       ++out.compass_updates;
     }
-    p = 0.5 * (p + p.transpose());
-    out.heading_rad[k] = x(0);
-    out.rate_radps[k] = x(1);
-    out.heading_sigma_rad[k] = std::sqrt(std::max(0.0, p(0, 0)));
+    for (int i = 0; i < 3; ++i) {  // symmetric: 0.5 (P + P')
+      for (int j = i + 1; j < 3; ++j) P[i][j] = P[j][i] = 0.5 * (P[i][j] + P[j][i]);
+    }
+    out.heading_rad[k] = xh;
+    out.rate_radps[k] = xr;
+    out.heading_sigma_rad[k] = std::sqrt(std::max(0.0, P[0][0]));
   }
-  out.gyro_scale_error = x(2);
-  out.gyro_scale_sigma = std::sqrt(std::max(0.0, p(2, 2)));
+  out.gyro_scale_error = xs;
+  out.gyro_scale_sigma = std::sqrt(std::max(0.0, P[2][2]));
   out.gyro_bias_radps = bias_count > 0 ? bias_sum / bias_count : 0.0;
   return out;
 }
