@@ -43,98 +43,133 @@ void DeadReckoningOptions::Validate() const {
       << "slip resolution: must be >= 0 counts";
 }
 
+DeadReckoner::DeadReckoner(const DeadReckoningOptions& options, const std::array<bool, 4>& wheels,
+                           const std::array<double, 4>& resolution_m)
+    : o_(options), wheels_(wheels), window_(16) {
+  o_.Validate();
+  for (int i = 0; i < 4; ++i) {
+    if (wheels_[i]) resolution_m_ = std::max(resolution_m_, std::abs(resolution_m[i]));  // the coarsest
+  }
+  resolution_tolerance_ = o_.slip_resolution_counts * resolution_m_;
+}
+
+const TrajectorySample& DeadReckoner::Step(double t_s, double heading_rad, double pitch_rad, double roll_rad,
+                                           const std::array<double, 4>& wheel_m) {
+  const std::size_t mask = window_.size() - 1;
+  auto remember = [&] {  // this sample joins the slip window
+    if (window_size_ == window_.size()) {  // full: twice the room, oldest first
+      std::vector<Sample> grown(2 * window_.size());
+      for (std::size_t i = 0; i < window_size_; ++i) grown[i] = window_[(window_begin_ + i) & mask];
+      window_ = std::move(grown);
+      window_begin_ = 0;
+    }
+    window_[(window_begin_ + window_size_) & (window_.size() - 1)] = {t_s, wheel_m};
+    ++window_size_;
+  };
+  if (!started_) {
+    started_ = true;
+    pose_.t_s = t_s;
+    pose_.heading_rad = heading_rad;
+    pose_.pitch_rad = pitch_rad;
+    pose_.roll_rad = roll_rad;
+    remember();
+    return pose_;
+  }
+  // The window: from the last sample at least slip_window_s before this one (or the previous
+  // sample) to the previous sample.
+  while (window_size_ >= 2 && window_[(window_begin_ + 1) & mask].t_s <= t_s - o_.slip_window_s) {
+    window_begin_ = (window_begin_ + 1) & mask;
+    --window_size_;
+  }
+  const std::array<double, 4>& first = window_[window_begin_].wheel_m;
+  const Sample& previous = window_[(window_begin_ + window_size_ - 1) & mask];
+  // Left wheels (front left, rear left) +1, right wheels -1.
+  constexpr std::array<double, 4> kSide = {1.0, -1.0, 1.0, -1.0};
+  std::array<double, 4> step{}, travel{}, side{}, residual{};
+  int count = 0;
+  for (int i = 0; i < 4; ++i) {
+    if (!wheels_[i] || std::isnan(wheel_m[i]) || std::isnan(previous.wheel_m[i])) continue;
+    step[count] = wheel_m[i] - previous.wheel_m[i];
+    travel[count] = std::isnan(first[i]) ? step[count] : wheel_m[i] - first[i];
+    side[count] = kSide[i];
+    ++count;
+  }
+  double d = 0;
+  if (count == 0) {
+    ++steps_without_odometry_;
+  } else {
+    // Remove the turn: a skid-steered rover's left and right wheels differ by the turn, not
+    // by slip. The turn's share of each wheel is half the smallest left-right difference
+    // when all of them agree in sign (a single slipping wheel leaves some pair equal).
+    const double turn = TurnShare(travel, side, count);
+    std::array<double, 4> sorted{}, magnitude{};
+    for (int i = 0; i < count; ++i) {
+      residual[i] = travel[i] - side[i] * turn;
+      sorted[i] = residual[i];
+      magnitude[i] = std::abs(travel[i]);
+    }
+    const double median = Median(sorted, count);
+    const double tolerance =
+        std::max({o_.slip_min_m, o_.slip_fraction * Median(magnitude, count), resolution_tolerance_});
+    // D: the weighted mean of the steps with the step's own turn share removed (it cancels
+    // when the weights are equal, and keeps a down-weighted wheel from biasing D on a turn).
+    const double step_turn = TurnShare(step, side, count);
+    double sum = 0, total_weight = 0;
+    for (int i = 0; i < count; ++i) {
+      const double excess = std::abs(residual[i] - median);
+      const double weight = excess <= tolerance ? 1.0 : (tolerance / excess) * (tolerance / excess);
+      if (weight < 0.5) ++slip_events_;
+      sum += weight * (step[i] - side[i] * step_turn);
+      total_weight += weight;
+    }
+    d = sum / total_weight;
+  }
+  const double last_heading = pose_.heading_rad;
+  const double psi =
+      0.5 * (heading_rad + last_heading + 2.0 * M_PI * std::round((last_heading - heading_rad) / (2.0 * M_PI)));
+  const double phi = 0.5 * (pitch_rad + pose_.pitch_rad);
+  pose_.x_m += d * std::cos(phi) * std::sin(psi);
+  pose_.y_m += d * std::cos(phi) * std::cos(psi);
+  pose_.z_m += d * std::sin(phi);
+  const double dt = t_s - pose_.t_s;
+  pose_.t_s = t_s;
+  pose_.heading_rad = heading_rad;
+  pose_.pitch_rad = pitch_rad;
+  pose_.roll_rad = roll_rad;
+  pose_.speed_mps = dt > 0 ? std::abs(d) / dt : 0.0;
+  // Path length at the encoders' resolution: travel is added once it amounts to a count,
+  // so the back and forth of quantisation (a turn in place, standing still) is not travel.
+  pending_m_ += d;
+  if (std::abs(pending_m_) >= resolution_m_) {
+    distance_m_ += std::abs(pending_m_);
+    pending_m_ = 0;
+  }
+  remember();
+  return pose_;
+}
+
 DeadReckoningResult DeadReckon(const DeadReckoningInputs& in, const DeadReckoningOptions& options) {
-  options.Validate();
   const std::size_t n = in.t_s.size();
   LN_CHECK(in.heading_rad.size() == n);
   LN_CHECK(in.pitch_rad.empty() || in.pitch_rad.size() == n);
   LN_CHECK(in.roll_rad.empty() || in.roll_rad.size() == n);
-  for (const auto& w : in.wheel_m) LN_CHECK(w.empty() || w.size() == n);
+  std::array<bool, 4> wheels{};
+  for (int i = 0; i < 4; ++i) {
+    LN_CHECK(in.wheel_m[i].empty() || in.wheel_m[i].size() == n);
+    wheels[i] = !in.wheel_m[i].empty();
+  }
+  DeadReckoner reckoner(options, wheels, in.wheel_resolution_m);
   DeadReckoningResult out;
   out.trajectory.resize(n);
-  if (n == 0) return out;
-  auto pitch = [&](std::size_t k) { return in.pitch_rad.empty() ? 0.0 : in.pitch_rad[k]; };
-  auto roll = [&](std::size_t k) { return in.roll_rad.empty() ? 0.0 : in.roll_rad[k]; };
-  double resolution_m = 0;  // the coarsest wheel's metres per count
-  for (int i = 0; i < 4; ++i) {
-    if (!in.wheel_m[i].empty()) resolution_m = std::max(resolution_m, std::abs(in.wheel_resolution_m[i]));
+  for (std::size_t k = 0; k < n; ++k) {
+    std::array<double, 4> wheel_m{};
+    for (int i = 0; i < 4; ++i) wheel_m[i] = wheels[i] ? in.wheel_m[i][k] : 0.0;
+    out.trajectory[k] = reckoner.Step(in.t_s[k], in.heading_rad[k], in.pitch_rad.empty() ? 0.0 : in.pitch_rad[k],
+                                      in.roll_rad.empty() ? 0.0 : in.roll_rad[k], wheel_m);
   }
-  const double resolution_tolerance = options.slip_resolution_counts * resolution_m;
-  TrajectorySample pose;
-  pose.t_s = in.t_s[0];
-  pose.heading_rad = in.heading_rad[0];
-  pose.pitch_rad = pitch(0);
-  pose.roll_rad = roll(0);
-  out.trajectory[0] = pose;
-  // Left wheels (front left, rear left) +1, right wheels -1.
-  constexpr std::array<double, 4> kSide = {1.0, -1.0, 1.0, -1.0};
-  std::array<double, 4> step{}, travel{}, side{}, residual{};
-  std::size_t start = 0;  // first sample of the slip window ending at k
-  double pending_m = 0;   // travel not yet added to the path length
-  for (std::size_t k = 1; k < n; ++k) {
-    while (start + 1 < k && in.t_s[start + 1] <= in.t_s[k] - options.slip_window_s) ++start;
-    const std::size_t j = std::min(start, k - 1);
-    int count = 0;
-    for (int i = 0; i < 4; ++i) {
-      const std::vector<double>& w = in.wheel_m[i];
-      if (w.empty() || std::isnan(w[k]) || std::isnan(w[k - 1])) continue;
-      step[count] = w[k] - w[k - 1];
-      travel[count] = std::isnan(w[j]) ? step[count] : w[k] - w[j];
-      side[count] = kSide[i];
-      ++count;
-    }
-    double d = 0;
-    if (count == 0) {
-      ++out.steps_without_odometry;
-    } else {
-      // Remove the turn: a skid-steered rover's left and right wheels differ by the turn, not
-      // by slip. The turn's share of each wheel is half the smallest left-right difference
-      // when all of them agree in sign (a single slipping wheel leaves some pair equal).
-      const double turn = TurnShare(travel, side, count);
-      std::array<double, 4> sorted{}, magnitude{};
-      for (int i = 0; i < count; ++i) {
-        residual[i] = travel[i] - side[i] * turn;
-        sorted[i] = residual[i];
-        magnitude[i] = std::abs(travel[i]);
-      }
-      const double median = Median(sorted, count);
-      const double tolerance = std::max({options.slip_min_m, options.slip_fraction * Median(magnitude, count),
-                                         resolution_tolerance});
-      // D: the weighted mean of the steps with the step's own turn share removed (it cancels
-      // when the weights are equal, and keeps a down-weighted wheel from biasing D on a turn).
-      const double step_turn = TurnShare(step, side, count);
-      double sum = 0, total_weight = 0;
-      for (int i = 0; i < count; ++i) {
-        const double excess = std::abs(residual[i] - median);
-        const double weight = excess <= tolerance ? 1.0 : (tolerance / excess) * (tolerance / excess);
-        if (weight < 0.5) ++out.slip_events;
-        sum += weight * (step[i] - side[i] * step_turn);
-        total_weight += weight;
-      }
-      d = sum / total_weight;
-    }
-    const double psi = 0.5 * (in.heading_rad[k] + in.heading_rad[k - 1] +
-                              2.0 * M_PI * std::round((in.heading_rad[k - 1] - in.heading_rad[k]) / (2.0 * M_PI)));
-    const double phi = 0.5 * (pitch(k) + pitch(k - 1));
-    pose.x_m += d * std::cos(phi) * std::sin(psi);
-    pose.y_m += d * std::cos(phi) * std::cos(psi);
-    pose.z_m += d * std::sin(phi);
-    const double dt = in.t_s[k] - in.t_s[k - 1];
-    pose.t_s = in.t_s[k];
-    pose.heading_rad = in.heading_rad[k];
-    pose.pitch_rad = pitch(k);
-    pose.roll_rad = roll(k);
-    pose.speed_mps = dt > 0 ? std::abs(d) / dt : 0.0;
-    // Path length at the encoders' resolution: travel is added once it amounts to a count,
-    // so the back and forth of quantisation (a turn in place, standing still) is not travel.
-    pending_m += d;
-    if (std::abs(pending_m) >= resolution_m) {
-      out.distance_m += std::abs(pending_m);
-      pending_m = 0;
-    }
-    out.trajectory[k] = pose;
-  }
-  out.distance_m += std::abs(pending_m);
+  out.distance_m = reckoner.distance_m();
+  out.slip_events = reckoner.slip_events();
+  out.steps_without_odometry = reckoner.steps_without_odometry();
   return out;
 }
 

@@ -2,6 +2,7 @@
 #pragma once
 
 #include <array>
+#include <cmath>
 #include <vector>
 
 namespace lunarnav::positioning {
@@ -51,6 +52,43 @@ struct DeadReckoningResult {
   double distance_m = 0;        ///< Path length.
   long slip_events = 0;         ///< Wheel-steps down-weighted below one half.
   long steps_without_odometry = 0;
+};
+
+/// The dead reckoning sample by sample, for pipelines that stream a log instead of holding it
+/// whole: DeadReckon is a loop over Step, and gives the same numbers.
+class DeadReckoner {
+ public:
+  /// `wheels`: which of the four wheels (front left, front right, rear left, rear right) the
+  /// log has; `resolution_m`: their metres per count (see DeadReckoningInputs). Validates the
+  /// options.
+  DeadReckoner(const DeadReckoningOptions& options, const std::array<bool, 4>& wheels,
+               const std::array<double, 4>& resolution_m);
+
+  /// The next sample, in time order; wheel_m: the wheels' cumulative travel (NaN: missing;
+  /// absent wheels are not read). Returns the pose at t_s (the first sample: the origin).
+  const TrajectorySample& Step(double t_s, double heading_rad, double pitch_rad, double roll_rad,
+                               const std::array<double, 4>& wheel_m);
+
+  double distance_m() const { return distance_m_ + std::abs(pending_m_); }  ///< Path length so far.
+  long slip_events() const { return slip_events_; }
+  long steps_without_odometry() const { return steps_without_odometry_; }
+
+ private:
+  struct Sample {  // what the slip window remembers of a step
+    double t_s;
+    std::array<double, 4> wheel_m;
+  };
+  DeadReckoningOptions o_;
+  std::array<bool, 4> wheels_;
+  double resolution_m_ = 0, resolution_tolerance_ = 0;
+  TrajectorySample pose_;
+  bool started_ = false;
+  // The samples of the slip window, oldest first: a ring of power-of-two size.
+  std::vector<Sample> window_;
+  std::size_t window_begin_ = 0, window_size_ = 0;
+  double pending_m_ = 0;  // travel not yet added to the path length
+  double distance_m_ = 0;
+  long slip_events_ = 0, steps_without_odometry_ = 0;
 };
 
 /// Integrates x += D cos(phi) sin(psi), y += D cos(phi) cos(psi), z += D sin(phi) (the paper's

@@ -61,6 +61,45 @@ struct HeadingEstimate {
 /// wrapped to (-pi, pi], so a heading passing through +-180 deg is no event.
 HeadingEstimate FilterHeading(const HeadingInputs& inputs, const HeadingKalmanOptions& options);
 
+/// The filter sample by sample, for pipelines that stream a log instead of holding it whole:
+/// FilterHeading is a loop over Update, and gives the same numbers.
+class HeadingKalman {
+ public:
+  /// `first_compass_rad`: the log's first compass reading, the initial heading (NaN when the
+  /// log has no compass reading: the heading starts at options.initial_heading_deg, exactly
+  /// known, and is relative to the start). Validates the options.
+  HeadingKalman(const HeadingKalmanOptions& options, double first_compass_rad);
+
+  struct Output {
+    double heading_rad, rate_radps, heading_sigma_rad;
+  };
+  /// One sample, in time order: predicts to t_s, then takes the gyro and the compass
+  /// readings (NaN: none). `stationary`: the wheels stand still (the gyro's bias is learnt).
+  Output Update(double t_s, double compass_rad, double gyro_radps, bool stationary);
+
+  double gyro_bias_radps() const { return bias_count_ > 0 ? bias_sum_ / bias_count_ : 0.0; }
+  double gyro_scale_error() const { return xs_; }
+  double gyro_scale_sigma() const;
+  int compass_updates() const { return compass_updates_; }
+  int gyro_updates() const { return gyro_updates_; }
+
+ private:
+  HeadingKalmanOptions o_;
+  double r_compass_, r_gyro_, q_rate_, q_scale_, turn_gate_, accel_gate_;
+  bool estimate_scale_;
+  // State: heading, true heading rate, gyro scale error s (the gyro reads (1 + s) x rate),
+  // and its covariance P. Without the scale state s stays 0 with no variance.
+  double xh_, xr_ = 0, xs_ = 0;
+  double p_[3][3] = {};
+  double last_t_ = 0;
+  bool started_ = false;
+  double bias_sum_ = 0;
+  long bias_count_ = 0;
+  double gate_rate_ = 0, gate_accel_ = 0, gate_time_;
+  double alpha_dt_, alpha_ = 0;  // the gate smoothing's alpha for the interval alpha_dt_
+  int compass_updates_ = 0, gyro_updates_ = 0;
+};
+
 /// Wraps an angle to (-pi, pi].
 double WrapPi(double angle_rad);
 

@@ -225,25 +225,38 @@ class Screener {
     std::vector<double>& slope = accepted_slope_;
     slope.resize(count);
     for (std::size_t q = 1; q < count; ++q) slope[q] = (value[q] - value[q - 1]) / (time[q] - time[q - 1]);
+    const double smallest_threshold = std::max(o_.hampel_threshold * channel_sigma, min_dev);
+    // Exact shortcut: with an odd window the residuals' median is one of them, so when all
+    // lie within the smallest possible threshold of a sample it is no spike. Interior windows
+    // (lo = p - h) with the usual half window take it in a branch-free pass the compiler
+    // vectorises; the distances are computed as below, so the decision is the same.
+    std::vector<double>& farthest_of = hampel_farthest_;  // the largest distance, or +inf when not computed
+    farthest_of.assign(count, std::numeric_limits<double>::infinity());
+    if (h == 3) {
+      for (std::size_t p = 3; p + 3 < count; ++p) {
+        double s[6];
+        for (int i = 0; i < 6; ++i) s[i] = slope[p - 2 + static_cast<std::size_t>(i)];
+        const double trend = util::MedianOf6(s);
+        const double mine = value[p];
+        double farthest = 0;
+        for (int i = 0; i < 7; ++i) {
+          const std::size_t q = p - 3 + static_cast<std::size_t>(i);
+          farthest = std::max(farthest, std::abs(mine - (value[q] - trend * (time[q] - time[p]))));
+        }
+        farthest_of[p] = farthest;
+      }
+    }
     std::vector<double> residual(window), scratch(window);
     std::vector<std::size_t> spikes;
-    const double smallest_threshold = std::max(o_.hampel_threshold * channel_sigma, min_dev);
     for (std::size_t p = 0; p < count; ++p) {
+      if (farthest_of[p] <= smallest_threshold) continue;
       const std::size_t lo = std::min(p >= h ? p - h : 0, count - window);
       std::copy_n(slope.begin() + static_cast<std::ptrdiff_t>(lo) + 1, window - 1, scratch.begin());
       const double trend = util::SmallMedian(scratch.data(), window - 1);
       const double mine = value[p];
       for (std::size_t i = 0; i < window; ++i) residual[i] = value[lo + i] - trend * (time[lo + i] - time[p]);
-      // The largest distance, in two independent chains (the values are finite, so the
-      // order does not matter).
-      double farthest = std::abs(mine - residual[window - 1]), farthest_odd = 0;
-      for (std::size_t i = 0; i + 1 < window; i += 2) {
-        farthest = std::max(farthest, std::abs(mine - residual[i]));
-        farthest_odd = std::max(farthest_odd, std::abs(mine - residual[i + 1]));
-      }
-      farthest = std::max(farthest, farthest_odd);
-      // Exact shortcut: with an odd window the residuals' median is one of them, so when all
-      // lie within the smallest possible threshold of this sample it is no spike.
+      double farthest = 0;  // the shortcut, for the windows the pass above left out
+      for (std::size_t i = 0; i < window; ++i) farthest = std::max(farthest, std::abs(mine - residual[i]));
       if (farthest <= smallest_threshold) continue;
       scratch = residual;
       const double med = util::SmallMedian(scratch.data(), window);
@@ -338,6 +351,7 @@ class Screener {
   // Work space, reused from channel to channel.
   std::vector<std::size_t> present_, accepted_row_;
   std::vector<double> accepted_value_, accepted_t_, accepted_slope_;
+  std::vector<double> hampel_farthest_;
   ScreenedLog out_;
 };
 

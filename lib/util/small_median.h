@@ -15,6 +15,17 @@ inline void Order(T& a, T& b) {
 }
 }  // namespace internal
 
+/// Median of exactly six values (the mean of the two middle ones), branch-free so that a loop
+/// calling it can be vectorised; reorders them.
+template <typename T>
+inline T MedianOf6(T* a) {
+  using internal::Order;
+  Order(a[0], a[5]); Order(a[1], a[3]); Order(a[2], a[4]); Order(a[1], a[2]);
+  Order(a[3], a[4]); Order(a[0], a[3]); Order(a[2], a[5]); Order(a[0], a[1]);
+  Order(a[2], a[3]); Order(a[4], a[5]); Order(a[1], a[2]); Order(a[3], a[4]);
+  return T(0.5) * (a[2] + a[3]);
+}
+
 /// Median of values[0..count) (the mean of the two middle ones for an even count); reorders
 /// them. Counts 6 and 7 use branch-free optimal sorting networks (12 and 16 comparators),
 /// up to 32 insertion sort, beyond std::nth_element. count >= 1.
@@ -28,12 +39,7 @@ T SmallMedian(T* a, std::size_t count) {
     Order(a[4], a[5]); Order(a[1], a[2]); Order(a[3], a[4]); Order(a[5], a[6]);
     return a[3];
   }
-  if (count == 6) {
-    Order(a[0], a[5]); Order(a[1], a[3]); Order(a[2], a[4]); Order(a[1], a[2]);
-    Order(a[3], a[4]); Order(a[0], a[3]); Order(a[2], a[5]); Order(a[0], a[1]);
-    Order(a[2], a[3]); Order(a[4], a[5]); Order(a[1], a[2]); Order(a[3], a[4]);
-    return T(0.5) * (a[2] + a[3]);
-  }
+  if (count == 6) return MedianOf6(a);
   if (count <= 32) {
     for (std::size_t i = 1; i < count; ++i) {
       const T x = a[i];
