@@ -61,13 +61,16 @@ int main(int argc, char** argv) {
       LN_LOG(Warning) << telemetry_csv.string() << ": no column '" << model[c].column << "' for channel "
                       << telemetry::ToString(c) << "; going on without it";
     }
-    const positioning::PosfilterResult result = positioning::RunPosfilter(log, model, opt);
+    // The poses go to the files as they are computed; --streams needs the whole trajectory.
+    positioning::TrajectoryWriter writer(output_dir / "trajectory.csv", output_dir / "trajectory.tum");
+    positioning::PoseSink sink;
+    if (streams.empty()) sink = [&writer](const positioning::TrajectorySample& pose) { writer.Add(pose); };
+    const positioning::PosfilterResult result = positioning::RunPosfilter(log, model, opt, sink);
+    for (const positioning::TrajectorySample& pose : result.motion.trajectory) writer.Add(pose);
+    writer.Commit();
     progress.Increment();
     for (const std::string& note : result.notes) LN_LOG(Info) << "posfilter: " << note;
 
-    positioning::TrajectoryWriter writer(output_dir / "trajectory.csv", output_dir / "trajectory.tum");
-    for (const positioning::TrajectorySample& pose : result.motion.trajectory) writer.Add(pose);
-    writer.Commit();
     if (!screening_log.empty()) telemetry::WriteScreeningLog(screening_log, result.screened);
     if (!streams.empty()) positioning::WriteHeadingStreamsCsv(streams, log, model, result);
     nlohmann::json summary = result.SummaryJson();

@@ -167,6 +167,7 @@ DeadReckoningResult DeadReckon(const DeadReckoningInputs& in, const DeadReckonin
     out.trajectory[k] = reckoner.Step(in.t_s[k], in.heading_rad[k], in.pitch_rad.empty() ? 0.0 : in.pitch_rad[k],
                                       in.roll_rad.empty() ? 0.0 : in.roll_rad[k], wheel_m);
   }
+  if (n > 0) out.last_pose = out.trajectory.back();
   out.distance_m = reckoner.distance_m();
   out.slip_events = reckoner.slip_events();
   out.steps_without_odometry = reckoner.steps_without_odometry();

@@ -48,7 +48,8 @@ struct DeadReckoningOptions {
 };
 
 struct DeadReckoningResult {
-  std::vector<TrajectorySample> trajectory;
+  std::vector<TrajectorySample> trajectory;  ///< Empty when the poses went to a sink instead.
+  TrajectorySample last_pose;   ///< The final pose (when there was a sample).
   double distance_m = 0;        ///< Path length.
   long slip_events = 0;         ///< Wheel-steps down-weighted below one half.
   long steps_without_odometry = 0;

@@ -3,6 +3,8 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
+#include <memory>
+#include <optional>
 #include <limits>
 
 #include "io/atomic_file.h"
@@ -13,37 +15,6 @@ namespace {
 
 using telemetry::Channel;
 constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
-
-// Linear interpolation in time over NaN gaps of `v`, in place, holding the end values; false
-// (and `v` untouched) when fewer than two samples are valid.
-bool FillGaps(const std::vector<double>& t, std::vector<double>* values) {
-  std::vector<double>& v = *values;
-  const std::size_t n = v.size();
-  const std::size_t valid = static_cast<std::size_t>(
-      std::count_if(v.begin(), v.end(), [](double x) { return !std::isnan(x); }));
-  if (valid < 2) return false;
-  for (std::size_t k = 0; k < n;) {
-    if (!std::isnan(v[k])) {
-      ++k;
-      continue;
-    }
-    std::size_t b = k;  // the run of missing samples [k, b), between valid samples k - 1 and b
-    while (b < n && std::isnan(v[b])) ++b;
-    for (std::size_t q = k; q < b; ++q) {
-      if (k == 0) {
-        v[q] = v[b];
-      } else if (b == n) {
-        v[q] = v[k - 1];
-      } else {
-        const std::size_t a = k - 1;
-        const double f = (t[q] - t[a]) / (t[b] - t[a]);
-        v[q] = v[a] + f * (v[b] - v[a]);
-      }
-    }
-    k = b;
-  }
-  return true;
-}
 
 // Whether `v` has at least `count` valid (not NaN) samples.
 bool HasValid(const std::vector<double>& v, std::size_t count) {
@@ -91,73 +62,118 @@ nlohmann::json PosfilterOptions::ToJson() const {
           {"stationary_min_s", stationary_min_s}};
 }
 
+namespace {
+
+// A screened channel read row by row, in order, with its gaps filled
+// (linear interpolation in time between the valid samples around a gap, the end values held)
+// and scaled: the same numbers, without a filled copy of the channel. Needs two valid samples.
+class FilledChannel {
+ public:
+  FilledChannel(const std::vector<double>& t, const std::vector<double>& v, double scale)
+      : t_(t), v_(v), scale_(scale) {}
+  double At(std::size_t k) {
+    const double value = v_[k];
+    if (!std::isnan(value)) {
+      last_valid_ = k;
+      return value * scale_;
+    }
+    if (next_valid_ <= k) {  // the valid sample after this gap
+      next_valid_ = k + 1;
+      while (next_valid_ < v_.size() && std::isnan(v_[next_valid_])) ++next_valid_;
+    }
+    const std::size_t a = last_valid_, b = next_valid_;
+    if (a == kNone) return v_[b] * scale_;
+    if (b == v_.size()) return v_[a] * scale_;
+    const double f = (t_[k] - t_[a]) / (t_[b] - t_[a]);
+    return (v_[a] + f * (v_[b] - v_[a])) * scale_;
+  }
+
+ private:
+  static constexpr std::size_t kNone = static_cast<std::size_t>(-1);
+  const std::vector<double>& t_;
+  const std::vector<double>& v_;
+  double scale_;
+  std::size_t last_valid_ = kNone, next_valid_ = 0;
+};
+
+// A channel as dead reckoning takes it: filled, then low-passed, causally sample by sample
+// or (zero phase) from an array filtered beforehand.
+class FilteredChannel {
+ public:
+  FilteredChannel(const std::vector<double>& t, const std::vector<double>& v, const telemetry::LowPassDesign& design,
+                  FilterMode mode)
+      : filled_(t, v, 1.0) {
+    if (mode == FilterMode::kZeroPhase) {
+      std::vector<double> filled(t.size());
+      for (std::size_t k = 0; k < t.size(); ++k) filled[k] = filled_.At(k);
+      zero_phase_ = telemetry::FilterZeroPhase(design, filled);
+    } else {
+      FilledChannel first(t, v, 1.0);
+      causal_.emplace(design, first.At(0));
+    }
+  }
+  double At(std::size_t k) { return causal_ ? (*causal_)(filled_.At(k)) : zero_phase_[k]; }
+
+ private:
+  FilledChannel filled_;
+  std::optional<telemetry::CausalLowPass> causal_;
+  std::vector<double> zero_phase_;
+};
+
+}  // namespace
+
 PosfilterResult RunPosfilter(const telemetry::TelemetryLog& log, const telemetry::SensorModel& model,
-                             const PosfilterOptions& options) {
+                             const PosfilterOptions& options, const PoseSink& sink) {
   options.Validate();
   PosfilterResult r;
   r.screened = telemetry::ScreenTelemetry(log, model, options.screening);
-  telemetry::ScreenedLog& s = r.screened;
+  const telemetry::ScreenedLog& s = r.screened;
   const std::vector<double>& t = s.t_s;
-  LN_CHECK_INPUT(t.size() >= 2) << log.source.string() << ": fewer than two usable rows";
+  const std::size_t n = t.size();
+  LN_CHECK_INPUT(n >= 2) << log.source.string() << ": fewer than two usable rows";
   r.sample_rate_hz = 1.0 / MedianInterval(t);
   LN_CHECK_INPUT(options.cutoff_hz < 0.5 * r.sample_rate_hz)
       << log.source.string() << ": the cut-off " << options.cutoff_hz
       << " Hz is not below half the sample rate (" << r.sample_rate_hz << " Hz)";
   r.design = telemetry::DesignLowPass(options.filter, options.filter_order, options.cutoff_hz, r.sample_rate_hz);
-  // Channels are filtered in place.
-  auto lowpass = [&](std::vector<double>* v) {
-    if (options.mode == FilterMode::kCausal) {
-      telemetry::FilterCausalInPlace(r.design, v->data(), v->size());
-    } else {
-      *v = telemetry::FilterZeroPhase(r.design, *v);
-    }
-  };
-  // A channel's screened values with the gaps filled, or empty when it has fewer than two.
-  auto filled = [&](Channel c) -> std::vector<double> {
-    if (!s.Has(c)) return {};
-    std::vector<double> v = s.value[static_cast<int>(c)];
-    if (!FillGaps(t, &v)) return {};
+  // The channels are read row by row below, gaps filled and low-passed on the way: a usable
+  // channel has at least two valid samples.
+  auto usable = [&](Channel c) {
+    if (!s.Has(c) || !HasValid(s.value[static_cast<int>(c)], 2)) return false;
     r.channels_used.push_back(telemetry::ToString(c));
-    return v;
+    return true;
+  };
+  auto filtered = [&](Channel c) {
+    return std::make_unique<FilteredChannel>(t, s.value[static_cast<int>(c)], r.design, options.mode);
   };
 
-  DeadReckoningInputs in;
   // Wheels: cumulative metres.
-  const Channel wheels[4] = {Channel::kEncoderFrontLeft, Channel::kEncoderFrontRight,
-                             Channel::kEncoderRearLeft, Channel::kEncoderRearRight};
+  const Channel wheel_channels[4] = {Channel::kEncoderFrontLeft, Channel::kEncoderFrontRight,
+                                     Channel::kEncoderRearLeft, Channel::kEncoderRearRight};
+  std::array<std::unique_ptr<FilledChannel>, 4> wheels;
+  std::array<bool, 4> have_wheel{};
+  std::array<double, 4> wheel_resolution_m{};
   int wheel_count = 0;
   for (int i = 0; i < 4; ++i) {
-    std::vector<double> counts = filled(wheels[i]);
-    if (counts.empty()) continue;
-    const double mpc = model[wheels[i]].MetresPerCount();
-    for (double& c : counts) c *= mpc;
-    in.wheel_m[i] = std::move(counts);
-    in.wheel_resolution_m[i] = std::abs(mpc);
+    if (!usable(wheel_channels[i])) continue;
+    const double mpc = model[wheel_channels[i]].MetresPerCount();
+    wheels[i] = std::make_unique<FilledChannel>(t, s.value[static_cast<int>(wheel_channels[i])], mpc);
+    have_wheel[i] = true;
+    wheel_resolution_m[i] = std::abs(mpc);
     ++wheel_count;
   }
   LN_CHECK_INPUT(wheel_count > 0) << log.source.string() << ": no usable encoder channel";
 
   // Pitch: the mean of the filtered left and right inclinometers.
-  std::vector<double> pitch_left = filled(Channel::kPitchLeft);
-  std::vector<double> pitch_right = filled(Channel::kPitchRight);
-  if (!pitch_left.empty() && !pitch_right.empty()) {
-    lowpass(&pitch_left);
-    lowpass(&pitch_right);
-    for (std::size_t k = 0; k < t.size(); ++k) pitch_left[k] = 0.5 * (pitch_left[k] + pitch_right[k]);
-    in.pitch_rad = std::move(pitch_left);
-  } else if (!pitch_left.empty() || !pitch_right.empty()) {
-    in.pitch_rad = std::move(pitch_left.empty() ? pitch_right : pitch_left);
-    lowpass(&in.pitch_rad);
+  std::unique_ptr<FilteredChannel> pitch_left, pitch_right, roll, heading_lowpass;
+  if (usable(Channel::kPitchLeft)) pitch_left = filtered(Channel::kPitchLeft);
+  if (usable(Channel::kPitchRight)) pitch_right = filtered(Channel::kPitchRight);
+  if ((pitch_left == nullptr) != (pitch_right == nullptr)) {
     r.notes.push_back("one pitch inclinometer: pitch from the other");
-  } else {
+  } else if (pitch_left == nullptr) {
     r.notes.push_back("no pitch inclinometers: flat ground (z = 0)");
   }
-  pitch_right = {};  // freed now, not at the end
-  std::vector<double> roll = filled(Channel::kRoll);
-  if (!roll.empty()) {
-    lowpass(&roll);
-    in.roll_rad = std::move(roll);
-  }
+  if (usable(Channel::kRoll)) roll = filtered(Channel::kRoll);
 
   // Heading.
   const int compass = static_cast<int>(Channel::kCompass), gyro = static_cast<int>(Channel::kGyroZ);
@@ -165,47 +181,86 @@ PosfilterResult RunPosfilter(const telemetry::TelemetryLog& log, const telemetry
   if (have_compass) r.channels_used.push_back(telemetry::ToString(Channel::kCompass));
   const bool have_gyro = s.Has(Channel::kGyroZ) && HasValid(s.value[gyro], 1);
   if (have_gyro) r.channels_used.push_back("gyro_z");
+  std::optional<telemetry::HeadingKalman> kalman;
+  double constant_heading = 0;
   if (options.heading == HeadingMethod::kLowPass && have_compass) {
-    in.heading_rad = s.value[compass];
-    FillGaps(t, &in.heading_rad);
-    lowpass(&in.heading_rad);
+    heading_lowpass = filtered(Channel::kCompass);
   } else if (have_compass || have_gyro) {
     if (options.heading == HeadingMethod::kLowPass) {
       r.notes.push_back("no compass: heading from the gyro by the Kalman filter");
     }
     if (!have_compass) r.notes.push_back("no compass: heading from the gyro, relative to the start");
-    telemetry::HeadingInputs h;
-    // Stationary: no wheel has moved over the last stationary_min_s.
-    h.stationary.assign(t.size(), 0);
-    std::size_t since = 0;  // first index of the current still stretch
-    for (std::size_t k = 1; k < t.size(); ++k) {
-      bool moved = false;
-      for (const auto& w : in.wheel_m) {
-        if (!w.empty() && std::abs(w[k] - w[k - 1]) > 1e-9) moved = true;
-      }
-      if (moved) since = k;
-      h.stationary[k] = !moved && t[k] - t[since] >= options.stationary_min_s;
-    }
-    // The filter's inputs hold their arrays by value: the screened arrays are lent to it
-    // (moved in and back), not copied.
-    h.t_s = std::move(s.t_s);
-    if (have_compass) h.compass_rad = std::move(s.value[compass]);
-    if (have_gyro) h.gyro_radps = std::move(s.value[gyro]);
-    r.heading = telemetry::FilterHeading(h, options.kalman);
-    s.t_s = std::move(h.t_s);
-    if (have_compass) s.value[compass] = std::move(h.compass_rad);
-    if (have_gyro) s.value[gyro] = std::move(h.gyro_radps);
+    double first_compass = kNaN;
+    for (std::size_t k = 0; have_compass && std::isnan(first_compass); ++k) first_compass = s.value[compass][k];
+    kalman.emplace(options.kalman, first_compass);
     r.kalman_used = true;
   } else {
     r.notes.push_back("no compass and no gyro: constant heading");
-    in.heading_rad.assign(t.size(), options.kalman.initial_heading_deg * M_PI / 180.0);
+    constant_heading = options.kalman.initial_heading_deg * M_PI / 180.0;
   }
-  // Lent likewise: the time stamps, and the Kalman filter's heading.
-  in.t_s = std::move(s.t_s);
-  if (r.kalman_used) in.heading_rad = std::move(r.heading.heading_rad);
-  r.motion = DeadReckon(in, options.dead_reckoning);
-  s.t_s = std::move(in.t_s);
-  if (r.kalman_used) r.heading.heading_rad = std::move(in.heading_rad);
+
+  // Row by row: fill, filter, Kalman heading, dead reckoning, and the pose out.
+  const bool keep = !sink;  // no sink: the result holds the trajectory and the heading streams
+  if (keep) {
+    r.motion.trajectory.resize(n);
+    if (r.kalman_used) {
+      r.heading.heading_rad.resize(n);
+      r.heading.rate_radps.resize(n);
+      r.heading.heading_sigma_rad.resize(n);
+    }
+  }
+  DeadReckoner reckoner(options.dead_reckoning, have_wheel, wheel_resolution_m);
+  std::array<double, 4> wheel_m{}, last_wheel_m{};
+  std::size_t still_since = 0;  // first row of the current stretch with no wheel moving
+  for (std::size_t k = 0; k < n; ++k) {
+    bool moved = false;
+    for (int i = 0; i < 4; ++i) {
+      if (!have_wheel[i]) continue;
+      wheel_m[i] = wheels[i]->At(k);
+      if (k > 0 && std::abs(wheel_m[i] - last_wheel_m[i]) > 1e-9) moved = true;
+    }
+    last_wheel_m = wheel_m;
+    double pitch = 0;
+    if (pitch_left != nullptr && pitch_right != nullptr) {
+      const double left = pitch_left->At(k);
+      pitch = 0.5 * (left + pitch_right->At(k));
+    } else if (pitch_left != nullptr || pitch_right != nullptr) {
+      pitch = (pitch_left != nullptr ? pitch_left : pitch_right)->At(k);
+    }
+    double heading = constant_heading;
+    if (heading_lowpass != nullptr) {
+      heading = heading_lowpass->At(k);
+    } else if (kalman) {
+      // Stationary: no wheel has moved over the last stationary_min_s.
+      if (moved) still_since = k;
+      const bool stationary = k > 0 && !moved && t[k] - t[still_since] >= options.stationary_min_s;
+      const telemetry::HeadingKalman::Output e = kalman->Update(
+          t[k], have_compass ? s.value[compass][k] : kNaN, have_gyro ? s.value[gyro][k] : kNaN, stationary);
+      heading = e.heading_rad;
+      if (keep) {
+        r.heading.heading_rad[k] = e.heading_rad;
+        r.heading.rate_radps[k] = e.rate_radps;
+        r.heading.heading_sigma_rad[k] = e.heading_sigma_rad;
+      }
+    }
+    const TrajectorySample& pose = reckoner.Step(t[k], heading, pitch, roll != nullptr ? roll->At(k) : 0.0, wheel_m);
+    if (keep) {
+      r.motion.trajectory[k] = pose;
+    } else {
+      sink(pose);
+    }
+    if (k + 1 == n) r.motion.last_pose = pose;
+  }
+  r.motion.distance_m = reckoner.distance_m();
+  r.motion.slip_events = reckoner.slip_events();
+  r.motion.steps_without_odometry = reckoner.steps_without_odometry();
+  if (kalman) {
+    r.heading.gyro_bias_radps = kalman->gyro_bias_radps();
+    r.heading.gyro_scale_error = kalman->gyro_scale_error();
+    r.heading.gyro_scale_sigma = kalman->gyro_scale_sigma();
+    r.heading.compass_updates = kalman->compass_updates();
+    r.heading.gyro_updates = kalman->gyro_updates();
+  }
   return r;
 }
 
@@ -260,8 +315,8 @@ nlohmann::json PosfilterResult::SummaryJson() const {
                  {"duration_s", duration},
                  {"slip_events", motion.slip_events},
                  {"steps_without_odometry", motion.steps_without_odometry}};
-  if (!motion.trajectory.empty()) {
-    const TrajectorySample& last = motion.trajectory.back();
+  if (!screened.t_s.empty()) {
+    const TrajectorySample& last = motion.last_pose;
     j["motion"]["final_position_m"] = {last.x_m, last.y_m, last.z_m};
   }
   return j;

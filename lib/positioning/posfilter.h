@@ -3,6 +3,7 @@
 #pragma once
 
 #include <filesystem>
+#include <functional>
 #include <string>
 #include <vector>
 
@@ -54,12 +55,19 @@ struct PosfilterResult {
   nlohmann::json SummaryJson() const;
 };
 
-/// Screens the log, filters the streams and dead-reckons. Channels may be missing (no
-/// compass: heading from the gyro; no inclinometers: flat ground) or sampled at lower rates
-/// (gaps are interpolated in time before filtering); at least one encoder is needed.
+/// Receives the poses one by one as they are computed.
+using PoseSink = std::function<void(const TrajectorySample&)>;
+
+/// Screens the log, then runs row by row: fills the gaps, low-passes, runs the heading filter
+/// and dead-reckons. Without a sink the result holds the trajectory (and the Kalman heading
+/// streams); with one, each pose goes to the sink as it is computed and the result holds only
+/// the last (memory stays that of the screened log, however long the trajectory).
+/// Channels may be missing (no compass: heading from the gyro; no inclinometers: flat ground)
+/// or sampled at lower rates (gaps are interpolated in time before filtering); at least one
+/// encoder is needed.
 /// @throws InputError when the log has fewer than two usable rows or no encoder.
 PosfilterResult RunPosfilter(const telemetry::TelemetryLog& log, const telemetry::SensorModel& model,
-                             const PosfilterOptions& options);
+                             const PosfilterOptions& options, const PoseSink& sink = {});
 
 /// Writes the heading streams, raw and filtered, per kept row (the data of the paper's
 /// Figure 6): t_s, compass_raw_deg, heading_deg, gyro_raw_dps, heading_rate_dps; empty cells

@@ -184,6 +184,16 @@ void FilterCausalInPlace(const LowPassDesign& design, double* x, std::size_t n) 
   }
 }
 
+CausalLowPass::CausalLowPass(const LowPassDesign& design, double first) {
+  LN_CHECK(design.sections.size() <= static_cast<std::size_t>(kMaxSections));
+  for (const Biquad& q : design.sections) {
+    // At the steady state of a constant input `first` (unit DC gain: every stage outputs it).
+    sections_[static_cast<std::size_t>(count_)] = q;
+    state_[static_cast<std::size_t>(count_)] = {first * (q.b1 + q.b2 - q.a1 - q.a2), first * (q.b2 - q.a2)};
+    ++count_;
+  }
+}
+
 std::vector<double> FilterCausal(const LowPassDesign& design, const std::vector<double>& x) {
   std::vector<double> y = x;
   FilterCausalInPlace(design, y.data(), y.size());

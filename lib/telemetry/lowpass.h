@@ -6,6 +6,7 @@
 // Butterworth and Bessel low-pass filters suppressed it "but also introduced a 2-3 cycle delay".
 #pragma once
 
+#include <array>
 #include <complex>
 #include <cstddef>
 #include <string>
@@ -65,6 +66,31 @@ std::vector<double> FilterCausal(const LowPassDesign& design, const std::vector<
 
 /// The same in place: `x` (n samples) is replaced by the filter's output.
 void FilterCausalInPlace(const LowPassDesign& design, double* x, std::size_t n);
+
+/// The causal filter sample by sample (the numbers of FilterCausalInPlace), for pipelines that
+/// stream a log instead of holding it whole.
+class CausalLowPass {
+ public:
+  /// Starts in the steady state of `first`, the first sample.
+  CausalLowPass(const LowPassDesign& design, double first);
+  double operator()(double x) {
+    for (int i = 0; i < count_; ++i) {  // transposed direct form II
+      const Biquad& q = sections_[static_cast<std::size_t>(i)];
+      double* s = state_[static_cast<std::size_t>(i)].data();
+      const double out = q.b0 * x + s[0];
+      s[0] = q.b1 * x - q.a1 * out + s[1];
+      s[1] = q.b2 * x - q.a2 * out;
+      x = out;
+    }
+    return x;
+  }
+
+ private:
+  static constexpr int kMaxSections = 5;  // order 10
+  std::array<Biquad, kMaxSections> sections_;
+  std::array<std::array<double, 2>, kMaxSections> state_{};
+  int count_ = 0;
+};
 
 /// Runs the filter forward and backward (zero phase, magnitude squared), with the ends
 /// extended by odd reflection to avoid start-up transients. The reflection pivots on the end

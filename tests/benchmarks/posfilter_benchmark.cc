@@ -72,9 +72,10 @@ void BM_PosfilterEndToEnd(benchmark::State& state) {
   const std::filesystem::path tum = std::filesystem::temp_directory_path() / "lunarnav_posfilter_bench.tum";
   for (auto _ : state) {
     const telemetry::TelemetryLog log = telemetry::ParseTelemetryCsv(text, "benchmark.csv", Model());
-    const positioning::PosfilterResult r = positioning::RunPosfilter(log, Model(), positioning::PosfilterOptions{});
-    positioning::TrajectoryWriter writer(out, tum);  // both files in one pass, as the tool
-    for (const positioning::TrajectorySample& pose : r.motion.trajectory) writer.Add(pose);
+    positioning::TrajectoryWriter writer(out, tum);  // both files, pose by pose, as the tool
+    const positioning::PosfilterResult r = positioning::RunPosfilter(
+        log, Model(), positioning::PosfilterOptions{},
+        [&writer](const positioning::TrajectorySample& pose) { writer.Add(pose); });
     writer.Commit();
     benchmark::DoNotOptimize(r.motion.distance_m);
   }

@@ -3,7 +3,10 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <cstdlib>
+#include <limits>
 #include <string>
+#include <vector>
 
 namespace lunarnav::positioning {
 namespace {
@@ -56,6 +59,96 @@ TEST(RunPosfilter, OneInclinometerOnEitherSideGivesItsFilteredPitch) {
   const double deg = M_PI / 180.0;
   EXPECT_LT(b[200].pitch_rad - b[199].pitch_rad, 1.0 * deg);
   EXPECT_NEAR(b.back().pitch_rad, 114 * 0.087890625 * deg, 0.001 * deg);
+}
+
+// A wheel's silence is bridged by interpolation in time: an encoder counting 8 per sample
+// with 20 samples missing gives the trajectory of the complete log (and before its first
+// reading, the wheel holds it).
+TEST(RunPosfilter, BridgesAnEncodersGapByInterpolationInTime) {
+  const telemetry::SensorModel model = Model("pitch_left");
+  auto log_with_gap = [&](bool gap) {
+    telemetry::TelemetryLog log = OneInclinometerLog(model, telemetry::Channel::kPitchLeft);
+    std::vector<double>& enc = log.counts[static_cast<int>(telemetry::Channel::kEncoderFrontLeft)];
+    for (std::size_t k = 0; k < enc.size(); ++k) {
+      enc[k] = std::fmod(8.0 * static_cast<double>(k), 1024.0);  // a 10-bit counter
+      if (gap && (k < 5 || (k >= 100 && k < 120))) enc[k] = std::numeric_limits<double>::quiet_NaN();
+    }
+    return log;
+  };
+  const PosfilterResult full = RunPosfilter(log_with_gap(false), model, PosfilterOptions{});
+  const PosfilterResult gappy = RunPosfilter(log_with_gap(true), model, PosfilterOptions{});
+  ASSERT_EQ(gappy.motion.trajectory.size(), full.motion.trajectory.size());
+  const double step_m = 8.0 * model[telemetry::Channel::kEncoderFrontLeft].MetresPerCount();
+  for (std::size_t k = 6; k < full.motion.trajectory.size(); ++k) {
+    EXPECT_NEAR(gappy.motion.trajectory[k].speed_mps, step_m / 0.1, 1e-9) << k;
+    EXPECT_NEAR(gappy.motion.trajectory[k].y_m - gappy.motion.trajectory[5].y_m,
+                full.motion.trajectory[k].y_m - full.motion.trajectory[5].y_m, 1e-9) << k;
+  }
+  // Before the first reading the wheel holds it: no motion up to it.
+  EXPECT_EQ(gappy.motion.trajectory[5].y_m, 0.0);
+}
+
+// The simulated trial A log (testdata) with channels at lower rates and gaps: every other
+// compass sample missing, the gyro silent for 2 s, the left pitch missing for the first and
+// last 3 s, the roll for 5 s in the middle, a wheel for 1 s, and a compass spike.
+telemetry::TelemetryLog GappyLog(const telemetry::SensorModel& model) {
+  const char* testdata = std::getenv("LUNARNAV_TESTDATA");
+  EXPECT_NE(testdata, nullptr) << "LUNARNAV_TESTDATA is not set";
+  telemetry::TelemetryLog log =
+      telemetry::ReadTelemetryCsv(std::string(testdata) + "/telemetry/trial-a/telemetry.csv", model);
+  const double nan = std::numeric_limits<double>::quiet_NaN();
+  auto column = [&](telemetry::Channel c) -> std::vector<double>& { return log.counts[static_cast<int>(c)]; };
+  const std::size_t n = log.size();
+  for (std::size_t k = 0; k < n; ++k) {
+    const double t = log.t_s[k] - log.t_s.front(), left = log.t_s.back() - log.t_s[k];
+    if (k % 2 == 1) column(telemetry::Channel::kCompass)[k] = nan;
+    if (t >= 20 && t < 22) column(telemetry::Channel::kGyroZ)[k] = nan;
+    if (t < 3 || left < 3) column(telemetry::Channel::kPitchLeft)[k] = nan;
+    if (t >= 40 && t < 45) column(telemetry::Channel::kRoll)[k] = nan;
+    if (t >= 50 && t < 51) column(telemetry::Channel::kEncoderRearRight)[k] = nan;
+  }
+  column(telemetry::Channel::kCompass)[n / 2] += 60;
+  return log;
+}
+
+// With a sink the poses are computed row by row and handed over without the trajectory being
+// kept: they are the very poses of the kept trajectory, in every filter mode and heading
+// method, on a log with gaps of every kind.
+TEST(RunPosfilter, PosesToASinkAreTheKeptTrajectory) {
+  const char* testdata = std::getenv("LUNARNAV_TESTDATA");
+  ASSERT_NE(testdata, nullptr);
+  const telemetry::SensorModel model =
+      telemetry::ReadSensorModel(std::string(testdata) + "/telemetry/trial-a/sensors.json");
+  const telemetry::TelemetryLog log = GappyLog(model);
+  for (const FilterMode mode : {FilterMode::kCausal, FilterMode::kZeroPhase}) {
+    for (const HeadingMethod heading : {HeadingMethod::kKalman, HeadingMethod::kLowPass}) {
+      PosfilterOptions options;
+      options.mode = mode;
+      options.heading = heading;
+      const PosfilterResult kept = RunPosfilter(log, model, options);
+      std::vector<TrajectorySample> streamed;
+      const PosfilterResult sunk =
+          RunPosfilter(log, model, options, [&](const TrajectorySample& pose) { streamed.push_back(pose); });
+      const std::string what = ToString(mode) + ", " + ToString(heading);
+      ASSERT_EQ(kept.motion.trajectory.size(), log.size()) << what;
+      EXPECT_TRUE(sunk.motion.trajectory.empty()) << what;
+      ASSERT_EQ(streamed.size(), kept.motion.trajectory.size()) << what;
+      for (std::size_t k = 0; k < streamed.size(); ++k) {
+        const TrajectorySample& a = kept.motion.trajectory[k];
+        const TrajectorySample& b = streamed[k];
+        ASSERT_TRUE(a.t_s == b.t_s && a.x_m == b.x_m && a.y_m == b.y_m && a.z_m == b.z_m &&
+                    a.heading_rad == b.heading_rad && a.pitch_rad == b.pitch_rad && a.roll_rad == b.roll_rad &&
+                    a.speed_mps == b.speed_mps)
+            << what << ", row " << k;
+      }
+      EXPECT_EQ(sunk.motion.last_pose.x_m, kept.motion.trajectory.back().x_m) << what;
+      EXPECT_EQ(sunk.motion.distance_m, kept.motion.distance_m) << what;
+      EXPECT_GT(kept.motion.distance_m, 10.0) << what;
+      EXPECT_EQ(sunk.SummaryJson().dump(), kept.SummaryJson().dump()) << what;
+      // The gaps were filled, not dropped: every row has a finite pose.
+      for (const TrajectorySample& p : streamed) ASSERT_TRUE(std::isfinite(p.x_m + p.pitch_rad + p.roll_rad));
+    }
+  }
 }
 
 }  // namespace

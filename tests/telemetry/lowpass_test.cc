@@ -63,6 +63,23 @@ TEST(FilterCausal, StartsInTheSteadyStateOfTheFirstSample) {
   for (double v : y) EXPECT_NEAR(v, 137.0, 1e-9);
 }
 
+// Sample by sample, the filter gives the numbers of the whole-array filter, every type and
+// order (a cascade of up to four sections).
+TEST(CausalLowPass, GivesTheNumbersOfFilterCausal) {
+  std::vector<double> x(300);
+  for (std::size_t k = 0; k < x.size(); ++k) x[k] = std::sin(0.05 * k) + 0.3 * std::cos(1.7 * k * k) + 5.0;
+  for (LowPassType type : {LowPassType::kButterworth, LowPassType::kBessel}) {
+    for (int order = 1; order <= 8; ++order) {
+      const LowPassDesign d = DesignLowPass(type, order, 0.25, 10.0);
+      const std::vector<double> expected = FilterCausal(d, x);
+      CausalLowPass filter(d, x[0]);
+      for (std::size_t k = 0; k < x.size(); ++k) {
+        ASSERT_EQ(filter(x[k]), expected[k]) << ToString(type) << " order " << order << ", sample " << k;
+      }
+    }
+  }
+}
+
 TEST(FilterZeroPhase, HasNoLagAndRemovesNoise) {
   const LowPassDesign d = DesignLowPass(LowPassType::kButterworth, 3, 0.25, 10.0);
   std::vector<double> x(1000), truth(1000);
