@@ -64,16 +64,33 @@ char* PutFixed(char* out, double v) {
   } else if (fraction <= -0.5) {
     --scaled;
   }
-  const unsigned long long magnitude = static_cast<unsigned long long>(scaled < 0 ? -scaled : scaled);
+  unsigned long long m = static_cast<unsigned long long>(scaled < 0 ? -scaled : scaled);
   if (scaled < 0) *out++ = '-';
-  out = std::to_chars(out, out + 24, magnitude / kScale).ptr;
-  *out++ = '.';
-  unsigned long long digits = magnitude % kScale;
-  for (int i = kDecimals - 2; i >= 0; i -= 2) {
-    std::memcpy(out + i, kDigitPairs + 2 * (digits % 100), 2);
-    digits /= 100;
+  // Digits from the last, two at a time, into a scratch buffer: the decimals, the point, then
+  // the integer part (at least one digit, no leading zeros).
+  char digits[32];
+  char* const stop = digits + sizeof(digits);
+  char* d = stop;
+  for (int i = 0; i < kDecimals / 2; ++i) {
+    d -= 2;
+    std::memcpy(d, kDigitPairs + 2 * (m % 100), 2);
+    m /= 100;
   }
-  return out + kDecimals;
+  *--d = '.';
+  while (m >= 100) {
+    d -= 2;
+    std::memcpy(d, kDigitPairs + 2 * (m % 100), 2);
+    m /= 100;
+  }
+  if (m >= 10) {
+    d -= 2;
+    std::memcpy(d, kDigitPairs + 2 * m, 2);
+  } else {
+    *--d = static_cast<char>('0' + m);
+  }
+  const std::size_t size = static_cast<std::size_t>(stop - d);
+  std::memcpy(out, d, size);
+  return out + size;
 }
 
 // Heading in degrees, [0, 360).

@@ -3,9 +3,12 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <cstdio>
 #include <fstream>
 #include <limits>
+#include <random>
 #include <sstream>
+#include <string>
 
 #include <Eigen/Geometry>
 
@@ -86,6 +89,42 @@ TEST(TrajectoryWriter, WritesBothFilesInOnePassWithTheDocumentedText) {
             "0.1 0.0001 0.0000 -1.2346 0.13384966 -0.03752261 0.73956539 0.65857372\n"
             "1234567.891 123456.7892 -2000000000.0000 9e+09 0.50000000 -0.50000000 -0.50000000 -0.50000000\n"
             "1e-07 0.0000 0.0000 0.0000 0.00000000 0.00000000 -0.17606820 -0.98437797\n");
+}
+
+// Brute force against printf: positions of every magnitude up to 1e8 m, either sign, come out
+// as "%.4f" prints them (values within a hair of a rounding tie, where the writer rounds half
+// away from zero and printf rounds the binary value, are left out).
+TEST(TrajectoryWriter, WritesFourDecimalsAsPrintfDoes) {
+  util::ScopedTempDir tmp;
+  std::mt19937_64 rng(5);
+  std::uniform_real_distribution<double> exponent(-6, 8), unit(0, 1);
+  std::vector<double> values;
+  for (int i = 0; i < 20000; ++i) {
+    const double v = (unit(rng) < 0.5 ? -1 : 1) * std::pow(10.0, exponent(rng));
+    const double scaled = std::abs(v) * 1e4;
+    if (std::abs(scaled - std::floor(scaled) - 0.5) < 1e-6 * std::max(1.0, scaled * 1e-9)) continue;
+    values.push_back(v);
+  }
+  {
+    TrajectoryWriter writer(tmp.path() / "t.csv", {});
+    for (double v : values) writer.Add({1.0, v, 0, 0, 0, 0, 0, 0});
+    writer.Commit();
+  }
+  std::ifstream in(tmp.path() / "t.csv");
+  std::string line;
+  std::size_t i = 0;
+  char expected[64];
+  while (std::getline(in, line)) {
+    if (line.empty() || line[0] == '#' || line[0] == 't') continue;
+    ASSERT_LT(i, values.size());
+    const std::size_t a = line.find(',') + 1, b = line.find(',', a);
+    std::snprintf(expected, sizeof(expected), "%.4f", values[i]);
+    std::string want = expected;
+    if (want == "-0.0000") want = "0.0000";  // the writer never writes a negative zero
+    ASSERT_EQ(line.substr(a, b - a), want) << "value " << values[i];
+    ++i;
+  }
+  EXPECT_EQ(i, values.size());
 }
 
 TEST(TrajectoryWriter, LeavesNothingBehindWithoutCommit) {
