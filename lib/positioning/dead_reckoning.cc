@@ -11,6 +11,11 @@ namespace {
 
 // The median of the first `count` values (reorders them).
 double Median(std::array<double, 4>& v, int count) {
+  if (count == 4) {  // the usual case, by a sorting network: the two middle values
+    const double lo01 = std::min(v[0], v[1]), hi01 = std::max(v[0], v[1]);
+    const double lo23 = std::min(v[2], v[3]), hi23 = std::max(v[2], v[3]);
+    return 0.5 * (std::max(lo01, lo23) + std::min(hi01, hi23));
+  }
   std::sort(v.begin(), v.begin() + count);
   return count % 2 == 1 ? v[count / 2] : 0.5 * (v[count / 2 - 1] + v[count / 2]);
 }

@@ -68,7 +68,7 @@ char* PutFixed(char* out, double v) {
   if (scaled < 0) *out++ = '-';
   // Digits from the last, two at a time, into a scratch buffer: the decimals, the point, then
   // the integer part (at least one digit, no leading zeros).
-  char digits[32];
+  char digits[64];  // the text ends at the end; 32 bytes from its start lie in the buffer
   char* const stop = digits + sizeof(digits);
   char* d = stop;
   for (int i = 0; i < kDecimals / 2; ++i) {
@@ -88,9 +88,8 @@ char* PutFixed(char* out, double v) {
   } else {
     *--d = static_cast<char>('0' + m);
   }
-  const std::size_t size = static_cast<std::size_t>(stop - d);
-  std::memcpy(out, d, size);
-  return out + size;
+  std::memcpy(out, d, 32);  // a fixed size: a few moves, not a call (out has room for 32)
+  return out + (stop - d);
 }
 
 // Heading in degrees, [0, 360).
