@@ -47,6 +47,36 @@ char* PutShortest(char* out, double v) {
 
 constexpr long long Pow10(int n) { return n == 0 ? 1 : 10 * Pow10(n - 1); }
 
+// Four digits, leading zeros included, of v < 10000.
+inline void Put4Digits(char* out, unsigned v) {
+  std::memcpy(out, kDigitPairs + 2 * (v / 100), 2);
+  std::memcpy(out + 2, kDigitPairs + 2 * (v % 100), 2);
+}
+
+// The decimal digits of v (no leading zeros); short numbers, the usual ones, without a loop.
+inline char* PutUnsigned(char* out, unsigned long long v) {
+  if (v < 10) {
+    *out = static_cast<char>('0' + v);
+    return out + 1;
+  }
+  if (v < 100) {
+    std::memcpy(out, kDigitPairs + 2 * v, 2);
+    return out + 2;
+  }
+  if (v < 10000) {
+    const unsigned hi = static_cast<unsigned>(v / 100), lo = static_cast<unsigned>(v % 100);
+    if (hi < 10) {
+      *out++ = static_cast<char>('0' + hi);
+    } else {
+      std::memcpy(out, kDigitPairs + 2 * hi, 2);
+      out += 2;
+    }
+    std::memcpy(out, kDigitPairs + 2 * lo, 2);
+    return out + 2;
+  }
+  return std::to_chars(out, out + 24, v).ptr;
+}
+
 // kDecimals (even, 2..8) digits after the point, rounded half away from zero; values of
 // 9e9 and beyond (and NaN) as PutShortest. Fixed-point goes through a rounded integer
 // (std::to_chars with a precision is several times slower).
@@ -64,32 +94,25 @@ char* PutFixed(char* out, double v) {
   } else if (fraction <= -0.5) {
     --scaled;
   }
-  unsigned long long m = static_cast<unsigned long long>(scaled < 0 ? -scaled : scaled);
   if (scaled < 0) *out++ = '-';
-  // Digits from the last, two at a time, into a scratch buffer: the decimals, the point, then
-  // the integer part (at least one digit, no leading zeros).
-  char digits[64];  // the text ends at the end; 32 bytes from its start lie in the buffer
-  char* const stop = digits + sizeof(digits);
-  char* d = stop;
-  for (int i = 0; i < kDecimals / 2; ++i) {
-    d -= 2;
-    std::memcpy(d, kDigitPairs + 2 * (m % 100), 2);
-    m /= 100;
-  }
-  *--d = '.';
-  while (m >= 100) {
-    d -= 2;
-    std::memcpy(d, kDigitPairs + 2 * (m % 100), 2);
-    m /= 100;
-  }
-  if (m >= 10) {
-    d -= 2;
-    std::memcpy(d, kDigitPairs + 2 * m, 2);
+  const unsigned long long m = static_cast<unsigned long long>(scaled < 0 ? -scaled : scaled);
+  // The integer part and the decimals separately, the decimals four digits at a time: short,
+  // independent chains of divisions by constants (multiplications).
+  out = PutUnsigned(out, m / kScale);
+  *out++ = '.';
+  const unsigned long long decimals = m % kScale;
+  if constexpr (kDecimals == 8) {
+    Put4Digits(out, static_cast<unsigned>(decimals / 10000));
+    Put4Digits(out + 4, static_cast<unsigned>(decimals % 10000));
+  } else if constexpr (kDecimals == 6) {
+    std::memcpy(out, kDigitPairs + 2 * (decimals / 10000), 2);
+    Put4Digits(out + 2, static_cast<unsigned>(decimals % 10000));
+  } else if constexpr (kDecimals == 4) {
+    Put4Digits(out, static_cast<unsigned>(decimals));
   } else {
-    *--d = static_cast<char>('0' + m);
+    std::memcpy(out, kDigitPairs + 2 * decimals, 2);
   }
-  std::memcpy(out, d, 32);  // a fixed size: a few moves, not a call (out has room for 32)
-  return out + (stop - d);
+  return out + kDecimals;
 }
 
 // Heading in degrees, [0, 360).
