@@ -275,7 +275,7 @@ void WriteHeadingStreamsCsv(const std::filesystem::path& path, const telemetry::
                      "t_s,compass_raw_deg,heading_deg,gyro_raw_dps,heading_rate_dps\n";
   char buf[160];
   for (std::size_t k = 0; k < s.t_s.size(); ++k) {
-    const std::size_t row = s.row[k];
+    const std::size_t row = s.Row(k);
     std::string c, g, r;
     if (compass != nullptr && !std::isnan((*compass)[row])) {
       std::snprintf(buf, sizeof(buf), "%.4f", angle(model[Channel::kCompass].ToRadians((*compass)[row]) * deg));

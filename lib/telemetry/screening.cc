@@ -54,27 +54,30 @@ class Screener {
 
  private:
   void Record(std::size_t k, int channel, ScreeningRule rule, double raw) {
-    out_.events.push_back({out_.line[k], out_.t_s[k], channel, rule, raw});
+    out_.events.push_back({log_.line[out_.Row(k)], out_.t_s[k], channel, rule, raw});
     ++out_.counts[static_cast<int>(rule)][channel < 0 ? kRowSlot : channel];
   }
 
   void ScreenRows() {
-    out_.row.reserve(log_.size());
     out_.t_s.reserve(log_.size());
-    out_.line.reserve(log_.size());
     double last_t = -std::numeric_limits<double>::infinity();
+    bool dropped = false;  // the row list is kept from the first dropped row on
     for (std::size_t i = 0; i < log_.size(); ++i) {
       const double t = log_.t_s[i];
-      if (!out_.row.empty() && (t == last_t || t < last_t)) {
+      if (!out_.t_s.empty() && (t == last_t || t < last_t)) {
         const ScreeningRule rule =
             t == last_t ? ScreeningRule::kRepeatedTimestamp : ScreeningRule::kOutOfOrderTimestamp;
         out_.events.push_back({log_.line[i], t, -1, rule, t});
         ++out_.counts[static_cast<int>(rule)][kRowSlot];
+        if (!dropped) {
+          dropped = true;
+          out_.row.reserve(log_.size());
+          for (std::size_t k = 0; k < i; ++k) out_.row.push_back(k);
+        }
         continue;
       }
-      out_.row.push_back(i);
+      if (dropped) out_.row.push_back(i);
       out_.t_s.push_back(t);
-      out_.line.push_back(log_.line[i]);
       last_t = t;
     }
     const std::vector<double>& t = out_.t_s;
@@ -88,9 +91,9 @@ class Screener {
   void ScreenChannel(Channel c) {
     const int ch = static_cast<int>(c);
     const ChannelModel& m = model_[c];
-    const std::size_t n = out_.row.size();
+    const std::size_t n = out_.t_s.size();
     // The raw counts of the kept rows: the log's own array when no row was dropped.
-    if (n != log_.size()) {
+    if (!out_.row.empty()) {
       raw_copy_[ch].resize(n);
       for (std::size_t k = 0; k < n; ++k) raw_copy_[ch][k] = log_.counts[ch][out_.row[k]];
       raw_[ch] = &raw_copy_[ch];
@@ -102,18 +105,28 @@ class Screener {
     v.assign(n, kNaN);
 
     // Dropouts: silences much longer than the channel's own sampling interval.
+    // The present samples: all of them (dense: no index list), or listed.
+    const std::size_t missing =
+        static_cast<std::size_t>(std::count_if(raw.begin(), raw.end(), [](double x) { return std::isnan(x); }));
+    const bool dense = missing == 0;
     std::vector<std::size_t>& present = present_;
     present.clear();
-    present.reserve(n);
-    for (std::size_t k = 0; k < n; ++k) {
-      if (!std::isnan(raw[k])) present.push_back(k);
+    if (!dense) {
+      present.reserve(n - missing);
+      for (std::size_t k = 0; k < n; ++k) {
+        if (!std::isnan(raw[k])) present.push_back(k);
+      }
     }
-    if (present.size() >= 3) {
+    const std::size_t present_count = n - missing;
+    auto present_at = [&](std::size_t p) { return dense ? p : present[p]; };
+    if (present_count >= 3) {
       const std::vector<double>& t = out_.t_s;
-      auto gap = [&](std::size_t p) { return t[present[p]] - t[present[p - 1]]; };  // p >= 1
-      const double typical = SubsampledMedian(present.size() - 1, [&](std::size_t i) { return gap(i + 1); });
-      for (std::size_t p = 1; p < present.size(); ++p) {
-        if (gap(p) > o_.gap_factor * typical) Record(present[p], ch, ScreeningRule::kDropout, raw[present[p]]);
+      auto gap = [&](std::size_t p) { return t[present_at(p)] - t[present_at(p - 1)]; };  // p >= 1
+      const double typical = SubsampledMedian(present_count - 1, [&](std::size_t i) { return gap(i + 1); });
+      for (std::size_t p = 1; p < present_count; ++p) {
+        if (gap(p) > o_.gap_factor * typical) {
+          Record(present_at(p), ch, ScreeningRule::kDropout, raw[present_at(p)]);
+        }
       }
     }
 
@@ -140,7 +153,8 @@ class Screener {
     bool have_last = false;
     double last_raw = 0, last_value = 0, last_t = 0;
     int rejected_run = 0;
-    for (std::size_t k : present) {
+    for (std::size_t p = 0; p < present_count; ++p) {
+      const std::size_t k = present_at(p);
       const double r = raw[k];
       if (r < m.valid_min || r > m.valid_max) {
         Record(k, ch, ScreeningRule::kOutOfRange, r);

@@ -62,8 +62,8 @@ struct ScreeningEvent {
 /// The screened log.
 struct ScreenedLog {
   std::vector<double> t_s;      ///< Kept rows, strictly increasing.
-  std::vector<long> line;       ///< Their lines in the file.
-  std::vector<std::size_t> row; ///< Their indices in the TelemetryLog.
+  /// Their indices in the TelemetryLog; empty when every row was kept (row k is then k).
+  std::vector<std::size_t> row;
   /// Per channel and kept row: encoders: unwrapped cumulative counts; analog channels:
   /// radians (rad/s for the gyro), the compass unwrapped (continuous across +-180 deg).
   /// NaN where the sample is missing or was rejected. Empty for absent channels.
@@ -72,6 +72,7 @@ struct ScreenedLog {
   std::vector<ScreeningEvent> events;
 
   bool Has(Channel c) const { return !value[static_cast<int>(c)].empty(); }
+  std::size_t Row(std::size_t k) const { return row.empty() ? k : row[k]; }  ///< Kept row k's index in the log.
   long Count(ScreeningRule rule) const;  ///< Over all channels and rows.
   nlohmann::json ReportJson() const;     ///< Counts per rule and channel.
 };
