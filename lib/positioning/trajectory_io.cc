@@ -89,11 +89,8 @@ char* PutFixed(char* out, double v) {
   const double x = v * static_cast<double>(kScale);
   long long scaled = static_cast<long long>(x);
   const double fraction = x - static_cast<double>(scaled);
-  if (fraction >= 0.5) {
-    ++scaled;
-  } else if (fraction <= -0.5) {
-    --scaled;
-  }
+  // Branch-free: which way a value rounds is as good as random, a branch on it mispredicted.
+  scaled += static_cast<long long>(fraction >= 0.5) - static_cast<long long>(fraction <= -0.5);
   if (scaled < 0) *out++ = '-';
   const unsigned long long m = static_cast<unsigned long long>(scaled < 0 ? -scaled : scaled);
   // The integer part and the decimals separately, the decimals four digits at a time: short,

@@ -86,7 +86,8 @@ void BM_PosfilterEndToEnd(benchmark::State& state) {
 }
 BENCHMARK(BM_PosfilterEndToEnd)->Unit(benchmark::kMillisecond)->UseRealTime()->Iterations(3);
 
-// The parts, for where the time goes.
+// The parts, for where the time goes: parsing, screening (which filtering includes), and
+// writing.
 void BM_ParseOnly(benchmark::State& state) {
   for (auto _ : state) benchmark::DoNotOptimize(telemetry::ParseTelemetryCsv(Log(), "benchmark.csv", Model()).size());
   state.counters["rows_per_s"] =
@@ -103,6 +104,39 @@ void BM_ScreenOnly(benchmark::State& state) {
       benchmark::Counter(2e6 * static_cast<double>(state.iterations()), benchmark::Counter::kIsRate);
 }
 BENCHMARK(BM_ScreenOnly)->Unit(benchmark::kMillisecond)->UseRealTime()->Iterations(3);
+
+// Filtering and dead reckoning alone: RunPosfilter on the parsed log, the poses dropped.
+void BM_FilterAndDeadReckonOnly(benchmark::State& state) {
+  const telemetry::TelemetryLog log = telemetry::ParseTelemetryCsv(Log(), "benchmark.csv", Model());
+  for (auto _ : state) {
+    double sum = 0;
+    const positioning::PosfilterResult r = positioning::RunPosfilter(
+        log, Model(), positioning::PosfilterOptions{},
+        [&sum](const positioning::TrajectorySample& pose) { sum += pose.x_m; });
+    benchmark::DoNotOptimize(sum + r.motion.distance_m);
+  }
+  state.counters["rows_per_s"] =
+      benchmark::Counter(2e6 * static_cast<double>(state.iterations()), benchmark::Counter::kIsRate);
+}
+BENCHMARK(BM_FilterAndDeadReckonOnly)->Unit(benchmark::kMillisecond)->UseRealTime()->Iterations(3);
+
+// Writing the two trajectory files alone (formatting and the file system's work).
+void BM_WriteOnly(benchmark::State& state) {
+  const telemetry::TelemetryLog log = telemetry::ParseTelemetryCsv(Log(), "benchmark.csv", Model());
+  const positioning::PosfilterResult r = positioning::RunPosfilter(log, Model(), positioning::PosfilterOptions{});
+  const std::filesystem::path out = std::filesystem::temp_directory_path() / "lunarnav_posfilter_bench.csv";
+  const std::filesystem::path tum = std::filesystem::temp_directory_path() / "lunarnav_posfilter_bench.tum";
+  for (auto _ : state) {
+    positioning::TrajectoryWriter writer(out, tum);
+    for (const positioning::TrajectorySample& pose : r.motion.trajectory) writer.Add(pose);
+    writer.Commit();
+  }
+  std::filesystem::remove(out);
+  std::filesystem::remove(tum);
+  state.counters["rows_per_s"] =
+      benchmark::Counter(2e6 * static_cast<double>(state.iterations()), benchmark::Counter::kIsRate);
+}
+BENCHMARK(BM_WriteOnly)->Unit(benchmark::kMillisecond)->UseRealTime()->Iterations(3);
 
 }  // namespace
 
