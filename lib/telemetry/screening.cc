@@ -84,7 +84,10 @@ class Screener {
     if (t.size() < 2) return;
     const double typical = SubsampledMedian(t.size() - 1, [&](std::size_t k) { return t[k + 1] - t[k]; });
     for (std::size_t k = 1; k < t.size(); ++k) {
-      if (t[k] - t[k - 1] > o_.gap_factor * typical) Record(k, -1, ScreeningRule::kGap, t[k]);
+      if (t[k] - t[k - 1] > o_.gap_factor * typical) {
+        Record(k, -1, ScreeningRule::kGap, t[k]);
+        gap_rows_.push_back(k);
+      }
     }
   }
 
@@ -119,7 +122,11 @@ class Screener {
     }
     const std::size_t present_count = n - missing;
     auto present_at = [&](std::size_t p) { return dense ? p : present[p]; };
-    if (present_count >= 3) {
+    if (present_count >= 3 && dense) {
+      // Every row present: the channel's intervals are the rows', its typical interval the
+      // rows' (the same median of the same values), its dropouts the rows' gaps.
+      for (std::size_t k : gap_rows_) Record(k, ch, ScreeningRule::kDropout, raw[k]);
+    } else if (present_count >= 3) {
       const std::vector<double>& t = out_.t_s;
       auto gap = [&](std::size_t p) { return t[present_at(p)] - t[present_at(p - 1)]; };  // p >= 1
       const double typical = SubsampledMedian(present_count - 1, [&](std::size_t i) { return gap(i + 1); });
@@ -364,6 +371,7 @@ class Screener {
   std::array<std::vector<double>, kNumChannels> raw_copy_;      // when rows were dropped
   // Work space, reused from channel to channel.
   std::vector<std::size_t> present_, accepted_row_;
+  std::vector<std::size_t> gap_rows_;  // kept rows that follow a gap
   std::vector<double> accepted_value_, accepted_t_, accepted_slope_;
   std::vector<double> hampel_farthest_;
   ScreenedLog out_;

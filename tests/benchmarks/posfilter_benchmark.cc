@@ -89,7 +89,8 @@ BENCHMARK(BM_PosfilterEndToEnd)->Unit(benchmark::kMillisecond)->UseRealTime()->I
 // The parts, for where the time goes: parsing, screening (which filtering includes), and
 // writing.
 void BM_ParseOnly(benchmark::State& state) {
-  for (auto _ : state) benchmark::DoNotOptimize(telemetry::ParseTelemetryCsv(Log(), "benchmark.csv", Model()).size());
+  const std::string& text = Log();  // made before the clock runs
+  for (auto _ : state) benchmark::DoNotOptimize(telemetry::ParseTelemetryCsv(text, "benchmark.csv", Model()).size());
   state.counters["rows_per_s"] =
       benchmark::Counter(2e6 * static_cast<double>(state.iterations()), benchmark::Counter::kIsRate);
 }
