@@ -242,49 +242,61 @@ class Screener {
                                    return std::abs(value[q + 2] - 2.0 * value[q + 1] + value[q]);
                                  }) /
                                  std::sqrt(6.0);
-    // Slopes between consecutive accepted samples, once: slope[q] joins q-1 and q.
-    std::vector<double>& slope = accepted_slope_;
-    slope.resize(count);
-    for (std::size_t q = 1; q < count; ++q) slope[q] = (value[q] - value[q - 1]) / (time[q] - time[q - 1]);
+    // The slope joining accepted samples q - 1 and q.
+    auto slope_at = [&](std::size_t q) { return (value[q] - value[q - 1]) / (time[q] - time[q - 1]); };
     const double smallest_threshold = std::max(o_.hampel_threshold * channel_sigma, min_dev);
-    // Exact shortcut: with an odd window the residuals' median is one of them, so when all
-    // lie within the smallest possible threshold of a sample it is no spike. Interior windows
-    // (lo = p - h) with the usual half window take it in a branch-free pass the compiler
-    // vectorises; the distances are computed as below, so the decision is the same.
-    std::vector<double>& farthest_of = hampel_farthest_;  // the largest distance, or +inf when not computed
-    farthest_of.assign(count, std::numeric_limits<double>::infinity());
-    if (h == 3) {
-      for (std::size_t p = 3; p + 3 < count; ++p) {
-        double s[6];
-        for (int i = 0; i < 6; ++i) s[i] = slope[p - 2 + static_cast<std::size_t>(i)];
-        const double trend = util::MedianOf6(s);
-        const double mine = value[p];
-        double farthest = 0;
-        for (int i = 0; i < 7; ++i) {
-          const std::size_t q = p - 3 + static_cast<std::size_t>(i);
-          farthest = std::max(farthest, std::abs(mine - (value[q] - trend * (time[q] - time[p]))));
-        }
-        farthest_of[p] = farthest;
-      }
-    }
     std::vector<double> residual(window), scratch(window);
     std::vector<std::size_t> spikes;
-    for (std::size_t p = 0; p < count; ++p) {
-      if (farthest_of[p] <= smallest_threshold) continue;
+    // The full test of sample p: trend, residuals, their median and MAD.
+    auto test = [&](std::size_t p) {
       const std::size_t lo = std::min(p >= h ? p - h : 0, count - window);
-      std::copy_n(slope.begin() + static_cast<std::ptrdiff_t>(lo) + 1, window - 1, scratch.begin());
+      for (std::size_t i = 0; i + 1 < window; ++i) scratch[i] = slope_at(lo + 1 + i);
       const double trend = util::SmallMedian(scratch.data(), window - 1);
       const double mine = value[p];
       for (std::size_t i = 0; i < window; ++i) residual[i] = value[lo + i] - trend * (time[lo + i] - time[p]);
-      double farthest = 0;  // the shortcut, for the windows the pass above left out
+      // Exact shortcut: with an odd window the residuals' median is one of them, so when all
+      // lie within the smallest possible threshold of this sample it is no spike.
+      double farthest = 0;
       for (std::size_t i = 0; i < window; ++i) farthest = std::max(farthest, std::abs(mine - residual[i]));
-      if (farthest <= smallest_threshold) continue;
+      if (farthest <= smallest_threshold) return;
       scratch = residual;
       const double med = util::SmallMedian(scratch.data(), window);
       for (std::size_t i = 0; i < window; ++i) scratch[i] = std::abs(residual[i] - med);
       const double sigma = std::max(1.4826 * util::SmallMedian(scratch.data(), window), channel_sigma);
       const double d = std::abs(mine - med);
       if (d > o_.hampel_threshold * sigma && d > min_dev) spikes.push_back(dense ? p : accepted_row_[p]);
+    };
+    if (h != 3) {
+      for (std::size_t p = 0; p < count; ++p) test(p);
+    } else {
+      // The usual half window: interior windows (lo = p - 3) take the shortcut first, in
+      // chunks that stay in the cache, by a branch-free loop the compiler vectorises; the
+      // distances are those of the full test, so the decision is the same. The few samples
+      // left get the full test.
+      constexpr std::size_t kChunk = 2048;
+      std::array<double, kChunk + 6> slope;   // slope[i] joins b - 3 + i and b - 2 + i
+      std::array<double, kChunk> farthest_of;  // of samples b, b + 1, ...
+      for (std::size_t p = 0; p < std::min<std::size_t>(3, count); ++p) test(p);
+      for (std::size_t b = 3; b + 3 < count; b += kChunk) {
+        const std::size_t e = std::min(b + kChunk, count - 3);  // samples [b, e)
+        for (std::size_t q = b - 2; q < e + 4; ++q) slope[q - (b - 2)] = slope_at(q);
+        for (std::size_t p = b; p < e; ++p) {
+          double sl[6];
+          for (std::size_t i = 0; i < 6; ++i) sl[i] = slope[p - b + i];
+          const double trend = util::MedianOf6(sl);
+          const double mine = value[p];
+          double farthest = 0;
+          for (std::size_t i = 0; i < 7; ++i) {
+            const std::size_t q = p - 3 + i;
+            farthest = std::max(farthest, std::abs(mine - (value[q] - trend * (time[q] - time[p]))));
+          }
+          farthest_of[p - b] = farthest;
+        }
+        for (std::size_t p = b; p < e; ++p) {
+          if (farthest_of[p - b] > smallest_threshold) test(p);
+        }
+      }
+      for (std::size_t p = std::max<std::size_t>(3, count - 3); p < count; ++p) test(p);
     }
     for (std::size_t k : spikes) {
       Record(k, ch, ScreeningRule::kSpike, (*raw_[ch])[k]);
@@ -372,8 +384,7 @@ class Screener {
   // Work space, reused from channel to channel.
   std::vector<std::size_t> present_, accepted_row_;
   std::vector<std::size_t> gap_rows_;  // kept rows that follow a gap
-  std::vector<double> accepted_value_, accepted_t_, accepted_slope_;
-  std::vector<double> hampel_farthest_;
+  std::vector<double> accepted_value_, accepted_t_;
   ScreenedLog out_;
 };
 
