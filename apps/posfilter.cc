@@ -11,6 +11,7 @@
 #include "util/errors.h"
 #include "util/log.h"
 #include "util/progress.h"
+#include "util/resources.h"
 #include "util/run_main.h"
 #include "util/timer.h"
 #include "util/summary.h"
@@ -80,6 +81,7 @@ int main(int argc, char** argv) {
     summary["options"] = opt.ToJson();
     summary["rows_read"] = log.size();
     summary["seconds"] = timer.ElapsedSeconds();
+    summary["peak_memory_mib"] = util::PeakResidentMemoryMiB();
     io::WriteJsonAtomic(output_dir / "summary.json", summary);
     progress.Increment();
     LN_LOG(Info) << "posfilter: " << log.size() << " rows, " << result.screened.events.size()
