@@ -4,6 +4,7 @@
 #include <cmath>
 #include <limits>
 #include <sstream>
+#include <type_traits>
 
 #include "io/atomic_file.h"
 #include "util/check.h"
@@ -157,48 +158,69 @@ class Screener {
     // Counts to radians is linear: precomputed, not called per sample.
     const double radians_at_zero = encoder ? 0.0 : m.ToRadians(0.0);
     const double radians_per_count = encoder ? 0.0 : m.ToRadians(1.0) - radians_at_zero;
-    bool have_last = false;
-    double last_raw = 0, last_value = 0, last_t = 0;
-    int rejected_run = 0;
-    for (std::size_t p = 0; p < present_count; ++p) {
-      const std::size_t k = present_at(p);
-      const double r = raw[k];
-      if (r < m.valid_min || r > m.valid_max) {
-        Record(k, ch, ScreeningRule::kOutOfRange, r);
-        continue;
-      }
-      // Rails mean saturation, except for the compass, whose 0 and full scale are headings.
-      if (!encoder && c != Channel::kCompass && (r == 0 || r == full_scale)) {
-        Record(k, ch, ScreeningRule::kAtRail, r);
-        continue;
-      }
-      double value = 0;
-      bool wrapped = false;
-      if (encoder) {
-        double d = have_last ? r - last_raw : 0.0;
-        if (d > period / 2) { d -= period; wrapped = true; }
-        if (d < -period / 2) { d += period; wrapped = true; }
-        value = have_last ? last_value + d : r;
-      } else {
-        value = radians_at_zero + radians_per_count * r;
-        if (c == Channel::kCompass && have_last) {  // continue across +-180 deg
-          while (value - last_value > M_PI) value -= 2.0 * M_PI;
-          while (value - last_value < -M_PI) value += 2.0 * M_PI;
+    // The loop is compiled once per kind of channel and for dense channels, so that none of
+    // those tests is made per sample.
+    enum Kind { kEncoderKind, kCompassKind, kAnalogKind };
+    auto screen = [&](auto kind_tag, auto dense_tag) {
+      constexpr Kind kind = decltype(kind_tag)::value;
+      constexpr bool all_present = decltype(dense_tag)::value;
+      bool have_last = false;
+      double last_raw = 0, last_value = 0, last_t = 0;
+      int rejected_run = 0;
+      for (std::size_t p = 0; p < present_count; ++p) {
+        const std::size_t k = all_present ? p : present[p];
+        const double r = raw[k];
+        if (r < m.valid_min || r > m.valid_max) {
+          Record(k, ch, ScreeningRule::kOutOfRange, r);
+          continue;
         }
+        // Rails mean saturation, except for the compass, whose 0 and full scale are headings.
+        if (kind == kAnalogKind && (r == 0 || r == full_scale)) {
+          Record(k, ch, ScreeningRule::kAtRail, r);
+          continue;
+        }
+        double value = 0;
+        bool wrapped = false;
+        if constexpr (kind == kEncoderKind) {
+          double d = have_last ? r - last_raw : 0.0;
+          if (d > period / 2) { d -= period; wrapped = true; }
+          if (d < -period / 2) { d += period; wrapped = true; }
+          value = have_last ? last_value + d : r;
+        } else {
+          value = radians_at_zero + radians_per_count * r;
+          if (kind == kCompassKind && have_last) {  // continue across +-180 deg
+            while (value - last_value > M_PI) value -= 2.0 * M_PI;
+            while (value - last_value < -M_PI) value += 2.0 * M_PI;
+          }
+        }
+        if (have_last && std::abs(value - last_value) > limit * (out_.t_s[k] - last_t) + slack &&
+            rejected_run + 1 < kRebaselineAfter) {
+          ++rejected_run;
+          Record(k, ch, ScreeningRule::kRateLimit, r);
+          continue;
+        }
+        if (wrapped) Record(k, ch, ScreeningRule::kEncoderWrap, r);
+        rejected_run = 0;
+        v[k] = value;
+        have_last = true;
+        last_raw = r;
+        last_value = value;
+        last_t = out_.t_s[k];
       }
-      if (have_last && std::abs(value - last_value) > limit * (out_.t_s[k] - last_t) + slack &&
-          rejected_run + 1 < kRebaselineAfter) {
-        ++rejected_run;
-        Record(k, ch, ScreeningRule::kRateLimit, r);
-        continue;
+    };
+    auto with_kind = [&](auto dense_tag) {
+      if (encoder) {
+        screen(std::integral_constant<Kind, kEncoderKind>{}, dense_tag);
+      } else if (c == Channel::kCompass) {
+        screen(std::integral_constant<Kind, kCompassKind>{}, dense_tag);
+      } else {
+        screen(std::integral_constant<Kind, kAnalogKind>{}, dense_tag);
       }
-      if (wrapped) Record(k, ch, ScreeningRule::kEncoderWrap, r);
-      rejected_run = 0;
-      v[k] = value;
-      have_last = true;
-      last_raw = r;
-      last_value = value;
-      last_t = out_.t_s[k];
+    };
+    if (dense) {
+      with_kind(std::true_type{});
+    } else {
+      with_kind(std::false_type{});
     }
     if (!encoder) Hampel(c);
   }
