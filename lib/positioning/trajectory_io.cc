@@ -2,6 +2,7 @@
 
 #include <charconv>
 #include <cmath>
+#include <cstdint>
 #include <cstring>
 #include <fstream>
 #include <sstream>
@@ -177,6 +178,7 @@ void TrajectoryWriter::Add(const TrajectorySample& p) {
     end = PutFixed<4>(end, v);
   }
   const std::size_t prefix_size = static_cast<std::size_t>(end - prefix);
+  std::memset(end, 0, 8);  // defined bytes up to the next multiple of eight
   if (csv_) {
     char* out = csv_->cursor();
     std::memcpy(out, prefix, prefix_size);
@@ -191,7 +193,18 @@ void TrajectoryWriter::Add(const TrajectorySample& p) {
   if (tum_) {
     const Eigen::Quaterniond q = EnuFromBody(p.heading_rad, p.pitch_rad, p.roll_rad);
     char* out = tum_->cursor();
-    for (std::size_t i = 0; i < prefix_size; ++i) out[i] = prefix[i] == ',' ? ' ' : prefix[i];
+    // The prefix with ',' made ' ', eight bytes at a time: a byte of w ^ ",,,,,,,," is zero
+    // exactly where w has a comma; its high bit, moved down and times 0x0C, turns 0x2C into
+    // 0x20 there. The bytes past the prefix are copied too, and overwritten below.
+    for (std::size_t i = 0; i < prefix_size; i += 8) {
+      std::uint64_t w;
+      std::memcpy(&w, prefix + i, 8);
+      constexpr std::uint64_t kCommas = 0x2C2C2C2C2C2C2C2CULL, kLow7 = 0x7F7F7F7F7F7F7F7FULL;
+      const std::uint64_t x = w ^ kCommas;
+      const std::uint64_t comma = ~(((x & kLow7) + kLow7) | x | kLow7);  // 0x80 in the comma bytes
+      w ^= (comma >> 7) * 0x0C;
+      std::memcpy(out + i, &w, 8);
+    }
     out += prefix_size;
     for (double v : {q.x(), q.y(), q.z(), q.w()}) {
       *out++ = ' ';
