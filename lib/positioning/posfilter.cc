@@ -3,7 +3,6 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
-#include <memory>
 #include <optional>
 #include <limits>
 
@@ -143,21 +142,21 @@ PosfilterResult RunPosfilter(const telemetry::TelemetryLog& log, const telemetry
     r.channels_used.push_back(telemetry::ToString(c));
     return true;
   };
-  auto filtered = [&](Channel c) {
-    return std::make_unique<FilteredChannel>(t, s.value[static_cast<int>(c)], r.design, options.mode);
+  auto filtered = [&](Channel c, std::optional<FilteredChannel>* channel) {
+    channel->emplace(t, s.value[static_cast<int>(c)], r.design, options.mode);
   };
 
   // Wheels: cumulative metres.
   const Channel wheel_channels[4] = {Channel::kEncoderFrontLeft, Channel::kEncoderFrontRight,
                                      Channel::kEncoderRearLeft, Channel::kEncoderRearRight};
-  std::array<std::unique_ptr<FilledChannel>, 4> wheels;
+  std::array<std::optional<FilledChannel>, 4> wheels;
   std::array<bool, 4> have_wheel{};
   std::array<double, 4> wheel_resolution_m{};
   int wheel_count = 0;
   for (int i = 0; i < 4; ++i) {
     if (!usable(wheel_channels[i])) continue;
     const double mpc = model[wheel_channels[i]].MetresPerCount();
-    wheels[i] = std::make_unique<FilledChannel>(t, s.value[static_cast<int>(wheel_channels[i])], mpc);
+    wheels[i].emplace(t, s.value[static_cast<int>(wheel_channels[i])], mpc);
     have_wheel[i] = true;
     wheel_resolution_m[i] = std::abs(mpc);
     ++wheel_count;
@@ -165,15 +164,15 @@ PosfilterResult RunPosfilter(const telemetry::TelemetryLog& log, const telemetry
   LN_CHECK_INPUT(wheel_count > 0) << log.source.string() << ": no usable encoder channel";
 
   // Pitch: the mean of the filtered left and right inclinometers.
-  std::unique_ptr<FilteredChannel> pitch_left, pitch_right, roll, heading_lowpass;
-  if (usable(Channel::kPitchLeft)) pitch_left = filtered(Channel::kPitchLeft);
-  if (usable(Channel::kPitchRight)) pitch_right = filtered(Channel::kPitchRight);
-  if ((pitch_left == nullptr) != (pitch_right == nullptr)) {
+  std::optional<FilteredChannel> pitch_left, pitch_right, roll, heading_lowpass;
+  if (usable(Channel::kPitchLeft)) filtered(Channel::kPitchLeft, &pitch_left);
+  if (usable(Channel::kPitchRight)) filtered(Channel::kPitchRight, &pitch_right);
+  if (pitch_left.has_value() != pitch_right.has_value()) {
     r.notes.push_back("one pitch inclinometer: pitch from the other");
-  } else if (pitch_left == nullptr) {
+  } else if (!pitch_left) {
     r.notes.push_back("no pitch inclinometers: flat ground (z = 0)");
   }
-  if (usable(Channel::kRoll)) roll = filtered(Channel::kRoll);
+  if (usable(Channel::kRoll)) filtered(Channel::kRoll, &roll);
 
   // Heading.
   const int compass = static_cast<int>(Channel::kCompass), gyro = static_cast<int>(Channel::kGyroZ);
@@ -184,7 +183,7 @@ PosfilterResult RunPosfilter(const telemetry::TelemetryLog& log, const telemetry
   std::optional<telemetry::HeadingKalman> kalman;
   double constant_heading = 0;
   if (options.heading == HeadingMethod::kLowPass && have_compass) {
-    heading_lowpass = filtered(Channel::kCompass);
+    filtered(Channel::kCompass, &heading_lowpass);
   } else if (have_compass || have_gyro) {
     if (options.heading == HeadingMethod::kLowPass) {
       r.notes.push_back("no compass: heading from the gyro by the Kalman filter");
@@ -221,14 +220,16 @@ PosfilterResult RunPosfilter(const telemetry::TelemetryLog& log, const telemetry
     }
     last_wheel_m = wheel_m;
     double pitch = 0;
-    if (pitch_left != nullptr && pitch_right != nullptr) {
+    if (pitch_left && pitch_right) {
       const double left = pitch_left->At(k);
       pitch = 0.5 * (left + pitch_right->At(k));
-    } else if (pitch_left != nullptr || pitch_right != nullptr) {
-      pitch = (pitch_left != nullptr ? pitch_left : pitch_right)->At(k);
+    } else if (pitch_left) {
+      pitch = pitch_left->At(k);
+    } else if (pitch_right) {
+      pitch = pitch_right->At(k);
     }
     double heading = constant_heading;
-    if (heading_lowpass != nullptr) {
+    if (heading_lowpass) {
       heading = heading_lowpass->At(k);
     } else if (kalman) {
       // Stationary: no wheel has moved over the last stationary_min_s.
@@ -243,7 +244,7 @@ PosfilterResult RunPosfilter(const telemetry::TelemetryLog& log, const telemetry
         r.heading.heading_sigma_rad[k] = e.heading_sigma_rad;
       }
     }
-    const TrajectorySample& pose = reckoner.Step(t[k], heading, pitch, roll != nullptr ? roll->At(k) : 0.0, wheel_m);
+    const TrajectorySample& pose = reckoner.Step(t[k], heading, pitch, roll ? roll->At(k) : 0.0, wheel_m);
     if (keep) {
       r.motion.trajectory[k] = pose;
     } else {
