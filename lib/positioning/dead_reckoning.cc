@@ -23,6 +23,17 @@ double Median(std::array<double, 4>& v, int count) {
 // Half the smallest left-minus-right difference of `value` when every left-right pair
 // differs in the same sign, else 0 (no turn, or no wheel on one side).
 double TurnShare(const std::array<double, 4>& value, const std::array<double, 4>& side, int count) {
+  if (count == 4 && side[0] > 0 && side[1] < 0 && side[2] > 0 && side[3] < 0) {
+    // All four wheels (left, right, left, right), the usual case: the four left-right pairs
+    // at once, the same result as the loop below.
+    const double d[4] = {value[0] - value[1], value[0] - value[3], value[2] - value[1], value[2] - value[3]};
+    const bool positive = d[0] > 0 && d[1] > 0 && d[2] > 0 && d[3] > 0;
+    const bool negative = d[0] < 0 && d[1] < 0 && d[2] < 0 && d[3] < 0;
+    if (!positive && !negative) return 0.0;
+    const double smallest =
+        std::min(std::min(std::abs(d[0]), std::abs(d[1])), std::min(std::abs(d[2]), std::abs(d[3])));
+    return 0.5 * (positive ? 1 : -1) * smallest;
+  }
   double smallest = std::numeric_limits<double>::infinity();
   int sign = 0;
   for (int a = 0; a < count; ++a) {
