@@ -49,6 +49,33 @@ bool ParseCell(std::string_view cell, bool time, double* value) {
   return ec == std::errc() && ptr == end;
 }
 
+// A plain decimal, digits with at most one point and at most 15 digits in all (the usual time
+// stamp), read exactly as std::from_chars reads it: the digits make an integer below 2^53 and
+// the point a power of ten up to 1e15, both exact doubles, so their quotient is the correctly
+// rounded value of the decimal (Clinger's fast path). False, and nothing read, for anything
+// else (signs, exponents, longer numbers), which std::from_chars then reads.
+bool ParsePlainDecimal(const char* p, const char* end, double* value) {
+  static constexpr double kPow10[16] = {1e0, 1e1, 1e2,  1e3,  1e4,  1e5,  1e6,  1e7,
+                                        1e8, 1e9, 1e10, 1e11, 1e12, 1e13, 1e14, 1e15};
+  std::uint64_t mantissa = 0;
+  int digits = 0, decimals = -1;  // decimals: digits after the point, -1 before it
+  for (; p != end; ++p) {
+    const unsigned digit = static_cast<unsigned>(*p - '0');
+    if (digit < 10) {
+      mantissa = 10 * mantissa + digit;
+      ++digits;
+      if (decimals >= 0) ++decimals;
+    } else if (*p == '.' && decimals < 0) {
+      decimals = 0;
+    } else {
+      return false;
+    }
+  }
+  if (digits == 0 || digits > 15) return false;
+  *value = static_cast<double>(mantissa) / kPow10[decimals < 0 ? 0 : decimals];
+  return true;
+}
+
 // The common row, read in one scan: no spaces, time stamps as std::from_chars reads them,
 // counts of digits only (at most 18) or empty. Fills row[c] for the used columns (roles as in
 // ParseTelemetryCsv: -2 time, -1 unused, else a channel); false for any other row, which the
@@ -61,8 +88,10 @@ bool ParsePlainRow(std::string_view line, const std::vector<int>& role, double* 
     if (role[c] == -2) {
       const char* const comma = static_cast<const char*>(std::memchr(p, ',', static_cast<std::size_t>(end - p)));
       const char* const cell_end = comma == nullptr ? end : comma;
-      const auto [ptr, ec] = std::from_chars(p, cell_end, row[c]);
-      if (p == cell_end || ec != std::errc() || ptr != cell_end || !std::isfinite(row[c])) return false;
+      if (!ParsePlainDecimal(p, cell_end, &row[c])) {
+        const auto [ptr, ec] = std::from_chars(p, cell_end, row[c]);
+        if (p == cell_end || ec != std::errc() || ptr != cell_end || !std::isfinite(row[c])) return false;
+      }
       p = cell_end;
     } else if (role[c] == -1) {
       while (p != end && *p != ',') ++p;

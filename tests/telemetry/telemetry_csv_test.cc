@@ -3,8 +3,12 @@
 #include <gtest/gtest.h>
 #include <sys/stat.h>
 
+#include <charconv>
 #include <cmath>
+#include <cstdio>
 #include <fstream>
+#include <random>
+#include <string>
 #include <thread>
 
 #include "util/errors.h"
@@ -52,6 +56,32 @@ TEST(ParseTelemetryCsv, PlainAndDecoratedRowsReadAlike) {
   for (const char* bad : {"0.1,1.5,5,x\n", "0.1,5,5\n", "0.1,5,5,x,y\n", "0.1,5a,5,x\n", "inf,5,5,x\n",
                           "0.1,++5,5,x\n", "0.1,5,99999999999999999999,x\n"}) {
     EXPECT_THROW(ParseTelemetryCsv(header + bad, "bad.csv", Model()), InputError) << bad;
+  }
+}
+
+// Time stamps of every shape the logs have (tenths, milliseconds, microseconds, long decimal
+// expansions, integers, a leading or trailing point) read to the very double std::from_chars
+// reads, whichever path reads them.
+TEST(ParseTelemetryCsv, ReadsTimeStampsAsFromCharsDoes) {
+  std::mt19937_64 rng(11);
+  std::uniform_int_distribution<int> decimals(0, 17), integer_digits(0, 9);
+  std::string text = "t,compass\n";
+  std::vector<std::string> stamps;
+  for (int i = 0; i < 20000; ++i) {
+    std::string stamp;
+    const int whole = integer_digits(rng), fraction = decimals(rng);
+    for (int d = 0; d < whole; ++d) stamp += static_cast<char>('0' + rng() % 10);
+    if (fraction > 0 || whole == 0) stamp += '.';
+    for (int d = 0; d < fraction || (whole == 0 && d == 0); ++d) stamp += static_cast<char>('0' + rng() % 10);
+    stamps.push_back(stamp);
+    text += stamp + ",1\n";
+  }
+  const TelemetryLog log = ParseTelemetryCsv(text, "stamps.csv", Model());
+  ASSERT_EQ(log.size(), stamps.size());
+  for (std::size_t i = 0; i < stamps.size(); ++i) {
+    double expected = 0;
+    std::from_chars(stamps[i].data(), stamps[i].data() + stamps[i].size(), expected);
+    ASSERT_EQ(log.t_s[i], expected) << stamps[i];
   }
 }
 
