@@ -104,6 +104,7 @@ HeadingKalman::Output HeadingKalman::Update(double t_s, double compass_rad, doub
     if (o_.estimate_gyro_bias && stationary) {
       bias_sum_ += gyro_radps;
       ++bias_count_;
+      bias_ = bias_sum_ / bias_count_;
     }
     const double rate = gyro_radps - gyro_bias_radps();
     if (std::isnan(gate_time_) || o_.gate_smoothing_s == 0) {

@@ -77,7 +77,7 @@ class HeadingKalman {
   /// readings (NaN: none). `stationary`: the wheels stand still (the gyro's bias is learnt).
   Output Update(double t_s, double compass_rad, double gyro_radps, bool stationary);
 
-  double gyro_bias_radps() const { return bias_count_ > 0 ? bias_sum_ / bias_count_ : 0.0; }
+  double gyro_bias_radps() const { return bias_; }
   double gyro_scale_error() const { return xs_; }
   double gyro_scale_sigma() const;
   int compass_updates() const { return compass_updates_; }
@@ -95,6 +95,7 @@ class HeadingKalman {
   bool started_ = false;
   double bias_sum_ = 0;
   long bias_count_ = 0;
+  double bias_ = 0;  // bias_sum_ / bias_count_, 0 before the first stationary sample
   double gate_rate_ = 0, gate_accel_ = 0, gate_time_;
   double alpha_dt_, alpha_ = 0;  // the gate smoothing's alpha for the interval alpha_dt_
   int compass_updates_ = 0, gyro_updates_ = 0;
