@@ -34,6 +34,13 @@ double SubsampledMedian(std::size_t count, Value value) {
   return v[mid];
 }
 
+// How many values are NaN.
+std::size_t CountNaN(const std::vector<double>& values) {
+  std::size_t count = 0;
+  for (const double x : values) count += static_cast<std::size_t>(std::isnan(x));
+  return count;
+}
+
 class Screener {
  public:
   Screener(const TelemetryLog& log, const SensorModel& model, const ScreeningOptions& options)
@@ -111,7 +118,7 @@ class Screener {
     // Dropouts: silences much longer than the channel's own sampling interval.
     // The present samples: all of them (dense: no index list), or listed.
     const std::size_t missing =
-        static_cast<std::size_t>(std::count_if(raw.begin(), raw.end(), [](double x) { return std::isnan(x); }));
+        CountNaN(raw);
     const bool dense = missing == 0;
     std::vector<std::size_t>& present = present_;
     present.clear();
@@ -236,7 +243,7 @@ class Screener {
     // The accepted samples: their values and times, compacted when some are missing or were
     // rejected.
     const std::size_t count =
-        static_cast<std::size_t>(std::count_if(v.begin(), v.end(), [](double x) { return !std::isnan(x); }));
+        v.size() - CountNaN(v);
     const bool dense = count == v.size();
     if (!dense) {
       accepted_row_.clear();
@@ -326,6 +333,23 @@ class Screener {
     }
   }
 
+  // Whether CorrelatedMotion has a channel to compare `c` with.
+  bool HasCorrelatedChannel(Channel c) const {
+    switch (c) {
+      case Channel::kCompass: return out_.Has(Channel::kGyroZ);
+      case Channel::kGyroZ: return out_.Has(Channel::kCompass);
+      case Channel::kPitchLeft: return out_.Has(Channel::kPitchRight);
+      case Channel::kPitchRight: return out_.Has(Channel::kPitchLeft);
+      case Channel::kRoll: return false;
+      default:
+        for (Channel other : {Channel::kEncoderFrontLeft, Channel::kEncoderFrontRight,
+                              Channel::kEncoderRearLeft, Channel::kEncoderRearRight}) {
+          if (other != c && out_.Has(other)) return true;
+        }
+        return false;
+    }
+  }
+
   // How far a correlated channel of `c` disagrees with `c` holding `stuck_value` over
   // [t0, t1] (radians or metres), or -1 when there is none to compare with.
   double CorrelatedMotion(Channel c, double t0, double t1, double stuck_value) const {
@@ -372,6 +396,7 @@ class Screener {
   // Runs of one raw count lasting stuck_min_s while a correlated channel moved.
   void DetectStuck(Channel c) {
     const int ch = static_cast<int>(c);
+    if (!HasCorrelatedChannel(c)) return;  // nothing to tell a stuck sensor from a still one
     const std::vector<double>& raw = *raw_[ch];
     std::vector<double>& v = out_.value[ch];
     const double motion_threshold = IsEncoder(c) ? 0.3 : 5.0 * M_PI / 180.0;  // metres, radians

@@ -195,7 +195,8 @@ TelemetryLog ParseTelemetryCsv(std::string_view text, const std::string& source,
   }
 
   // Rows. The arrays are reserved for the number of lines left (an upper bound).
-  const std::size_t estimate = static_cast<std::size_t>(std::count(all.begin() + pos, all.end(), '\n')) + 1;
+  std::size_t estimate = 1;
+  for (std::size_t i = pos; i < all.size(); ++i) estimate += static_cast<std::size_t>(all[i] == '\n');
   log.t_s.reserve(estimate);
   log.line.reserve(estimate);
   for (auto* s : sink) {
