@@ -65,7 +65,11 @@ int main(int argc, char** argv) {
     // The poses go to the files as they are computed; --streams needs the whole trajectory.
     positioning::TrajectoryWriter writer(output_dir / "trajectory.csv", output_dir / "trajectory.tum");
     positioning::PoseSink sink;
-    if (streams.empty()) sink = [&writer](const positioning::TrajectorySample& pose) { writer.Add(pose); };
+    if (streams.empty()) {
+      sink = [&writer](const positioning::TrajectorySample& pose, const Eigen::Quaterniond& enu_from_body) {
+        writer.Add(pose, enu_from_body);
+      };
+    }
     const positioning::PosfilterResult result = positioning::RunPosfilter(log, model, opt, sink);
     for (const positioning::TrajectorySample& pose : result.motion.trajectory) writer.Add(pose);
     writer.Commit();

@@ -65,7 +65,7 @@ double HeadingDeg(const Eigen::Isometry3d& world_from_body) {
   const Eigen::Vector3d forward = world_from_body.linear().col(0);
   double h = std::atan2(forward.x(), forward.y()) * kRadToDeg;
   if (h < 0) h += 360;
-  return h;
+  return h < 360 ? h : 0.0;  // a hair below 0 wraps to 360 itself
 }
 
 std::vector<Trial> ReadTrials(const fs::path& path) {

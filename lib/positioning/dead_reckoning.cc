@@ -88,6 +88,8 @@ const TrajectorySample& DeadReckoner::Step(double t_s, double heading_rad, doubl
     pose_.heading_rad = heading_rad;
     pose_.pitch_rad = pitch_rad;
     pose_.roll_rad = roll_rad;
+    half_heading_ = HalfAngle::Of(heading_rad);
+    half_pitch_ = HalfAngle::Of(pitch_rad);
     remember();
     return pose_;
   }
@@ -140,13 +142,22 @@ const TrajectorySample& DeadReckoner::Step(double t_s, double heading_rad, doubl
     }
     d = sum / total_weight;
   }
-  const double last_heading = pose_.heading_rad;
-  const double psi =
-      0.5 * (heading_rad + last_heading + 2.0 * M_PI * std::round((last_heading - heading_rad) / (2.0 * M_PI)));
-  const double phi = 0.5 * (pitch_rad + pose_.pitch_rad);
-  pose_.x_m += d * std::cos(phi) * std::sin(psi);
-  pose_.y_m += d * std::cos(phi) * std::cos(psi);
-  pose_.z_m += d * std::sin(phi);
+  // psi, phi: the mean heading (the short way round: headings a turn apart add pi to the
+  // half sum, which flips the sign of its sine and cosine) and pitch over the step. Their
+  // sines and cosines come from the half angles of this pose and the last by the sum
+  // formulas: two sines and cosines per step, which the pose's attitude uses too.
+  const HalfAngle heading = HalfAngle::Of(heading_rad), pitch = HalfAngle::Of(pitch_rad);
+  const double turns = std::round((pose_.heading_rad - heading_rad) / (2.0 * M_PI));
+  const double flip = std::fmod(std::abs(turns), 2.0) == 1.0 ? -1.0 : 1.0;
+  const double sin_psi = flip * (heading.sin * half_heading_.cos + heading.cos * half_heading_.sin);
+  const double cos_psi = flip * (heading.cos * half_heading_.cos - heading.sin * half_heading_.sin);
+  const double sin_phi = pitch.sin * half_pitch_.cos + pitch.cos * half_pitch_.sin;
+  const double cos_phi = pitch.cos * half_pitch_.cos - pitch.sin * half_pitch_.sin;
+  pose_.x_m += d * cos_phi * sin_psi;
+  pose_.y_m += d * cos_phi * cos_psi;
+  pose_.z_m += d * sin_phi;
+  half_heading_ = heading;
+  half_pitch_ = pitch;
   const double dt = t_s - pose_.t_s;
   pose_.t_s = t_s;
   pose_.heading_rad = heading_rad;

@@ -5,6 +5,8 @@
 #include <cmath>
 #include <vector>
 
+#include "positioning/attitude.h"
+
 namespace lunarnav::positioning {
 
 /// One pose of a trajectory. Frame: x east, y north, z up (ENU), origin at the start.
@@ -70,6 +72,11 @@ class DeadReckoner {
   const TrajectorySample& Step(double t_s, double heading_rad, double pitch_rad, double roll_rad,
                                const std::array<double, 4>& wheel_m);
 
+  /// The half angles of the last pose's heading and pitch (the step's mean heading and pitch
+  /// are made from them and the previous pose's), for its attitude: EnuFromBody.
+  const HalfAngle& half_heading() const { return half_heading_; }
+  const HalfAngle& half_pitch() const { return half_pitch_; }
+
   double distance_m() const { return distance_m_ + std::abs(pending_m_); }  ///< Path length so far.
   long slip_events() const { return slip_events_; }
   long steps_without_odometry() const { return steps_without_odometry_; }
@@ -83,6 +90,7 @@ class DeadReckoner {
   std::array<bool, 4> wheels_;
   double resolution_m_ = 0, resolution_tolerance_ = 0;
   TrajectorySample pose_;
+  HalfAngle half_heading_, half_pitch_;  // of pose_
   bool started_ = false;
   // The samples of the slip window, oldest first: a ring of power-of-two size.
   std::vector<Sample> window_;

@@ -247,8 +247,8 @@ PosfilterResult RunPosfilter(const telemetry::TelemetryLog& log, const telemetry
     const TrajectorySample& pose = reckoner.Step(t[k], heading, pitch, roll ? roll->At(k) : 0.0, wheel_m);
     if (keep) {
       r.motion.trajectory[k] = pose;
-    } else {
-      sink(pose);
+    } else {  // the attitude from the half angles the dead reckoning has made already
+      sink(pose, EnuFromBody(reckoner.half_heading(), reckoner.half_pitch(), HalfAngle::Of(pose.roll_rad)));
     }
     if (k + 1 == n) r.motion.last_pose = pose;
   }

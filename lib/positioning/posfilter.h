@@ -9,6 +9,7 @@
 
 #include <nlohmann/json.hpp>
 
+#include "positioning/attitude.h"
 #include "positioning/dead_reckoning.h"
 #include "telemetry/heading_kalman.h"
 #include "telemetry/lowpass.h"
@@ -55,8 +56,9 @@ struct PosfilterResult {
   nlohmann::json SummaryJson() const;
 };
 
-/// Receives the poses one by one as they are computed.
-using PoseSink = std::function<void(const TrajectorySample&)>;
+/// Receives the poses one by one as they are computed, each with its attitude (EnuFromBody
+/// of its heading, pitch and roll).
+using PoseSink = std::function<void(const TrajectorySample&, const Eigen::Quaterniond& enu_from_body)>;
 
 /// Screens the log, then runs row by row: fills the gaps, low-passes, runs the heading filter
 /// and dead-reckons. Without a sink the result holds the trajectory (and the Kalman heading

@@ -170,6 +170,10 @@ TrajectoryWriter::TrajectoryWriter(const std::filesystem::path& csv_path, const 
 TrajectoryWriter::~TrajectoryWriter() = default;
 
 void TrajectoryWriter::Add(const TrajectorySample& p) {
+  Add(p, tum_ ? EnuFromBody(p.heading_rad, p.pitch_rad, p.roll_rad) : Eigen::Quaterniond::Identity());
+}
+
+void TrajectoryWriter::Add(const TrajectorySample& p, const Eigen::Quaterniond& q) {
   // Time (as read) and position (0.1 mm) are the same text in both files: formatted once.
   char prefix[4 * 32];
   char* end = PutShortest(prefix, p.t_s);
@@ -191,7 +195,6 @@ void TrajectoryWriter::Add(const TrajectorySample& p) {
     csv_->Advance(out);
   }
   if (tum_) {
-    const Eigen::Quaterniond q = EnuFromBody(p.heading_rad, p.pitch_rad, p.roll_rad);
     char* out = tum_->cursor();
     // The prefix with ',' made ' ', eight bytes at a time: a byte of w ^ ",,,,,,,," is zero
     // exactly where w has a comma; its high bit, moved down and times 0x0C, turns 0x2C into

@@ -5,6 +5,8 @@
 #include <memory>
 #include <vector>
 
+#include <Eigen/Geometry>
+
 #include "positioning/dead_reckoning.h"
 
 namespace lunarnav::positioning {
@@ -30,6 +32,8 @@ class TrajectoryWriter {
   TrajectoryWriter& operator=(const TrajectoryWriter&) = delete;
 
   void Add(const TrajectorySample& pose);
+  /// The same with the pose's attitude already at hand (EnuFromBody of its angles).
+  void Add(const TrajectorySample& pose, const Eigen::Quaterniond& enu_from_body);
   /// Flushes and renames the files onto their names.
   void Commit();
 

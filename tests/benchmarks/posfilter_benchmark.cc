@@ -75,7 +75,7 @@ void BM_PosfilterEndToEnd(benchmark::State& state) {
     positioning::TrajectoryWriter writer(out, tum);  // both files, pose by pose, as the tool
     const positioning::PosfilterResult r = positioning::RunPosfilter(
         log, Model(), positioning::PosfilterOptions{},
-        [&writer](const positioning::TrajectorySample& pose) { writer.Add(pose); });
+        [&writer](const positioning::TrajectorySample& pose, const Eigen::Quaterniond& q) { writer.Add(pose, q); });
     writer.Commit();
     benchmark::DoNotOptimize(r.motion.distance_m);
   }
@@ -113,7 +113,7 @@ void BM_FilterAndDeadReckonOnly(benchmark::State& state) {
     double sum = 0;
     const positioning::PosfilterResult r = positioning::RunPosfilter(
         log, Model(), positioning::PosfilterOptions{},
-        [&sum](const positioning::TrajectorySample& pose) { sum += pose.x_m; });
+        [&sum](const positioning::TrajectorySample& pose, const Eigen::Quaterniond&) { sum += pose.x_m; });
     benchmark::DoNotOptimize(sum + r.motion.distance_m);
   }
   state.counters["rows_per_s"] =

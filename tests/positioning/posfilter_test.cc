@@ -127,8 +127,12 @@ TEST(RunPosfilter, PosesToASinkAreTheKeptTrajectory) {
       options.heading = heading;
       const PosfilterResult kept = RunPosfilter(log, model, options);
       std::vector<TrajectorySample> streamed;
+      std::vector<Eigen::Quaterniond> attitudes;
       const PosfilterResult sunk =
-          RunPosfilter(log, model, options, [&](const TrajectorySample& pose) { streamed.push_back(pose); });
+          RunPosfilter(log, model, options, [&](const TrajectorySample& pose, const Eigen::Quaterniond& q) {
+            streamed.push_back(pose);
+            attitudes.push_back(q);
+          });
       const std::string what = ToString(mode) + ", " + ToString(heading);
       ASSERT_EQ(kept.motion.trajectory.size(), log.size()) << what;
       EXPECT_TRUE(sunk.motion.trajectory.empty()) << what;
@@ -140,6 +144,10 @@ TEST(RunPosfilter, PosesToASinkAreTheKeptTrajectory) {
                     a.heading_rad == b.heading_rad && a.pitch_rad == b.pitch_rad && a.roll_rad == b.roll_rad &&
                     a.speed_mps == b.speed_mps)
             << what << ", row " << k;
+        // The attitude handed over with the pose is the pose's (made from the dead
+        // reckoning's half angles instead of the angles: equal to rounding).
+        const Eigen::Quaterniond q = EnuFromBody(a.heading_rad, a.pitch_rad, a.roll_rad);
+        ASSERT_LT(attitudes[k].angularDistance(q), 1e-12) << what << ", row " << k;
       }
       EXPECT_EQ(sunk.motion.last_pose.x_m, kept.motion.trajectory.back().x_m) << what;
       EXPECT_EQ(sunk.motion.distance_m, kept.motion.distance_m) << what;
