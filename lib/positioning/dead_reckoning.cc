@@ -148,7 +148,7 @@ const TrajectorySample& DeadReckoner::Step(double t_s, double heading_rad, doubl
   // formulas: two sines and cosines per step, which the pose's attitude uses too.
   const HalfAngle heading = HalfAngle::Of(heading_rad), pitch = HalfAngle::Of(pitch_rad);
   const double turns = std::round((pose_.heading_rad - heading_rad) / (2.0 * M_PI));
-  const double flip = std::fmod(std::abs(turns), 2.0) == 1.0 ? -1.0 : 1.0;
+  const double flip = turns == 0.0 || std::fmod(turns, 2.0) == 0.0 ? 1.0 : -1.0;  // (-1)^turns
   const double sin_psi = flip * (heading.sin * half_heading_.cos + heading.cos * half_heading_.sin);
   const double cos_psi = flip * (heading.cos * half_heading_.cos - heading.sin * half_heading_.sin);
   const double sin_phi = pitch.sin * half_pitch_.cos + pitch.cos * half_pitch_.sin;
