@@ -34,18 +34,14 @@ int main(int argc, char** argv) {
   app.add_option("--format", opt.image_format, "output image format (lossless)")
       ->check(CLI::IsMember({"png", "tif"}))
       ->capture_default_str();
-  app.add_flag("--resume", opt.resume, "skip pairs whose two outputs exist (same rectified rig)");
-  app.add_option("--shard", shard, "K/N: process pairs K, K+N, K+2N, ... (0 <= K < N)");
-  app.add_option("-j,--threads", opt.num_threads, "worker threads (0 = all cores)")
-      ->capture_default_str();
+  util::AddBatchFlags(&app, "skip pairs whose two outputs exist (same rectified rig)", &opt.resume, &shard,
+                     &opt.num_threads);
   util::AddCommonFlags(&app, &quiet);
   if (const auto exit_code = util::ParseCommandLine(&app, argc, argv, quiet)) return *exit_code;
 
   return util::RunMain([&] {
     if (app.count("--alpha") > 0) opt.alpha = alpha;
-    if (!shard.empty()) {
-      std::tie(opt.shard_index, opt.shard_count) = util::ParseIntPair(shard, '/', "--shard");
-    }
+    util::ApplyShard(shard, &opt.shard_index, &opt.shard_count);
     opt.show_progress = !quiet;
     const calib::StereoRig rig = calib::ReadStereoRig(rig_path);
     const calib::RectifyBatchSummary summary = calib::RunRectifyBatch(

@@ -81,10 +81,8 @@ int main(int argc, char** argv) {
   requests_option->needs(rig_option);  // --rows and --disparity then serve the pairs not listed
   sigma_option->needs(rig_option);
   app.get_option("--ply")->needs(rig_option);
-  app.add_flag("--resume", opt.resume, "skip pairs whose outputs are complete (same options)");
-  app.add_option("--shard", shard, "K/N: process pairs K, K+N, K+2N, ... (0 <= K < N)");
-  app.add_option("-j,--threads", opt.num_threads, "worker threads (0 = all cores)")
-      ->capture_default_str();
+  util::AddBatchFlags(&app, "skip pairs whose outputs are complete (same options)", &opt.resume, &shard,
+                     &opt.num_threads);
   util::AddCommonFlags(&app, &quiet);
   if (const auto exit_code = util::ParseCommandLine(&app, argc, argv, quiet)) return *exit_code;
 
@@ -99,9 +97,7 @@ int main(int argc, char** argv) {
       opt.matcher.min_row = lo;
       opt.matcher.max_row = hi;
     }
-    if (!shard.empty()) {
-      std::tie(opt.shard_index, opt.shard_count) = util::ParseIntPair(shard, '/', "--shard");
-    }
+    util::ApplyShard(shard, &opt.shard_index, &opt.shard_count);
     opt.matcher.reference = stereo::ReferenceImageFromString(reference);
     opt.show_progress = !quiet;
     if (!rig_path.empty()) {

@@ -3,8 +3,8 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
-#include <optional>
 #include <limits>
+#include <optional>
 
 #include "io/atomic_file.h"
 #include "util/check.h"
@@ -107,8 +107,7 @@ class FilteredChannel {
       for (std::size_t k = 0; k < t.size(); ++k) filled[k] = filled_.At(k);
       zero_phase_ = telemetry::FilterZeroPhase(design, filled);
     } else {
-      FilledChannel first(t, v, 1.0);
-      causal_.emplace(design, first.At(0));
+      causal_.emplace(design, filled_.At(0));  // starts in the steady state of the first sample
     }
   }
   double At(std::size_t k) { return causal_ ? (*causal_)(filled_.At(k)) : zero_phase_[k]; }

@@ -78,12 +78,12 @@ inline char* PutUnsigned(char* out, unsigned long long v) {
   return std::to_chars(out, out + 24, v).ptr;
 }
 
-// kDecimals (even, 2..8) digits after the point, rounded half away from zero; values of
+// kDecimals (4 or 8) digits after the point, rounded half away from zero; values of
 // 9e9 and beyond (and NaN) as PutShortest. Fixed-point goes through a rounded integer
 // (std::to_chars with a precision is several times slower).
 template <int kDecimals>
 char* PutFixed(char* out, double v) {
-  static_assert(kDecimals >= 2 && kDecimals <= 8 && kDecimals % 2 == 0);
+  static_assert(kDecimals == 4 || kDecimals == 8);
   if (!(std::abs(v) < 9e9)) return PutShortest(out, v);
   constexpr long long kScale = Pow10(kDecimals);
   // std::llround, inline: x - trunc(x) is exact, so the halfway test is too.
@@ -102,13 +102,8 @@ char* PutFixed(char* out, double v) {
   if constexpr (kDecimals == 8) {
     Put4Digits(out, static_cast<unsigned>(decimals / 10000));
     Put4Digits(out + 4, static_cast<unsigned>(decimals % 10000));
-  } else if constexpr (kDecimals == 6) {
-    std::memcpy(out, kDigitPairs + 2 * (decimals / 10000), 2);
-    Put4Digits(out + 2, static_cast<unsigned>(decimals % 10000));
-  } else if constexpr (kDecimals == 4) {
-    Put4Digits(out, static_cast<unsigned>(decimals));
   } else {
-    std::memcpy(out, kDigitPairs + 2 * decimals, 2);
+    Put4Digits(out, static_cast<unsigned>(decimals));
   }
   return out + kDecimals;
 }

@@ -1,9 +1,11 @@
 #include "util/cli.h"
 
 #include <string>
+#include <tuple>
 
 #include "util/errors.h"
 #include "util/log.h"
+#include "util/parse.h"
 #include "util/version.h"
 
 namespace lunarnav::util {
@@ -11,6 +13,17 @@ namespace lunarnav::util {
 void AddCommonFlags(CLI::App* app, bool* quiet) {
   app->add_flag("-q,--quiet", *quiet, "no progress and no summary line (errors still print)");
   app->set_version_flag("--version", std::string(kVersion) + " (" + kGitRevision + ")");
+}
+
+void AddBatchFlags(CLI::App* app, const std::string& resume_help, bool* resume, std::string* shard,
+                   int* threads) {
+  app->add_flag("--resume", *resume, resume_help);
+  app->add_option("--shard", *shard, "K/N: process pairs K, K+N, K+2N, ... (0 <= K < N)");
+  app->add_option("-j,--threads", *threads, "worker threads (0 = all cores)")->capture_default_str();
+}
+
+void ApplyShard(const std::string& shard, int* index, int* count) {
+  if (!shard.empty()) std::tie(*index, *count) = ParseIntPair(shard, '/', "--shard");
 }
 
 std::optional<int> ParseCommandLine(CLI::App* app, int argc, char** argv, const bool& quiet) {

@@ -3,6 +3,7 @@
 #pragma once
 
 #include <optional>
+#include <string>
 
 #include <CLI/CLI.hpp>
 #include <nlohmann/json.hpp>
@@ -11,6 +12,15 @@ namespace lunarnav::util {
 
 /// Adds --version (project version and git revision) and -q/--quiet.
 void AddCommonFlags(CLI::App* app, bool* quiet);
+
+/// The flags of the tools that work through a directory of pairs: --resume (`resume_help`
+/// says which pairs it skips), --shard K/N (the text, for ApplyShard) and -j,--threads.
+void AddBatchFlags(CLI::App* app, const std::string& resume_help, bool* resume, std::string* shard,
+                   int* threads);
+
+/// Reads --shard's K/N into *index and *count; nothing when `shard` is empty.
+/// @throws std::invalid_argument when it is not two integers separated by '/'.
+void ApplyShard(const std::string& shard, int* index, int* count);
 
 /// Parses the command line. Returns std::nullopt when the tool should go on (and lowers the
 /// log level if --quiet was given), else the exit code after CLI11 printed its message:
