@@ -1,6 +1,7 @@
 // posfilter: raw 10- or 7-bit rover telemetry -> screened, filtered streams -> 3-D trajectory.
 // docs/posfilter.md describes every option and output.
 #include <filesystem>
+#include <optional>
 #include <string>
 
 #include "io/atomic_file.h"
@@ -53,42 +54,44 @@ int main(int argc, char** argv) {
     opt.heading = heading == "kalman" ? positioning::HeadingMethod::kKalman : positioning::HeadingMethod::kLowPass;
     opt.Validate();
     io::CreateOutputDirectory(output_dir);  // before the work, not after it
-    util::ProgressBar progress(3, "posfilter (read, filter, write)", !quiet);
     telemetry::SensorModel model = telemetry::ReadSensorModel(sensors);
     if (bits > 0) model.OverrideBits(bits);
-    const telemetry::TelemetryLog log = telemetry::ReadTelemetryCsv(telemetry_csv, model);
-    progress.Increment();
-    for (telemetry::Channel c : log.missing_columns) {
+    telemetry::TelemetryReader reader(telemetry_csv, model);
+    for (telemetry::Channel c : reader.missing_columns()) {
       LN_LOG(Warning) << telemetry_csv.string() << ": no column '" << model[c].column << "' for channel "
                       << telemetry::ToString(c) << "; going on without it";
     }
-    // The poses go to the files as they are computed; --streams needs the whole trajectory.
+    // The log is read, screened, filtered and written a block at a time; each row goes to the
+    // files as it is computed.
     positioning::TrajectoryWriter writer(output_dir / "trajectory.csv", output_dir / "trajectory.tum");
-    positioning::PoseSink sink;
-    if (streams.empty()) {
-      sink = [&writer](const positioning::TrajectorySample& pose, const Eigen::Quaterniond& enu_from_body) {
-        writer.Add(pose, enu_from_body);
-      };
-    }
-    const positioning::PosfilterResult result = positioning::RunPosfilter(log, model, opt, sink);
-    for (const positioning::TrajectorySample& pose : result.motion.trajectory) writer.Add(pose);
+    std::optional<positioning::HeadingStreamsWriter> streams_writer;
+    if (!streams.empty()) streams_writer.emplace(streams, model);
+    const positioning::PoseSink sink = [&](const positioning::PoseOutput& row) {
+      writer.Add(row.pose, row.enu_from_body);
+      if (streams_writer) streams_writer->Add(row);
+    };
+    constexpr std::size_t kSteps = 100;
+    util::ProgressBar progress(kSteps, "posfilter (% of the log)", !quiet);
+    std::size_t steps = 0;
+    const positioning::ProgressFn on_block = [&](double fraction) {
+      for (; steps < static_cast<std::size_t>(fraction * kSteps); ++steps) progress.Increment();
+    };
+    const positioning::PosfilterResult result = positioning::RunPosfilter(reader, model, opt, sink, on_block);
     writer.Commit();
-    progress.Increment();
+    if (streams_writer) streams_writer->Commit();
     for (const std::string& note : result.notes) LN_LOG(Info) << "posfilter: " << note;
 
     if (!screening_log.empty()) telemetry::WriteScreeningLog(screening_log, result.screened);
-    if (!streams.empty()) positioning::WriteHeadingStreamsCsv(streams, log, model, result);
     nlohmann::json summary = result.SummaryJson();
     summary.update(util::SummaryHead("posfilter", util::CommandLineJson(argc, argv)));
     summary["inputs"] = {{"telemetry", telemetry_csv.string()}, {"sensors", sensors.string()}};
     summary["sensor_model"] = model.ToJson();
     summary["options"] = opt.ToJson();
-    summary["rows_read"] = log.size();
+    summary["rows_read"] = result.rows_read;
     summary["seconds"] = timer.ElapsedSeconds();
     summary["peak_memory_mib"] = util::PeakResidentMemoryMiB();
     io::WriteJsonAtomic(output_dir / "summary.json", summary);
-    progress.Increment();
-    LN_LOG(Info) << "posfilter: " << log.size() << " rows, " << result.screened.events.size()
+    LN_LOG(Info) << "posfilter: " << result.rows_read << " rows, " << result.screened.events.size()
                  << " screening events, " << result.motion.distance_m << " m travelled; outputs in "
                  << output_dir.string();
     return kExitOk;

@@ -15,24 +15,6 @@ namespace {
 using telemetry::Channel;
 constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
 
-// Whether `v` has at least `count` valid (not NaN) samples.
-bool HasValid(const std::vector<double>& v, std::size_t count) {
-  std::size_t valid = 0;
-  for (double x : v) {
-    if (!std::isnan(x) && ++valid >= count) return true;
-  }
-  return false;
-}
-
-// The median sampling interval (from at most 65536 evenly spread intervals).
-double MedianInterval(const std::vector<double>& t) {
-  const std::size_t stride = std::max<std::size_t>(1, t.size() / 65536);
-  std::vector<double> dt;
-  for (std::size_t k = 1; k < t.size(); k += stride) dt.push_back(t[k] - t[k - 1]);
-  std::nth_element(dt.begin(), dt.begin() + dt.size() / 2, dt.end());
-  return dt[dt.size() / 2];
-}
-
 }  // namespace
 
 std::string ToString(FilterMode mode) { return mode == FilterMode::kCausal ? "causal" : "zero-phase"; }
@@ -46,6 +28,7 @@ void PosfilterOptions::Validate() const {
   LN_CHECK_ARG(filter_order >= 1 && filter_order <= 8) << "order: must be in 1..8";
   LN_CHECK_ARG(cutoff_hz > 0 && std::isfinite(cutoff_hz)) << "cutoff: must be > 0 Hz";
   LN_CHECK_ARG(stationary_min_s > 0) << "stationary time: must be > 0";
+  LN_CHECK_ARG(block_rows >= 1) << "block rows: must be >= 1";
   dead_reckoning.Validate();
 }
 
@@ -63,53 +46,79 @@ nlohmann::json PosfilterOptions::ToJson() const {
 
 namespace {
 
-// A screened channel read row by row, in order, with its gaps filled
-// (linear interpolation in time between the valid samples around a gap, the end values held)
-// and scaled: the same numbers, without a filled copy of the channel. Needs two valid samples.
+using telemetry::ScreeningStream;
+
+// A screened channel read row by row, in order, with its gaps filled (linear interpolation in
+// time between the valid samples around a gap, the end values held) and scaled: the same
+// numbers as a filled copy of the channel, without one. Reads the stream's held rows, bound
+// by Bind() after each change of them.
 class FilledChannel {
  public:
-  FilledChannel(const std::vector<double>& t, const std::vector<double>& v, double scale)
-      : t_(t), v_(v), scale_(scale) {}
+  FilledChannel(Channel c, double scale) : c_(static_cast<int>(c)), scale_(scale) {}
+  void Bind(const ScreeningStream& stream) {
+    rows_ = stream.rows();
+    finished_ = stream.finished();
+  }
+  // Rows before the result can be read: the gap a row is in has both its ends known (or the
+  // log has ended). Scans each row once.
+  std::size_t ReadyEnd(std::size_t final_end) {
+    if (finished_ && final_end == rows_.end) return final_end;
+    scanned_ = std::max(scanned_, rows_.begin);
+    for (; scanned_ < final_end; ++scanned_) {
+      if (!std::isnan(rows_.value[c_][scanned_ - rows_.begin])) ready_end_ = scanned_ + 1;
+    }
+    return ready_end_;
+  }
   double At(std::size_t k) {
-    const double value = v_[k];
+    const double value = rows_.value[c_][k - rows_.begin];
     if (!std::isnan(value)) {
-      last_valid_ = k;
+      have_last_ = true;
+      last_t_ = rows_.t_s[k - rows_.begin];
+      last_v_ = value;
       return value * scale_;
     }
-    if (next_valid_ <= k) {  // the valid sample after this gap
-      next_valid_ = k + 1;
-      while (next_valid_ < v_.size() && std::isnan(v_[next_valid_])) ++next_valid_;
+    if (next_ <= k) {  // the valid sample after this gap
+      next_ = k + 1;
+      while (next_ < rows_.end && std::isnan(rows_.value[c_][next_ - rows_.begin])) ++next_;
+      if (next_ < rows_.end) {
+        next_t_ = rows_.t_s[next_ - rows_.begin];
+        next_v_ = rows_.value[c_][next_ - rows_.begin];
+      }
     }
-    const std::size_t a = last_valid_, b = next_valid_;
-    if (a == kNone) return v_[b] * scale_;
-    if (b == v_.size()) return v_[a] * scale_;
-    const double f = (t_[k] - t_[a]) / (t_[b] - t_[a]);
-    return (v_[a] + f * (v_[b] - v_[a])) * scale_;
+    if (!have_last_) return next_v_ * scale_;
+    if (next_ >= rows_.end) return last_v_ * scale_;  // none: the log has ended
+    const double f = (rows_.t_s[k - rows_.begin] - last_t_) / (next_t_ - last_t_);
+    return (last_v_ + f * (next_v_ - last_v_)) * scale_;
   }
 
  private:
-  static constexpr std::size_t kNone = static_cast<std::size_t>(-1);
-  const std::vector<double>& t_;
-  const std::vector<double>& v_;
+  int c_;
   double scale_;
-  std::size_t last_valid_ = kNone, next_valid_ = 0;
+  ScreeningStream::Rows rows_;
+  bool finished_ = false;
+  std::size_t scanned_ = 0, ready_end_ = 0;
+  bool have_last_ = false;
+  double last_t_ = 0, last_v_ = 0, next_t_ = 0, next_v_ = 0;
+  std::size_t next_ = 0;
 };
 
 // A channel as dead reckoning takes it: filled, then low-passed, causally sample by sample
-// or (zero phase) from an array filtered beforehand.
+// or (zero phase) from an array filtered beforehand over the whole log, which is then held.
 class FilteredChannel {
  public:
-  FilteredChannel(const std::vector<double>& t, const std::vector<double>& v, const telemetry::LowPassDesign& design,
-                  FilterMode mode)
-      : filled_(t, v, 1.0) {
+  FilteredChannel(const ScreeningStream& stream, Channel c, const telemetry::LowPassDesign& design, FilterMode mode)
+      : filled_(c, 1.0) {
+    filled_.Bind(stream);
     if (mode == FilterMode::kZeroPhase) {
-      std::vector<double> filled(t.size());
-      for (std::size_t k = 0; k < t.size(); ++k) filled[k] = filled_.At(k);
+      std::vector<double> filled(stream.end());
+      for (std::size_t k = 0; k < filled.size(); ++k) filled[k] = filled_.At(k);
       zero_phase_ = telemetry::FilterZeroPhase(design, filled);
     } else {
       causal_.emplace(design, filled_.At(0));  // starts in the steady state of the first sample
     }
   }
+  void Bind(const ScreeningStream& stream) { filled_.Bind(stream); }
+  std::size_t ReadyEnd(std::size_t final_end) { return causal_ ? filled_.ReadyEnd(final_end) : final_end; }
   double At(std::size_t k) { return causal_ ? (*causal_)(filled_.At(k)) : zero_phase_[k]; }
 
  private:
@@ -118,31 +127,97 @@ class FilteredChannel {
   std::vector<double> zero_phase_;
 };
 
-}  // namespace
+// Rows from a source, screened as they come. Next() reads and screens one more block.
+class ScreenedRows {
+ public:
+  using Source = std::function<std::size_t(telemetry::TelemetryLog*, std::size_t)>;
+  ScreenedRows(Source source, const std::array<bool, telemetry::kNumChannels>& present,
+               const telemetry::SensorModel& model, const PosfilterOptions& options, const ProgressFn& progress,
+               std::function<double()> fraction)
+      : source_(std::move(source)),
+        stream_(model, options.screening, present),
+        block_rows_(options.block_rows),
+        progress_(progress),
+        fraction_(std::move(fraction)) {}
+  ScreeningStream& stream() { return stream_; }
+  // False when the log had already ended.
+  bool Next() {
+    if (stream_.finished()) return false;
+    block_.ClearRows();
+    const std::size_t n = source_(&block_, block_rows_);
+    rows_read_ += n;
+    if (n == 0) {
+      stream_.Finish();
+    } else {
+      stream_.Push(block_);
+    }
+    if (progress_) progress_(fraction_());
+    return true;
+  }
+  std::size_t rows_read() const { return rows_read_; }
 
-PosfilterResult RunPosfilter(const telemetry::TelemetryLog& log, const telemetry::SensorModel& model,
-                             const PosfilterOptions& options, const PoseSink& sink) {
-  options.Validate();
+ private:
+  Source source_;
+  ScreeningStream stream_;
+  std::size_t block_rows_;
+  ProgressFn progress_;
+  std::function<double()> fraction_;
+  telemetry::TelemetryLog block_;
+  std::size_t rows_read_ = 0;
+};
+
+PosfilterResult Run(ScreenedRows& input, const std::string& source, const telemetry::SensorModel& model,
+                    const PosfilterOptions& options, const PoseSink& sink) {
   PosfilterResult r;
-  r.screened = telemetry::ScreenTelemetry(log, model, options.screening);
-  const telemetry::ScreenedLog& s = r.screened;
-  const std::vector<double>& t = s.t_s;
-  const std::size_t n = t.size();
-  LN_CHECK_INPUT(n >= 2) << log.source.string() << ": fewer than two usable rows";
-  r.sample_rate_hz = 1.0 / MedianInterval(t);
+  ScreeningStream& s = input.stream();
+  // The statistics window first: it sets the sample rate and so the filters.
+  while (!s.statistics_ready()) input.Next();
+  LN_CHECK_INPUT(!s.finished() || s.end() >= 2) << source << ": fewer than two usable rows";
+  r.sample_rate_hz = 1.0 / s.typical_interval_s();
   LN_CHECK_INPUT(options.cutoff_hz < 0.5 * r.sample_rate_hz)
-      << log.source.string() << ": the cut-off " << options.cutoff_hz
-      << " Hz is not below half the sample rate (" << r.sample_rate_hz << " Hz)";
+      << source << ": the cut-off " << options.cutoff_hz << " Hz is not below half the sample rate ("
+      << r.sample_rate_hz << " Hz)";
   r.design = telemetry::DesignLowPass(options.filter, options.filter_order, options.cutoff_hz, r.sample_rate_hz);
-  // The channels are read row by row below, gaps filled and low-passed on the way: a usable
-  // channel has at least two valid samples.
+
+  // Which channels are used: those with two valid samples (the gyro: one), which may take
+  // reading on. The first compass reading starts the heading filter.
+  const int compass = static_cast<int>(Channel::kCompass), gyro = static_cast<int>(Channel::kGyroZ);
+  std::array<std::size_t, telemetry::kNumChannels> valid{};
+  double first_compass = kNaN;
+  auto needed = [&](int c) -> std::size_t { return s.Has(static_cast<Channel>(c)) ? (c == gyro ? 1 : 2) : 0; };
+  for (std::size_t scanned = 0;;) {
+    const ScreeningStream::Rows rows = s.rows();
+    bool decided = true;
+    for (int c = 0; c < telemetry::kNumChannels; ++c) {
+      if (valid[c] >= needed(c)) continue;
+      for (std::size_t k = scanned; k < s.final_end() && valid[c] < needed(c); ++k) {
+        const double v = rows.value[c][k - rows.begin];
+        if (std::isnan(v)) continue;
+        if (c == compass && valid[c] == 0) first_compass = v;
+        ++valid[c];
+      }
+      decided = decided && valid[c] >= needed(c);
+    }
+    scanned = s.final_end();
+    if (decided || s.finished()) break;
+    input.Next();
+  }
+  // Zero-phase filtering runs over the whole log.
+  if (options.mode == FilterMode::kZeroPhase) {
+    while (input.Next()) {
+    }
+  }
+  LN_CHECK_INPUT(s.end() >= 2) << source << ": fewer than two usable rows";
   auto usable = [&](Channel c) {
-    if (!s.Has(c) || !HasValid(s.value[static_cast<int>(c)], 2)) return false;
+    if (valid[static_cast<int>(c)] < 2) return false;
     r.channels_used.push_back(telemetry::ToString(c));
     return true;
   };
+  std::vector<FilteredChannel*> look_ahead;  // channels whose gaps are filled
+  std::vector<FilledChannel*> wheel_look_ahead;
   auto filtered = [&](Channel c, std::optional<FilteredChannel>* channel) {
-    channel->emplace(t, s.value[static_cast<int>(c)], r.design, options.mode);
+    channel->emplace(s, c, r.design, options.mode);
+    look_ahead.push_back(&**channel);
   };
 
   // Wheels: cumulative metres.
@@ -155,12 +230,13 @@ PosfilterResult RunPosfilter(const telemetry::TelemetryLog& log, const telemetry
   for (int i = 0; i < 4; ++i) {
     if (!usable(wheel_channels[i])) continue;
     const double mpc = model[wheel_channels[i]].MetresPerCount();
-    wheels[i].emplace(t, s.value[static_cast<int>(wheel_channels[i])], mpc);
+    wheels[i].emplace(wheel_channels[i], mpc);
+    wheel_look_ahead.push_back(&*wheels[i]);
     have_wheel[i] = true;
     wheel_resolution_m[i] = std::abs(mpc);
     ++wheel_count;
   }
-  LN_CHECK_INPUT(wheel_count > 0) << log.source.string() << ": no usable encoder channel";
+  LN_CHECK_INPUT(wheel_count > 0) << source << ": no usable encoder channel";
 
   // Pitch: the mean of the filtered left and right inclinometers.
   std::optional<FilteredChannel> pitch_left, pitch_right, roll, heading_lowpass;
@@ -174,10 +250,9 @@ PosfilterResult RunPosfilter(const telemetry::TelemetryLog& log, const telemetry
   if (usable(Channel::kRoll)) filtered(Channel::kRoll, &roll);
 
   // Heading.
-  const int compass = static_cast<int>(Channel::kCompass), gyro = static_cast<int>(Channel::kGyroZ);
-  const bool have_compass = s.Has(Channel::kCompass) && HasValid(s.value[compass], 2);
+  const bool have_compass = valid[compass] >= 2;
   if (have_compass) r.channels_used.push_back(telemetry::ToString(Channel::kCompass));
-  const bool have_gyro = s.Has(Channel::kGyroZ) && HasValid(s.value[gyro], 1);
+  const bool have_gyro = valid[gyro] >= 1;
   if (have_gyro) r.channels_used.push_back("gyro_z");
   std::optional<telemetry::HeadingKalman> kalman;
   double constant_heading = 0;
@@ -188,68 +263,91 @@ PosfilterResult RunPosfilter(const telemetry::TelemetryLog& log, const telemetry
       r.notes.push_back("no compass: heading from the gyro by the Kalman filter");
     }
     if (!have_compass) r.notes.push_back("no compass: heading from the gyro, relative to the start");
-    double first_compass = kNaN;
-    for (std::size_t k = 0; have_compass && std::isnan(first_compass); ++k) first_compass = s.value[compass][k];
-    kalman.emplace(options.kalman, first_compass);
+    kalman.emplace(options.kalman, have_compass ? first_compass : kNaN);
     r.kalman_used = true;
   } else {
     r.notes.push_back("no compass and no gyro: constant heading");
     constant_heading = options.kalman.initial_heading_deg * M_PI / 180.0;
   }
 
-  // Row by row: fill, filter, Kalman heading, dead reckoning, and the pose out.
+  // Row by row: fill, filter, Kalman heading, dead reckoning, and the row out, for the rows
+  // whose look-ahead is known; then the next block.
   const bool keep = !sink;  // no sink: the result holds the trajectory and the heading streams
-  if (keep) {
-    r.motion.trajectory.resize(n);
-    if (r.kalman_used) {
-      r.heading.heading_rad.resize(n);
-      r.heading.rate_radps.resize(n);
-      r.heading.heading_sigma_rad.resize(n);
-    }
-  }
   DeadReckoner reckoner(options.dead_reckoning, have_wheel, wheel_resolution_m);
   std::array<double, 4> wheel_m{}, last_wheel_m{};
-  std::size_t still_since = 0;  // first row of the current stretch with no wheel moving
-  for (std::size_t k = 0; k < n; ++k) {
-    bool moved = false;
-    for (int i = 0; i < 4; ++i) {
-      if (!have_wheel[i]) continue;
-      wheel_m[i] = wheels[i]->At(k);
-      if (k > 0 && std::abs(wheel_m[i] - last_wheel_m[i]) > 1e-9) moved = true;
+  double still_since_t = 0;  // start of the current stretch with no wheel moving
+  PoseOutput out;
+  out.heading_rate_radps = kNaN;
+  std::size_t k = 0;
+  while (true) {
+    const ScreeningStream::Rows rows = s.rows();
+    std::size_t ready = s.final_end();
+    for (FilledChannel* c : wheel_look_ahead) {
+      c->Bind(s);
+      ready = std::min(ready, c->ReadyEnd(s.final_end()));
     }
-    last_wheel_m = wheel_m;
-    double pitch = 0;
-    if (pitch_left && pitch_right) {
-      const double left = pitch_left->At(k);
-      pitch = 0.5 * (left + pitch_right->At(k));
-    } else if (pitch_left) {
-      pitch = pitch_left->At(k);
-    } else if (pitch_right) {
-      pitch = pitch_right->At(k);
+    for (FilteredChannel* c : look_ahead) {
+      c->Bind(s);
+      ready = std::min(ready, c->ReadyEnd(s.final_end()));
     }
-    double heading = constant_heading;
-    if (heading_lowpass) {
-      heading = heading_lowpass->At(k);
-    } else if (kalman) {
-      // Stationary: no wheel has moved over the last stationary_min_s.
-      if (moved) still_since = k;
-      const bool stationary = k > 0 && !moved && t[k] - t[still_since] >= options.stationary_min_s;
-      const telemetry::HeadingKalman::Output e = kalman->Update(
-          t[k], have_compass ? s.value[compass][k] : kNaN, have_gyro ? s.value[gyro][k] : kNaN, stationary);
-      heading = e.heading_rad;
-      if (keep) {
-        r.heading.heading_rad[k] = e.heading_rad;
-        r.heading.rate_radps[k] = e.rate_radps;
-        r.heading.heading_sigma_rad[k] = e.heading_sigma_rad;
+    const double* const compass_value = s.Has(Channel::kCompass) ? rows.value[compass] : nullptr;
+    const double* const gyro_value = s.Has(Channel::kGyroZ) ? rows.value[gyro] : nullptr;
+    const double* const compass_raw = s.Has(Channel::kCompass) ? rows.raw[compass] : nullptr;
+    const double* const gyro_raw = s.Has(Channel::kGyroZ) ? rows.raw[gyro] : nullptr;
+    for (; k < ready; ++k) {
+      const std::size_t i = k - rows.begin;
+      const double tk = rows.t_s[i];
+      bool moved = false;
+      for (int w = 0; w < 4; ++w) {
+        if (!have_wheel[w]) continue;
+        wheel_m[w] = wheels[w]->At(k);
+        if (k > 0 && std::abs(wheel_m[w] - last_wheel_m[w]) > 1e-9) moved = true;
       }
+      last_wheel_m = wheel_m;
+      double pitch = 0;
+      if (pitch_left && pitch_right) {
+        const double left = pitch_left->At(k);
+        pitch = 0.5 * (left + pitch_right->At(k));
+      } else if (pitch_left) {
+        pitch = pitch_left->At(k);
+      } else if (pitch_right) {
+        pitch = pitch_right->At(k);
+      }
+      double heading = constant_heading;
+      if (heading_lowpass) {
+        heading = heading_lowpass->At(k);
+      } else if (kalman) {
+        // Stationary: no wheel has moved over the last stationary_min_s.
+        if (moved || k == 0) still_since_t = tk;
+        const bool stationary = k > 0 && !moved && tk - still_since_t >= options.stationary_min_s;
+        const telemetry::HeadingKalman::Output e =
+            kalman->Update(tk, have_compass ? compass_value[i] : kNaN, have_gyro ? gyro_value[i] : kNaN, stationary);
+        heading = e.heading_rad;
+        out.heading_rate_radps = e.rate_radps;
+        if (keep) {
+          r.heading.heading_rad.push_back(e.heading_rad);
+          r.heading.rate_radps.push_back(e.rate_radps);
+          r.heading.heading_sigma_rad.push_back(e.heading_sigma_rad);
+        }
+      }
+      const TrajectorySample& pose = reckoner.Step(tk, heading, pitch, roll ? roll->At(k) : 0.0, wheel_m);
+      if (keep) {
+        r.motion.trajectory.push_back(pose);
+      } else {  // the attitude from the half angles the dead reckoning has made already
+        out.pose = pose;
+        out.enu_from_body =
+            EnuFromBody(reckoner.half_heading(), reckoner.half_pitch(), HalfAngle::Of(pose.roll_rad));
+        out.compass_count = compass_raw != nullptr ? compass_raw[i] : kNaN;
+        out.gyro_count = gyro_raw != nullptr ? gyro_raw[i] : kNaN;
+        sink(out);
+      }
+      r.motion.last_pose = pose;
     }
-    const TrajectorySample& pose = reckoner.Step(t[k], heading, pitch, roll ? roll->At(k) : 0.0, wheel_m);
-    if (keep) {
-      r.motion.trajectory[k] = pose;
-    } else {  // the attitude from the half angles the dead reckoning has made already
-      sink(pose, EnuFromBody(reckoner.half_heading(), reckoner.half_pitch(), HalfAngle::Of(pose.roll_rad)));
+    if (options.mode == FilterMode::kCausal) s.Release(k);
+    if (!input.Next()) {
+      LN_CHECK(k == s.end()) << "posfilter: rows left at the end of the log";
+      break;
     }
-    if (k + 1 == n) r.motion.last_pose = pose;
   }
   r.motion.distance_m = reckoner.distance_m();
   r.motion.slip_events = reckoner.slip_events();
@@ -261,43 +359,101 @@ PosfilterResult RunPosfilter(const telemetry::TelemetryLog& log, const telemetry
     r.heading.compass_updates = kalman->compass_updates();
     r.heading.gyro_updates = kalman->gyro_updates();
   }
+  r.rows_read = input.rows_read();
+  r.screened = s.report();
   return r;
 }
 
-void WriteHeadingStreamsCsv(const std::filesystem::path& path, const telemetry::TelemetryLog& log,
-                            const telemetry::SensorModel& model, const PosfilterResult& result) {
-  const telemetry::ScreenedLog& s = result.screened;
-  const std::vector<double>* compass = log.Has(Channel::kCompass) ? &log.counts[static_cast<int>(Channel::kCompass)] : nullptr;
-  const std::vector<double>* gyro = log.Has(Channel::kGyroZ) ? &log.counts[static_cast<int>(Channel::kGyroZ)] : nullptr;
+}  // namespace
+
+PosfilterResult RunPosfilter(telemetry::TelemetryReader& reader, const telemetry::SensorModel& model,
+                             const PosfilterOptions& options, const PoseSink& sink, const ProgressFn& progress) {
+  options.Validate();
+  std::array<bool, telemetry::kNumChannels> present{};
+  for (Channel c : telemetry::kAllChannels) present[static_cast<int>(c)] = reader.Has(c);
+  ScreenedRows input([&reader](telemetry::TelemetryLog* out, std::size_t max_rows) { return reader.Read(out, max_rows); },
+                     present, model, options, progress, [&reader] { return reader.FractionRead(); });
+  return Run(input, reader.source().string(), model, options, sink);
+}
+
+PosfilterResult RunPosfilter(const telemetry::TelemetryLog& log, const telemetry::SensorModel& model,
+                             const PosfilterOptions& options, const PoseSink& sink) {
+  options.Validate();
+  std::array<bool, telemetry::kNumChannels> present{};
+  for (Channel c : telemetry::kAllChannels) present[static_cast<int>(c)] = log.Has(c);
+  std::size_t next = 0;  // the log in blocks, as a reader gives it
+  auto source = [&](telemetry::TelemetryLog* out, std::size_t max_rows) {
+    const std::size_t n = std::min(max_rows, log.size() - next);
+    out->t_s.insert(out->t_s.end(), log.t_s.begin() + next, log.t_s.begin() + next + n);
+    out->line.insert(out->line.end(), log.line.begin() + next, log.line.begin() + next + n);
+    for (Channel c : telemetry::kAllChannels) {
+      const std::vector<double>& from = log.counts[static_cast<int>(c)];
+      if (!from.empty()) out->counts[static_cast<int>(c)].insert(out->counts[static_cast<int>(c)].end(),
+                                                                 from.begin() + next, from.begin() + next + n);
+    }
+    next += n;
+    return n;
+  };
+  ScreenedRows input(source, present, model, options, {},
+                     [&] { return log.size() == 0 ? 1.0 : static_cast<double>(next) / log.size(); });
+  return Run(input, log.source.string(), model, options, sink);
+}
+
+struct HeadingStreamsWriter::Impl {
+  explicit Impl(const std::filesystem::path& path) : file(path) {}
+  io::AtomicOutputFile file;
+  telemetry::ChannelModel compass, gyro;
+  std::string text;
+};
+
+HeadingStreamsWriter::HeadingStreamsWriter(const std::filesystem::path& path, const telemetry::SensorModel& model)
+    : impl_(std::make_unique<Impl>(path)) {
+  impl_->compass = model[Channel::kCompass];
+  impl_->gyro = model[Channel::kGyroZ];
+  impl_->text = "# lunarnav heading streams: raw sensors and filtered estimates (deg, deg/s)\n"
+                "t_s,compass_raw_deg,heading_deg,gyro_raw_dps,heading_rate_dps\n";
+}
+
+HeadingStreamsWriter::~HeadingStreamsWriter() = default;
+
+void HeadingStreamsWriter::Add(const PoseOutput& row) {
   const double deg = 180.0 / M_PI;
   auto angle = [](double d) { d = std::fmod(d, 360.0); return d < 0 ? d + 360.0 : d; };
-  std::string text = "# lunarnav heading streams: raw sensors and filtered estimates (deg, deg/s)\n"
-                     "t_s,compass_raw_deg,heading_deg,gyro_raw_dps,heading_rate_dps\n";
   char buf[160];
-  for (std::size_t k = 0; k < s.t_s.size(); ++k) {
-    const std::size_t row = s.Row(k);
-    std::string c, g, r;
-    if (compass != nullptr && !std::isnan((*compass)[row])) {
-      std::snprintf(buf, sizeof(buf), "%.4f", angle(model[Channel::kCompass].ToRadians((*compass)[row]) * deg));
-      c = buf;
-    }
-    if (gyro != nullptr && !std::isnan((*gyro)[row])) {
-      std::snprintf(buf, sizeof(buf), "%.4f", model[Channel::kGyroZ].ToRadians((*gyro)[row]) * deg);
-      g = buf;
-    }
-    if (result.kalman_used) {
-      std::snprintf(buf, sizeof(buf), "%.4f", result.heading.rate_radps[k] * deg);
-      r = buf;
-    }
-    std::snprintf(buf, sizeof(buf), "%.4f", angle(result.motion.trajectory[k].heading_rad * deg));
-    text += std::to_string(s.t_s[k]) + "," + c + "," + buf + "," + g + "," + r + "\n";
+  std::string& text = impl_->text;
+  text += std::to_string(row.pose.t_s);
+  text += ',';
+  if (!std::isnan(row.compass_count)) {
+    std::snprintf(buf, sizeof(buf), "%.4f", angle(impl_->compass.ToRadians(row.compass_count) * deg));
+    text += buf;
   }
-  io::WriteFileAtomic(path, text);
+  std::snprintf(buf, sizeof(buf), ",%.4f,", angle(row.pose.heading_rad * deg));
+  text += buf;
+  if (!std::isnan(row.gyro_count)) {
+    std::snprintf(buf, sizeof(buf), "%.4f", impl_->gyro.ToRadians(row.gyro_count) * deg);
+    text += buf;
+  }
+  text += ',';
+  if (!std::isnan(row.heading_rate_radps)) {
+    std::snprintf(buf, sizeof(buf), "%.4f", row.heading_rate_radps * deg);
+    text += buf;
+  }
+  text += '\n';
+  if (text.size() >= (1 << 20)) {
+    impl_->file.Write(text);
+    text.clear();
+  }
+}
+
+void HeadingStreamsWriter::Commit() {
+  impl_->file.Write(impl_->text);
+  impl_->text.clear();
+  impl_->file.Commit();
 }
 
 nlohmann::json PosfilterResult::SummaryJson() const {
   nlohmann::json j;
-  j["rows_used"] = screened.t_s.size();
+  j["rows_used"] = screened.rows;
   j["sample_rate_hz"] = sample_rate_hz;
   j["channels_used"] = channels_used;
   j["notes"] = notes;
@@ -310,12 +466,12 @@ nlohmann::json PosfilterResult::SummaryJson() const {
                            {"gyro_scale_error", heading.gyro_scale_error},
                            {"gyro_scale_sigma", heading.gyro_scale_sigma}};
   }
-  const double duration = screened.t_s.empty() ? 0.0 : screened.t_s.back() - screened.t_s.front();
+  const double duration = screened.rows == 0 ? 0.0 : screened.last_t_s - screened.first_t_s;
   j["motion"] = {{"distance_m", motion.distance_m},
                  {"duration_s", duration},
                  {"slip_events", motion.slip_events},
                  {"steps_without_odometry", motion.steps_without_odometry}};
-  if (!screened.t_s.empty()) {
+  if (screened.rows > 0) {
     const TrajectorySample& last = motion.last_pose;
     j["motion"]["final_position_m"] = {last.x_m, last.y_m, last.z_m};
   }

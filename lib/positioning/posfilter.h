@@ -4,6 +4,7 @@
 
 #include <filesystem>
 #include <functional>
+#include <memory>
 #include <string>
 #include <vector>
 
@@ -40,13 +41,17 @@ struct PosfilterOptions {
   telemetry::HeadingKalmanOptions kalman;
   DeadReckoningOptions dead_reckoning;
   double stationary_min_s = 1.0;  ///< Wheels still this long: stationary (gyro bias). > 0.
+  /// Rows read and screened at a time (memory and speed only: the results do not depend on
+  /// it). >= 1.
+  std::size_t block_rows = 4096;
   void Validate() const;
   nlohmann::json ToJson() const;
 };
 
 struct PosfilterResult {
   DeadReckoningResult motion;
-  telemetry::ScreenedLog screened;
+  std::size_t rows_read = 0;                 ///< Rows in the log (kept or not).
+  telemetry::ScreenedLog screened;           ///< Counts and events (no arrays).
   telemetry::LowPassDesign design;           ///< Low-pass used for pitch, roll (and heading).
   telemetry::HeadingEstimate heading;        ///< When the Kalman filter ran.
   bool kalman_used = false;
@@ -56,25 +61,50 @@ struct PosfilterResult {
   nlohmann::json SummaryJson() const;
 };
 
-/// Receives the poses one by one as they are computed, each with its attitude (EnuFromBody
-/// of its heading, pitch and roll).
-using PoseSink = std::function<void(const TrajectorySample&, const Eigen::Quaterniond& enu_from_body)>;
+/// One kept row's results, as a sink receives them.
+struct PoseOutput {
+  TrajectorySample pose;
+  Eigen::Quaterniond enu_from_body;  ///< EnuFromBody of the pose's heading, pitch and roll.
+  double heading_rate_radps = 0;     ///< The Kalman filter's; NaN when it did not run.
+  double compass_count = 0, gyro_count = 0;  ///< The row's raw counts; NaN for no sample.
+};
+/// Receives the rows' results one by one as they are computed.
+using PoseSink = std::function<void(const PoseOutput&)>;
+/// Told the fraction of the log read, after every block.
+using ProgressFn = std::function<void(double fraction)>;
 
-/// Screens the log, then runs row by row: fills the gaps, low-passes, runs the heading filter
-/// and dead-reckons. Without a sink the result holds the trajectory (and the Kalman heading
-/// streams); with one, each pose goes to the sink as it is computed and the result holds only
-/// the last (memory stays that of the screened log, however long the trajectory).
+/// Runs a log through posfilter as it is read, a block of rows at a time: screening, then
+/// row by row the gaps filled, the low-pass filters, the heading filter and the dead
+/// reckoning. Memory is bounded by the look-ahead the rules need (docs/posfilter.md), not by
+/// the log's length, except with zero-phase filtering, which holds the whole log.
+/// Without a sink the result holds the trajectory (and the Kalman heading streams); with
+/// one, each row goes to the sink as it is computed and the result holds only the last pose.
 /// Channels may be missing (no compass: heading from the gyro; no inclinometers: flat ground)
 /// or sampled at lower rates (gaps are interpolated in time before filtering); at least one
 /// encoder is needed.
-/// @throws InputError when the log has fewer than two usable rows or no encoder.
+/// @throws InputError for a bad row (file and line), a log with fewer than two usable rows
+///         or no encoder.
+PosfilterResult RunPosfilter(telemetry::TelemetryReader& reader, const telemetry::SensorModel& model,
+                             const PosfilterOptions& options, const PoseSink& sink = {},
+                             const ProgressFn& progress = {});
+/// The same for a log in memory.
 PosfilterResult RunPosfilter(const telemetry::TelemetryLog& log, const telemetry::SensorModel& model,
                              const PosfilterOptions& options, const PoseSink& sink = {});
 
 /// Writes the heading streams, raw and filtered, per kept row (the data of the paper's
-/// Figure 6): t_s, compass_raw_deg, heading_deg, gyro_raw_dps, heading_rate_dps; empty cells
-/// where a channel has no sample. Headings in [0, 360).
-void WriteHeadingStreamsCsv(const std::filesystem::path& path, const telemetry::TelemetryLog& log,
-                            const telemetry::SensorModel& model, const PosfilterResult& result);
+/// Figure 6) as a sink receives them: t_s, compass_raw_deg, heading_deg, gyro_raw_dps,
+/// heading_rate_dps; empty cells where a channel has no sample. Headings in [0, 360).
+/// Atomic: nothing appears at `path` before Commit().
+class HeadingStreamsWriter {
+ public:
+  HeadingStreamsWriter(const std::filesystem::path& path, const telemetry::SensorModel& model);
+  ~HeadingStreamsWriter();
+  void Add(const PoseOutput& row);
+  void Commit();
+
+ private:
+  struct Impl;
+  std::unique_ptr<Impl> impl_;
+};
 
 }  // namespace lunarnav::positioning

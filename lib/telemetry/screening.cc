@@ -34,339 +34,560 @@ double SubsampledMedian(std::size_t count, Value value) {
   return v[mid];
 }
 
-// How many values are NaN.
-std::size_t CountNaN(const std::vector<double>& values) {
-  std::size_t count = 0;
-  for (const double x : values) count += static_cast<std::size_t>(std::isnan(x));
-  return count;
-}
+enum Kind { kEncoderKind, kCompassKind, kAnalogKind };
 
-class Screener {
+}  // namespace
+
+class ScreeningStream::Impl {
  public:
-  Screener(const TelemetryLog& log, const SensorModel& model, const ScreeningOptions& options)
-      : log_(log), model_(model), o_(options) {}
+  Impl(const SensorModel& model, const ScreeningOptions& options, const std::array<bool, kNumChannels>& present)
+      : model_(model), o_(options), window_rows_(options.statistics_intervals + 1) {
+    options.Validate();
+    for (Channel c : kAllChannels) {
+      const int ch = static_cast<int>(c);
+      ChannelState& s = ch_[ch];
+      s.present = present[ch];
+      if (!s.present) continue;
+      const ChannelModel& m = model_[c];
+      const bool encoder = IsEncoder(c);
+      s.kind = encoder ? kEncoderKind : c == Channel::kCompass ? kCompassKind : kAnalogKind;
+      s.hampel = !encoder;
+      s.full_scale = std::ldexp(1.0, m.bits) - 1.0;
+      s.period = std::ldexp(1.0, m.counter_bits);
+      if (encoder) {
+        s.limit = o_.max_speed_mps / std::abs(m.MetresPerCount());
+        s.slack = o_.rate_slack_counts;
+      } else {
+        const double unit = std::abs(m.ToRadians(1.0) - m.ToRadians(0.0));  // radians per count
+        s.slack = o_.rate_slack_counts * unit;
+        const double deg = M_PI / 180.0;
+        if (c == Channel::kCompass) s.limit = o_.max_turn_rate_dps * deg;
+        else if (c == Channel::kGyroZ) s.limit = o_.max_turn_accel_dps2 * deg;
+        else s.limit = o_.max_tilt_rate_dps * deg;
+        // Counts to radians is linear: precomputed, not called per sample.
+        s.radians_at_zero = m.ToRadians(0.0);
+        s.radians_per_count = m.ToRadians(1.0) - s.radians_at_zero;
+        s.min_dev = o_.hampel_min_counts * unit;
+      }
+    }
+    for (Channel c : kAllChannels) {
+      ChannelState& s = ch_[static_cast<int>(c)];
+      if (s.present) s.correlated = CorrelatedChannels(c);
+    }
+  }
 
-  ScreenedLog Run() {
-    ScreenRows();
-    for (Channel c : kAllChannels) {
-      if (log_.Has(c)) ScreenChannel(c);
+  void Push(const TelemetryLog& rows) {
+    LN_CHECK(!finished_) << "screening: rows pushed after the end";
+    const std::size_t n = rows.size();
+    // The usual block, time stamps increasing throughout: copied column by column.
+    double previous = out_.rows > 0 ? out_.last_t_s : -std::numeric_limits<double>::infinity();
+    std::size_t increasing = 0;
+    while (increasing < n && rows.t_s[increasing] > previous) previous = rows.t_s[increasing++];
+    if (increasing == n && n > 0) {
+      t_.insert(t_.end(), rows.t_s.begin(), rows.t_s.end());
+      line_.insert(line_.end(), rows.line.begin(), rows.line.end());
+      const std::size_t held = log_row_.size();
+      log_row_.resize(held + n);
+      for (std::size_t i = 0; i < n; ++i) log_row_[held + i] = rows_read_ + i;
+      for (int ch = 0; ch < kNumChannels; ++ch) {
+        if (!ch_[ch].present) continue;
+        raw_[ch].insert(raw_[ch].end(), rows.counts[ch].begin(), rows.counts[ch].end());
+        value_[ch].resize(held + n, kNaN);
+      }
+      if (out_.rows == 0) out_.first_t_s = rows.t_s.front();
+      out_.last_t_s = rows.t_s.back();
+      out_.rows += n;
+      rows_read_ += n;
+      Pump();
+      return;
     }
-    for (Channel c : kAllChannels) {
-      if (out_.Has(c)) DetectStuck(c);
+    for (std::size_t i = 0; i < n; ++i) {
+      const double t = rows.t_s[i];
+      if (out_.rows > 0 && (t == out_.last_t_s || t < out_.last_t_s)) {
+        const ScreeningRule rule =
+            t == out_.last_t_s ? ScreeningRule::kRepeatedTimestamp : ScreeningRule::kOutOfOrderTimestamp;
+        out_.events.push_back({rows.line[i], t, -1, rule, t});
+        ++out_.counts[static_cast<int>(rule)][kRowSlot];
+        ++dropped_;
+        continue;
+      }
+      t_.push_back(t);
+      line_.push_back(rows.line[i]);
+      log_row_.push_back(rows_read_ + i);
+      for (int ch = 0; ch < kNumChannels; ++ch) {
+        if (!ch_[ch].present) continue;
+        raw_[ch].push_back(rows.counts[ch][i]);
+        value_[ch].push_back(kNaN);
+      }
+      if (out_.rows == 0) out_.first_t_s = t;
+      out_.last_t_s = t;
+      ++out_.rows;
     }
-    std::sort(out_.events.begin(), out_.events.end(), [](const ScreeningEvent& a, const ScreeningEvent& b) {
-      return a.line != b.line ? a.line < b.line : a.channel < b.channel;
+    rows_read_ += n;
+    Pump();
+  }
+
+  void Finish() {
+    if (finished_) return;
+    finished_ = true;
+    Pump();
+    std::stable_sort(out_.events.begin(), out_.events.end(), [](const ScreeningEvent& a, const ScreeningEvent& b) {
+      if (a.line != b.line) return a.line < b.line;
+      if (a.channel != b.channel) return a.channel < b.channel;
+      return a.rule < b.rule;
     });
-    return std::move(out_);
+  }
+
+  bool finished() const { return finished_; }
+  bool statistics_ready() const { return statistics_ready_; }
+  bool Has(Channel c) const { return ch_[static_cast<int>(c)].present; }
+  std::size_t begin() const { return base_; }
+  std::size_t end() const { return out_.rows; }
+  std::size_t final_end() const { return final_end_; }
+  double t(std::size_t k) const { return t_[k - base_]; }
+  long line(std::size_t k) const { return line_[k - base_]; }
+  double raw(Channel c, std::size_t k) const { return raw_[static_cast<int>(c)][k - base_]; }
+  double value(Channel c, std::size_t k) const { return value_[static_cast<int>(c)][k - base_]; }
+  const ScreenedLog& report() const { return out_; }
+  ScreeningStream::Rows rows() const {
+    ScreeningStream::Rows r;
+    r.begin = base_;
+    r.end = out_.rows;
+    r.t_s = t_.data();
+    for (int ch = 0; ch < kNumChannels; ++ch) {
+      if (!ch_[ch].present) continue;
+      r.raw[ch] = raw_[ch].data();
+      r.value[ch] = value_[ch].data();
+    }
+    return r;
+  }
+
+  void Release(std::size_t k) {
+    LN_CHECK(k <= final_end_) << "screening: rows released before they are final";
+    const std::size_t drop = k - base_, held = out_.rows - base_;
+    // Rows are erased in batches of at least half of those held: each row is moved O(1)
+    // times on average, however long the look-ahead.
+    if (drop < 4096 || 2 * drop < held) return;
+    auto erase_front = [drop](auto& v) { v.erase(v.begin(), v.begin() + static_cast<std::ptrdiff_t>(drop)); };
+    erase_front(t_);
+    erase_front(line_);
+    erase_front(log_row_);
+    for (int ch = 0; ch < kNumChannels; ++ch) {
+      if (!ch_[ch].present) continue;
+      erase_front(raw_[ch]);
+      erase_front(value_[ch]);
+    }
+    base_ = k;
+  }
+
+  ScreenedLog TakeAll() {
+    LN_CHECK(finished_ && base_ == 0) << "screening: the whole log is not held";
+    ScreenedLog all = std::move(out_);
+    all.t_s = std::move(t_);
+    if (dropped_ > 0) all.row = std::move(log_row_);
+    for (int ch = 0; ch < kNumChannels; ++ch) {
+      if (ch_[ch].present) all.value[ch] = std::move(value_[ch]);
+    }
+    return all;
   }
 
  private:
+  enum class Typical { kUnknown, kKnown, kNone };
+
+  struct ChannelState {
+    bool present = false;
+    Kind kind = kAnalogKind;
+    bool hampel = false;  // analog channels get the spike test
+    double full_scale = 0, period = 0, limit = 0, slack = 0, radians_at_zero = 0, radians_per_count = 0;
+    // Range, rails, rate limit and unwrapping, against the last accepted sample.
+    std::size_t pass_end = 0;  // rows before it have been through them
+    bool have_last = false;
+    double last_raw = 0, last_value = 0, last_t = 0;
+    int rejected_run = 0;
+    // Dropouts: silences longer than gap_factor x the channel's typical interval.
+    Typical typical_state = Typical::kUnknown;
+    double dropout_limit = 0;   // gap_factor x typical interval
+    double last_present_t = kNaN;
+    std::vector<ScreeningEvent> first_samples;  // while the interval is unknown
+    // Spike test over the accepted samples, which are queued for it: accepted sample p is
+    // element p - queue_base.
+    std::vector<double> queue_value, queue_t;
+    std::vector<std::size_t> queue_row;
+    std::size_t queue_base = 0, accepted = 0, accepted_in_window = 0, tested = 0;
+    Typical sigma_state = Typical::kUnknown;
+    double channel_sigma = 0, smallest_threshold = 0, min_dev = 0;
+    std::size_t hampel_end = 0;  // rows before it have had their spike test
+    // Stuck runs: the scan position and the run open there.
+    std::vector<Channel> correlated;
+    std::size_t stuck_end = 0;  // rows before it are final
+    bool in_run = false;
+    std::size_t run_last_valid = 0, run_next = 0;
+  };
+
   void Record(std::size_t k, int channel, ScreeningRule rule, double raw) {
-    out_.events.push_back({log_.line[out_.Row(k)], out_.t_s[k], channel, rule, raw});
+    out_.events.push_back({line_[k - base_], t_[k - base_], channel, rule, raw});
     ++out_.counts[static_cast<int>(rule)][channel < 0 ? kRowSlot : channel];
   }
 
-  void ScreenRows() {
-    out_.t_s.reserve(log_.size());
-    double last_t = -std::numeric_limits<double>::infinity();
-    bool dropped = false;  // the row list is kept from the first dropped row on
-    for (std::size_t i = 0; i < log_.size(); ++i) {
-      const double t = log_.t_s[i];
-      if (!out_.t_s.empty() && (t == last_t || t < last_t)) {
-        const ScreeningRule rule =
-            t == last_t ? ScreeningRule::kRepeatedTimestamp : ScreeningRule::kOutOfOrderTimestamp;
-        out_.events.push_back({log_.line[i], t, -1, rule, t});
-        ++out_.counts[static_cast<int>(rule)][kRowSlot];
-        if (!dropped) {
-          dropped = true;
-          out_.row.reserve(log_.size());
-          for (std::size_t k = 0; k < i; ++k) out_.row.push_back(k);
-        }
-        continue;
-      }
-      if (dropped) out_.row.push_back(i);
-      out_.t_s.push_back(t);
-      last_t = t;
+  // Runs every rule as far as the rows so far allow.
+  void Pump() {
+    if (!statistics_ready_) {
+      if (out_.rows < window_rows_ && !finished_) return;
+      RowStatistics();
     }
-    const std::vector<double>& t = out_.t_s;
-    if (t.size() < 2) return;
-    const double typical = SubsampledMedian(t.size() - 1, [&](std::size_t k) { return t[k + 1] - t[k]; });
-    for (std::size_t k = 1; k < t.size(); ++k) {
-      if (t[k] - t[k - 1] > o_.gap_factor * typical) {
-        Record(k, -1, ScreeningRule::kGap, t[k]);
-        gap_rows_.push_back(k);
+    GapStage();
+    for (Channel c : kAllChannels) {
+      ChannelState& s = ch_[static_cast<int>(c)];
+      if (!s.present) continue;
+      if (s.typical_state == Typical::kUnknown && s.pass_end == 0) ChannelInterval(c);
+      PassStage(c);
+      if (s.typical_state == Typical::kUnknown && finished_) s.typical_state = Typical::kNone;
+      if (s.hampel) {
+        HampelStage(c);
+      } else {
+        s.hampel_end = s.pass_end;
       }
+    }
+    final_end_ = out_.rows;
+    for (Channel c : kAllChannels) {
+      ChannelState& s = ch_[static_cast<int>(c)];
+      if (!s.present) continue;
+      StuckStage(c);
+      final_end_ = std::min(final_end_, s.stuck_end);
     }
   }
 
-  void ScreenChannel(Channel c) {
+  // The rows' typical interval, from the statistics window.
+  void RowStatistics() {
+    statistics_ready_ = true;
+    const std::size_t n = std::min(out_.rows, window_rows_);
+    if (n >= 2) {
+      out_.typical_interval_s = SubsampledMedian(n - 1, [&](std::size_t k) { return t_[k + 1] - t_[k]; });
+    }
+    gap_limit_ = o_.gap_factor * out_.typical_interval_s;
+  }
+
+  void GapStage() {
+    for (std::size_t k = std::max<std::size_t>(gap_next_, 1); k < out_.rows; ++k) {
+      if (t_[k - base_] - t_[k - 1 - base_] > gap_limit_) Record(k, -1, ScreeningRule::kGap, t_[k - base_]);
+    }
+    gap_next_ = out_.rows;
+  }
+
+  // The channel's typical interval from its samples in the statistics window (the rows are
+  // all held then): known with three samples or more, else left to the first three.
+  void ChannelInterval(Channel c) {
+    ChannelState& s = ch_[static_cast<int>(c)];
+    const std::vector<double>& raw = raw_[static_cast<int>(c)];
+    const std::size_t n = std::min(out_.rows, window_rows_);
+    std::vector<double> present_t;
+    for (std::size_t k = 0; k < n; ++k) {
+      if (!std::isnan(raw[k])) present_t.push_back(t_[k]);
+    }
+    if (present_t.size() < 3) return;
+    SetChannelInterval(
+        &s, SubsampledMedian(present_t.size() - 1, [&](std::size_t i) { return present_t[i + 1] - present_t[i]; }));
+  }
+  void SetChannelInterval(ChannelState* s, double typical) {
+    s->typical_state = Typical::kKnown;
+    s->dropout_limit = o_.gap_factor * typical;
+  }
+
+  // Range and rails, then conversion, unwrapping and the rate limit against the last accepted
+  // sample, over the rows not yet seen; also dropouts, and the accepted samples queued for the
+  // spike test.
+  void PassStage(Channel c) {
+    const ChannelState& s = ch_[static_cast<int>(c)];
+    // The loop is compiled once per kind of channel, so that none of those tests is made per
+    // sample.
+    switch (s.kind) {
+      case kEncoderKind: Pass<kEncoderKind>(c); break;
+      case kCompassKind: Pass<kCompassKind>(c); break;
+      case kAnalogKind: Pass<kAnalogKind>(c); break;
+    }
+  }
+
+  template <Kind kind>
+  void Pass(Channel c) {
     const int ch = static_cast<int>(c);
+    ChannelState& s = ch_[ch];
     const ChannelModel& m = model_[c];
-    const std::size_t n = out_.t_s.size();
-    // The raw counts of the kept rows: the log's own array when no row was dropped.
-    if (!out_.row.empty()) {
-      raw_copy_[ch].resize(n);
-      for (std::size_t k = 0; k < n; ++k) raw_copy_[ch][k] = log_.counts[ch][out_.row[k]];
-      raw_[ch] = &raw_copy_[ch];
-    } else {
-      raw_[ch] = &log_.counts[ch];
-    }
-    const std::vector<double>& raw = *raw_[ch];
-    std::vector<double>& v = out_.value[ch];
-    v.assign(n, kNaN);
-
-    // Dropouts: silences much longer than the channel's own sampling interval.
-    // The present samples: all of them (dense: no index list), or listed.
-    const std::size_t missing =
-        CountNaN(raw);
-    const bool dense = missing == 0;
-    std::vector<std::size_t>& present = present_;
-    present.clear();
-    if (!dense) {
-      present.reserve(n - missing);
-      for (std::size_t k = 0; k < n; ++k) {
-        if (!std::isnan(raw[k])) present.push_back(k);
+    const double* const raw = raw_[ch].data();
+    double* const v = value_[ch].data();
+    const double* const t = t_.data();
+    const std::size_t b = base_;
+    const double valid_min = static_cast<double>(m.valid_min), valid_max = static_cast<double>(m.valid_max);
+    // The state in locals (the stores to v and the calls to Record cannot touch them).
+    bool have_last = s.have_last;
+    double last_raw = s.last_raw, last_value = s.last_value, last_t = s.last_t;
+    int rejected_run = s.rejected_run;
+    Typical typical_state = s.typical_state;
+    double last_present_t = s.last_present_t, dropout_limit = s.dropout_limit;
+    const double limit = s.limit, slack = s.slack, period = s.period, full_scale = s.full_scale;
+    const double radians_at_zero = s.radians_at_zero, radians_per_count = s.radians_per_count;
+    for (std::size_t k = s.pass_end; k < out_.rows; ++k) {
+      const std::size_t i = k - b;
+      const double r = raw[i];
+      if (std::isnan(r)) continue;
+      if (typical_state == Typical::kKnown) {
+        if (t[i] - last_present_t > dropout_limit) Record(k, ch, ScreeningRule::kDropout, r);
+        last_present_t = t[i];
+      } else if (typical_state == Typical::kUnknown) {
+        FirstSamples(c, k);
+        typical_state = s.typical_state;
+        last_present_t = s.last_present_t;
+        dropout_limit = s.dropout_limit;
       }
-    }
-    const std::size_t present_count = n - missing;
-    auto present_at = [&](std::size_t p) { return dense ? p : present[p]; };
-    if (present_count >= 3 && dense) {
-      // Every row present: the channel's intervals are the rows', its typical interval the
-      // rows' (the same median of the same values), its dropouts the rows' gaps.
-      for (std::size_t k : gap_rows_) Record(k, ch, ScreeningRule::kDropout, raw[k]);
-    } else if (present_count >= 3) {
-      const std::vector<double>& t = out_.t_s;
-      auto gap = [&](std::size_t p) { return t[present_at(p)] - t[present_at(p - 1)]; };  // p >= 1
-      const double typical = SubsampledMedian(present_count - 1, [&](std::size_t i) { return gap(i + 1); });
-      for (std::size_t p = 1; p < present_count; ++p) {
-        if (gap(p) > o_.gap_factor * typical) {
-          Record(present_at(p), ch, ScreeningRule::kDropout, raw[present_at(p)]);
-        }
+      if (r < valid_min || r > valid_max) {
+        Record(k, ch, ScreeningRule::kOutOfRange, r);
+        continue;
       }
-    }
-
-    // Range and rails, then conversion, unwrapping and the rate limit against the last
-    // accepted sample.
-    const bool encoder = IsEncoder(c);
-    const double full_scale = std::ldexp(1.0, m.bits) - 1.0;
-    const double period = std::ldexp(1.0, m.counter_bits);
-    double limit = 0, slack = 0;  // per second, and absolute, in the value's units
-    if (encoder) {
-      limit = o_.max_speed_mps / std::abs(m.MetresPerCount());
-      slack = o_.rate_slack_counts;
-    } else {
-      const double unit = std::abs(m.ToRadians(1.0) - m.ToRadians(0.0));  // radians per count
-      slack = o_.rate_slack_counts * unit;
-      const double deg = M_PI / 180.0;
-      if (c == Channel::kCompass) limit = o_.max_turn_rate_dps * deg;
-      else if (c == Channel::kGyroZ) limit = o_.max_turn_accel_dps2 * deg;
-      else limit = o_.max_tilt_rate_dps * deg;
-    }
-    // Counts to radians is linear: precomputed, not called per sample.
-    const double radians_at_zero = encoder ? 0.0 : m.ToRadians(0.0);
-    const double radians_per_count = encoder ? 0.0 : m.ToRadians(1.0) - radians_at_zero;
-    // The loop is compiled once per kind of channel and for dense channels, so that none of
-    // those tests is made per sample.
-    enum Kind { kEncoderKind, kCompassKind, kAnalogKind };
-    auto screen = [&](auto kind_tag, auto dense_tag) {
-      constexpr Kind kind = decltype(kind_tag)::value;
-      constexpr bool all_present = decltype(dense_tag)::value;
-      bool have_last = false;
-      double last_raw = 0, last_value = 0, last_t = 0;
-      int rejected_run = 0;
-      for (std::size_t p = 0; p < present_count; ++p) {
-        const std::size_t k = all_present ? p : present[p];
-        const double r = raw[k];
-        if (r < m.valid_min || r > m.valid_max) {
-          Record(k, ch, ScreeningRule::kOutOfRange, r);
-          continue;
-        }
-        // Rails mean saturation, except for the compass, whose 0 and full scale are headings.
-        if (kind == kAnalogKind && (r == 0 || r == full_scale)) {
-          Record(k, ch, ScreeningRule::kAtRail, r);
-          continue;
-        }
-        double value = 0;
-        bool wrapped = false;
-        if constexpr (kind == kEncoderKind) {
-          double d = have_last ? r - last_raw : 0.0;
-          if (d > period / 2) { d -= period; wrapped = true; }
-          if (d < -period / 2) { d += period; wrapped = true; }
-          value = have_last ? last_value + d : r;
-        } else {
-          value = radians_at_zero + radians_per_count * r;
-          if (kind == kCompassKind && have_last) {  // continue across +-180 deg
-            while (value - last_value > M_PI) value -= 2.0 * M_PI;
-            while (value - last_value < -M_PI) value += 2.0 * M_PI;
-          }
-        }
-        if (have_last && std::abs(value - last_value) > limit * (out_.t_s[k] - last_t) + slack &&
-            rejected_run + 1 < kRebaselineAfter) {
-          ++rejected_run;
-          Record(k, ch, ScreeningRule::kRateLimit, r);
-          continue;
-        }
-        if (wrapped) Record(k, ch, ScreeningRule::kEncoderWrap, r);
-        rejected_run = 0;
-        v[k] = value;
-        have_last = true;
-        last_raw = r;
-        last_value = value;
-        last_t = out_.t_s[k];
+      // Rails mean saturation, except for the compass, whose 0 and full scale are headings.
+      if (kind == kAnalogKind && (r == 0 || r == full_scale)) {
+        Record(k, ch, ScreeningRule::kAtRail, r);
+        continue;
       }
-    };
-    auto with_kind = [&](auto dense_tag) {
-      if (encoder) {
-        screen(std::integral_constant<Kind, kEncoderKind>{}, dense_tag);
-      } else if (c == Channel::kCompass) {
-        screen(std::integral_constant<Kind, kCompassKind>{}, dense_tag);
+      double value = 0;
+      bool wrapped = false;
+      if constexpr (kind == kEncoderKind) {
+        double d = have_last ? r - last_raw : 0.0;
+        if (d > period / 2) { d -= period; wrapped = true; }
+        if (d < -period / 2) { d += period; wrapped = true; }
+        value = have_last ? last_value + d : r;
       } else {
-        screen(std::integral_constant<Kind, kAnalogKind>{}, dense_tag);
+        value = radians_at_zero + radians_per_count * r;
+        if (kind == kCompassKind && have_last) {  // continue across +-180 deg
+          while (value - last_value > M_PI) value -= 2.0 * M_PI;
+          while (value - last_value < -M_PI) value += 2.0 * M_PI;
+        }
       }
-    };
-    if (dense) {
-      with_kind(std::true_type{});
-    } else {
-      with_kind(std::false_type{});
+      if (have_last && std::abs(value - last_value) > limit * (t[i] - last_t) + slack &&
+          rejected_run + 1 < kRebaselineAfter) {
+        ++rejected_run;
+        Record(k, ch, ScreeningRule::kRateLimit, r);
+        continue;
+      }
+      if (wrapped) Record(k, ch, ScreeningRule::kEncoderWrap, r);
+      rejected_run = 0;
+      v[i] = value;
+      have_last = true;
+      last_raw = r;
+      last_value = value;
+      last_t = t[i];
+      if constexpr (kind != kEncoderKind) {
+        s.queue_value.push_back(value);
+        s.queue_t.push_back(t[i]);
+        s.queue_row.push_back(k);
+        ++s.accepted;
+        if (k < window_rows_) ++s.accepted_in_window;
+      }
     }
-    if (!encoder) Hampel(c);
+    s.have_last = have_last;
+    s.last_raw = last_raw;
+    s.last_value = last_value;
+    s.last_t = last_t;
+    s.rejected_run = rejected_run;
+    s.last_present_t = last_present_t;
+    s.pass_end = out_.rows;
+  }
+
+  // A sample of a channel with fewer than three in the statistics window: its first three
+  // set its typical interval, and their dropouts are reported then.
+  // (Their rows may have been released by then: the samples are kept as their events would be.)
+  void FirstSamples(Channel c, std::size_t k) {
+    const int ch = static_cast<int>(c);
+    ChannelState& s = ch_[ch];
+    s.first_samples.push_back({line(k), t(k), ch, ScreeningRule::kDropout, raw(c, k)});
+    if (s.first_samples.size() < 3) return;
+    const ScreeningEvent* e = s.first_samples.data();
+    SetChannelInterval(&s, SubsampledMedian(2, [&](std::size_t i) { return e[i + 1].t_s - e[i].t_s; }));
+    for (std::size_t i = 1; i < 3; ++i) {
+      if (e[i].t_s - e[i - 1].t_s > s.dropout_limit) {
+        out_.events.push_back(e[i]);
+        ++out_.counts[static_cast<int>(ScreeningRule::kDropout)][ch];
+      }
+    }
+    s.last_present_t = e[2].t_s;
+    s.first_samples.clear();
   }
 
   // Hampel identifier over the accepted samples of an analog channel, on the residuals from
   // the local trend (the median slope of the window), so that a steady turn or climb is not
   // mistaken for spread: a sample is a spike when its residual is further from the residuals'
   // median than hampel_threshold robust sigmas (1.4826 MAD) and hampel_min_counts counts.
-  void Hampel(Channel c) {
+  // Sample p is tested once the hampel_half_window accepted samples after it are known (the
+  // last ones at the end, in the window ending with the last sample).
+  void HampelStage(Channel c) {
     const int ch = static_cast<int>(c);
-    const ChannelModel& m = model_[c];
-    std::vector<double>& v = out_.value[ch];
-    // The accepted samples: their values and times, compacted when some are missing or were
-    // rejected.
-    const std::size_t count =
-        v.size() - CountNaN(v);
-    const bool dense = count == v.size();
-    if (!dense) {
-      accepted_row_.clear();
-      accepted_value_.clear();
-      accepted_t_.clear();
-      for (std::size_t k = 0; k < v.size(); ++k) {
-        if (std::isnan(v[k])) continue;
-        accepted_row_.push_back(k);
-        accepted_value_.push_back(v[k]);
-        accepted_t_.push_back(out_.t_s[k]);
-      }
-    }
-    const double* const value = dense ? v.data() : accepted_value_.data();
-    const double* const time = dense ? out_.t_s.data() : accepted_t_.data();
+    ChannelState& s = ch_[ch];
     const std::size_t h = static_cast<std::size_t>(o_.hampel_half_window);
     const std::size_t window = 2 * h + 1;  // odd
-    if (count < window) return;
-    const double unit = std::abs(m.ToRadians(1.0) - m.ToRadians(0.0));
-    const double min_dev = o_.hampel_min_counts * unit;
-    // The channel's noise level, from its second differences (for white noise their variance
-    // is 6 sigma^2): a floor under each window's own estimate, which from a handful of
-    // samples is often far too small.
-    const double channel_sigma = 1.4826 *
-                                 SubsampledMedian(count - 2, [&](std::size_t q) {
-                                   return std::abs(value[q + 2] - 2.0 * value[q + 1] + value[q]);
-                                 }) /
-                                 std::sqrt(6.0);
-    // The slope joining accepted samples q - 1 and q.
+    if (s.sigma_state == Typical::kUnknown) NoiseLevel(&s, window);
+    if (s.sigma_state == Typical::kKnown) {
+      const std::size_t until = finished_ ? s.accepted : (s.accepted >= h ? s.accepted - h : 0);
+      if (s.accepted >= window && s.tested < until) {
+        HampelTests(c, s.tested, until);
+        s.tested = until;
+      }
+      // The queue keeps the window of the next sample to test.
+      const std::size_t keep_from = s.tested >= window ? s.tested - window : 0;
+      if (keep_from - s.queue_base >= 4096 && 2 * (keep_from - s.queue_base) >= s.queue_value.size()) {
+        const auto drop = static_cast<std::ptrdiff_t>(keep_from - s.queue_base);
+        s.queue_value.erase(s.queue_value.begin(), s.queue_value.begin() + drop);
+        s.queue_t.erase(s.queue_t.begin(), s.queue_t.begin() + drop);
+        s.queue_row.erase(s.queue_row.begin(), s.queue_row.begin() + drop);
+        s.queue_base = keep_from;
+      }
+    }
+    if (s.sigma_state == Typical::kNone) s.tested = s.accepted;
+    s.hampel_end = s.tested < s.accepted ? s.queue_row[s.tested - s.queue_base] : s.pass_end;
+  }
+
+  // The channel's noise level, from the second differences of its accepted samples in the
+  // statistics window (for white noise their variance is 6 sigma^2): a floor under each
+  // window's own estimate, which from a handful of samples is often far too small. A channel
+  // with fewer than a test window of samples there takes its first ones; one with fewer in
+  // all is not tested.
+  void NoiseLevel(ChannelState* s, std::size_t window) {
+    std::size_t count = 0;
+    if (s->accepted_in_window >= window) {
+      count = s->accepted_in_window;
+    } else if (s->accepted >= window) {
+      count = window;
+    } else {
+      if (finished_) s->sigma_state = Typical::kNone;
+      return;
+    }
+    const double* value = s->queue_value.data();  // nothing dropped from the queue yet
+    s->channel_sigma = 1.4826 *
+                       SubsampledMedian(count - 2, [&](std::size_t q) {
+                         return std::abs(value[q + 2] - 2.0 * value[q + 1] + value[q]);
+                       }) /
+                       std::sqrt(6.0);
+    s->smallest_threshold = std::max(o_.hampel_threshold * s->channel_sigma, s->min_dev);
+    s->sigma_state = Typical::kKnown;
+  }
+
+  // Tests accepted samples [first, last) of channel c (their windows are in the queue).
+  void HampelTests(Channel c, std::size_t first, std::size_t last) {
+    const int ch = static_cast<int>(c);
+    ChannelState& s = ch_[ch];
+    // Queue-relative indices: sample p is element p - base.
+    const std::size_t base = s.queue_base, count = s.accepted;
+    const double* const value = s.queue_value.data();
+    const double* const time = s.queue_t.data();
+    const std::size_t h = static_cast<std::size_t>(o_.hampel_half_window);
+    const std::size_t window = 2 * h + 1;
+    const double channel_sigma = s.channel_sigma, smallest_threshold = s.smallest_threshold;
+    // The slope joining accepted samples q - 1 and q (queue indices).
     auto slope_at = [&](std::size_t q) { return (value[q] - value[q - 1]) / (time[q] - time[q - 1]); };
-    const double smallest_threshold = std::max(o_.hampel_threshold * channel_sigma, min_dev);
-    std::vector<double> residual(window), scratch(window);
-    std::vector<std::size_t> spikes;
-    // The full test of sample p: trend, residuals, their median and MAD.
+    double residual[64], scratch[64];
+    std::vector<double> residual_heap, scratch_heap;
+    double* res = residual;
+    double* scr = scratch;
+    if (window > 64) {
+      residual_heap.resize(window);
+      scratch_heap.resize(window);
+      res = residual_heap.data();
+      scr = scratch_heap.data();
+    }
+    auto spike = [&](std::size_t q) {
+      const std::size_t row = s.queue_row[q];
+      Record(row, ch, ScreeningRule::kSpike, raw_[ch][row - base_]);
+      value_[ch][row - base_] = kNaN;
+    };
+    // The full test of sample p (absolute): trend, residuals, their median and MAD.
     auto test = [&](std::size_t p) {
-      const std::size_t lo = std::min(p >= h ? p - h : 0, count - window);
-      for (std::size_t i = 0; i + 1 < window; ++i) scratch[i] = slope_at(lo + 1 + i);
-      const double trend = util::SmallMedian(scratch.data(), window - 1);
-      const double mine = value[p];
-      for (std::size_t i = 0; i < window; ++i) residual[i] = value[lo + i] - trend * (time[lo + i] - time[p]);
+      const std::size_t lo = std::min(p >= h ? p - h : 0, count - window) - base;
+      const std::size_t q = p - base;
+      for (std::size_t i = 0; i + 1 < window; ++i) scr[i] = slope_at(lo + 1 + i);
+      const double trend = util::SmallMedian(scr, window - 1);
+      const double mine = value[q];
+      for (std::size_t i = 0; i < window; ++i) res[i] = value[lo + i] - trend * (time[lo + i] - time[q]);
       // Exact shortcut: with an odd window the residuals' median is one of them, so when all
       // lie within the smallest possible threshold of this sample it is no spike.
       double farthest = 0;
-      for (std::size_t i = 0; i < window; ++i) farthest = std::max(farthest, std::abs(mine - residual[i]));
+      for (std::size_t i = 0; i < window; ++i) farthest = std::max(farthest, std::abs(mine - res[i]));
       if (farthest <= smallest_threshold) return;
-      scratch = residual;
-      const double med = util::SmallMedian(scratch.data(), window);
-      for (std::size_t i = 0; i < window; ++i) scratch[i] = std::abs(residual[i] - med);
-      const double sigma = std::max(1.4826 * util::SmallMedian(scratch.data(), window), channel_sigma);
+      std::copy(res, res + window, scr);
+      const double med = util::SmallMedian(scr, window);
+      for (std::size_t i = 0; i < window; ++i) scr[i] = std::abs(res[i] - med);
+      const double sigma = std::max(1.4826 * util::SmallMedian(scr, window), channel_sigma);
       const double d = std::abs(mine - med);
-      if (d > o_.hampel_threshold * sigma && d > min_dev) spikes.push_back(dense ? p : accepted_row_[p]);
+      if (d > o_.hampel_threshold * sigma && d > s.min_dev) spike(q);
     };
     if (h != 3) {
-      for (std::size_t p = 0; p < count; ++p) test(p);
-    } else {
-      // The usual half window: interior windows (lo = p - 3) take the shortcut first, in
-      // chunks that stay in the cache, by a branch-free loop the compiler vectorises; the
-      // distances are those of the full test, so the decision is the same. The few samples
-      // left get the full test.
-      constexpr std::size_t kChunk = 2048;
-      std::array<double, kChunk + 6> slope;   // slope[i] joins b - 3 + i and b - 2 + i
-      std::array<double, kChunk> farthest_of;  // of samples b, b + 1, ...
-      for (std::size_t p = 0; p < std::min<std::size_t>(3, count); ++p) test(p);
-      for (std::size_t b = 3; b + 3 < count; b += kChunk) {
-        const std::size_t e = std::min(b + kChunk, count - 3);  // samples [b, e)
-        for (std::size_t q = b - 2; q < e + 4; ++q) slope[q - (b - 2)] = slope_at(q);
-        for (std::size_t p = b; p < e; ++p) {
-          double sl[6];
-          for (std::size_t i = 0; i < 6; ++i) sl[i] = slope[p - b + i];
-          const double trend = util::MedianOf6(sl);
-          const double mine = value[p];
-          double farthest = 0;
-          for (std::size_t i = 0; i < 7; ++i) {
-            const std::size_t q = p - 3 + i;
-            farthest = std::max(farthest, std::abs(mine - (value[q] - trend * (time[q] - time[p]))));
-          }
-          farthest_of[p - b] = farthest;
+      for (std::size_t p = first; p < last; ++p) test(p);
+      return;
+    }
+    // The usual half window: interior windows (lo = p - 3) take the shortcut first, in
+    // chunks that stay in the cache, by a branch-free loop the compiler vectorises; the
+    // distances are those of the full test, so the decision is the same. The few samples
+    // left get the full test.
+    const std::size_t interior_begin = std::max<std::size_t>(first, 3);
+    const std::size_t interior_end = std::max(interior_begin, std::min(last, count - 3));
+    for (std::size_t p = first; p < std::min(last, interior_begin); ++p) test(p);
+    constexpr std::size_t kChunk = 2048;
+    std::array<double, kChunk + 6> slope;   // slope[i] joins b - 3 + i and b - 2 + i
+    std::array<double, kChunk> farthest_of;  // of samples b, b + 1, ...
+    for (std::size_t pb = interior_begin; pb < interior_end; pb += kChunk) {
+      const std::size_t pe = std::min(pb + kChunk, interior_end);  // samples [pb, pe)
+      const std::size_t b = pb - base, e = pe - base;            // in the queue
+      for (std::size_t q = b - 2; q < e + 4; ++q) slope[q - (b - 2)] = slope_at(q);
+      for (std::size_t q = b; q < e; ++q) {
+        double sl[6];
+        for (std::size_t i = 0; i < 6; ++i) sl[i] = slope[q - b + i];
+        const double trend = util::MedianOf6(sl);
+        const double mine = value[q];
+        double farthest = 0;
+        for (std::size_t i = 0; i < 7; ++i) {
+          const std::size_t w = q - 3 + i;
+          farthest = std::max(farthest, std::abs(mine - (value[w] - trend * (time[w] - time[q]))));
         }
-        for (std::size_t p = b; p < e; ++p) {
-          if (farthest_of[p - b] > smallest_threshold) test(p);
-        }
+        farthest_of[q - b] = farthest;
       }
-      for (std::size_t p = std::max<std::size_t>(3, count - 3); p < count; ++p) test(p);
+      for (std::size_t q = b; q < e; ++q) {
+        if (farthest_of[q - b] > smallest_threshold) test(q + base);
+      }
     }
-    for (std::size_t k : spikes) {
-      Record(k, ch, ScreeningRule::kSpike, (*raw_[ch])[k]);
-      v[k] = kNaN;
-    }
+    for (std::size_t p = std::max(first, interior_end); p < last; ++p) test(p);
   }
 
-  // Whether CorrelatedMotion has a channel to compare `c` with.
-  bool HasCorrelatedChannel(Channel c) const {
+  // The channels whose motion tells a stuck `c` from a still one (see CorrelatedMotion).
+  std::vector<Channel> CorrelatedChannels(Channel c) const {
+    std::vector<Channel> list;
+    auto add = [&](Channel o) {
+      if (Has(o)) list.push_back(o);
+    };
     switch (c) {
-      case Channel::kCompass: return out_.Has(Channel::kGyroZ);
-      case Channel::kGyroZ: return out_.Has(Channel::kCompass);
-      case Channel::kPitchLeft: return out_.Has(Channel::kPitchRight);
-      case Channel::kPitchRight: return out_.Has(Channel::kPitchLeft);
-      case Channel::kRoll: return false;
+      case Channel::kCompass: add(Channel::kGyroZ); break;
+      case Channel::kGyroZ: add(Channel::kCompass); break;
+      case Channel::kPitchLeft: add(Channel::kPitchRight); break;
+      case Channel::kPitchRight: add(Channel::kPitchLeft); break;
+      case Channel::kRoll: break;
       default:
-        for (Channel other : {Channel::kEncoderFrontLeft, Channel::kEncoderFrontRight,
-                              Channel::kEncoderRearLeft, Channel::kEncoderRearRight}) {
-          if (other != c && out_.Has(other)) return true;
+        for (Channel o : {Channel::kEncoderFrontLeft, Channel::kEncoderFrontRight, Channel::kEncoderRearLeft,
+                          Channel::kEncoderRearRight}) {
+          if (o != c) add(o);
         }
-        return false;
     }
+    return list;
   }
 
-  // How far a correlated channel of `c` disagrees with `c` holding `stuck_value` over
-  // [t0, t1] (radians or metres), or -1 when there is none to compare with.
-  double CorrelatedMotion(Channel c, double t0, double t1, double stuck_value) const {
+  // How far a correlated channel of `c` disagrees with `c` holding `stuck_value` over rows
+  // [k0, k1] (radians or metres), or -1 when there is none to compare with.
+  double CorrelatedMotion(Channel c, std::size_t k0, std::size_t k1, double stuck_value) const {
     auto change = [&](Channel other, bool integrate) -> double {
-      const int o = static_cast<int>(other);
-      if (!out_.Has(other)) return -1;
-      const std::vector<double>& w = out_.value[o];
+      if (!Has(other)) return -1;
+      const std::vector<double>& w = value_[static_cast<int>(other)];
       double first = kNaN, last = kNaN, integral = 0, prev_t = kNaN, prev_w = kNaN;
-      // Time stamps increase strictly: the samples in [t0, t1] are one stretch.
-      const auto begin = std::lower_bound(out_.t_s.begin(), out_.t_s.end(), t0) - out_.t_s.begin();
-      for (std::size_t k = static_cast<std::size_t>(begin); k < w.size() && out_.t_s[k] <= t1; ++k) {
-        if (std::isnan(w[k])) continue;
-        if (std::isnan(first)) first = w[k];
-        last = w[k];
-        if (!std::isnan(prev_t)) integral += 0.5 * (w[k] + prev_w) * (out_.t_s[k] - prev_t);
-        prev_t = out_.t_s[k];
-        prev_w = w[k];
+      for (std::size_t i = k0 - base_; i <= k1 - base_; ++i) {
+        if (std::isnan(w[i])) continue;
+        if (std::isnan(first)) first = w[i];
+        last = w[i];
+        if (!std::isnan(prev_t)) integral += 0.5 * (w[i] + prev_w) * (t_[i] - prev_t);
+        prev_t = t_[i];
+        prev_w = w[i];
       }
       if (std::isnan(first)) return -1;
       if (integrate) return std::abs(integral);
@@ -377,7 +598,7 @@ class Screener {
       case Channel::kCompass: return change(Channel::kGyroZ, true);
       case Channel::kGyroZ: {  // a constant rate is fine if the compass turns at that rate
         const double turned = change(Channel::kCompass, false);
-        return turned < 0 ? -1 : std::abs(turned - std::abs(stuck_value) * (t1 - t0));
+        return turned < 0 ? -1 : std::abs(turned - std::abs(stuck_value) * (t(k1) - t(k0)));
       }
       case Channel::kPitchLeft: return change(Channel::kPitchRight, false);
       case Channel::kPitchRight: return change(Channel::kPitchLeft, false);
@@ -393,49 +614,96 @@ class Screener {
     }
   }
 
-  // Runs of one raw count lasting stuck_min_s while a correlated channel moved.
-  void DetectStuck(Channel c) {
+  // Runs of one raw count lasting stuck_min_s while a correlated channel moved. A run is
+  // decided when it has ended, on final values of the channels it is compared with: those
+  // before it in channel order as their own stuck test left them, those after it as before
+  // theirs (which waits for this one).
+  void StuckStage(Channel c) {
     const int ch = static_cast<int>(c);
-    if (!HasCorrelatedChannel(c)) return;  // nothing to tell a stuck sensor from a still one
-    const std::vector<double>& raw = *raw_[ch];
-    std::vector<double>& v = out_.value[ch];
+    ChannelState& s = ch_[ch];
+    if (s.correlated.empty()) {  // nothing to tell a stuck sensor from a still one
+      s.stuck_end = s.hampel_end;
+      return;
+    }
+    std::size_t limit = s.hampel_end;
+    for (Channel o : s.correlated) {
+      const ChannelState& so = ch_[static_cast<int>(o)];
+      limit = std::min(limit, o < c ? so.stuck_end : so.hampel_end);
+    }
+    const bool all = finished_ && limit == out_.rows;  // every row is known
+    const double* const raw = raw_[ch].data();
+    double* const v = value_[ch].data();
+    const std::size_t b = base_;
     const double motion_threshold = IsEncoder(c) ? 0.3 : 5.0 * M_PI / 180.0;  // metres, radians
-    std::size_t k = 0;
-    while (k < v.size()) {
-      if (std::isnan(v[k])) {
-        ++k;
-        continue;
+    std::size_t k = s.stuck_end;
+    while (true) {
+      if (!s.in_run) {
+        while (k < limit && std::isnan(v[k - b])) ++k;
+        if (k >= limit) break;
+        s.in_run = true;
+        s.run_last_valid = k;
+        s.run_next = k + 1;
       }
-      std::size_t end = k, next = k + 1;
-      while (next < v.size() && (std::isnan(raw[next]) || raw[next] == raw[k])) {
-        if (!std::isnan(v[next])) end = next;
-        ++next;
+      const double held = raw[k - b];
+      while (s.run_next < limit && (std::isnan(raw[s.run_next - b]) || raw[s.run_next - b] == held)) {
+        if (!std::isnan(v[s.run_next - b])) s.run_last_valid = s.run_next;
+        ++s.run_next;
       }
-      const double t0 = out_.t_s[k], t1 = out_.t_s[end];
-      if (end > k && t1 - t0 >= o_.stuck_min_s && CorrelatedMotion(c, t0, t1, v[k]) > motion_threshold) {
+      if (s.run_next == limit && !all) break;  // the run may go on
+      const std::size_t end = s.run_last_valid;
+      const double t0 = t(k), t1 = t(end);
+      if (end > k && t1 - t0 >= o_.stuck_min_s && CorrelatedMotion(c, k, end, v[k - b]) > motion_threshold) {
         for (std::size_t q = k + 1; q <= end; ++q) {
-          if (std::isnan(v[q])) continue;
-          Record(q, ch, ScreeningRule::kStuck, raw[q]);
-          v[q] = kNaN;
+          if (std::isnan(v[q - b])) continue;
+          Record(q, ch, ScreeningRule::kStuck, raw[q - b]);
+          v[q - b] = kNaN;
         }
       }
+      s.in_run = false;
       k = end + 1;
     }
+    s.stuck_end = k;
   }
 
-  const TelemetryLog& log_;
   const SensorModel& model_;
-  const ScreeningOptions& o_;
-  std::array<const std::vector<double>*, kNumChannels> raw_{};  // raw counts of kept rows
-  std::array<std::vector<double>, kNumChannels> raw_copy_;      // when rows were dropped
-  // Work space, reused from channel to channel.
-  std::vector<std::size_t> present_, accepted_row_;
-  std::vector<std::size_t> gap_rows_;  // kept rows that follow a gap
-  std::vector<double> accepted_value_, accepted_t_;
-  ScreenedLog out_;
+  const ScreeningOptions o_;
+  const std::size_t window_rows_;  // rows in the statistics window
+  // The held rows: row k is element k - base_.
+  std::size_t base_ = 0;
+  std::vector<double> t_;
+  std::vector<long> line_;
+  std::vector<std::size_t> log_row_;
+  std::array<std::vector<double>, kNumChannels> raw_, value_;
+  std::array<ChannelState, kNumChannels> ch_;
+  std::size_t rows_read_ = 0, dropped_ = 0;
+  bool statistics_ready_ = false, finished_ = false;
+  double gap_limit_ = 0;
+  std::size_t gap_next_ = 0;
+  std::size_t final_end_ = 0;
+  ScreenedLog out_;  // counts, events and row statistics
 };
 
-}  // namespace
+ScreeningStream::ScreeningStream(const SensorModel& model, const ScreeningOptions& options,
+                                 const std::array<bool, kNumChannels>& present)
+    : impl_(std::make_unique<Impl>(model, options, present)) {}
+ScreeningStream::~ScreeningStream() = default;
+void ScreeningStream::Push(const TelemetryLog& rows) { impl_->Push(rows); }
+void ScreeningStream::Finish() { impl_->Finish(); }
+bool ScreeningStream::finished() const { return impl_->finished(); }
+bool ScreeningStream::statistics_ready() const { return impl_->statistics_ready(); }
+double ScreeningStream::typical_interval_s() const { return impl_->report().typical_interval_s; }
+bool ScreeningStream::Has(Channel c) const { return impl_->Has(c); }
+std::size_t ScreeningStream::begin() const { return impl_->begin(); }
+std::size_t ScreeningStream::end() const { return impl_->end(); }
+std::size_t ScreeningStream::final_end() const { return impl_->final_end(); }
+double ScreeningStream::t(std::size_t k) const { return impl_->t(k); }
+long ScreeningStream::line(std::size_t k) const { return impl_->line(k); }
+double ScreeningStream::raw(Channel c, std::size_t k) const { return impl_->raw(c, k); }
+double ScreeningStream::value(Channel c, std::size_t k) const { return impl_->value(c, k); }
+ScreeningStream::Rows ScreeningStream::rows() const { return impl_->rows(); }
+void ScreeningStream::Release(std::size_t k) { impl_->Release(k); }
+const ScreenedLog& ScreeningStream::report() const { return impl_->report(); }
+ScreenedLog ScreeningStream::TakeAll() { return impl_->TakeAll(); }
 
 std::string ToString(ScreeningRule rule) {
   switch (rule) {
@@ -462,6 +730,7 @@ void ScreeningOptions::Validate() const {
   LN_CHECK_ARG(hampel_half_window >= 2) << "Hampel half window: must be >= 2";
   LN_CHECK_ARG(hampel_threshold > 0) << "Hampel threshold: must be > 0";
   LN_CHECK_ARG(stuck_min_s > 0) << "stuck duration: must be > 0";
+  LN_CHECK_ARG(statistics_intervals >= 16) << "statistics window: must be >= 16 intervals";
 }
 
 nlohmann::json ScreeningOptions::ToJson() const {
@@ -474,7 +743,8 @@ nlohmann::json ScreeningOptions::ToJson() const {
           {"hampel_half_window", hampel_half_window},
           {"hampel_threshold", hampel_threshold},
           {"hampel_min_counts", hampel_min_counts},
-          {"stuck_min_s", stuck_min_s}};
+          {"stuck_min_s", stuck_min_s},
+          {"statistics_intervals", statistics_intervals}};
 }
 
 long ScreenedLog::Count(ScreeningRule rule) const {
@@ -499,8 +769,12 @@ nlohmann::json ScreenedLog::ReportJson() const {
 
 ScreenedLog ScreenTelemetry(const TelemetryLog& log, const SensorModel& model,
                             const ScreeningOptions& options) {
-  options.Validate();
-  return Screener(log, model, options).Run();
+  std::array<bool, kNumChannels> present{};
+  for (Channel c : kAllChannels) present[static_cast<int>(c)] = log.Has(c);
+  ScreeningStream stream(model, options, present);
+  stream.Push(log);
+  stream.Finish();
+  return stream.TakeAll();
 }
 
 void WriteScreeningLog(const std::filesystem::path& path, const ScreenedLog& screened) {

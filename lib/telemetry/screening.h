@@ -4,6 +4,7 @@
 #pragma once
 
 #include <array>
+#include <memory>
 #include <string>
 #include <vector>
 
@@ -46,6 +47,10 @@ struct ScreeningOptions {
   double hampel_threshold = 5.0;
   double hampel_min_counts = 6.0;     ///< Smallest deviation called a spike, in counts.
   double stuck_min_s = 3.0;           ///< Shortest stuck run. > 0.
+  /// The typical intervals (of the rows and of each channel) and each channel's noise level
+  /// are medians over the first statistics_intervals intervals of the log (all of it when
+  /// shorter), so that a log of any length is screened as it is read. >= 16.
+  std::size_t statistics_intervals = 65536;
   void Validate() const;
   nlohmann::json ToJson() const;
 };
@@ -61,6 +66,11 @@ struct ScreeningEvent {
 
 /// The screened log.
 struct ScreenedLog {
+  std::size_t rows = 0;         ///< Kept rows.
+  double first_t_s = 0, last_t_s = 0;  ///< Time stamps of the first and last kept rows.
+  double typical_interval_s = 0;  ///< Median interval of the rows (statistics window).
+  /// The arrays below are filled by ScreenTelemetry; a ScreeningStream hands its rows over
+  /// one block at a time instead.
   std::vector<double> t_s;      ///< Kept rows, strictly increasing.
   /// Their indices in the TelemetryLog; empty when every row was kept (row k is then k).
   std::vector<std::size_t> row;
@@ -75,6 +85,64 @@ struct ScreenedLog {
   std::size_t Row(std::size_t k) const { return row.empty() ? k : row[k]; }  ///< Kept row k's index in the log.
   long Count(ScreeningRule rule) const;  ///< Over all channels and rows.
   nlohmann::json ReportJson() const;     ///< Counts per rule and channel.
+};
+
+/// Screening of a log that arrives a block of rows at a time (a log of any length in
+/// bounded memory). Rows are numbered as kept (dropped rows skipped) from 0; a kept row is
+/// final, screened for good, once every rule that looks ahead of it has seen enough of the
+/// log: the spike test the next hampel_half_window accepted samples of each channel, the
+/// stuck test the end of a run of repeated counts. Rows are held from the first not
+/// Release()d one on, so memory is the look-ahead's (and the statistics window's at the start).
+class ScreeningStream {
+ public:
+  /// `present`: the channels whose columns the log has.
+  ScreeningStream(const SensorModel& model, const ScreeningOptions& options,
+                  const std::array<bool, kNumChannels>& present);
+  ~ScreeningStream();
+  ScreeningStream(const ScreeningStream&) = delete;
+  ScreeningStream& operator=(const ScreeningStream&) = delete;
+
+  /// Screens the next rows of the log (in file order: their t_s, line and the present
+  /// channels' counts).
+  void Push(const TelemetryLog& rows);
+  /// The log has ended: every row becomes final and the events are sorted.
+  void Finish();
+  bool finished() const;
+  /// Whether the statistics window has been read (typical_interval_s() is known).
+  bool statistics_ready() const;
+  double typical_interval_s() const;
+
+  bool Has(Channel c) const;
+  std::size_t begin() const;      ///< First row held.
+  std::size_t end() const;        ///< Rows kept so far.
+  std::size_t final_end() const;  ///< Rows before it are final.
+  /// Row k's data, for k in [begin(), end()): time stamp, line in the file, a channel's raw
+  /// count and screened value (as in ScreenedLog::value; NaN when
+  /// missing or rejected; final only for k < final_end()).
+  double t(std::size_t k) const;
+  long line(std::size_t k) const;
+  double raw(Channel c, std::size_t k) const;
+  double value(Channel c, std::size_t k) const;
+  /// The held rows as arrays: row k is element k - begin of each; valid until the next
+  /// Push, Finish or Release. A channel not present has null arrays.
+  struct Rows {
+    std::size_t begin = 0, end = 0;
+    const double* t_s = nullptr;
+    std::array<const double*, kNumChannels> raw{}, value{};
+  };
+  Rows rows() const;
+  /// Rows before k (<= final_end()) are no longer read: their memory may be reused.
+  void Release(std::size_t k);
+
+  /// Counts and events so far (the events in order after Finish()); rows, first_t_s,
+  /// last_t_s and typical_interval_s; no arrays.
+  const ScreenedLog& report() const;
+  /// After Finish() with nothing released: the whole screened log, arrays included.
+  ScreenedLog TakeAll();
+
+ private:
+  class Impl;
+  std::unique_ptr<Impl> impl_;
 };
 
 /// Applies the rules to a log read with `model`.

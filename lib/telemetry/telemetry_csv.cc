@@ -129,13 +129,35 @@ int SplitCells(std::string_view line, std::vector<std::string_view>* cells) {
 
 }  // namespace
 
-TelemetryLog ParseTelemetryCsv(std::string_view text, const std::string& source, const SensorModel& model) {
-  TelemetryLog log;
-  log.source = source;
-  const std::string_view all(text);
+void TelemetryLog::ClearRows() {
+  t_s.clear();
+  line.clear();
+  for (std::vector<double>& c : counts) c.clear();
+}
+
+struct TelemetryReader::Impl {
+  std::filesystem::path source;
+  // The text: mapped (a regular file), owned (read from a pipe), or the caller's.
+  void* mapped = nullptr;
+  std::size_t mapped_size = 0;
+  std::string owned;
+  std::string_view all;
   std::size_t pos = 0;
   long line_number = 0;
-  auto next_line = [&](std::string_view* line) {
+  std::vector<std::string> header;
+  std::vector<int> role;  // per column: -2 time, -1 unused, else a channel
+  int time_column = -1;
+  std::vector<Channel> missing_columns;
+  std::vector<std::string> unused_columns;
+  std::array<bool, kNumChannels> has{};
+  std::vector<double> row;  // one row's cells
+  std::vector<std::vector<double>*> sink;  // per column: the array its cells go to, if any
+
+  ~Impl() {
+    if (mapped != nullptr) ::munmap(mapped, mapped_size);
+  }
+
+  bool NextLine(std::string_view* line) {
     if (pos >= all.size()) return false;
     std::size_t end = all.find('\n', pos);
     if (end == std::string_view::npos) end = all.size();
@@ -143,99 +165,102 @@ TelemetryLog ParseTelemetryCsv(std::string_view text, const std::string& source,
     pos = end + 1;
     ++line_number;
     return true;
-  };
+  }
 
   // Header: the first line that is neither blank nor a comment.
-  std::string_view line;
-  std::vector<std::string_view> cells;
-  bool have_header = false;
-  while (next_line(&line)) {
-    const std::string_view trimmed = Trim(line);
-    if (trimmed.empty() || trimmed.front() == '#') continue;
-    have_header = true;
-    break;
-  }
-  LN_CHECK_INPUT(have_header) << source << ": no header line (the file is empty)";
-  const long header_line = line_number;
-  const int num_columns = SplitCells(line, &cells);
-  std::vector<std::string> header(cells.begin(), cells.end());
-
-  // Which column feeds what: -2 = time, channel index, or -1 = unused.
-  std::vector<int> role(num_columns, -1);
-  int time_column = -1;
-  for (int c = 0; c < num_columns; ++c) {
-    if (header[c] == model.time_column) {
-      LN_CHECK_INPUT(time_column < 0) << source << ":" << header_line << ": column '"
-                                      << header[c] << "' appears twice";
-      time_column = c;
-      role[c] = -2;
+  void ReadHeader(const SensorModel& model) {
+    const std::string name = source.string();
+    std::string_view line;
+    bool have_header = false;
+    while (NextLine(&line)) {
+      const std::string_view trimmed = Trim(line);
+      if (trimmed.empty() || trimmed.front() == '#') continue;
+      have_header = true;
+      break;
     }
-  }
-  LN_CHECK_INPUT(time_column >= 0) << source << ":" << header_line
-                                   << ": missing required column '" << model.time_column << "'";
-  for (Channel ch : kAllChannels) {
-    const ChannelModel& m = model[ch];
-    if (!m.present) continue;
-    int found = -1;
+    LN_CHECK_INPUT(have_header) << name << ": no header line (the file is empty)";
+    const long header_line = line_number;
+    std::vector<std::string_view> cells;
+    const int num_columns = SplitCells(line, &cells);
+    header.assign(cells.begin(), cells.end());
+    role.assign(num_columns, -1);
     for (int c = 0; c < num_columns; ++c) {
-      if (header[c] == m.column) found = c;
-    }
-    if (found < 0) {
-      log.missing_columns.push_back(ch);
-    } else {
-      role[found] = static_cast<int>(ch);
-    }
-  }
-  for (int c = 0; c < num_columns; ++c) {
-    if (role[c] == -1) log.unused_columns.push_back(header[c]);
-  }
-  std::vector<std::vector<double>*> sink(num_columns, nullptr);
-  for (int c = 0; c < num_columns; ++c) {
-    if (role[c] >= 0) sink[c] = &log.counts[role[c]];
-  }
-
-  // Rows. The arrays are reserved for the number of lines left (an upper bound).
-  std::size_t estimate = 1;
-  for (std::size_t i = pos; i < all.size(); ++i) estimate += static_cast<std::size_t>(all[i] == '\n');
-  log.t_s.reserve(estimate);
-  log.line.reserve(estimate);
-  for (auto* s : sink) {
-    if (s != nullptr) s->reserve(estimate);
-  }
-  std::vector<double> row(num_columns);
-  while (next_line(&line)) {
-    const std::string_view trimmed = Trim(line);
-    if (trimmed.empty() || trimmed.front() == '#') continue;
-    if (!ParsePlainRow(line, role, row.data())) {
-      // Any other row: cells are parsed as they are split; the first error is reported after
-      // the cell count has been checked.
-      int n = 0, bad = -1;
-      std::size_t start = 0;
-      while (true) {
-        const std::size_t comma = line.find(',', start);
-        const std::string_view cell =
-            Trim(line.substr(start, comma == std::string_view::npos ? line.npos : comma - start));
-        if (n < num_columns && bad < 0 && role[n] != -1 && !ParseCell(cell, role[n] == -2, &row[n])) bad = n;
-        ++n;
-        if (comma == std::string_view::npos) break;
-        start = comma + 1;
+      if (header[c] == model.time_column) {
+        LN_CHECK_INPUT(time_column < 0) << name << ":" << header_line << ": column '" << header[c]
+                                        << "' appears twice";
+        time_column = c;
+        role[c] = -2;
       }
-      LN_CHECK_INPUT(n == num_columns) << source << ":" << line_number << ": " << n << " cells, the header has "
-                                       << num_columns;
-      LN_CHECK_INPUT(bad < 0) << source << ":" << line_number << ": column '" << header[bad] << "': '"
-                              << Trim(SplitCell(line, bad)) << "' is not "
-                              << (bad == time_column ? "a time stamp" : "an integer count");
     }
-    log.t_s.push_back(row[time_column]);
+    LN_CHECK_INPUT(time_column >= 0) << name << ":" << header_line << ": missing required column '"
+                                     << model.time_column << "'";
+    for (Channel ch : kAllChannels) {
+      const ChannelModel& m = model[ch];
+      if (!m.present) continue;
+      int found = -1;
+      for (int c = 0; c < num_columns; ++c) {
+        if (header[c] == m.column) found = c;
+      }
+      if (found < 0) {
+        missing_columns.push_back(ch);
+      } else {
+        role[found] = static_cast<int>(ch);
+        has[static_cast<int>(ch)] = true;
+      }
+    }
     for (int c = 0; c < num_columns; ++c) {
-      if (sink[c] != nullptr) sink[c]->push_back(row[c]);
+      if (role[c] == -1) unused_columns.push_back(header[c]);
     }
-    log.line.push_back(line_number);
+    row.assign(num_columns, 0.0);
   }
-  return log;
-}
 
-TelemetryLog ReadTelemetryCsv(const std::filesystem::path& path, const SensorModel& model) {
+  std::size_t Read(TelemetryLog* out, std::size_t max_rows) {
+    const int num_columns = static_cast<int>(role.size());
+    sink.resize(num_columns);
+    for (int c = 0; c < num_columns; ++c) sink[c] = role[c] >= 0 ? &out->counts[role[c]] : nullptr;
+    std::size_t rows = 0;
+    std::string_view line;
+    while (rows < max_rows && NextLine(&line)) {
+      const std::string_view trimmed = Trim(line);
+      if (trimmed.empty() || trimmed.front() == '#') continue;
+      if (!ParsePlainRow(line, role, row.data())) ParseGeneralRow(line);
+      out->t_s.push_back(row[time_column]);
+      for (int c = 0; c < num_columns; ++c) {
+        if (sink[c] != nullptr) sink[c]->push_back(row[c]);
+      }
+      out->line.push_back(line_number);
+      ++rows;
+    }
+    return rows;
+  }
+
+  // Any row the plain path does not read: cells are parsed as they are split; the first
+  // error is reported after the cell count has been checked.
+  void ParseGeneralRow(std::string_view line) {
+    const int num_columns = static_cast<int>(role.size());
+    int n = 0, bad = -1;
+    std::size_t start = 0;
+    while (true) {
+      const std::size_t comma = line.find(',', start);
+      const std::string_view cell =
+          Trim(line.substr(start, comma == std::string_view::npos ? line.npos : comma - start));
+      if (n < num_columns && bad < 0 && role[n] != -1 && !ParseCell(cell, role[n] == -2, &row[n])) bad = n;
+      ++n;
+      if (comma == std::string_view::npos) break;
+      start = comma + 1;
+    }
+    const std::string name = source.string();
+    LN_CHECK_INPUT(n == num_columns) << name << ":" << line_number << ": " << n << " cells, the header has "
+                                     << num_columns;
+    LN_CHECK_INPUT(bad < 0) << name << ":" << line_number << ": column '" << header[bad] << "': '"
+                            << Trim(SplitCell(line, bad)) << "' is not "
+                            << (bad == time_column ? "a time stamp" : "an integer count");
+  }
+};
+
+TelemetryReader::TelemetryReader(const std::filesystem::path& path, const SensorModel& model)
+    : impl_(std::make_unique<Impl>()) {
+  impl_->source = path;
   const int fd = ::open(path.c_str(), O_RDONLY | O_CLOEXEC);
   LN_CHECK_INPUT(fd >= 0) << path.string() << ": cannot open";
   const struct Close {
@@ -249,24 +274,80 @@ TelemetryLog ReadTelemetryCsv(const std::filesystem::path& path, const SensorMod
     const std::size_t size = static_cast<std::size_t>(info.st_size);
     void* const mapped = ::mmap(nullptr, size, PROT_READ, MAP_PRIVATE | MAP_POPULATE, fd, 0);
     if (mapped != MAP_FAILED) {
-      const struct Unmap {
-        void* data;
-        std::size_t size;
-        ~Unmap() { ::munmap(data, size); }
-      } unmap_at_return{mapped, size};
-      return ParseTelemetryCsv(std::string_view(static_cast<const char*>(mapped), size), path.string(), model);
+      impl_->mapped = mapped;
+      impl_->mapped_size = size;
+      impl_->all = std::string_view(static_cast<const char*>(mapped), size);
     }
   }
-  std::string text;
-  char buffer[1 << 16];
-  while (true) {
-    const ssize_t n = ::read(fd, buffer, sizeof(buffer));
-    if (n == 0) break;
-    if (n < 0 && errno == EINTR) continue;
-    LN_CHECK_INPUT(n > 0) << path.string() << ": read error";
-    text.append(buffer, static_cast<std::size_t>(n));
+  if (impl_->mapped == nullptr) {
+    char buffer[1 << 16];
+    while (true) {
+      const ssize_t n = ::read(fd, buffer, sizeof(buffer));
+      if (n == 0) break;
+      if (n < 0 && errno == EINTR) continue;
+      LN_CHECK_INPUT(n > 0) << path.string() << ": read error";
+      impl_->owned.append(buffer, static_cast<std::size_t>(n));
+    }
+    impl_->all = impl_->owned;
   }
-  return ParseTelemetryCsv(text, path.string(), model);
+  impl_->ReadHeader(model);
+}
+
+TelemetryReader::TelemetryReader(std::string_view text, const std::string& source, const SensorModel& model)
+    : impl_(std::make_unique<Impl>()) {
+  impl_->source = source;
+  impl_->all = text;
+  impl_->ReadHeader(model);
+}
+
+TelemetryReader::~TelemetryReader() = default;
+
+std::size_t TelemetryReader::Read(TelemetryLog* out, std::size_t max_rows) { return impl_->Read(out, max_rows); }
+const std::filesystem::path& TelemetryReader::source() const { return impl_->source; }
+bool TelemetryReader::Has(Channel c) const { return impl_->has[static_cast<int>(c)]; }
+const std::vector<Channel>& TelemetryReader::missing_columns() const { return impl_->missing_columns; }
+const std::vector<std::string>& TelemetryReader::unused_columns() const { return impl_->unused_columns; }
+
+std::size_t TelemetryReader::LinesLeft() const {
+  const std::string_view rest = impl_->all.substr(std::min(impl_->pos, impl_->all.size()));
+  return static_cast<std::size_t>(std::count(rest.begin(), rest.end(), '\n')) + 1;
+}
+
+double TelemetryReader::FractionRead() const {
+  return impl_->all.empty() ? 1.0
+                            : static_cast<double>(std::min(impl_->pos, impl_->all.size())) /
+                                  static_cast<double>(impl_->all.size());
+}
+
+namespace {
+
+// The whole log from a reader.
+TelemetryLog ReadAll(TelemetryReader& reader) {
+  TelemetryLog log;
+  log.source = reader.source();
+  log.missing_columns = reader.missing_columns();
+  log.unused_columns = reader.unused_columns();
+  // The arrays are reserved for the number of lines left (an upper bound).
+  const std::size_t estimate = reader.LinesLeft();
+  log.t_s.reserve(estimate);
+  log.line.reserve(estimate);
+  for (Channel c : kAllChannels) {
+    if (reader.Has(c)) log.counts[static_cast<int>(c)].reserve(estimate);
+  }
+  reader.Read(&log, static_cast<std::size_t>(-1));
+  return log;
+}
+
+}  // namespace
+
+TelemetryLog ParseTelemetryCsv(std::string_view text, const std::string& source, const SensorModel& model) {
+  TelemetryReader reader(text, source, model);
+  return ReadAll(reader);
+}
+
+TelemetryLog ReadTelemetryCsv(const std::filesystem::path& path, const SensorModel& model) {
+  TelemetryReader reader(path, model);
+  return ReadAll(reader);
 }
 
 }  // namespace lunarnav::telemetry

@@ -71,11 +71,12 @@ void BM_PosfilterEndToEnd(benchmark::State& state) {
   const std::filesystem::path out = std::filesystem::temp_directory_path() / "lunarnav_posfilter_bench.csv";
   const std::filesystem::path tum = std::filesystem::temp_directory_path() / "lunarnav_posfilter_bench.tum";
   for (auto _ : state) {
-    const telemetry::TelemetryLog log = telemetry::ParseTelemetryCsv(text, "benchmark.csv", Model());
-    positioning::TrajectoryWriter writer(out, tum);  // both files, pose by pose, as the tool
+    // Read, screened and written a block at a time, as the tool runs.
+    telemetry::TelemetryReader reader(text, "benchmark.csv", Model());
+    positioning::TrajectoryWriter writer(out, tum);
     const positioning::PosfilterResult r = positioning::RunPosfilter(
-        log, Model(), positioning::PosfilterOptions{},
-        [&writer](const positioning::TrajectorySample& pose, const Eigen::Quaterniond& q) { writer.Add(pose, q); });
+        reader, Model(), positioning::PosfilterOptions{},
+        [&writer](const positioning::PoseOutput& row) { writer.Add(row.pose, row.enu_from_body); });
     writer.Commit();
     benchmark::DoNotOptimize(r.motion.distance_m);
   }
@@ -113,7 +114,7 @@ void BM_FilterAndDeadReckonOnly(benchmark::State& state) {
     double sum = 0;
     const positioning::PosfilterResult r = positioning::RunPosfilter(
         log, Model(), positioning::PosfilterOptions{},
-        [&sum](const positioning::TrajectorySample& pose, const Eigen::Quaterniond&) { sum += pose.x_m; });
+        [&sum](const positioning::PoseOutput& row) { sum += row.pose.x_m; });
     benchmark::DoNotOptimize(sum + r.motion.distance_m);
   }
   state.counters["rows_per_s"] =

@@ -129,9 +129,9 @@ TEST(RunPosfilter, PosesToASinkAreTheKeptTrajectory) {
       std::vector<TrajectorySample> streamed;
       std::vector<Eigen::Quaterniond> attitudes;
       const PosfilterResult sunk =
-          RunPosfilter(log, model, options, [&](const TrajectorySample& pose, const Eigen::Quaterniond& q) {
-            streamed.push_back(pose);
-            attitudes.push_back(q);
+          RunPosfilter(log, model, options, [&](const PoseOutput& row) {
+            streamed.push_back(row.pose);
+            attitudes.push_back(row.enu_from_body);
           });
       const std::string what = ToString(mode) + ", " + ToString(heading);
       ASSERT_EQ(kept.motion.trajectory.size(), log.size()) << what;
