@@ -43,7 +43,7 @@ struct PosfilterOptions {
   double stationary_min_s = 1.0;  ///< Wheels still this long: stationary (gyro bias). > 0.
   /// Rows read and screened at a time (memory and speed only: the results do not depend on
   /// it). >= 1.
-  std::size_t block_rows = 4096;
+  std::size_t block_rows = 1024;
   void Validate() const;
   nlohmann::json ToJson() const;
 };

@@ -167,7 +167,7 @@ class ScreeningStream::Impl {
     const std::size_t drop = k - base_, held = out_.rows - base_;
     // Rows are erased in batches of at least half of those held: each row is moved O(1)
     // times on average, however long the look-ahead.
-    if (drop < 4096 || 2 * drop < held) return;
+    if (drop < 1024 || 2 * drop < held) return;
     auto erase_front = [drop](auto& v) { v.erase(v.begin(), v.begin() + static_cast<std::ptrdiff_t>(drop)); };
     erase_front(t_);
     erase_front(line_);
@@ -636,21 +636,29 @@ class ScreeningStream::Impl {
     const std::size_t b = base_;
     const double motion_threshold = IsEncoder(c) ? 0.3 : 5.0 * M_PI / 180.0;  // metres, radians
     std::size_t k = s.stuck_end;
+    bool in_run = s.in_run;
+    std::size_t run_last_valid = s.run_last_valid, run_next = s.run_next;
     while (true) {
-      if (!s.in_run) {
+      if (!in_run) {
+        // A sample followed by another count is a run of one: the usual case, skipped here.
+        while (k + 1 < limit) {
+          const double next = raw[k + 1 - b];
+          if (std::isnan(next) || next == raw[k - b]) break;
+          ++k;
+        }
         while (k < limit && std::isnan(v[k - b])) ++k;
         if (k >= limit) break;
-        s.in_run = true;
-        s.run_last_valid = k;
-        s.run_next = k + 1;
+        in_run = true;
+        run_last_valid = k;
+        run_next = k + 1;
       }
       const double held = raw[k - b];
-      while (s.run_next < limit && (std::isnan(raw[s.run_next - b]) || raw[s.run_next - b] == held)) {
-        if (!std::isnan(v[s.run_next - b])) s.run_last_valid = s.run_next;
-        ++s.run_next;
+      while (run_next < limit && (std::isnan(raw[run_next - b]) || raw[run_next - b] == held)) {
+        if (!std::isnan(v[run_next - b])) run_last_valid = run_next;
+        ++run_next;
       }
-      if (s.run_next == limit && !all) break;  // the run may go on
-      const std::size_t end = s.run_last_valid;
+      if (run_next == limit && !all) break;  // the run may go on
+      const std::size_t end = run_last_valid;
       const double t0 = t(k), t1 = t(end);
       if (end > k && t1 - t0 >= o_.stuck_min_s && CorrelatedMotion(c, k, end, v[k - b]) > motion_threshold) {
         for (std::size_t q = k + 1; q <= end; ++q) {
@@ -659,9 +667,12 @@ class ScreeningStream::Impl {
           v[q - b] = kNaN;
         }
       }
-      s.in_run = false;
+      in_run = false;
       k = end + 1;
     }
+    s.in_run = in_run;
+    s.run_last_valid = run_last_valid;
+    s.run_next = run_next;
     s.stuck_end = k;
   }
 

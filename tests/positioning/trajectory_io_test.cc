@@ -127,6 +127,47 @@ TEST(TrajectoryWriter, WritesFourDecimalsAsPrintfDoes) {
   EXPECT_EQ(i, values.size());
 }
 
+// The same for the quaternion's 8 decimals in the TUM file: 20 000 components in [-1, 1].
+TEST(TrajectoryWriter, WritesEightDecimalsAsPrintfDoes) {
+  util::ScopedTempDir tmp;
+  std::mt19937_64 rng(8);
+  std::uniform_real_distribution<double> component(-1, 1);
+  std::vector<double> values;
+  while (values.size() < 20000) {
+    const double v = component(rng) * (values.size() % 7 == 0 ? 1e-5 : 1.0);  // small ones too
+    const double scaled = std::abs(v) * 1e8;
+    if (std::abs(scaled - std::floor(scaled) - 0.5) < 1e-6) continue;  // a hair from a tie
+    values.push_back(v);
+  }
+  {
+    TrajectoryWriter writer({}, tmp.path() / "t.tum");
+    for (std::size_t i = 0; i + 4 <= values.size(); i += 4) {
+      writer.Add(TrajectorySample{1.0, 0, 0, 0, 0, 0, 0, 0},
+                 Eigen::Quaterniond(values[i + 3], values[i], values[i + 1], values[i + 2]));
+    }
+    writer.Commit();
+  }
+  std::ifstream in(tmp.path() / "t.tum");
+  std::string line;
+  std::size_t i = 0;
+  char expected[64];
+  while (std::getline(in, line)) {
+    if (line.empty() || line[0] == '#') continue;
+    std::istringstream cells(line);
+    std::string cell;
+    for (int c = 0; c < 4; ++c) cells >> cell;  // time and position
+    for (int c = 0; c < 4; ++c, ++i) {
+      ASSERT_LT(i, values.size());
+      cells >> cell;
+      std::snprintf(expected, sizeof(expected), "%.8f", values[i]);
+      std::string want = expected;
+      if (want == "-0.00000000") want = "0.00000000";
+      ASSERT_EQ(cell, want) << "component " << values[i];
+    }
+  }
+  EXPECT_EQ(i, values.size());
+}
+
 TEST(TrajectoryWriter, LeavesNothingBehindWithoutCommit) {
   util::ScopedTempDir tmp;
   {
