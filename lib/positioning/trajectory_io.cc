@@ -22,12 +22,6 @@ constexpr double kDeg = 180.0 / M_PI;
 constexpr std::size_t kBlockBytes = 1 << 20;
 constexpr std::size_t kRowSlack = 1024;
 
-// "00" "01" ... "99".
-constexpr char kDigitPairs[201] =
-    "00010203040506070809101112131415161718192021222324252627282930313233343536373839"
-    "40414243444546474849505152535455565758596061626364656667686970717273747576777879"
-    "8081828384858687888990919293949596979899";
-
 // Locale-independent formatting into a buffer with room for 32 characters; returns the end.
 // The shortest text that reads back to the same double, as std::to_chars writes it.
 // Fast path for the usual time stamps, n / 10 with n not a multiple of 10 (tenths of a
@@ -65,38 +59,35 @@ inline void Put4Digits(char* out, unsigned v) {
   std::memcpy(out, &ascii, 4);
 }
 
-// Eight digits, leading zeros included, of v < 10^8: the two halves in 32-bit lanes, each
-// split by 100 (x * 10486 >> 20, exact below 10^4) into 16-bit lanes, then as above.
-inline void Put8Digits(char* out, std::uint32_t v) {
+// Eight digits, leading zeros included, of v < 10^8, as ASCII in a register (the first digit
+// in the lowest byte): the two halves in 32-bit lanes, each split by 100 (x * 10486 >> 20,
+// exact below 10^4) into 16-bit lanes, then as above.
+inline std::uint64_t EightDigits(std::uint32_t v) {
   const std::uint64_t halves = (v / 10000) | (static_cast<std::uint64_t>(v % 10000) << 32);
   const std::uint64_t high = ((halves * 10486) >> 20) & 0x0000007F0000007FULL;
   const std::uint64_t lanes = ((halves - 100 * high) << 16) | high;
-  const std::uint64_t ascii = DigitPairsToAscii(lanes, 0x000F000F000F000FULL);
+  return DigitPairsToAscii(lanes, 0x000F000F000F000FULL);
+}
+
+inline void Put8Digits(char* out, std::uint32_t v) {
+  const std::uint64_t ascii = EightDigits(v);
   std::memcpy(out, &ascii, 8);
 }
 
-// The decimal digits of v (no leading zeros); short numbers, the usual ones, without a loop.
+// The decimal digits of v (no leading zeros). Below 10^8 they are made in one register and
+// stored as eight bytes, the leading zeros shifted out: the caller has room for eight bytes
+// and writes on after the digits.
 inline char* PutUnsigned(char* out, unsigned long long v) {
-  if (v < 10) {
+  if (v < 10) {  // the usual angle and speed
     *out = static_cast<char>('0' + v);
     return out + 1;
   }
-  if (v < 100) {
-    std::memcpy(out, kDigitPairs + 2 * v, 2);
-    return out + 2;
-  }
-  if (v < 10000) {
-    const unsigned hi = static_cast<unsigned>(v / 100), lo = static_cast<unsigned>(v % 100);
-    if (hi < 10) {
-      *out++ = static_cast<char>('0' + hi);
-    } else {
-      std::memcpy(out, kDigitPairs + 2 * hi, 2);
-      out += 2;
-    }
-    std::memcpy(out, kDigitPairs + 2 * lo, 2);
-    return out + 2;
-  }
-  return std::to_chars(out, out + 24, v).ptr;
+  if (v >= 100000000) return std::to_chars(out, out + 24, v).ptr;
+  const int digits = 2 + (v >= 100) + (v >= 1000) + (v >= 10000) + (v >= 100000) + (v >= 1000000) +
+                     (v >= 10000000);
+  const std::uint64_t ascii = EightDigits(static_cast<std::uint32_t>(v)) >> (8 * (8 - digits));
+  std::memcpy(out, &ascii, 8);
+  return out + digits;
 }
 
 // kDecimals (4 or 8) digits after the point, rounded half away from zero; values of
@@ -115,8 +106,23 @@ char* PutFixed(char* out, double v) {
   scaled += static_cast<long long>(fraction >= 0.5) - static_cast<long long>(fraction <= -0.5);
   if (scaled < 0) *out++ = '-';
   const unsigned long long m = static_cast<unsigned long long>(scaled < 0 ? -scaled : scaled);
-  // The integer part and the decimals separately, the decimals four digits at a time: short,
-  // independent chains of divisions by constants (multiplications).
+  if (m < 100000000) {  // the usual number: all its digits from one eight-digit conversion
+    const std::uint64_t ascii = EightDigits(static_cast<std::uint32_t>(m));
+    if constexpr (kDecimals == 8) {  // "0." and the eight
+      std::memcpy(out, "0.", 2);
+      std::memcpy(out + 2, &ascii, 8);
+      return out + 10;
+    } else {  // the integer part (1 to 4 digits, the leading zeros shifted out), '.', four
+      const int digits = 1 + (m >= 100000) + (m >= 1000000) + (m >= 10000000);
+      const auto integer = static_cast<std::uint32_t>(ascii) >> (8 * (4 - digits));
+      const auto decimals = static_cast<std::uint32_t>(ascii >> 32);
+      std::memcpy(out, &integer, 4);
+      out[digits] = '.';
+      std::memcpy(out + digits + 1, &decimals, 4);
+      return out + digits + 5;
+    }
+  }
+  // Larger ones: the integer part and the decimals separately.
   out = PutUnsigned(out, m / kScale);
   *out++ = '.';
   const unsigned long long decimals = m % kScale;

@@ -76,42 +76,79 @@ bool ParsePlainDecimal(const char* p, const char* end, double* value) {
   return true;
 }
 
-// The common row, read in one scan: no spaces, time stamps as std::from_chars reads them,
-// counts of digits only (at most 18) or empty. Fills row[c] for the used columns (roles as in
-// ParseTelemetryCsv: -2 time, -1 unused, else a channel); false for any other row, which the
-// general path then reads (and reports, when it is bad). Both give the same values.
-bool ParsePlainRow(std::string_view line, const std::vector<int>& role, double* row) {
-  const char* p = line.data();
-  const char* const end = p + line.size();
+// The leading digits of the eight bytes at p (which must be readable): their count (0 to 8)
+// in *digits and, when fewer than eight, their value. SWAR: a byte is a digit when its high
+// nibble is 3 and adding 6 leaves it 3; the digits are moved to the top of a register, the
+// bytes below them zero (leading zeros), and combined pairwise (x10, x100, x10000).
+inline std::uint64_t EightByteCount(const char* p, int* digits) {
+  std::uint64_t bytes;
+  std::memcpy(&bytes, p, 8);
+  const std::uint64_t high = bytes & 0xF0F0F0F0F0F0F0F0ULL;
+  const std::uint64_t high_plus6 = (bytes + 0x0606060606060606ULL) & 0xF0F0F0F0F0F0F0F0ULL;
+  // Nonzero nibble pattern in a byte that is not a digit (bytes are ASCII: no carries between).
+  const std::uint64_t not_digit = (high ^ 0x3030303030303030ULL) | (high_plus6 ^ 0x3030303030303030ULL);
+  const int n = not_digit == 0 ? 8 : __builtin_ctzll(not_digit) / 8;
+  *digits = n;
+  if (n == 0 || n == 8) return 0;
+  std::uint64_t x = (bytes - 0x3030303030303030ULL) << (8 * (8 - n));  // digits at the top
+  x = (x * 10 + (x >> 8)) & 0x00FF00FF00FF00FFULL;           // pairs
+  x = (x * 100 + (x >> 16)) & 0x0000FFFF0000FFFFULL;         // fours
+  return (x * 10000 + (x >> 32)) & 0xFFFFFFFFULL;            // eight
+}
+
+// The common row, read in one scan from `p` up to the first newline (or `end`): no spaces,
+// time stamps as std::from_chars reads them, counts of digits only (at most 18) or empty.
+// Fills row[c] for the used columns (roles: -2 time, -1 unused, else a channel) and returns
+// where the row ends (its newline, or `end`); null for any other row, which the general path
+// then reads (and reports, when it is bad). Both give the same values.
+const char* ParsePlainRow(const char* p, const char* const end, const std::vector<int>& role, double* row) {
   const int num_columns = static_cast<int>(role.size());
   for (int c = 0; c < num_columns; ++c) {
     if (role[c] == -2) {
-      const char* const comma = static_cast<const char*>(std::memchr(p, ',', static_cast<std::size_t>(end - p)));
-      const char* const cell_end = comma == nullptr ? end : comma;
-      if (!ParsePlainDecimal(p, cell_end, &row[c])) {
+      // Digits and a point, read as they are scanned; the cell's end is where they stop.
+      const char* cell_end = p;
+      while (cell_end != end && (static_cast<unsigned>(*cell_end - '0') < 10 || *cell_end == '.')) ++cell_end;
+      if (cell_end != end && *cell_end != ',' && *cell_end != '\n') {  // something else: std::from_chars
+        while (cell_end != end && *cell_end != ',' && *cell_end != '\n') ++cell_end;
         const auto [ptr, ec] = std::from_chars(p, cell_end, row[c]);
-        if (p == cell_end || ec != std::errc() || ptr != cell_end || !std::isfinite(row[c])) return false;
+        if (p == cell_end || ec != std::errc() || ptr != cell_end || !std::isfinite(row[c])) return nullptr;
+      } else if (!ParsePlainDecimal(p, cell_end, &row[c])) {
+        const auto [ptr, ec] = std::from_chars(p, cell_end, row[c]);
+        if (p == cell_end || ec != std::errc() || ptr != cell_end || !std::isfinite(row[c])) return nullptr;
       }
       p = cell_end;
     } else if (role[c] == -1) {
-      while (p != end && *p != ',') ++p;
-    } else if (p == end || *p == ',') {
+      while (p != end && *p != ',' && *p != '\n') ++p;
+    } else if (p == end || *p == ',' || *p == '\n') {
       row[c] = std::numeric_limits<double>::quiet_NaN();
+    } else if (end - p >= 8) {  // a count of up to seven digits, from eight bytes at once
+      int digits = 0;
+      const std::uint64_t value = EightByteCount(p, &digits);
+      if (digits == 8) {  // longer counts: digit by digit
+        const char* const start = p;
+        std::uint64_t count = 0;
+        while (p != end && static_cast<unsigned>(*p - '0') < 10) count = 10 * count + static_cast<unsigned>(*p++ - '0');
+        if (p - start > 18) return nullptr;
+        row[c] = static_cast<double>(static_cast<long long>(count));
+      } else {
+        row[c] = static_cast<double>(value);
+        p += digits;
+      }
     } else {
       const char* const start = p;
       std::uint64_t count = 0;
       while (p != end && static_cast<unsigned>(*p - '0') < 10) count = 10 * count + static_cast<unsigned>(*p++ - '0');
-      if (p - start > 18) return false;
+      if (p - start > 18) return nullptr;
       row[c] = static_cast<double>(static_cast<long long>(count));
     }
     if (c + 1 < num_columns) {
-      if (p == end || *p != ',') return false;
+      if (p == end || *p != ',') return nullptr;
       ++p;
-    } else if (p != end) {
-      return false;
+    } else if (p != end && *p != '\n') {
+      return nullptr;
     }
   }
-  return true;
+  return p;
 }
 
 // Splits one line at commas into `cells` (views into the line); returns the count.
@@ -151,7 +188,7 @@ struct TelemetryReader::Impl {
   std::vector<std::string> unused_columns;
   std::array<bool, kNumChannels> has{};
   std::vector<double> row;  // one row's cells
-  std::vector<std::vector<double>*> sink;  // per column: the array its cells go to, if any
+  std::vector<std::pair<int, double*>> columns;  // while reading: channel columns and their arrays
 
   ~Impl() {
     if (mapped != nullptr) ::munmap(mapped, mapped_size);
@@ -215,21 +252,71 @@ struct TelemetryReader::Impl {
   }
 
   std::size_t Read(TelemetryLog* out, std::size_t max_rows) {
+    // In pieces, so that the arrays grow by a bounded amount at a time.
+    constexpr std::size_t kPiece = 1 << 16;
+    std::size_t total = 0;
+    while (total < max_rows) {
+      const std::size_t piece = std::min(max_rows - total, kPiece);
+      const std::size_t n = ReadPiece(out, piece);
+      total += n;
+      if (n < piece) break;
+    }
+    return total;
+  }
+
+  // Up to max_rows rows, stored by index into the arrays grown by max_rows beforehand (and
+  // cut to the rows read afterwards, also when a bad row throws).
+  std::size_t ReadPiece(TelemetryLog* out, std::size_t max_rows) {
     const int num_columns = static_cast<int>(role.size());
-    sink.resize(num_columns);
-    for (int c = 0; c < num_columns; ++c) sink[c] = role[c] >= 0 ? &out->counts[role[c]] : nullptr;
+    const std::size_t base = out->t_s.size();
     std::size_t rows = 0;
-    std::string_view line;
-    while (rows < max_rows && NextLine(&line)) {
-      const std::string_view trimmed = Trim(line);
-      if (trimmed.empty() || trimmed.front() == '#') continue;
-      if (!ParsePlainRow(line, role, row.data())) ParseGeneralRow(line);
-      out->t_s.push_back(row[time_column]);
-      for (int c = 0; c < num_columns; ++c) {
-        if (sink[c] != nullptr) sink[c]->push_back(row[c]);
+    struct CutToSize {
+      TelemetryLog* out;
+      const std::vector<int>& role;
+      const std::size_t& size;
+      ~CutToSize() {
+        out->t_s.resize(size);
+        out->line.resize(size);
+        for (int ch : role) {
+          if (ch >= 0) out->counts[ch].resize(size);
+        }
       }
-      out->line.push_back(line_number);
-      ++rows;
+    };
+    std::size_t size = base;
+    const CutToSize cut_at_return{out, role, size};
+    out->t_s.resize(base + max_rows);
+    out->line.resize(base + max_rows);
+    double* const t = out->t_s.data() + base;
+    long* const line_of = out->line.data() + base;
+    columns.clear();  // (column, its array) for the channel columns
+    for (int c = 0; c < num_columns; ++c) {
+      if (role[c] < 0) continue;
+      out->counts[role[c]].resize(base + max_rows);
+      columns.push_back({c, out->counts[role[c]].data() + base});
+    }
+    const char* const text_end = all.data() + all.size();
+    while (rows < max_rows && pos < all.size()) {
+      // The common row straight from the text; anything else (blank and comment lines too)
+      // as a line by the general path.
+      const char* const start = all.data() + pos;
+      const char first = *start;
+      const char* const row_end = first == '#' || first == ' ' || first == '\t' || first == '\r' || first == '\n'
+                                      ? nullptr
+                                      : ParsePlainRow(start, text_end, role, row.data());
+      if (row_end != nullptr) {
+        pos = static_cast<std::size_t>(row_end - all.data()) + 1;
+        ++line_number;
+      } else {
+        std::string_view line;
+        NextLine(&line);
+        const std::string_view trimmed = Trim(line);
+        if (trimmed.empty() || trimmed.front() == '#') continue;
+        ParseGeneralRow(line);
+      }
+      t[rows] = row[time_column];
+      for (const auto& [c, column] : columns) column[rows] = row[c];
+      line_of[rows] = line_number;
+      size = base + ++rows;
     }
     return rows;
   }

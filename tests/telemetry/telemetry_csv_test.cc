@@ -3,6 +3,7 @@
 #include <gtest/gtest.h>
 #include <sys/stat.h>
 
+#include <array>
 #include <charconv>
 #include <cmath>
 #include <cstdio>
@@ -82,6 +83,42 @@ TEST(ParseTelemetryCsv, ReadsTimeStampsAsFromCharsDoes) {
     double expected = 0;
     std::from_chars(stamps[i].data(), stamps[i].data() + stamps[i].size(), expected);
     ASSERT_EQ(log.t_s[i], expected) << stamps[i];
+  }
+}
+
+// Counts of every length (leading zeros too), empty cells, in the middle and at the end of
+// rows, and the last row without a newline (fewer than eight bytes left to read): as
+// std::from_chars reads them. 20 000 rows.
+TEST(ParseTelemetryCsv, ReadsCountsAsFromCharsDoes) {
+  std::mt19937_64 rng(12);
+  std::uniform_int_distribution<int> length(0, 18);
+  std::string text = "t,enc_fl,ROLL\n";
+  std::vector<std::array<std::string, 2>> cells;
+  for (int i = 0; i < 20000; ++i) {
+    std::array<std::string, 2> row;
+    for (std::string& cell : row) {
+      const int n = length(rng);
+      for (int d = 0; d < n; ++d) cell += static_cast<char>('0' + rng() % 10);
+    }
+    cells.push_back(row);
+    text += std::to_string(i + 1) + "," + row[0] + "," + row[1] + (i + 1 < 20000 ? "\n" : "");
+  }
+  const TelemetryLog log = ParseTelemetryCsv(text, "counts.csv", Model());
+  ASSERT_EQ(log.size(), cells.size());
+  const std::vector<double>* columns[2] = {&log.counts[static_cast<int>(Channel::kEncoderFrontLeft)],
+                                           &log.counts[static_cast<int>(Channel::kRoll)]};
+  for (std::size_t i = 0; i < cells.size(); ++i) {
+    for (int c = 0; c < 2; ++c) {
+      const std::string& cell = cells[i][c];
+      const double got = (*columns[c])[i];
+      if (cell.empty()) {
+        ASSERT_TRUE(std::isnan(got)) << "row " << i;
+        continue;
+      }
+      long long expected = 0;
+      std::from_chars(cell.data(), cell.data() + cell.size(), expected);
+      ASSERT_EQ(got, static_cast<double>(expected)) << "row " << i << ": '" << cell << "'";
+    }
   }
 }
 
