@@ -143,14 +143,9 @@ class ScreenedRows {
   // False when the log had already ended.
   bool Next() {
     if (stream_.finished()) return false;
-    block_.ClearRows();
-    const std::size_t n = source_(&block_, block_rows_);
+    const std::size_t n = stream_.Read(source_, block_rows_);
     rows_read_ += n;
-    if (n == 0) {
-      stream_.Finish();
-    } else {
-      stream_.Push(block_);
-    }
+    if (n == 0) stream_.Finish();
     if (progress_) progress_(fraction_());
     return true;
   }
@@ -162,7 +157,6 @@ class ScreenedRows {
   std::size_t block_rows_;
   ProgressFn progress_;
   std::function<double()> fraction_;
-  telemetry::TelemetryLog block_;
   std::size_t rows_read_ = 0;
 };
 

@@ -22,24 +22,6 @@ constexpr double kDeg = 180.0 / M_PI;
 constexpr std::size_t kBlockBytes = 1 << 20;
 constexpr std::size_t kRowSlack = 1024;
 
-// Locale-independent formatting into a buffer with room for 32 characters; returns the end.
-// The shortest text that reads back to the same double, as std::to_chars writes it.
-// Fast path for the usual time stamps, n / 10 with n not a multiple of 10 (tenths of a
-// second): the double nearest n / 10 is written "n/10.d" by std::to_chars (no other decimal
-// of as few digits lies within its rounding interval, and fixed notation is the shorter).
-char* PutShortest(char* out, double v) {
-  if (v > 0 && v < 1e9) {
-    const long long tenths = static_cast<long long>(v * 10.0 + 0.5);
-    if (tenths % 10 != 0 && static_cast<double>(tenths) / 10.0 == v) {
-      out = std::to_chars(out, out + 24, tenths / 10).ptr;
-      *out++ = '.';
-      *out++ = static_cast<char>('0' + tenths % 10);
-      return out;
-    }
-  }
-  return std::to_chars(out, out + 32, v).ptr;
-}
-
 constexpr long long Pow10(int n) { return n == 0 ? 1 : 10 * Pow10(n - 1); }
 
 // The digits of numbers below 100 held in the 16-bit lanes of `lanes` (the first number in
@@ -88,6 +70,24 @@ inline char* PutUnsigned(char* out, unsigned long long v) {
   const std::uint64_t ascii = EightDigits(static_cast<std::uint32_t>(v)) >> (8 * (8 - digits));
   std::memcpy(out, &ascii, 8);
   return out + digits;
+}
+
+// Locale-independent formatting into a buffer with room for 32 characters; returns the end.
+// The shortest text that reads back to the same double, as std::to_chars writes it.
+// Fast path for the usual time stamps, n / 10 with n not a multiple of 10 (tenths of a
+// second): the double nearest n / 10 is written "n/10.d" by std::to_chars (no other decimal
+// of as few digits lies within its rounding interval, and fixed notation is the shorter).
+char* PutShortest(char* out, double v) {
+  if (v > 0 && v < 1e9) {
+    const long long tenths = static_cast<long long>(v * 10.0 + 0.5);
+    if (tenths % 10 != 0 && static_cast<double>(tenths) / 10.0 == v) {
+      out = PutUnsigned(out, static_cast<unsigned long long>(tenths / 10));
+      *out++ = '.';
+      *out++ = static_cast<char>('0' + tenths % 10);
+      return out;
+    }
+  }
+  return std::to_chars(out, out + 32, v).ptr;
 }
 
 // kDecimals (4 or 8) digits after the point, rounded half away from zero; values of

@@ -76,52 +76,72 @@ class ScreeningStream::Impl {
     }
   }
 
+  // Appends rows read by `source` to the held ones, and screens them.
+  std::size_t Read(const ScreeningStream::Source& source, std::size_t max_rows) {
+    LN_CHECK(!finished_) << "screening: rows read after the end";
+    const std::size_t from = t_.size();
+    const std::size_t n = source(&held_, max_rows);
+    if (n > 0) Accept(from);
+    return n;
+  }
+
   void Push(const TelemetryLog& rows) {
     LN_CHECK(!finished_) << "screening: rows pushed after the end";
-    const std::size_t n = rows.size();
-    // The usual block, time stamps increasing throughout: copied column by column.
-    double previous = out_.rows > 0 ? out_.last_t_s : -std::numeric_limits<double>::infinity();
-    std::size_t increasing = 0;
-    while (increasing < n && rows.t_s[increasing] > previous) previous = rows.t_s[increasing++];
-    if (increasing == n && n > 0) {
-      t_.insert(t_.end(), rows.t_s.begin(), rows.t_s.end());
-      line_.insert(line_.end(), rows.line.begin(), rows.line.end());
-      const std::size_t held = log_row_.size();
-      log_row_.resize(held + n);
-      for (std::size_t i = 0; i < n; ++i) log_row_[held + i] = rows_read_ + i;
-      for (int ch = 0; ch < kNumChannels; ++ch) {
-        if (!ch_[ch].present) continue;
-        raw_[ch].insert(raw_[ch].end(), rows.counts[ch].begin(), rows.counts[ch].end());
-        value_[ch].resize(held + n, kNaN);
-      }
-      if (out_.rows == 0) out_.first_t_s = rows.t_s.front();
-      out_.last_t_s = rows.t_s.back();
-      out_.rows += n;
-      rows_read_ += n;
-      Pump();
-      return;
+    if (rows.size() == 0) return;
+    const std::size_t from = t_.size();
+    t_.insert(t_.end(), rows.t_s.begin(), rows.t_s.end());
+    line_.insert(line_.end(), rows.line.begin(), rows.line.end());
+    for (int ch = 0; ch < kNumChannels; ++ch) {
+      if (ch_[ch].present) raw_[ch].insert(raw_[ch].end(), rows.counts[ch].begin(), rows.counts[ch].end());
     }
-    for (std::size_t i = 0; i < n; ++i) {
-      const double t = rows.t_s[i];
-      if (out_.rows > 0 && (t == out_.last_t_s || t < out_.last_t_s)) {
-        const ScreeningRule rule =
-            t == out_.last_t_s ? ScreeningRule::kRepeatedTimestamp : ScreeningRule::kOutOfOrderTimestamp;
-        out_.events.push_back({rows.line[i], t, -1, rule, t});
-        ++out_.counts[static_cast<int>(rule)][kRowSlot];
-        ++dropped_;
-        continue;
+    Accept(from);
+  }
+
+  // The rows appended from element `from` on: rows repeating or going back in time are
+  // dropped (and moved out), the others kept; then every rule runs.
+  void Accept(std::size_t from) {
+    const std::size_t to = t_.size(), n = to - from;
+    // The usual block, time stamps increasing throughout, is kept whole.
+    double previous = out_.rows > 0 ? out_.last_t_s : -std::numeric_limits<double>::infinity();
+    std::size_t increasing = from;
+    while (increasing < to && t_[increasing] > previous) previous = t_[increasing++];
+    if (increasing == to) {
+      log_row_.resize(to);
+      for (std::size_t i = from; i < to; ++i) log_row_[i] = rows_read_ + (i - from);
+      if (out_.rows == 0) out_.first_t_s = t_[from];
+      out_.last_t_s = t_[to - 1];
+      out_.rows += n;
+    } else {
+      std::size_t kept = from;
+      for (std::size_t i = from; i < to; ++i) {
+        const double t = t_[i];
+        if (out_.rows > 0 && (t == out_.last_t_s || t < out_.last_t_s)) {
+          const ScreeningRule rule =
+              t == out_.last_t_s ? ScreeningRule::kRepeatedTimestamp : ScreeningRule::kOutOfOrderTimestamp;
+          out_.events.push_back({line_[i], t, -1, rule, t});
+          ++out_.counts[static_cast<int>(rule)][kRowSlot];
+          ++dropped_;
+          continue;
+        }
+        t_[kept] = t;
+        line_[kept] = line_[i];
+        for (int ch = 0; ch < kNumChannels; ++ch) {
+          if (ch_[ch].present) raw_[ch][kept] = raw_[ch][i];
+        }
+        log_row_.push_back(rows_read_ + (i - from));
+        if (out_.rows == 0) out_.first_t_s = t;
+        out_.last_t_s = t;
+        ++out_.rows;
+        ++kept;
       }
-      t_.push_back(t);
-      line_.push_back(rows.line[i]);
-      log_row_.push_back(rows_read_ + i);
+      t_.resize(kept);
+      line_.resize(kept);
       for (int ch = 0; ch < kNumChannels; ++ch) {
-        if (!ch_[ch].present) continue;
-        raw_[ch].push_back(rows.counts[ch][i]);
-        value_[ch].push_back(kNaN);
+        if (ch_[ch].present) raw_[ch].resize(kept);
       }
-      if (out_.rows == 0) out_.first_t_s = t;
-      out_.last_t_s = t;
-      ++out_.rows;
+    }
+    for (int ch = 0; ch < kNumChannels; ++ch) {
+      if (ch_[ch].present) value_[ch].resize(t_.size(), kNaN);
     }
     rows_read_ += n;
     Pump();
@@ -280,6 +300,12 @@ class ScreeningStream::Impl {
     ChannelState& s = ch_[static_cast<int>(c)];
     const std::vector<double>& raw = raw_[static_cast<int>(c)];
     const std::size_t n = std::min(out_.rows, window_rows_);
+    // Present in every row (the usual channel): the rows' intervals, so the rows' median.
+    if (n >= 3 && std::none_of(raw.begin(), raw.begin() + static_cast<std::ptrdiff_t>(n),
+                               [](double x) { return std::isnan(x); })) {
+      SetChannelInterval(&s, out_.typical_interval_s);
+      return;
+    }
     std::vector<double> present_t;
     for (std::size_t k = 0; k < n; ++k) {
       if (!std::isnan(raw[k])) present_t.push_back(t_[k]);
@@ -679,12 +705,15 @@ class ScreeningStream::Impl {
   const SensorModel& model_;
   const ScreeningOptions o_;
   const std::size_t window_rows_;  // rows in the statistics window
-  // The held rows: row k is element k - base_.
+  // The held rows: row k is element k - base_ of the arrays, its time stamp, line and raw
+  // counts as the reader wrote them.
   std::size_t base_ = 0;
-  std::vector<double> t_;
-  std::vector<long> line_;
+  TelemetryLog held_;
+  std::vector<double>& t_ = held_.t_s;
+  std::vector<long>& line_ = held_.line;
+  std::array<std::vector<double>, kNumChannels>& raw_ = held_.counts;
   std::vector<std::size_t> log_row_;
-  std::array<std::vector<double>, kNumChannels> raw_, value_;
+  std::array<std::vector<double>, kNumChannels> value_;
   std::array<ChannelState, kNumChannels> ch_;
   std::size_t rows_read_ = 0, dropped_ = 0;
   bool statistics_ready_ = false, finished_ = false;
@@ -699,6 +728,7 @@ ScreeningStream::ScreeningStream(const SensorModel& model, const ScreeningOption
     : impl_(std::make_unique<Impl>(model, options, present)) {}
 ScreeningStream::~ScreeningStream() = default;
 void ScreeningStream::Push(const TelemetryLog& rows) { impl_->Push(rows); }
+std::size_t ScreeningStream::Read(const Source& source, std::size_t max_rows) { return impl_->Read(source, max_rows); }
 void ScreeningStream::Finish() { impl_->Finish(); }
 bool ScreeningStream::finished() const { return impl_->finished(); }
 bool ScreeningStream::statistics_ready() const { return impl_->statistics_ready(); }

@@ -4,6 +4,7 @@
 #pragma once
 
 #include <array>
+#include <functional>
 #include <memory>
 #include <string>
 #include <vector>
@@ -105,6 +106,12 @@ class ScreeningStream {
   /// Screens the next rows of the log (in file order: their t_s, line and the present
   /// channels' counts).
   void Push(const TelemetryLog& rows);
+  /// Appends rows to a TelemetryLog's per-row arrays (those of the present channels), up to
+  /// a number of them; returns how many (0: the log has ended). TelemetryReader::Read is one.
+  using Source = std::function<std::size_t(TelemetryLog*, std::size_t)>;
+  /// Screens the next rows read by `source` (up to max_rows of them) straight into the held
+  /// rows, without a copy; returns how many were read.
+  std::size_t Read(const Source& source, std::size_t max_rows);
   /// The log has ended: every row becomes final and the events are sorted.
   void Finish();
   bool finished() const;
