@@ -159,5 +159,37 @@ TEST(RunPosfilter, PosesToASinkAreTheKeptTrajectory) {
   }
 }
 
+// The log is read a block at a time, each row run as soon as its look-ahead is known: the
+// results do not depend on the block size, in either filter mode.
+TEST(RunPosfilter, ResultsDoNotDependOnTheBlockSize) {
+  const char* testdata = std::getenv("LUNARNAV_TESTDATA");
+  ASSERT_NE(testdata, nullptr);
+  const telemetry::SensorModel model =
+      telemetry::ReadSensorModel(std::string(testdata) + "/telemetry/trial-a/sensors.json");
+  const telemetry::TelemetryLog log = GappyLog(model);
+  for (const FilterMode mode : {FilterMode::kCausal, FilterMode::kZeroPhase}) {
+    PosfilterOptions options;
+    options.mode = mode;
+    options.screening.statistics_intervals = 200;  // shorter than the log
+    options.block_rows = log.size();
+    const PosfilterResult whole = RunPosfilter(log, model, options);
+    for (const std::size_t block : {std::size_t{1}, std::size_t{5}, std::size_t{1024}}) {
+      options.block_rows = block;
+      const PosfilterResult r = RunPosfilter(log, model, options);
+      const std::string what = ToString(mode) + ", blocks of " + std::to_string(block);
+      ASSERT_EQ(r.motion.trajectory.size(), whole.motion.trajectory.size()) << what;
+      for (std::size_t k = 0; k < r.motion.trajectory.size(); ++k) {
+        const TrajectorySample& a = r.motion.trajectory[k];
+        const TrajectorySample& b = whole.motion.trajectory[k];
+        ASSERT_TRUE(a.t_s == b.t_s && a.x_m == b.x_m && a.y_m == b.y_m && a.z_m == b.z_m &&
+                    a.heading_rad == b.heading_rad && a.pitch_rad == b.pitch_rad && a.roll_rad == b.roll_rad)
+            << what << ", row " << k;
+      }
+      EXPECT_EQ(r.SummaryJson().dump(), whole.SummaryJson().dump()) << what;
+      EXPECT_EQ(r.screened.events.size(), whole.screened.events.size()) << what;
+    }
+  }
+}
+
 }  // namespace
 }  // namespace lunarnav::positioning

@@ -3,8 +3,12 @@
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
+#include <array>
 #include <cmath>
 #include <random>
+#include <string>
+#include <vector>
 
 #include "util/testing.h"
 
@@ -122,6 +126,94 @@ TEST(ScreenTelemetry, EachRuleCatchesItsFault) {
     EXPECT_EQ(s.Count(ScreeningRule::kGap), 1);
     for (std::size_t k = 1; k < s.t_s.size(); ++k) ASSERT_GT(s.t_s[k], s.t_s[k - 1]);
   }
+}
+
+// The rows [from, to) of a log, as a reader hands over a block.
+TelemetryLog Slice(const TelemetryLog& log, std::size_t from, std::size_t to) {
+  TelemetryLog block;
+  block.t_s.assign(log.t_s.begin() + from, log.t_s.begin() + to);
+  block.line.assign(log.line.begin() + from, log.line.begin() + to);
+  for (int c = 0; c < kNumChannels; ++c) {
+    if (!log.counts[c].empty()) block.counts[c].assign(log.counts[c].begin() + from, log.counts[c].begin() + to);
+  }
+  return block;
+}
+
+// Screening a log block by block, each row taken when final and released, gives the whole
+// log's screening row for row (every value, event and count), whatever the block size; and
+// the rows waiting for their look-ahead stay few: the spike test's next samples, the
+// longest stuck run, the statistics window at the start.
+TEST(ScreeningStream, BlocksAndReleasesGiveTheWholeLogsResult) {
+  Scenario sc;
+  sc.At(Channel::kCompass, 300) += 23;                                            // spike
+  for (int i = 200; i < 250; ++i) sc.At(Channel::kCompass, i) = sc.At(Channel::kCompass, 199);  // stuck
+  for (int i = 400; i < 460; ++i) sc.At(Channel::kEncoderRearLeft, i) = sc.At(Channel::kEncoderRearLeft, 399);
+  for (int i = 100; i < 130; ++i) sc.At(Channel::kGyroZ, i) = std::nan("");      // dropout
+  for (int i = 0; i < 600; i += 2) sc.At(Channel::kRoll, i) = std::nan("");      // half rate
+  sc.At(Channel::kPitchLeft, 60) = 0;                                             // rail
+  sc.log.t_s[151] = sc.log.t_s[150];                                              // repeat
+  std::swap(sc.log.t_s[501], sc.log.t_s[502]);                                    // out of order
+  ScreeningOptions options;
+  options.statistics_intervals = 100;  // a window shorter than the log
+  const ScreenedLog whole = ScreenTelemetry(sc.log, sc.model, options);
+  ASSERT_GT(whole.events.size(), 100u);
+  std::array<bool, kNumChannels> present{};
+  for (Channel c : kAllChannels) present[static_cast<int>(c)] = sc.log.Has(c);
+  for (const std::size_t block : {std::size_t{1}, std::size_t{7}, std::size_t{64}}) {
+    ScreeningStream stream(sc.model, options, present);
+    std::array<std::vector<double>, kNumChannels> value;
+    std::vector<double> t;
+    std::size_t taken = 0, most_waiting = 0;
+    auto take = [&] {
+      for (; taken < stream.final_end(); ++taken) {
+        t.push_back(stream.t(taken));
+        for (Channel c : kAllChannels) value[static_cast<int>(c)].push_back(stream.value(c, taken));
+      }
+      stream.Release(taken);
+    };
+    for (std::size_t from = 0; from < sc.log.size(); from += block) {
+      stream.Push(Slice(sc.log, from, std::min(from + block, sc.log.size())));
+      if (stream.end() > 101) most_waiting = std::max(most_waiting, stream.end() - stream.final_end());
+      take();
+    }
+    stream.Finish();
+    take();
+    const std::string what = "blocks of " + std::to_string(block);
+    ASSERT_EQ(t, whole.t_s) << what;
+    for (Channel c : kAllChannels) {
+      const std::vector<double>& a = value[static_cast<int>(c)];
+      const std::vector<double>& b = whole.value[static_cast<int>(c)];
+      for (std::size_t k = 0; k < b.size(); ++k) {
+        ASSERT_TRUE(a[k] == b[k] || (std::isnan(a[k]) && std::isnan(b[k]))) << what << ", " << ToString(c) << " row " << k;
+      }
+    }
+    const ScreenedLog& report = stream.report();
+    EXPECT_EQ(report.counts, whole.counts) << what;
+    ASSERT_EQ(report.events.size(), whole.events.size()) << what;
+    for (std::size_t i = 0; i < whole.events.size(); ++i) {
+      EXPECT_TRUE(report.events[i].line == whole.events[i].line && report.events[i].rule == whole.events[i].rule &&
+                  report.events[i].channel == whole.events[i].channel)
+          << what << ", event " << i;
+    }
+    // The longest wait: the encoder stuck for 6 s (61 rows to see it end), then the
+    // half-rate roll's next three samples (6 rows) for its spike test; plus a block.
+    EXPECT_LE(most_waiting, 61 + 6 + block) << what;
+  }
+}
+
+// A channel with fewer than three samples in the statistics window takes its typical
+// interval from its first three: the compass starts at row 100 of a log whose window is
+// the first 16 intervals; its 3 s silence later is its only dropout.
+TEST(ScreeningStream, AChannelStartingLateTakesItsIntervalFromItsFirstSamples) {
+  Scenario sc;
+  for (int i = 0; i < 100; ++i) sc.At(Channel::kCompass, i) = std::nan("");
+  for (int i = 300; i < 330; ++i) sc.At(Channel::kCompass, i) = std::nan("");
+  ScreeningOptions options;
+  options.statistics_intervals = 16;
+  const ScreenedLog s = ScreenTelemetry(sc.log, sc.model, options);
+  EXPECT_EQ(s.counts[static_cast<int>(ScreeningRule::kDropout)][static_cast<int>(Channel::kCompass)], 1);
+  EXPECT_EQ(s.Count(ScreeningRule::kDropout), 1);
+  EXPECT_NEAR(s.typical_interval_s, 0.1, 1e-12);
 }
 
 TEST(WriteScreeningLog, ListsEveryEventWithItsLine) {
