@@ -86,6 +86,20 @@ char* PutShortest(char* out, double v) {
       *out++ = static_cast<char>('0' + tenths % 10);
       return out;
     }
+    // A whole number: its digits, when they are shorter than the scientific form
+    // ("d.ddde+XX", trailing zeros dropped), which std::to_chars writes otherwise.
+    const long long whole = tenths / 10;
+    if (tenths % 10 == 0 && static_cast<double>(whole) == v) {
+      int digits = 1, significant = 0;
+      for (long long w = whole, position = 1; w > 0; w /= 10, ++position) {
+        if (w % 10 != 0 && significant == 0) significant = position;  // lowest nonzero digit
+        digits = static_cast<int>(position);
+      }
+      const int mantissa_digits = digits - significant + 1;
+      if (digits < mantissa_digits + (mantissa_digits > 1 ? 1 : 0) + 4) {
+        return PutUnsigned(out, static_cast<unsigned long long>(whole));
+      }
+    }
   }
   return std::to_chars(out, out + 32, v).ptr;
 }
@@ -104,7 +118,9 @@ char* PutFixed(char* out, double v) {
   const double fraction = x - static_cast<double>(scaled);
   // Branch-free: which way a value rounds is as good as random, a branch on it mispredicted.
   scaled += static_cast<long long>(fraction >= 0.5) - static_cast<long long>(fraction <= -0.5);
-  if (scaled < 0) *out++ = '-';
+  // The sign without a branch too: pitch, roll and the quaternion change sign at random.
+  *out = '-';
+  out += scaled < 0;
   const unsigned long long m = static_cast<unsigned long long>(scaled < 0 ? -scaled : scaled);
   if (m < 100000000) {  // the usual number: all its digits from one eight-digit conversion
     const std::uint64_t ascii = EightDigits(static_cast<std::uint32_t>(m));
@@ -195,25 +211,28 @@ void TrajectoryWriter::Add(const TrajectorySample& p) {
 }
 
 void TrajectoryWriter::Add(const TrajectorySample& p, const Eigen::Quaterniond& q) {
-  // Time (as read) and position (0.1 mm) are the same text in both files: formatted once.
-  char prefix[4 * 32];
+  // Time (as read) and position (0.1 mm) are the same text in both files: formatted once,
+  // into the CSV row itself (or a local buffer without one), and copied into the TUM row
+  // after the CSV row is complete: by then its small stores have reached the cache, and the
+  // copy's eight-byte loads do not wait on them.
+  char local[4 * 32 + 8];
+  char* const prefix = csv_ ? csv_->cursor() : local;
   char* end = PutShortest(prefix, p.t_s);
   for (double v : {p.x_m, p.y_m, p.z_m}) {
     *end++ = ',';
     end = PutFixed<4>(end, v);
   }
   const std::size_t prefix_size = static_cast<std::size_t>(end - prefix);
-  std::memset(end, 0, 8);  // defined bytes up to the next multiple of eight
   if (csv_) {
-    char* out = csv_->cursor();
-    std::memcpy(out, prefix, prefix_size);
-    out += prefix_size;
+    char* out = end;
     for (double v : {HeadingDeg(p.heading_rad), p.pitch_rad * kDeg, p.roll_rad * kDeg, p.speed_mps}) {
       *out++ = ',';
       out = PutFixed<4>(out, v);  // 0.0001 deg, 0.1 mm/s
     }
-    *out++ = '\n';
-    csv_->Advance(out);
+    *out++ = '\n';  // at least 20 bytes after the prefix: the copy below reads defined bytes
+    csv_->Advance(out);  // (a flush leaves the bytes where they are)
+  } else {
+    std::memset(end, 0, 8);  // defined bytes up to the next multiple of eight
   }
   if (tum_) {
     char* out = tum_->cursor();

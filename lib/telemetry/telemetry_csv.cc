@@ -131,7 +131,7 @@ const char* ParsePlainRow(const char* p, const char* const end, const std::vecto
         if (p - start > 18) return nullptr;
         row[c] = static_cast<double>(static_cast<long long>(count));
       } else {
-        row[c] = static_cast<double>(value);
+        row[c] = static_cast<double>(static_cast<long long>(value));  // below 10^7: one signed conversion
         p += digits;
       }
     } else {

@@ -2,6 +2,7 @@
 
 #include <gtest/gtest.h>
 
+#include <charconv>
 #include <cmath>
 #include <cstdio>
 #include <fstream>
@@ -166,6 +167,34 @@ TEST(TrajectoryWriter, WritesEightDecimalsAsPrintfDoes) {
     }
   }
   EXPECT_EQ(i, values.size());
+}
+
+// Time stamps are written as std::to_chars writes them (the shortest text that reads back):
+// every whole second up to 3e5 s (fixed or scientific, as to_chars chooses), tenths up to
+// 3e4 s, and others; the writer's fast paths must not differ.
+TEST(TrajectoryWriter, WritesTimeStampsAsToCharsDoes) {
+  util::ScopedTempDir tmp;
+  std::vector<double> stamps;
+  for (int i = 1; i <= 300000; ++i) stamps.push_back(i);
+  for (int i = 1; i <= 300000; ++i) stamps.push_back(i / 10.0);
+  for (double v : {1e8, 123456789.0, 999999999.0, 1e9, 0.05, 1234.5678, 1e-7, 3e10}) stamps.push_back(v);
+  {
+    TrajectoryWriter writer(tmp.path() / "t.csv", {});
+    for (double t : stamps) writer.Add(TrajectorySample{t, 0, 0, 0, 0, 0, 0, 0});
+    writer.Commit();
+  }
+  std::ifstream in(tmp.path() / "t.csv");
+  std::string line;
+  std::size_t i = 0;
+  char expected[64];
+  while (std::getline(in, line)) {
+    if (line.empty() || line[0] == '#' || line[0] == 't') continue;
+    ASSERT_LT(i, stamps.size());
+    *std::to_chars(expected, expected + sizeof(expected), stamps[i]).ptr = '\0';
+    ASSERT_EQ(line.substr(0, line.find(',')), expected) << "stamp " << stamps[i];
+    ++i;
+  }
+  EXPECT_EQ(i, stamps.size());
 }
 
 TEST(TrajectoryWriter, LeavesNothingBehindWithoutCommit) {
