@@ -150,10 +150,16 @@ char* PutFixed(char* out, double v) {
   return out + kDecimals;
 }
 
-// Heading in degrees, [0, 360).
+// Heading in degrees, [0, 360): fmod(heading, 360), plus 360 when negative. The heading is
+// continuous, so after the first full turn almost every value needs wrapping, and fmod is
+// slow: h - 360 floor(h / 360) is the same real number (360 n is exact, and so is the
+// difference when it is fmod's result), so its one rounding gives the same double, except
+// when the rounded quotient put n off by one, which the range test catches.
 double HeadingDeg(double heading_rad) {
   double heading = heading_rad * kDeg;
-  if (!(heading >= 0 && heading < 360.0)) {  // fmod leaves [0, 360) as it is
+  if (!(heading >= 0 && heading < 360.0)) {
+    const double wrapped = heading - 360.0 * std::floor(heading / 360.0);
+    if (wrapped >= 0 && wrapped < 360.0) return wrapped;
     heading = std::fmod(heading, 360.0);
     if (heading < 0) heading += 360.0;
   }

@@ -64,7 +64,7 @@ HeadingKalman::HeadingKalman(const HeadingKalmanOptions& options, double first_c
   // as the transient dies out after a turn, and the gyro's sample-to-sample noise (a
   // differentiated noisy rate reads several deg/s^2 at rest) does not gate a steady rover.
   gate_time_ = std::numeric_limits<double>::quiet_NaN();
-  alpha_dt_ = std::numeric_limits<double>::quiet_NaN();
+  alpha_dt_.fill(std::numeric_limits<double>::quiet_NaN());
 }
 
 double HeadingKalman::gyro_scale_sigma() const { return std::sqrt(std::max(0.0, p_[2][2])); }
@@ -112,13 +112,19 @@ HeadingKalman::Output HeadingKalman::Update(double t_s, double compass_rad, doub
       gate_rate_ = rate;
     } else if (t_s > gate_time_) {
       const double dt = t_s - gate_time_;
-      if (dt != alpha_dt_) {  // the same interval as last time (the usual case): the same alpha
-        alpha_ = 1.0 - std::exp(-dt / o_.gate_smoothing_s);
-        alpha_dt_ = dt;
+      // An interval seen lately (the usual case): its alpha again, without exp().
+      int entry = 0;
+      while (entry < kAlphaCache && alpha_dt_[entry] != dt) ++entry;
+      if (entry == kAlphaCache) {
+        entry = alpha_next_;
+        alpha_next_ = (alpha_next_ + 1) % kAlphaCache;
+        alpha_[entry] = 1.0 - std::exp(-dt / o_.gate_smoothing_s);
+        alpha_dt_[entry] = dt;
       }
+      const double alpha = alpha_[entry];
       const double previous = gate_rate_;
-      gate_rate_ += alpha_ * (rate - gate_rate_);
-      gate_accel_ += alpha_ * ((gate_rate_ - previous) / dt - gate_accel_);
+      gate_rate_ += alpha * (rate - gate_rate_);
+      gate_accel_ += alpha * ((gate_rate_ - previous) / dt - gate_accel_);
     }
     gate_time_ = t_s;
     // H = [0, 1 + s, rate] (rate only with the scale state).

@@ -2,6 +2,8 @@
 // rate that "does not believe the compass when Ratler turns".
 #pragma once
 
+#include <array>
+
 #include <vector>
 
 #include <nlohmann/json.hpp>
@@ -97,7 +99,11 @@ class HeadingKalman {
   long bias_count_ = 0;
   double bias_ = 0;  // bias_sum_ / bias_count_, 0 before the first stationary sample
   double gate_rate_ = 0, gate_accel_ = 0, gate_time_;
-  double alpha_dt_, alpha_ = 0;  // the gate smoothing's alpha for the interval alpha_dt_
+  // The gate smoothing's alpha for the last few intervals (time stamps in tenths of a second
+  // give a handful of distinct binary differences): alpha_[i] belongs to alpha_dt_[i].
+  static constexpr int kAlphaCache = 4;
+  std::array<double, kAlphaCache> alpha_dt_{}, alpha_{};
+  int alpha_next_ = 0;  // the entry replaced next
   int compass_updates_ = 0, gyro_updates_ = 0;
 };
 
