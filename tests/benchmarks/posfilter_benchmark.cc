@@ -87,40 +87,61 @@ void BM_PosfilterEndToEnd(benchmark::State& state) {
 }
 BENCHMARK(BM_PosfilterEndToEnd)->Unit(benchmark::kMillisecond)->UseRealTime()->Iterations(3);
 
-// The parts, for where the time goes: parsing, screening (which filtering includes), and
-// writing.
-void BM_ParseOnly(benchmark::State& state) {
+// The parts, for where the time goes, each as the tool runs it (a block of rows at a time):
+// reading; reading and screening; reading, screening, filtering and dead reckoning (the rows
+// dropped); and writing alone below. Differences between them are the stages' costs.
+void BM_ReadOnly(benchmark::State& state) {
   const std::string& text = Log();  // made before the clock runs
-  for (auto _ : state) benchmark::DoNotOptimize(telemetry::ParseTelemetryCsv(text, "benchmark.csv", Model()).size());
-  state.counters["rows_per_s"] =
-      benchmark::Counter(2e6 * static_cast<double>(state.iterations()), benchmark::Counter::kIsRate);
-}
-BENCHMARK(BM_ParseOnly)->Unit(benchmark::kMillisecond)->UseRealTime()->Iterations(3);
-
-void BM_ScreenOnly(benchmark::State& state) {
-  const telemetry::TelemetryLog log = telemetry::ParseTelemetryCsv(Log(), "benchmark.csv", Model());
   for (auto _ : state) {
-    benchmark::DoNotOptimize(telemetry::ScreenTelemetry(log, Model(), telemetry::ScreeningOptions{}).t_s.size());
+    telemetry::TelemetryReader reader(text, "benchmark.csv", Model());
+    telemetry::TelemetryLog block;
+    std::size_t rows = 0;
+    while (true) {
+      block.ClearRows();
+      const std::size_t n = reader.Read(&block, 1024);
+      if (n == 0) break;
+      rows += n;
+    }
+    benchmark::DoNotOptimize(rows);
   }
   state.counters["rows_per_s"] =
       benchmark::Counter(2e6 * static_cast<double>(state.iterations()), benchmark::Counter::kIsRate);
 }
-BENCHMARK(BM_ScreenOnly)->Unit(benchmark::kMillisecond)->UseRealTime()->Iterations(3);
+BENCHMARK(BM_ReadOnly)->Unit(benchmark::kMillisecond)->UseRealTime()->Iterations(3);
 
-// Filtering and dead reckoning alone: RunPosfilter on the parsed log, the poses dropped.
-void BM_FilterAndDeadReckonOnly(benchmark::State& state) {
-  const telemetry::TelemetryLog log = telemetry::ParseTelemetryCsv(Log(), "benchmark.csv", Model());
+void BM_ReadAndScreen(benchmark::State& state) {
+  const std::string& text = Log();
   for (auto _ : state) {
+    telemetry::TelemetryReader reader(text, "benchmark.csv", Model());
+    std::array<bool, telemetry::kNumChannels> present{};
+    for (telemetry::Channel c : telemetry::kAllChannels) present[static_cast<int>(c)] = reader.Has(c);
+    telemetry::ScreeningStream stream(Model(), telemetry::ScreeningOptions{}, present);
+    const telemetry::ScreeningStream::Source source = [&reader](telemetry::TelemetryLog* out, std::size_t n) {
+      return reader.Read(out, n);
+    };
+    while (stream.Read(source, 1024) > 0) stream.Release(stream.final_end());
+    stream.Finish();
+    benchmark::DoNotOptimize(stream.report().rows);
+  }
+  state.counters["rows_per_s"] =
+      benchmark::Counter(2e6 * static_cast<double>(state.iterations()), benchmark::Counter::kIsRate);
+}
+BENCHMARK(BM_ReadAndScreen)->Unit(benchmark::kMillisecond)->UseRealTime()->Iterations(3);
+
+void BM_ReadScreenFilterAndDeadReckon(benchmark::State& state) {
+  const std::string& text = Log();
+  for (auto _ : state) {
+    telemetry::TelemetryReader reader(text, "benchmark.csv", Model());
     double sum = 0;
     const positioning::PosfilterResult r = positioning::RunPosfilter(
-        log, Model(), positioning::PosfilterOptions{},
-        [&sum](const positioning::PoseOutput& row) { sum += row.pose.x_m; });
+        reader, Model(), positioning::PosfilterOptions{},
+        [&sum](const positioning::PoseOutput& row) { sum += row.pose.x_m + row.enu_from_body.w(); });
     benchmark::DoNotOptimize(sum + r.motion.distance_m);
   }
   state.counters["rows_per_s"] =
       benchmark::Counter(2e6 * static_cast<double>(state.iterations()), benchmark::Counter::kIsRate);
 }
-BENCHMARK(BM_FilterAndDeadReckonOnly)->Unit(benchmark::kMillisecond)->UseRealTime()->Iterations(3);
+BENCHMARK(BM_ReadScreenFilterAndDeadReckon)->Unit(benchmark::kMillisecond)->UseRealTime()->Iterations(3);
 
 // Writing the two trajectory files alone (formatting and the file system's work).
 void BM_WriteOnly(benchmark::State& state) {
