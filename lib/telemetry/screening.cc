@@ -351,6 +351,22 @@ class ScreeningStream::Impl {
     double last_present_t = s.last_present_t, dropout_limit = s.dropout_limit;
     const double limit = s.limit, slack = s.slack, period = s.period, full_scale = s.full_scale;
     const double radians_at_zero = s.radians_at_zero, radians_per_count = s.radians_per_count;
+    // Accepted samples are queued for the spike test by index, into the queue grown by the
+    // rows at hand (cut back to the samples queued after the loop).
+    std::size_t queued = s.queue_value.size();
+    double* queue_value = nullptr;
+    double* queue_t = nullptr;
+    std::size_t* queue_row = nullptr;
+    std::size_t accepted_in_window = s.accepted_in_window;
+    if constexpr (kind != kEncoderKind) {
+      const std::size_t room = queued + (out_.rows - s.pass_end);
+      s.queue_value.resize(room);
+      s.queue_t.resize(room);
+      s.queue_row.resize(room);
+      queue_value = s.queue_value.data();
+      queue_t = s.queue_t.data();
+      queue_row = s.queue_row.data();
+    }
     for (std::size_t k = s.pass_end; k < out_.rows; ++k) {
       const std::size_t i = k - b;
       const double r = raw[i];
@@ -401,12 +417,19 @@ class ScreeningStream::Impl {
       last_value = value;
       last_t = t[i];
       if constexpr (kind != kEncoderKind) {
-        s.queue_value.push_back(value);
-        s.queue_t.push_back(t[i]);
-        s.queue_row.push_back(k);
-        ++s.accepted;
-        if (k < window_rows_) ++s.accepted_in_window;
+        queue_value[queued] = value;
+        queue_t[queued] = t[i];
+        queue_row[queued] = k;
+        ++queued;
+        accepted_in_window += k < window_rows_;
       }
+    }
+    if constexpr (kind != kEncoderKind) {
+      s.accepted = s.queue_base + queued;  // sample p is queue element p - queue_base
+      s.queue_value.resize(queued);
+      s.queue_t.resize(queued);
+      s.queue_row.resize(queued);
+      s.accepted_in_window = accepted_in_window;
     }
     s.have_last = have_last;
     s.last_raw = last_raw;
