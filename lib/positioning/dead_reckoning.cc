@@ -88,8 +88,8 @@ const TrajectorySample& DeadReckoner::Step(double t_s, double heading_rad, doubl
     pose_.heading_rad = heading_rad;
     pose_.pitch_rad = pitch_rad;
     pose_.roll_rad = roll_rad;
-    half_heading_ = HalfAngle::Of(heading_rad);
-    half_pitch_ = HalfAngle::Of(pitch_rad);
+    half_heading_ = heading_half_(heading_rad);
+    half_pitch_ = pitch_half_(pitch_rad);
     remember();
     return pose_;
   }
@@ -145,8 +145,9 @@ const TrajectorySample& DeadReckoner::Step(double t_s, double heading_rad, doubl
   // psi, phi: the mean heading (the short way round: headings a turn apart add pi to the
   // half sum, which flips the sign of its sine and cosine) and pitch over the step. Their
   // sines and cosines come from the half angles of this pose and the last by the sum
-  // formulas: two sines and cosines per step, which the pose's attitude uses too.
-  const HalfAngle heading = HalfAngle::Of(heading_rad), pitch = HalfAngle::Of(pitch_rad);
+  // formulas; the half angles' own sines and cosines follow the slowly changing angles
+  // (HalfAngleTracker), and the pose's attitude uses them too.
+  const HalfAngle heading = heading_half_(heading_rad), pitch = pitch_half_(pitch_rad);
   const double turns = std::round((pose_.heading_rad - heading_rad) / (2.0 * M_PI));
   const double flip = turns == 0.0 || std::fmod(turns, 2.0) == 0.0 ? 1.0 : -1.0;  // (-1)^turns
   const double sin_psi = flip * (heading.sin * half_heading_.cos + heading.cos * half_heading_.sin);

@@ -91,6 +91,7 @@ class DeadReckoner {
   double resolution_m_ = 0, resolution_tolerance_ = 0;
   TrajectorySample pose_;
   HalfAngle half_heading_, half_pitch_;  // of pose_
+  HalfAngleTracker heading_half_, pitch_half_;
   bool started_ = false;
   // The samples of the slip window, oldest first: a ring of power-of-two size.
   std::vector<Sample> window_;

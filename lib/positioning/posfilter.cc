@@ -272,6 +272,7 @@ PosfilterResult Run(ScreenedRows& input, const std::string& source, const teleme
   double still_since_t = 0;  // start of the current stretch with no wheel moving
   PoseOutput out;
   out.heading_rate_radps = kNaN;
+  HalfAngleTracker roll_half;  // for the attitude
   std::size_t k = 0;
   while (true) {
     const ScreeningStream::Rows rows = s.rows();
@@ -330,7 +331,7 @@ PosfilterResult Run(ScreenedRows& input, const std::string& source, const teleme
       } else {  // the attitude from the half angles the dead reckoning has made already
         out.pose = pose;
         out.enu_from_body =
-            EnuFromBody(reckoner.half_heading(), reckoner.half_pitch(), HalfAngle::Of(pose.roll_rad));
+            EnuFromBody(reckoner.half_heading(), reckoner.half_pitch(), roll_half(pose.roll_rad));
         out.compass_count = compass_raw != nullptr ? compass_raw[i] : kNaN;
         out.gyro_count = gyro_raw != nullptr ? gyro_raw[i] : kNaN;
         sink(out);
