@@ -131,15 +131,20 @@ class FilteredChannel {
 class ScreenedRows {
  public:
   using Source = std::function<std::size_t(telemetry::TelemetryLog*, std::size_t)>;
+  // `rows_at_most`: an upper bound on the rows still to come (for ReserveWholeLog).
   ScreenedRows(Source source, const std::array<bool, telemetry::kNumChannels>& present,
                const telemetry::SensorModel& model, const PosfilterOptions& options, const ProgressFn& progress,
-               std::function<double()> fraction)
+               std::function<double()> fraction, std::function<std::size_t()> rows_at_most)
       : source_(std::move(source)),
         stream_(model, options.screening, present),
         block_rows_(options.block_rows),
         progress_(progress),
-        fraction_(std::move(fraction)) {}
+        fraction_(std::move(fraction)),
+        rows_at_most_(std::move(rows_at_most)) {}
   ScreeningStream& stream() { return stream_; }
+  // The whole log will be held: room for it at once (and a block more: a reader grows the
+  // arrays by a block before it cuts them to the rows it read).
+  void ReserveWholeLog() { stream_.Reserve(stream_.end() - stream_.begin() + rows_at_most_() + block_rows_); }
   // False when the log had already ended.
   bool Next() {
     if (stream_.finished()) return false;
@@ -157,6 +162,7 @@ class ScreenedRows {
   std::size_t block_rows_;
   ProgressFn progress_;
   std::function<double()> fraction_;
+  std::function<std::size_t()> rows_at_most_;
   std::size_t rows_read_ = 0;
 };
 
@@ -198,6 +204,7 @@ PosfilterResult Run(ScreenedRows& input, const std::string& source, const teleme
   }
   // Zero-phase filtering runs over the whole log.
   if (options.mode == FilterMode::kZeroPhase) {
+    input.ReserveWholeLog();
     while (input.Next()) {
     }
   }
@@ -367,7 +374,8 @@ PosfilterResult RunPosfilter(telemetry::TelemetryReader& reader, const telemetry
   std::array<bool, telemetry::kNumChannels> present{};
   for (Channel c : telemetry::kAllChannels) present[static_cast<int>(c)] = reader.Has(c);
   ScreenedRows input([&reader](telemetry::TelemetryLog* out, std::size_t max_rows) { return reader.Read(out, max_rows); },
-                     present, model, options, progress, [&reader] { return reader.FractionRead(); });
+                     present, model, options, progress, [&reader] { return reader.FractionRead(); },
+                     [&reader] { return reader.LinesLeft(); });
   return Run(input, reader.source().string(), model, options, sink);
 }
 
@@ -390,7 +398,8 @@ PosfilterResult RunPosfilter(const telemetry::TelemetryLog& log, const telemetry
     return n;
   };
   ScreenedRows input(source, present, model, options, {},
-                     [&] { return log.size() == 0 ? 1.0 : static_cast<double>(next) / log.size(); });
+                     [&] { return log.size() == 0 ? 1.0 : static_cast<double>(next) / log.size(); },
+                     [&] { return log.size() - next; });
   return Run(input, log.source.string(), model, options, sink);
 }
 

@@ -106,8 +106,10 @@ class ScreeningStream::Impl {
     std::size_t increasing = from;
     while (increasing < to && t_[increasing] > previous) previous = t_[increasing++];
     if (increasing == to) {
-      log_row_.resize(to);
-      for (std::size_t i = from; i < to; ++i) log_row_[i] = rows_read_ + (i - from);
+      if (dropped_ > 0) {
+        log_row_.resize(to);
+        for (std::size_t i = from; i < to; ++i) log_row_[i] = rows_read_ + (i - from);
+      }
       if (out_.rows == 0) out_.first_t_s = t_[from];
       out_.last_t_s = t_[to - 1];
       out_.rows += n;
@@ -120,7 +122,10 @@ class ScreeningStream::Impl {
               t == out_.last_t_s ? ScreeningRule::kRepeatedTimestamp : ScreeningRule::kOutOfOrderTimestamp;
           out_.events.push_back({line_[i], t, -1, rule, t});
           ++out_.counts[static_cast<int>(rule)][kRowSlot];
-          ++dropped_;
+          if (dropped_++ == 0) {  // the rows' indices in the log, kept from now on (so far each was its own)
+            log_row_.resize(kept);
+            for (std::size_t r = 0; r < kept; ++r) log_row_[r] = base_ + r;
+          }
           continue;
         }
         t_[kept] = t;
@@ -128,7 +133,7 @@ class ScreeningStream::Impl {
         for (int ch = 0; ch < kNumChannels; ++ch) {
           if (ch_[ch].present) raw_[ch][kept] = raw_[ch][i];
         }
-        log_row_.push_back(rows_read_ + (i - from));
+        if (dropped_ > 0) log_row_.push_back(rows_read_ + (i - from));
         if (out_.rows == 0) out_.first_t_s = t;
         out_.last_t_s = t;
         ++out_.rows;
@@ -191,13 +196,23 @@ class ScreeningStream::Impl {
     auto erase_front = [drop](auto& v) { v.erase(v.begin(), v.begin() + static_cast<std::ptrdiff_t>(drop)); };
     erase_front(t_);
     erase_front(line_);
-    erase_front(log_row_);
+    if (!log_row_.empty()) erase_front(log_row_);
     for (int ch = 0; ch < kNumChannels; ++ch) {
       if (!ch_[ch].present) continue;
       erase_front(raw_[ch]);
       erase_front(value_[ch]);
     }
     base_ = k;
+  }
+
+  void Reserve(std::size_t rows) {
+    t_.reserve(rows);
+    line_.reserve(rows);
+    for (int ch = 0; ch < kNumChannels; ++ch) {
+      if (!ch_[ch].present) continue;
+      raw_[ch].reserve(rows);
+      value_[ch].reserve(rows);
+    }
   }
 
   ScreenedLog TakeAll() {
@@ -735,7 +750,7 @@ class ScreeningStream::Impl {
   std::vector<double>& t_ = held_.t_s;
   std::vector<long>& line_ = held_.line;
   std::array<std::vector<double>, kNumChannels>& raw_ = held_.counts;
-  std::vector<std::size_t> log_row_;
+  std::vector<std::size_t> log_row_;  // row k's index among the rows read; empty until a row is dropped
   std::array<std::vector<double>, kNumChannels> value_;
   std::array<ChannelState, kNumChannels> ch_;
   std::size_t rows_read_ = 0, dropped_ = 0;
@@ -766,6 +781,7 @@ double ScreeningStream::raw(Channel c, std::size_t k) const { return impl_->raw(
 double ScreeningStream::value(Channel c, std::size_t k) const { return impl_->value(c, k); }
 ScreeningStream::Rows ScreeningStream::rows() const { return impl_->rows(); }
 void ScreeningStream::Release(std::size_t k) { impl_->Release(k); }
+void ScreeningStream::Reserve(std::size_t rows) { impl_->Reserve(rows); }
 const ScreenedLog& ScreeningStream::report() const { return impl_->report(); }
 ScreenedLog ScreeningStream::TakeAll() { return impl_->TakeAll(); }
 
@@ -836,6 +852,7 @@ ScreenedLog ScreenTelemetry(const TelemetryLog& log, const SensorModel& model,
   std::array<bool, kNumChannels> present{};
   for (Channel c : kAllChannels) present[static_cast<int>(c)] = log.Has(c);
   ScreeningStream stream(model, options, present);
+  stream.Reserve(log.size());
   stream.Push(log);
   stream.Finish();
   return stream.TakeAll();

@@ -140,6 +140,9 @@ class ScreeningStream {
   Rows rows() const;
   /// Rows before k (<= final_end()) are no longer read: their memory may be reused.
   void Release(std::size_t k);
+  /// Room for `rows` rows held at once (for a caller that will hold the whole log): the
+  /// arrays are not regrown, and copied, as they fill.
+  void Reserve(std::size_t rows);
 
   /// Counts and events so far (the events in order after Finish()); rows, first_t_s,
   /// last_t_s and typical_interval_s; no arrays.
