@@ -259,7 +259,8 @@ class ScreeningStream::Impl {
     std::size_t run_last_valid = 0, run_next = 0;
   };
 
-  void Record(std::size_t k, int channel, ScreeningRule rule, double raw) {
+  // Rare (a fault): kept out of the rules' loops, which stay tight.
+  [[gnu::noinline, gnu::cold]] void Record(std::size_t k, int channel, ScreeningRule rule, double raw) {
     out_.events.push_back({line_[k - base_], t_[k - base_], channel, rule, raw});
     ++out_.counts[static_cast<int>(rule)][channel < 0 ? kRowSlot : channel];
   }
@@ -458,7 +459,7 @@ class ScreeningStream::Impl {
   // A sample of a channel with fewer than three in the statistics window: its first three
   // set its typical interval, and their dropouts are reported then.
   // (Their rows may have been released by then: the samples are kept as their events would be.)
-  void FirstSamples(Channel c, std::size_t k) {
+  [[gnu::noinline, gnu::cold]] void FirstSamples(Channel c, std::size_t k) {
     const int ch = static_cast<int>(c);
     ChannelState& s = ch_[ch];
     s.first_samples.push_back({line(k), t(k), ch, ScreeningRule::kDropout, raw(c, k)});
