@@ -3,10 +3,11 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
-#include <cstdlib>
 #include <limits>
 #include <string>
 #include <vector>
+
+#include "util/testing.h"
 
 namespace lunarnav::positioning {
 namespace {
@@ -92,10 +93,7 @@ TEST(RunPosfilter, BridgesAnEncodersGapByInterpolationInTime) {
 // compass sample missing, the gyro silent for 2 s, the left pitch missing for the first and
 // last 3 s, the roll for 5 s in the middle, a wheel for 1 s, and a compass spike.
 telemetry::TelemetryLog GappyLog(const telemetry::SensorModel& model) {
-  const char* testdata = std::getenv("LUNARNAV_TESTDATA");
-  EXPECT_NE(testdata, nullptr) << "LUNARNAV_TESTDATA is not set";
-  telemetry::TelemetryLog log =
-      telemetry::ReadTelemetryCsv(std::string(testdata) + "/telemetry/trial-a/telemetry.csv", model);
+  telemetry::TelemetryLog log = telemetry::ReadTelemetryCsv(util::TestDataPath("telemetry/trial-a/telemetry.csv"), model);
   const double nan = std::numeric_limits<double>::quiet_NaN();
   auto column = [&](telemetry::Channel c) -> std::vector<double>& { return log.counts[static_cast<int>(c)]; };
   const std::size_t n = log.size();
@@ -111,14 +109,22 @@ telemetry::TelemetryLog GappyLog(const telemetry::SensorModel& model) {
   return log;
 }
 
+// The sensor model of the simulated trial A log in testdata.
+telemetry::SensorModel TrialASensors() {
+  return telemetry::ReadSensorModel(util::TestDataPath("telemetry/trial-a/sensors.json"));
+}
+
+// Every field of two poses equal, bit for bit.
+bool SamePose(const TrajectorySample& a, const TrajectorySample& b) {
+  return a.t_s == b.t_s && a.x_m == b.x_m && a.y_m == b.y_m && a.z_m == b.z_m && a.heading_rad == b.heading_rad &&
+         a.pitch_rad == b.pitch_rad && a.roll_rad == b.roll_rad && a.speed_mps == b.speed_mps;
+}
+
 // With a sink the poses are computed row by row and handed over without the trajectory being
 // kept: they are the very poses of the kept trajectory, in every filter mode and heading
 // method, on a log with gaps of every kind.
 TEST(RunPosfilter, PosesToASinkAreTheKeptTrajectory) {
-  const char* testdata = std::getenv("LUNARNAV_TESTDATA");
-  ASSERT_NE(testdata, nullptr);
-  const telemetry::SensorModel model =
-      telemetry::ReadSensorModel(std::string(testdata) + "/telemetry/trial-a/sensors.json");
+  const telemetry::SensorModel model = TrialASensors();
   const telemetry::TelemetryLog log = GappyLog(model);
   for (const FilterMode mode : {FilterMode::kCausal, FilterMode::kZeroPhase}) {
     for (const HeadingMethod heading : {HeadingMethod::kKalman, HeadingMethod::kLowPass}) {
@@ -139,11 +145,7 @@ TEST(RunPosfilter, PosesToASinkAreTheKeptTrajectory) {
       ASSERT_EQ(streamed.size(), kept.motion.trajectory.size()) << what;
       for (std::size_t k = 0; k < streamed.size(); ++k) {
         const TrajectorySample& a = kept.motion.trajectory[k];
-        const TrajectorySample& b = streamed[k];
-        ASSERT_TRUE(a.t_s == b.t_s && a.x_m == b.x_m && a.y_m == b.y_m && a.z_m == b.z_m &&
-                    a.heading_rad == b.heading_rad && a.pitch_rad == b.pitch_rad && a.roll_rad == b.roll_rad &&
-                    a.speed_mps == b.speed_mps)
-            << what << ", row " << k;
+        ASSERT_TRUE(SamePose(a, streamed[k])) << what << ", row " << k;
         // The attitude handed over with the pose is the pose's (made from the dead
         // reckoning's half angles instead of the angles: equal to rounding).
         const Eigen::Quaterniond q = EnuFromBody(a.heading_rad, a.pitch_rad, a.roll_rad);
@@ -162,10 +164,7 @@ TEST(RunPosfilter, PosesToASinkAreTheKeptTrajectory) {
 // The log is read a block at a time, each row run as soon as its look-ahead is known: the
 // results do not depend on the block size, in either filter mode.
 TEST(RunPosfilter, ResultsDoNotDependOnTheBlockSize) {
-  const char* testdata = std::getenv("LUNARNAV_TESTDATA");
-  ASSERT_NE(testdata, nullptr);
-  const telemetry::SensorModel model =
-      telemetry::ReadSensorModel(std::string(testdata) + "/telemetry/trial-a/sensors.json");
+  const telemetry::SensorModel model = TrialASensors();
   const telemetry::TelemetryLog log = GappyLog(model);
   for (const FilterMode mode : {FilterMode::kCausal, FilterMode::kZeroPhase}) {
     PosfilterOptions options;
@@ -179,11 +178,7 @@ TEST(RunPosfilter, ResultsDoNotDependOnTheBlockSize) {
       const std::string what = ToString(mode) + ", blocks of " + std::to_string(block);
       ASSERT_EQ(r.motion.trajectory.size(), whole.motion.trajectory.size()) << what;
       for (std::size_t k = 0; k < r.motion.trajectory.size(); ++k) {
-        const TrajectorySample& a = r.motion.trajectory[k];
-        const TrajectorySample& b = whole.motion.trajectory[k];
-        ASSERT_TRUE(a.t_s == b.t_s && a.x_m == b.x_m && a.y_m == b.y_m && a.z_m == b.z_m &&
-                    a.heading_rad == b.heading_rad && a.pitch_rad == b.pitch_rad && a.roll_rad == b.roll_rad)
-            << what << ", row " << k;
+        ASSERT_TRUE(SamePose(r.motion.trajectory[k], whole.motion.trajectory[k])) << what << ", row " << k;
       }
       EXPECT_EQ(r.SummaryJson().dump(), whole.SummaryJson().dump()) << what;
       EXPECT_EQ(r.screened.events.size(), whole.screened.events.size()) << what;
