@@ -777,8 +777,6 @@ std::size_t ScreeningStream::begin() const { return impl_->begin(); }
 std::size_t ScreeningStream::end() const { return impl_->end(); }
 std::size_t ScreeningStream::final_end() const { return impl_->final_end(); }
 double ScreeningStream::t(std::size_t k) const { return impl_->t(k); }
-long ScreeningStream::line(std::size_t k) const { return impl_->line(k); }
-double ScreeningStream::raw(Channel c, std::size_t k) const { return impl_->raw(c, k); }
 double ScreeningStream::value(Channel c, std::size_t k) const { return impl_->value(c, k); }
 ScreeningStream::Rows ScreeningStream::rows() const { return impl_->rows(); }
 void ScreeningStream::Release(std::size_t k) { impl_->Release(k); }

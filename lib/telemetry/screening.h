@@ -83,7 +83,6 @@ struct ScreenedLog {
   std::vector<ScreeningEvent> events;
 
   bool Has(Channel c) const { return !value[static_cast<int>(c)].empty(); }
-  std::size_t Row(std::size_t k) const { return row.empty() ? k : row[k]; }  ///< Kept row k's index in the log.
   long Count(ScreeningRule rule) const;  ///< Over all channels and rows.
   nlohmann::json ReportJson() const;     ///< Counts per rule and channel.
 };
@@ -123,12 +122,10 @@ class ScreeningStream {
   std::size_t begin() const;      ///< First row held.
   std::size_t end() const;        ///< Rows kept so far.
   std::size_t final_end() const;  ///< Rows before it are final.
-  /// Row k's data, for k in [begin(), end()): time stamp, line in the file, a channel's raw
-  /// count and screened value (as in ScreenedLog::value; NaN when
-  /// missing or rejected; final only for k < final_end()).
+  /// Row k's time stamp and a channel's screened value (as in ScreenedLog::value; NaN when
+  /// missing or rejected; final only for k < final_end()), for k in [begin(), end()); rows()
+  /// has the raw counts too, as arrays.
   double t(std::size_t k) const;
-  long line(std::size_t k) const;
-  double raw(Channel c, std::size_t k) const;
   double value(Channel c, std::size_t k) const;
   /// The held rows as arrays: row k is element k - begin of each; valid until the next
   /// Push, Finish or Release. A channel not present has null arrays.
