@@ -110,6 +110,7 @@ class FilteredChannel {
       : filled_(c, 1.0) {
     filled_.Bind(stream);
     if (mode == FilterMode::kZeroPhase) {
+      LN_CHECK(stream.begin() == 0) << "posfilter: zero-phase filtering needs the whole log held";
       std::vector<double> filled(stream.end());
       for (std::size_t k = 0; k < filled.size(); ++k) filled[k] = filled_.At(k);
       zero_phase_ = telemetry::FilterZeroPhase(design, filled);
@@ -130,7 +131,7 @@ class FilteredChannel {
 // Rows from a source, screened as they come. Next() reads and screens one more block.
 class ScreenedRows {
  public:
-  using Source = std::function<std::size_t(telemetry::TelemetryLog*, std::size_t)>;
+  using Source = ScreeningStream::Source;
   // `rows_at_most`: an upper bound on the rows still to come (for ReserveWholeLog).
   ScreenedRows(Source source, const std::array<bool, telemetry::kNumChannels>& present,
                const telemetry::SensorModel& model, const PosfilterOptions& options, const ProgressFn& progress,

@@ -248,7 +248,8 @@ class ScreeningStream::Impl {
     // element p - queue_base.
     std::vector<double> queue_value, queue_t;
     std::vector<std::size_t> queue_row;
-    std::size_t queue_base = 0, accepted = 0, accepted_in_window = 0, tested = 0;
+    std::size_t queue_base = 0, accepted_in_window = 0, tested = 0;
+    std::size_t accepted() const { return queue_base + queue_value.size(); }  // samples queued so far
     Typical sigma_state = Typical::kUnknown;
     double channel_sigma = 0, smallest_threshold = 0, min_dev = 0;
     std::size_t hampel_end = 0;  // rows before it have had their spike test
@@ -441,7 +442,6 @@ class ScreeningStream::Impl {
       }
     }
     if constexpr (kind != kEncoderKind) {
-      s.accepted = s.queue_base + queued;  // sample p is queue element p - queue_base
       s.queue_value.resize(queued);
       s.queue_t.resize(queued);
       s.queue_row.resize(queued);
@@ -489,8 +489,8 @@ class ScreeningStream::Impl {
     const std::size_t window = 2 * h + 1;  // odd
     if (s.sigma_state == Typical::kUnknown) NoiseLevel(&s, window);
     if (s.sigma_state == Typical::kKnown) {
-      const std::size_t until = finished_ ? s.accepted : (s.accepted >= h ? s.accepted - h : 0);
-      if (s.accepted >= window && s.tested < until) {
+      const std::size_t until = finished_ ? s.accepted() : (s.accepted() >= h ? s.accepted() - h : 0);
+      if (s.accepted() >= window && s.tested < until) {
         HampelTests(c, s.tested, until);
         s.tested = until;
       }
@@ -504,8 +504,8 @@ class ScreeningStream::Impl {
         s.queue_base = keep_from;
       }
     }
-    if (s.sigma_state == Typical::kNone) s.tested = s.accepted;
-    s.hampel_end = s.tested < s.accepted ? s.queue_row[s.tested - s.queue_base] : s.pass_end;
+    if (s.sigma_state == Typical::kNone) s.tested = s.accepted();
+    s.hampel_end = s.tested < s.accepted() ? s.queue_row[s.tested - s.queue_base] : s.pass_end;
   }
 
   // The channel's noise level, from the second differences of its accepted samples in the
@@ -517,7 +517,7 @@ class ScreeningStream::Impl {
     std::size_t count = 0;
     if (s->accepted_in_window >= window) {
       count = s->accepted_in_window;
-    } else if (s->accepted >= window) {
+    } else if (s->accepted() >= window) {
       count = window;
     } else {
       if (finished_) s->sigma_state = Typical::kNone;
@@ -538,7 +538,7 @@ class ScreeningStream::Impl {
     const int ch = static_cast<int>(c);
     ChannelState& s = ch_[ch];
     // Queue-relative indices: sample p is element p - base.
-    const std::size_t base = s.queue_base, count = s.accepted;
+    const std::size_t base = s.queue_base, count = s.accepted();
     const double* const value = s.queue_value.data();
     const double* const time = s.queue_t.data();
     const std::size_t h = static_cast<std::size_t>(o_.hampel_half_window);
