@@ -2,6 +2,9 @@
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
+#include <array>
+
 #include <charconv>
 #include <cmath>
 #include <cstdio>
@@ -108,33 +111,48 @@ TEST(TrajectoryWriter, WritesBothFilesInOnePassWithTheDocumentedText) {
             "1e-07 0.0000 0.0000 0.0000 0.00000000 0.00000000 -0.17606820 -0.98437797\n");
 }
 
-// Brute force against printf: positions of every magnitude up to 1e8 m, either sign, come out
-// as "%.4f" prints them (values within a hair of a rounding tie, where the writer rounds half
-// away from zero and printf rounds the binary value, are left out).
+// Brute force against printf: numbers of every magnitude up to 1e8, either sign, in every
+// column (position, heading, pitch, roll, speed), come out as "%.4f" prints them (values within
+// a hair of a rounding tie, where the writer rounds half away from zero and printf rounds the
+// binary value, are left out).
 TEST(TrajectoryWriter, WritesFourDecimalsAsPrintfDoes) {
   util::ScopedTempDir tmp;
   std::mt19937_64 rng(5);
   std::uniform_real_distribution<double> exponent(-6, 8), unit(0, 1);
-  std::vector<double> values;
-  for (int i = 0; i < 20000; ++i) {
-    const double v = (unit(rng) < 0.5 ? -1 : 1) * std::pow(10.0, exponent(rng));
+  constexpr double kDeg = 180.0 / M_PI;
+  auto near_tie = [](double v) {
     const double scaled = std::abs(v) * 1e4;
-    if (std::abs(scaled - std::floor(scaled) - 0.5) < 1e-6 * std::max(1.0, scaled * 1e-9)) continue;
-    values.push_back(v);
+    return std::abs(scaled - std::floor(scaled) - 0.5) < 1e-6 * std::max(1.0, scaled * 1e-9);
+  };
+  // Per row the seven numbers as written (degrees for the angles) and the sample.
+  std::vector<std::array<double, 7>> rows;
+  std::vector<TrajectorySample> samples;
+  while (rows.size() < 20000) {
+    std::array<double, 7> v;
+    for (double& x : v) x = (unit(rng) < 0.5 ? -1 : 1) * std::pow(10.0, exponent(rng));
+    TrajectorySample p{1.0, v[0], v[1], v[2], std::abs(v[3]) / 1e8 * 359.0 / kDeg, v[4] / kDeg, v[5] / kDeg, v[6]};
+    v[3] = p.heading_rad * kDeg;  // in [0, 360): written as it is
+    v[4] = p.pitch_rad * kDeg;
+    v[5] = p.roll_rad * kDeg;
+    if (std::any_of(v.begin(), v.end(), near_tie)) continue;
+    rows.push_back(v);
+    samples.push_back(p);
   }
   {
     TrajectoryWriter writer(tmp.path() / "t.csv", {});
-    for (double v : values) writer.Add({1.0, v, 0, 0, 0, 0, 0, 0});
+    for (const TrajectorySample& p : samples) writer.Add(p);
     writer.Commit();
   }
-  const std::vector<std::string> written = CsvColumn(tmp.path() / "t.csv", 1);
-  ASSERT_EQ(written.size(), values.size());
   char expected[64];
-  for (std::size_t i = 0; i < values.size(); ++i) {
-    std::snprintf(expected, sizeof(expected), "%.4f", values[i]);
-    std::string want = expected;
-    if (want == "-0.0000") want = "0.0000";  // the writer never writes a negative zero
-    ASSERT_EQ(written[i], want) << "value " << values[i];
+  for (int column = 0; column < 7; ++column) {
+    const std::vector<std::string> written = CsvColumn(tmp.path() / "t.csv", column + 1);
+    ASSERT_EQ(written.size(), rows.size());
+    for (std::size_t i = 0; i < rows.size(); ++i) {
+      std::snprintf(expected, sizeof(expected), "%.4f", rows[i][column]);
+      std::string want = expected;
+      if (want == "-0.0000") want = "0.0000";  // the writer never writes a negative zero
+      ASSERT_EQ(written[i], want) << "column " << column << ", value " << rows[i][column];
+    }
   }
 }
 
