@@ -148,7 +148,10 @@ const TrajectorySample& DeadReckoner::Step(double t_s, double heading_rad, doubl
   // formulas; the half angles' own sines and cosines follow the slowly changing angles
   // (HalfAngleTracker), and the pose's attitude uses them too.
   const HalfAngle heading = heading_half_(heading_rad), pitch = pitch_half_(pitch_rad);
-  const double turns = std::round((pose_.heading_rad - heading_rad) / (2.0 * M_PI));
+  // (Headings less than 3 rad apart, the usual step, are no turn apart: the quotient is
+  // below 1/2 and rounds to zero.)
+  const double change = pose_.heading_rad - heading_rad;
+  const double turns = std::abs(change) < 3.0 ? 0.0 : std::round(change / (2.0 * M_PI));
   const double flip = turns == 0.0 || std::fmod(turns, 2.0) == 0.0 ? 1.0 : -1.0;  // (-1)^turns
   const double sin_psi = flip * (heading.sin * half_heading_.cos + heading.cos * half_heading_.sin);
   const double cos_psi = flip * (heading.cos * half_heading_.cos - heading.sin * half_heading_.sin);

@@ -276,7 +276,7 @@ PosfilterResult Run(ScreenedRows& input, const std::string& source, const teleme
   // whose look-ahead is known; then the next block.
   const bool keep = !sink;  // no sink: the result holds the trajectory and the heading streams
   DeadReckoner reckoner(options.dead_reckoning, have_wheel, wheel_resolution_m);
-  std::array<double, 4> wheel_m{}, last_wheel_m{};
+  std::array<double, 4> wheel_m{};  // this row's (the last row's until set)
   double still_since_t = 0;  // start of the current stretch with no wheel moving
   PoseOutput out;
   out.heading_rate_radps = kNaN;
@@ -303,10 +303,10 @@ PosfilterResult Run(ScreenedRows& input, const std::string& source, const teleme
       bool moved = false;
       for (int w = 0; w < 4; ++w) {
         if (!have_wheel[w]) continue;
-        wheel_m[w] = wheels[w]->At(k);
-        if (k > 0 && std::abs(wheel_m[w] - last_wheel_m[w]) > 1e-9) moved = true;
+        const double metres = wheels[w]->At(k);
+        if (k > 0 && std::abs(metres - wheel_m[w]) > 1e-9) moved = true;
+        wheel_m[w] = metres;
       }
-      last_wheel_m = wheel_m;
       double pitch = 0;
       if (pitch_left && pitch_right) {
         const double left = pitch_left->At(k);

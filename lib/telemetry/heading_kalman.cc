@@ -79,17 +79,15 @@ HeadingKalman::Output HeadingKalman::Update(double t_s, double compass_rad, doub
   if (started_) {
     const double dt = t_s - last_t_;
     xh_ = xh_ + dt * xr_;
-    double fp[3][3];  // F P: row 0 gains dt times row 1
-    for (int j = 0; j < 3; ++j) {
-      fp[0][j] = P[0][j] + dt * P[1][j];
-      fp[1][j] = P[1][j];
-      fp[2][j] = P[2][j];
-    }
-    for (int i = 0; i < 3; ++i) {  // (F P) F': column 0 gains dt times column 1
-      P[i][0] = fp[i][0] + dt * fp[i][1];
-      P[i][1] = fp[i][1];
-      P[i][2] = fp[i][2];
-    }
+    // F P: row 0 gains dt times row 1; then (F P) F': column 0 gains dt times column 1.
+    // Element by element (an array in between was stored in halves and read back whole,
+    // which the processor cannot forward).
+    const double fp01 = P[0][1] + dt * P[1][1];
+    P[0][0] = (P[0][0] + dt * P[1][0]) + dt * fp01;
+    P[0][1] = fp01;
+    P[0][2] = P[0][2] + dt * P[1][2];
+    P[1][0] = P[1][0] + dt * P[1][1];
+    P[2][0] = P[2][0] + dt * P[2][1];
     const double q01 = q_rate_ * dt * dt / 2;
     P[0][0] += q_rate_ * dt * dt * dt / 3;
     P[0][1] += q01;
