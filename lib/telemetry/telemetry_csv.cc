@@ -176,6 +176,13 @@ inline std::uint64_t DigitsEndingAt(const char* p, int n) {
   return (x * 10000 + (x >> 32)) & 0xFFFFFFFFULL;
 }
 
+// The columns a short row has, and which are read (the others are skipped).
+struct ShortRowLayout {
+  int columns = 0;
+  int time = 0;
+  std::vector<int> counts;  // the channels' columns
+};
+
 #if defined(__SSE2__)
 // The usual row, classified 16 bytes at a time: bit i of each mask says what byte i of the
 // row is. Reads the 8 bytes before `p` and 64 from `p` (the caller checks they exist); null
@@ -183,7 +190,7 @@ inline std::uint64_t DigitsEndingAt(const char* p, int n) {
 // commas and one point in the time cell, the header's cell count, counts of at most eight
 // digits, time stamps of at most eight digits either side of the point and 15 in all), which
 // ParsePlainRow then reads. Same values as ParsePlainRow.
-const char* ParseShortRow(const char* p, const std::vector<int>& role, double* row) {
+const char* ParseShortRow(const char* p, const ShortRowLayout& layout, double* row) {
   std::uint64_t commas = 0, newlines = 0, points = 0, other = 0;
   for (int k = 0; k < 4; ++k) {
     const __m128i bytes = _mm_loadu_si128(reinterpret_cast<const __m128i*>(p + 16 * k));
@@ -205,41 +212,43 @@ const char* ParseShortRow(const char* p, const std::vector<int>& role, double* r
   if ((other & in_row) != 0) return nullptr;
   commas &= in_row;
   points &= in_row;
-  const int num_columns = static_cast<int>(role.size());
-  int start = 0;
-  for (int c = 0; c < num_columns; ++c) {
-    int end = length;
-    if (c + 1 < num_columns) {
-      if (commas == 0) return nullptr;  // too few cells
-      end = __builtin_ctzll(commas);
-      commas &= commas - 1;
-    }
-    const int size = end - start;
-    const std::uint64_t cell = ((std::uint64_t{1} << size) - 1) << start;  // size < 64
-    if (role[c] == -2) {
-      const std::uint64_t point = points & cell;
-      points &= ~cell;
-      if ((point & (point - 1)) != 0) return nullptr;  // two points
-      const int whole = point == 0 ? size : __builtin_ctzll(point) - start;
-      const int decimals = point == 0 ? 0 : size - whole - 1;
-      // At most 15 digits, as ParsePlainDecimal reads (below 2^53).
-      if (whole > 8 || decimals > 8 || whole + decimals == 0 || whole + decimals > 15) return nullptr;
-      static constexpr double kPow10[9] = {1e0, 1e1, 1e2, 1e3, 1e4, 1e5, 1e6, 1e7, 1e8};
-      static constexpr std::uint64_t kPow10Int[9] = {1, 10, 100, 1000, 10000, 100000, 1000000, 10000000, 100000000};
-      const std::uint64_t mantissa =
-          DigitsEndingAt(p + start + whole, whole) * kPow10Int[decimals] + DigitsEndingAt(p + end, decimals);
-      // As ParsePlainDecimal: the digits' integer over a power of ten, both exact doubles.
-      row[c] = static_cast<double>(mantissa) / kPow10[decimals];
-    } else if (role[c] >= 0) {
-      if (size > 8) return nullptr;
-      // Without a branch on empty cells: some channels are sampled less often than others.
-      const double count = static_cast<double>(static_cast<long long>(DigitsEndingAt(p + end, size)));
-      row[c] = size == 0 ? std::numeric_limits<double>::quiet_NaN() : count;
-    }
-    start = end + 1;
+  // Cell c spans (bound[c], bound[c + 1]): its commas (the newline after the last).
+  const int num_columns = layout.columns;
+  if (num_columns > 32) return nullptr;  // no such row in 63 bytes
+  int bound[33];
+  bound[0] = -1;
+  for (int c = 1; c < num_columns; ++c) {
+    if (commas == 0) return nullptr;  // too few cells
+    bound[c] = __builtin_ctzll(commas);
+    commas &= commas - 1;
   }
-  // No comma left over (too many cells) and no point outside the time cell.
-  if (commas != 0 || points != 0) return nullptr;
+  if (commas != 0) return nullptr;  // too many
+  bound[num_columns] = length;
+  // The time stamp: digits with at most one point, the only point in the row.
+  {
+    const int start = bound[layout.time] + 1, end = bound[layout.time + 1], size = end - start;
+    const std::uint64_t point = points & (((std::uint64_t{1} << size) - 1) << start);  // size < 64
+    if (point != points || (point & (point - 1)) != 0) return nullptr;
+    const int whole = point == 0 ? size : __builtin_ctzll(point) - start;
+    const int decimals = point == 0 ? 0 : size - whole - 1;
+    // At most 15 digits, as ParsePlainDecimal reads (below 2^53).
+    if (whole > 8 || decimals > 8 || whole + decimals == 0 || whole + decimals > 15) return nullptr;
+    static constexpr double kPow10[9] = {1e0, 1e1, 1e2, 1e3, 1e4, 1e5, 1e6, 1e7, 1e8};
+    static constexpr std::uint64_t kPow10Int[9] = {1, 10, 100, 1000, 10000, 100000, 1000000, 10000000, 100000000};
+    const std::uint64_t mantissa =
+        DigitsEndingAt(p + start + whole, whole) * kPow10Int[decimals] + DigitsEndingAt(p + end, decimals);
+    // As ParsePlainDecimal: the digits' integer over a power of ten, both exact doubles.
+    row[layout.time] = static_cast<double>(mantissa) / kPow10[decimals];
+  }
+  // The counts, without a branch per cell (empty cells come and go with a channel's rate).
+  bool too_long = false;
+  for (const int c : layout.counts) {
+    const int size = bound[c + 1] - bound[c] - 1;
+    too_long |= size > 8;
+    const double count = static_cast<double>(static_cast<long long>(DigitsEndingAt(p + bound[c + 1], std::min(size, 8))));
+    row[c] = size == 0 ? std::numeric_limits<double>::quiet_NaN() : count;
+  }
+  if (too_long) return nullptr;
   return p + length;
 }
 #endif
@@ -276,6 +285,7 @@ struct TelemetryReader::Impl {
   long line_number = 0;
   std::vector<std::string> header;
   std::vector<int> role;  // per column: -2 time, -1 unused, else a channel
+  ShortRowLayout layout;  // the same, for ParseShortRow
   int time_column = -1;
   std::vector<Channel> missing_columns;
   std::vector<std::string> unused_columns;
@@ -342,6 +352,11 @@ struct TelemetryReader::Impl {
       if (role[c] == -1) unused_columns.push_back(header[c]);
     }
     row.assign(num_columns, 0.0);
+    layout.columns = num_columns;
+    layout.time = time_column;
+    for (int c = 0; c < num_columns; ++c) {
+      if (role[c] >= 0) layout.counts.push_back(c);
+    }
   }
 
   std::size_t Read(TelemetryLog* out, std::size_t max_rows) {
@@ -396,7 +411,7 @@ struct TelemetryReader::Impl {
       const char* row_end = nullptr;
       if (first != '#' && first != ' ' && first != '\t' && first != '\r' && first != '\n') {
 #if defined(__SSE2__)
-        if (text_end - start >= 64 && start - all.data() >= 8) row_end = ParseShortRow(start, role, row.data());
+        if (text_end - start >= 64 && start - all.data() >= 8) row_end = ParseShortRow(start, layout, row.data());
 #endif
         if (row_end == nullptr) row_end = ParsePlainRow(start, text_end, role, row.data());
       }
