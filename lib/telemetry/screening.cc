@@ -34,6 +34,34 @@ double SubsampledMedian(std::size_t count, Value value) {
   return v[mid];
 }
 
+// The spike test's shortcut for the interior samples q in [b, e) of a channel's queue (see
+// HampelTests: the half window 3): the trend (the median of the six slopes joining the seven
+// samples q - 3 ... q + 3) and the farthest of their residuals from sample q, into
+// farthest_of[q - b]; slope[] (e - b + 6 values) is scratch. A branch-free loop the compiler
+// vectorises, built twice on x86-64 (four lanes with AVX2, two with SSE2, chosen when the
+// program starts); both do the same arithmetic (no fused multiply-add), so they decide alike.
+#if defined(__x86_64__) && defined(__GNUC__)
+__attribute__((target_clones("avx2", "default")))
+#endif
+void ShortcutDistances(const double* value, const double* time, std::size_t b, std::size_t e, double* slope,
+                       double* farthest_of) {
+  for (std::size_t q = b - 2; q < e + 4; ++q) {
+    slope[q - (b - 2)] = (value[q] - value[q - 1]) / (time[q] - time[q - 1]);
+  }
+  for (std::size_t q = b; q < e; ++q) {
+    double sl[6];
+    for (std::size_t i = 0; i < 6; ++i) sl[i] = slope[q - b + i];
+    const double trend = util::MedianOf6(sl);
+    const double mine = value[q];
+    double farthest = 0;
+    for (std::size_t i = 0; i < 7; ++i) {
+      const std::size_t w = q - 3 + i;
+      farthest = std::max(farthest, std::abs(mine - (value[w] - trend * (time[w] - time[q]))));
+    }
+    farthest_of[q - b] = farthest;
+  }
+}
+
 enum Kind { kEncoderKind, kCompassKind, kAnalogKind };
 
 }  // namespace
@@ -585,10 +613,9 @@ class ScreeningStream::Impl {
       for (std::size_t p = first; p < last; ++p) test(p);
       return;
     }
-    // The usual half window: interior windows (lo = p - 3) take the shortcut first, in
-    // chunks that stay in the cache, by a branch-free loop the compiler vectorises; the
-    // distances are those of the full test, so the decision is the same. The few samples
-    // left get the full test.
+    // The usual half window: interior windows (lo = p - 3) take the shortcut first
+    // (ShortcutDistances), in chunks that stay in the cache; the distances are those of the
+    // full test, so the decision is the same. The few samples left get the full test.
     const std::size_t interior_begin = std::max<std::size_t>(first, 3);
     const std::size_t interior_end = std::max(interior_begin, std::min(last, count - 3));
     for (std::size_t p = first; p < std::min(last, interior_begin); ++p) test(p);
@@ -598,19 +625,7 @@ class ScreeningStream::Impl {
     for (std::size_t pb = interior_begin; pb < interior_end; pb += kChunk) {
       const std::size_t pe = std::min(pb + kChunk, interior_end);  // samples [pb, pe)
       const std::size_t b = pb - base, e = pe - base;            // in the queue
-      for (std::size_t q = b - 2; q < e + 4; ++q) slope[q - (b - 2)] = slope_at(q);
-      for (std::size_t q = b; q < e; ++q) {
-        double sl[6];
-        for (std::size_t i = 0; i < 6; ++i) sl[i] = slope[q - b + i];
-        const double trend = util::MedianOf6(sl);
-        const double mine = value[q];
-        double farthest = 0;
-        for (std::size_t i = 0; i < 7; ++i) {
-          const std::size_t w = q - 3 + i;
-          farthest = std::max(farthest, std::abs(mine - (value[w] - trend * (time[w] - time[q]))));
-        }
-        farthest_of[q - b] = farthest;
-      }
+      ShortcutDistances(value, time, b, e, slope.data(), farthest_of.data());
       for (std::size_t q = b; q < e; ++q) {
         if (farthest_of[q - b] > smallest_threshold) test(q + base);
       }
