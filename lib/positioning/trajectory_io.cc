@@ -108,6 +108,39 @@ char* PutShortest(char* out, double v) {
   return std::to_chars(out, out + 32, v).ptr;
 }
 
+// v * 10^kDecimals rounded half away from zero (|v| < 9e9): std::llround, inline
+// (x - trunc(x) is exact, so the halfway test is too), and without a branch (which way a
+// value rounds is as good as random, a branch on it mispredicted).
+template <int kDecimals>
+long long RoundedScaled(double v) {
+  const double x = v * static_cast<double>(Pow10(kDecimals));
+  const auto scaled = static_cast<long long>(x);
+  const double fraction = x - static_cast<double>(scaled);
+  return scaled + static_cast<long long>(fraction >= 0.5) - static_cast<long long>(fraction <= -0.5);
+}
+
+// The digits before the point of m / 10^4 (m < 10^8): 1 to 4.
+inline int IntegerDigits(unsigned long long m) { return 1 + (m >= 100000) + (m >= 1000000) + (m >= 10000000); }
+
+// The usual fixed-point number, m / 10^kDecimals with m < 10^8, from the eight digits of m
+// in `ascii` (EightDigits): "0." and the eight, or for four decimals the integer part (its
+// `integer_digits` digits, the leading zeros shifted out), '.', four.
+template <int kDecimals>
+inline char* PutUsualFixed(char* out, std::uint64_t ascii, int integer_digits) {
+  if constexpr (kDecimals == 8) {
+    std::memcpy(out, "0.", 2);
+    std::memcpy(out + 2, &ascii, 8);
+    return out + 10;
+  } else {
+    const auto integer = static_cast<std::uint32_t>(ascii) >> (8 * (4 - integer_digits));
+    const auto decimals = static_cast<std::uint32_t>(ascii >> 32);
+    std::memcpy(out, &integer, 4);
+    out[integer_digits] = '.';
+    std::memcpy(out + integer_digits + 1, &decimals, 4);
+    return out + integer_digits + 5;
+  }
+}
+
 // kDecimals (4 or 8) digits after the point, rounded half away from zero; values of
 // 9e9 and beyond (and NaN) as PutShortest. Fixed-point goes through a rounded integer
 // (std::to_chars with a precision is several times slower).
@@ -116,31 +149,13 @@ char* PutFixed(char* out, double v) {
   static_assert(kDecimals == 4 || kDecimals == 8);
   if (!(std::abs(v) < 9e9)) return PutShortest(out, v);
   constexpr long long kScale = Pow10(kDecimals);
-  // std::llround, inline: x - trunc(x) is exact, so the halfway test is too.
-  const double x = v * static_cast<double>(kScale);
-  long long scaled = static_cast<long long>(x);
-  const double fraction = x - static_cast<double>(scaled);
-  // Branch-free: which way a value rounds is as good as random, a branch on it mispredicted.
-  scaled += static_cast<long long>(fraction >= 0.5) - static_cast<long long>(fraction <= -0.5);
+  const long long scaled = RoundedScaled<kDecimals>(v);
   // The sign without a branch too: pitch, roll and the quaternion change sign at random.
   *out = '-';
   out += scaled < 0;
   const unsigned long long m = static_cast<unsigned long long>(scaled < 0 ? -scaled : scaled);
   if (m < 100000000) {  // the usual number: all its digits from one eight-digit conversion
-    const std::uint64_t ascii = EightDigits(static_cast<std::uint32_t>(m));
-    if constexpr (kDecimals == 8) {  // "0." and the eight
-      std::memcpy(out, "0.", 2);
-      std::memcpy(out + 2, &ascii, 8);
-      return out + 10;
-    } else {  // the integer part (1 to 4 digits, the leading zeros shifted out), '.', four
-      const int digits = 1 + (m >= 100000) + (m >= 1000000) + (m >= 10000000);
-      const auto integer = static_cast<std::uint32_t>(ascii) >> (8 * (4 - digits));
-      const auto decimals = static_cast<std::uint32_t>(ascii >> 32);
-      std::memcpy(out, &integer, 4);
-      out[digits] = '.';
-      std::memcpy(out + digits + 1, &decimals, 4);
-      return out + digits + 5;
-    }
+    return PutUsualFixed<kDecimals>(out, EightDigits(static_cast<std::uint32_t>(m)), IntegerDigits(m));
   }
   // Larger ones: the integer part and the decimals separately.
   out = PutUnsigned(out, m / kScale);
@@ -173,16 +188,13 @@ inline void FixedDigits4(double v0, double v1, double v2, double v3, FixedDigits
   const double v[4] = {v0, v1, v2, v3};
   for (int k = 0; k < 4; ++k) {
     if (!(std::abs(v[k]) < 9e9)) continue;
-    const double x = v[k] * static_cast<double>(Pow10(kDecimals));
-    long long scaled = static_cast<long long>(x);
-    const double fraction = x - static_cast<double>(scaled);
-    scaled += static_cast<long long>(fraction >= 0.5) - static_cast<long long>(fraction <= -0.5);
+    const long long scaled = RoundedScaled<kDecimals>(v[k]);
     const unsigned long long m = static_cast<unsigned long long>(scaled < 0 ? -scaled : scaled);
     if (m >= 100000000) continue;
     d->usual |= 1 << k;
     d->negative |= static_cast<int>(scaled < 0) << k;
     d->ascii[k] = EightDigits(static_cast<std::uint32_t>(m));
-    d->integer_digits[k] = 1 + (m >= 100000) + (m >= 1000000) + (m >= 10000000);
+    d->integer_digits[k] = IntegerDigits(m);
   }
 #else
   const __m128d scale = _mm_set1_pd(static_cast<double>(Pow10(kDecimals)));
@@ -193,14 +205,16 @@ inline void FixedDigits4(double v0, double v1, double v2, double v3, FixedDigits
   const __m128d f01 = _mm_sub_pd(x01, _mm_cvtepi32_pd(t));
   const __m128d f23 = _mm_sub_pd(x23, _mm_cvtepi32_pd(_mm_shuffle_epi32(t, _MM_SHUFFLE(1, 0, 3, 2))));
   const __m128d half = _mm_set1_pd(0.5), minus_half = _mm_set1_pd(-0.5);
-  const __m128i up = _mm_castps_si128(_mm_shuffle_ps(_mm_castpd_ps(_mm_cmpge_pd(f01, half)),
-                                                      _mm_castpd_ps(_mm_cmpge_pd(f23, half)), _MM_SHUFFLE(2, 0, 2, 0)));
-  const __m128i down = _mm_castps_si128(_mm_shuffle_ps(_mm_castpd_ps(_mm_cmple_pd(f01, minus_half)),
-                                                        _mm_castpd_ps(_mm_cmple_pd(f23, minus_half)), _MM_SHUFFLE(2, 0, 2, 0)));
+  // The four 64-bit comparison masks as 32-bit lanes (all ones: -1).
+  const auto lanes = [](__m128d mask01, __m128d mask23) {
+    return _mm_castps_si128(_mm_shuffle_ps(_mm_castpd_ps(mask01), _mm_castpd_ps(mask23), _MM_SHUFFLE(2, 0, 2, 0)));
+  };
+  const __m128i up = lanes(_mm_cmpge_pd(f01, half), _mm_cmpge_pd(f23, half));
+  const __m128i down = lanes(_mm_cmple_pd(f01, minus_half), _mm_cmple_pd(f23, minus_half));
   const __m128i scaled = _mm_add_epi32(_mm_sub_epi32(t, up), down);
-  const __m128i limit = _mm_set1_epi32(100000000);
-  d->usual = _mm_movemask_ps(_mm_castsi128_ps(
-      _mm_and_si128(_mm_cmplt_epi32(scaled, limit), _mm_cmpgt_epi32(scaled, _mm_sub_epi32(_mm_setzero_si128(), limit)))));
+  const __m128i limit = _mm_set1_epi32(100000000), minus_limit = _mm_set1_epi32(-100000000);
+  d->usual = _mm_movemask_ps(
+      _mm_castsi128_ps(_mm_and_si128(_mm_cmplt_epi32(scaled, limit), _mm_cmpgt_epi32(scaled, minus_limit))));
   d->negative = _mm_movemask_ps(_mm_castsi128_ps(scaled));
   const __m128i sign = _mm_srai_epi32(scaled, 31);
   const __m128i m = _mm_sub_epi32(_mm_xor_si128(scaled, sign), sign);
@@ -223,8 +237,9 @@ inline void FixedDigits4(double v0, double v1, double v2, double v3, FixedDigits
   const __m128i fours_hi = _mm_unpacklo_epi16(q_digits, r_digits);  // hi0..hi3, four digits each
   const __m128i fours_lo = _mm_unpackhi_epi16(q_digits, r_digits);  // lo0..lo3
   const __m128i zeros = _mm_set1_epi8('0');
-  _mm_store_si128(reinterpret_cast<__m128i*>(d->ascii), _mm_or_si128(_mm_unpacklo_epi32(fours_hi, fours_lo), zeros));
-  _mm_store_si128(reinterpret_cast<__m128i*>(d->ascii + 2), _mm_or_si128(_mm_unpackhi_epi32(fours_hi, fours_lo), zeros));
+  auto* const ascii = reinterpret_cast<__m128i*>(d->ascii);
+  _mm_store_si128(ascii, _mm_or_si128(_mm_unpacklo_epi32(fours_hi, fours_lo), zeros));      // numbers 0, 1
+  _mm_store_si128(ascii + 1, _mm_or_si128(_mm_unpackhi_epi32(fours_hi, fours_lo), zeros));  // 2, 3
   if constexpr (kDecimals == 4) {
     const __m128i count = _mm_sub_epi32(
         _mm_sub_epi32(_mm_sub_epi32(_mm_set1_epi32(1), _mm_cmpgt_epi32(m, _mm_set1_epi32(99999))),
@@ -241,20 +256,7 @@ inline char* PutFixedDigits(char* out, const FixedDigits& d, int k, double v) {
   if (!((d.usual >> k) & 1)) return PutFixed<kDecimals>(out, v);
   *out = '-';
   out += (d.negative >> k) & 1;
-  const std::uint64_t ascii = d.ascii[k];
-  if constexpr (kDecimals == 8) {
-    std::memcpy(out, "0.", 2);
-    std::memcpy(out + 2, &ascii, 8);
-    return out + 10;
-  } else {
-    const int digits = d.integer_digits[k];
-    const auto integer = static_cast<std::uint32_t>(ascii) >> (8 * (4 - digits));
-    const auto decimals = static_cast<std::uint32_t>(ascii >> 32);
-    std::memcpy(out, &integer, 4);
-    out[digits] = '.';
-    std::memcpy(out + digits + 1, &decimals, 4);
-    return out + digits + 5;
-  }
+  return PutUsualFixed<kDecimals>(out, d.ascii[k], kDecimals == 4 ? d.integer_digits[k] : 0);
 }
 
 // Heading in degrees, [0, 360): fmod(heading, 360), plus 360 when negative. The heading is

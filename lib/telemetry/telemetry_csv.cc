@@ -245,7 +245,8 @@ const char* ParseShortRow(const char* p, const ShortRowLayout& layout, double* r
   for (const int c : layout.counts) {
     const int size = bound[c + 1] - bound[c] - 1;
     too_long |= size > 8;
-    const double count = static_cast<double>(static_cast<long long>(DigitsEndingAt(p + bound[c + 1], std::min(size, 8))));
+    const std::uint64_t digits = DigitsEndingAt(p + bound[c + 1], std::min(size, 8));
+    const double count = static_cast<double>(static_cast<long long>(digits));
     row[c] = size == 0 ? std::numeric_limits<double>::quiet_NaN() : count;
   }
   if (too_long) return nullptr;
