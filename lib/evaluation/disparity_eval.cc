@@ -79,6 +79,7 @@ void DisparityScores::Add(const DisparityScores& other) {
   truth_pixels += other.truth_pixels;
   estimated_pixels += other.estimated_pixels;
   for (std::size_t k = 0; k < other.bad.size(); ++k) bad[k] += other.bad[k];
+  d1_outliers += other.d1_outliers;
   sum_abs_error_px += other.sum_abs_error_px;
   sum_squared_error_px2 += other.sum_squared_error_px2;
 }
@@ -92,6 +93,14 @@ double DisparityScores::BadPct(std::size_t k) const {
 double DisparityScores::BadOrMissingPct(std::size_t k) const {
   return truth_pixels > 0
              ? 100.0 * static_cast<double>(bad.at(k) + truth_pixels - estimated_pixels) / truth_pixels
+             : NAN;
+}
+double DisparityScores::D1Pct() const {
+  return estimated_pixels > 0 ? 100.0 * static_cast<double>(d1_outliers) / estimated_pixels : NAN;
+}
+double DisparityScores::D1OrMissingPct() const {
+  return truth_pixels > 0
+             ? 100.0 * static_cast<double>(d1_outliers + truth_pixels - estimated_pixels) / truth_pixels
              : NAN;
 }
 double DisparityScores::MeanAbsErrorPx() const {
@@ -137,6 +146,7 @@ DisparityScores ScoreDisparity(const cv::Mat& estimate, const cv::Mat& truth, co
       s.sum_abs_error_px += error;
       s.sum_squared_error_px2 += error * error;
       for (std::size_t k = 0; k < s.bad.size(); ++k) s.bad[k] += error > options.bad_thresholds_px[k];
+      s.d1_outliers += IsD1Outlier(error, t[tx]);
     }
   }
   return s;
@@ -244,6 +254,8 @@ Table DisparityTable(const std::vector<DisparityItem>& items, const DisparityEva
   }
   table.columns.push_back({"bad_or_missing_" + FormatThreshold(options.bad_thresholds_px.back()), "pct",
                            "bad-" + FormatThreshold(options.bad_thresholds_px.back()) + " or missing (%)", 2});
+  table.columns.push_back({"d1", "pct", "D1 (%)", 2});
+  table.columns.push_back({"d1_or_missing", "pct", "D1 or missing (%)", 2});
   table.columns.push_back({"mean_abs_error", "px", "mean |error| (px)", 3});
   table.columns.push_back({"rms_error", "px", "RMS error (px)", 3});
   auto row_of = [&](const std::string& name, const DisparityScores& s, const std::string& problem) {
@@ -259,6 +271,8 @@ Table DisparityTable(const std::vector<DisparityItem>& items, const DisparityEva
       row.push_back(Cell::NumberOr(s.BadPct(k), no_estimate));
     }
     row.push_back(Cell::NumberOr(s.BadOrMissingPct(options.bad_thresholds_px.size() - 1), no_truth));
+    row.push_back(Cell::NumberOr(s.D1Pct(), no_estimate));
+    row.push_back(Cell::NumberOr(s.D1OrMissingPct(), no_truth));
     row.push_back(Cell::NumberOr(s.MeanAbsErrorPx(), no_estimate));
     row.push_back(Cell::NumberOr(s.RmsErrorPx(), no_estimate));
     return row;
@@ -276,6 +290,8 @@ Table DisparityTable(const std::vector<DisparityItem>& items, const DisparityEva
   table.notes = {
       "bad-N: estimates more than N px from the truth, % of the estimated truth pixels; "
       "bad-N or missing: also counting truth pixels without an estimate as bad.",
+      "D1 (KITTI 2015): estimates more than 3 px and more than 5 % from the truth, % of the estimated "
+      "truth pixels; D1 or missing: also counting truth pixels without an estimate.",
       "Errors are measured at the estimate's sample points (partial subsampling grid)."};
   return table;
 }

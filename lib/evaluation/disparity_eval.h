@@ -3,6 +3,7 @@
 #pragma once
 
 #include <filesystem>
+#include <cmath>
 #include <limits>
 #include <string>
 #include <vector>
@@ -36,6 +37,7 @@ struct DisparityScores {
   long long truth_pixels = 0;       ///< Valid truth pixels (inside the mask) at sample points.
   long long estimated_pixels = 0;   ///< Of those, with a finite estimate.
   std::vector<long long> bad;       ///< Per threshold: estimated pixels with error above it.
+  long long d1_outliers = 0;        ///< Estimated pixels that are KITTI D1 outliers (IsD1Outlier).
   double sum_abs_error_px = 0, sum_squared_error_px2 = 0;
 
   void Add(const DisparityScores& other);
@@ -45,9 +47,19 @@ struct DisparityScores {
   double BadPct(std::size_t threshold_index) const;
   /// Bad or missing among the truth pixels (a missing estimate counts as bad), %.
   double BadOrMissingPct(std::size_t threshold_index) const;
+  /// KITTI 2015's D1: outliers among the estimated pixels, %; NaN without estimates.
+  double D1Pct() const;
+  /// D1 counting every truth pixel without an estimate as an outlier too, % (KITTI's D1 of
+  /// a method that does not fill its holes).
+  double D1OrMissingPct() const;
   double MeanAbsErrorPx() const;
   double RmsErrorPx() const;
 };
+
+/// KITTI 2015's outlier: an error of more than 3 px and more than 5 % of the true disparity.
+inline bool IsD1Outlier(double abs_error_px, double truth_px) {
+  return abs_error_px > 3.0 && abs_error_px > 0.05 * std::abs(truth_px);
+}
 
 /// Scores `estimate` (CV_32FC1, NaN or +-inf = no disparity) against `truth` (CV_32FC1, NaN
 /// or +-inf = no truth). `mask` (CV_8UC1, truth's size, nonzero = evaluate) may be empty.

@@ -1,6 +1,7 @@
 #include "io/image_io.h"
 
 #include <algorithm>
+#include <bit>
 #include <cctype>
 #include <cstdint>
 #include <fstream>
@@ -150,8 +151,32 @@ cv::Mat ReadPfm(const fs::path& path) {
   std::error_code ec;
   LN_CHECK_INPUT(fs::is_regular_file(path, ec)) << path.string() << ": no such file";
   LN_CHECK_INPUT(LowerExtension(path) == ".pfm") << path.string() << ": not a .pfm file";
-  cv::Mat m = cv::imread(path.string(), cv::IMREAD_UNCHANGED);
-  LN_CHECK_INPUT(!m.empty() && m.depth() == CV_32F) << path.string() << ": unreadable PFM";
+  // Read by hand: the header's scale gives the byte order (negative = little-endian) and its
+  // magnitude is only a scale hint (Middlebury writes 1/255), never applied to the values.
+  std::ifstream in(path, std::ios::binary);
+  std::string magic;
+  long width = 0, height = 0;
+  double scale = 0;
+  in >> magic >> width >> height >> scale;
+  LN_CHECK_INPUT(in && (magic == "Pf" || magic == "PF")) << path.string() << ": not a PFM file (bad header)";
+  LN_CHECK_INPUT(width > 0 && height > 0 && width <= (1L << 20) && height <= (1L << 20) && scale != 0)
+      << path.string() << ": impossible PFM header (" << width << " x " << height << ", scale " << scale << ")";
+  in.get();  // the single whitespace byte before the data
+  const int channels = magic == "PF" ? 3 : 1;
+  cv::Mat m(static_cast<int>(height), static_cast<int>(width), CV_32FC(channels));
+  const std::size_t row_bytes = static_cast<std::size_t>(width) * channels * sizeof(float);
+  for (long r = height - 1; r >= 0; --r) {  // bottom row first
+    in.read(reinterpret_cast<char*>(m.ptr(static_cast<int>(r))), static_cast<std::streamsize>(row_bytes));
+    LN_CHECK_INPUT(in.gcount() == static_cast<std::streamsize>(row_bytes))
+        << path.string() << ": truncated PFM (" << width << " x " << height << " expected)";
+  }
+  const bool little_endian_file = scale < 0;
+  const bool little_endian_host = std::endian::native == std::endian::little;
+  if (little_endian_file != little_endian_host) {
+    auto* bytes = m.ptr<unsigned char>();
+    for (std::size_t k = 0; k < m.total() * channels; ++k) std::reverse(bytes + 4 * k, bytes + 4 * k + 4);
+  }
+  if (channels == 3) cv::cvtColor(m, m, cv::COLOR_RGB2BGR);  // OpenCV's channel order, as imread gives
   return m;
 }
 

@@ -16,7 +16,7 @@
 namespace lunarnav::stereo {
 
 
-void MedianFilterDisparityGrid(int size, cv::Mat* disparity, cv::Mat* rejection) {
+void MedianFilterDisparityGrid(int size, cv::Mat* disparity, cv::Mat* rejection, bool reject_isolated) {
   LN_CHECK(disparity != nullptr && rejection != nullptr);
   LN_CHECK(disparity->type() == CV_32FC1 && rejection->type() == CV_8UC1 &&
            disparity->size() == rejection->size());
@@ -67,7 +67,7 @@ void MedianFilterDisparityGrid(int size, cv::Mat* disparity, cv::Mat* rejection)
           evaluated += eval_row[cc];
         }
       }
-      if (2 * count < evaluated) {
+      if (reject_isolated && 2 * count < evaluated) {
         disparity->at<float>(r, c) = std::numeric_limits<float>::quiet_NaN();
         rejection->at<std::uint8_t>(r, c) = static_cast<std::uint8_t>(Rejection::kMedian);
       } else {

@@ -27,6 +27,8 @@ inline double ParabolicPeakOffset(double c_prev, double c_best, double c_next) {
 /// @param size  odd k >= 3 (1 or 0: nothing is done).
 /// @param disparity  CV_32FC1, NaN where not accepted; filtered in place.
 /// @param rejection  CV_8UC1 Rejection codes, same size; updated in place.
-void MedianFilterDisparityGrid(int size, cv::Mat* disparity, cv::Mat* rejection);
+/// @param reject_isolated  false: only smooth (the quality preset, whose speckle filter
+///        removes isolated matches); no cell is rejected.
+void MedianFilterDisparityGrid(int size, cv::Mat* disparity, cv::Mat* rejection, bool reject_isolated = true);
 
 }  // namespace lunarnav::stereo

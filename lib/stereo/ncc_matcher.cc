@@ -15,6 +15,7 @@
 
 #include "stereo/disparity_filters.h"
 #include "stereo/ncc_kernel.h"
+#include "stereo/sgm_matcher.h"
 #include "util/check.h"
 #include "util/timer.h"
 
@@ -167,8 +168,8 @@ std::string ActiveKernelName() {
 
 namespace {
 
-void MatchInCurrentArena(const NccOptions& options, const cv::Mat& left, const cv::Mat& right,
-                         NccResult* out) {
+void MatchWindowInCurrentArena(const NccOptions& options, const cv::Mat& left, const cv::Mat& right,
+                               int bit_depth, NccResult* out) {
   util::Timer timer;
   const int width = left.cols, height = left.rows;
   const int dx = options.step_x_px, dy = options.step_y_px;
@@ -226,9 +227,8 @@ void MatchInCurrentArena(const NccOptions& options, const cv::Mat& left, const c
     work = MakeWorkingPair(flip ? left : right, flip ? right : left, n, flip, rows);
     in.ref = work.ref.ptr<std::int16_t>();
     in.tgt = work.tgt.ptr<std::int16_t>();
-    const double full_scale = left.depth() == CV_8U ? 255.0 : 65535.0;
     const double sigma_min_work =
-        options.min_sigma * (full_scale / 255.0) / std::ldexp(1.0, work.shift);
+        options.min_sigma * GreyScaleFactor(bit_depth) / std::ldexp(1.0, work.shift);
     in.min_var = (sigma_min_work * n) * (sigma_min_work * n);
     in.min_correlation = options.min_correlation;
     in.ambiguity = options.ambiguity;
@@ -285,6 +285,7 @@ void MatchInCurrentArena(const NccOptions& options, const cv::Mat& left, const c
   s.band_min_row = band_lo;
   s.band_max_row = band_hi;
   s.working_shift_bits = work.shift;
+  s.bit_depth = bit_depth;
   s.pixels_by_reason[static_cast<int>(Rejection::kBorder)] +=
       (band_grid_rows - in.num_rows) * in.num_cols;
   s.evaluated_pixels = band_grid_rows * in.num_cols;
@@ -294,7 +295,22 @@ void MatchInCurrentArena(const NccOptions& options, const cv::Mat& left, const c
   s.match_seconds = timer.ElapsedSeconds();
 }
 
+void MatchInCurrentArena(const NccOptions& options, const cv::Mat& left, const cv::Mat& right,
+                         NccResult* out) {
+  const int bit_depth = EffectiveBitDepth(options, left);
+  if (options.aggregation == Aggregation::kSemiGlobal) {
+    internal::MatchSemiGlobal(options, left, right, bit_depth, out);
+  } else {
+    MatchWindowInCurrentArena(options, left, right, bit_depth, out);
+  }
+}
+
 }  // namespace
+
+int EffectiveBitDepth(const NccOptions& options, const cv::Mat& image) {
+  const int type_bits = image.depth() == CV_8U ? 8 : 16;
+  return options.bit_depth > 0 ? std::min(options.bit_depth, type_bits) : type_bits;
+}
 
 NccResult MatchStereoPair(const NccOptions& options, const cv::Mat& left, const cv::Mat& right) {
   NccResult result;

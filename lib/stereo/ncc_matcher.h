@@ -31,6 +31,10 @@ NccResult MatchStereoPair(const NccOptions& options, const cv::Mat& left, const 
 void MatchStereoPair(const NccOptions& options, const cv::Mat& left, const cv::Mat& right,
                      NccResult* result);
 
+/// The significant bits the grey-level thresholds are scaled for: options.bit_depth when set
+/// (at most the image type's), else 8 for CV_8U and 16 for CV_16U images.
+int EffectiveBitDepth(const NccOptions& options, const cv::Mat& image);
+
 /// Name of the SIMD kernel this CPU uses ("avx2" or "baseline").
 std::string ActiveKernelName();
 

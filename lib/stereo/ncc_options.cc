@@ -18,8 +18,42 @@ std::string ToString(Rejection reason) {
     case Rejection::kAmbiguous: return "ambiguous";
     case Rejection::kRangeEdge: return "range_edge";
     case Rejection::kMedian: return "median";
+    case Rejection::kLeftRightMismatch: return "left_right";
+    case Rejection::kSpeckle: return "speckle";
   }
   return "unknown";
+}
+
+std::string ToString(Aggregation aggregation) {
+  return aggregation == Aggregation::kWindow ? "window" : "semi_global";
+}
+
+const std::vector<std::string>& PresetNames() {
+  static const std::vector<std::string> names = {"paper", "quality"};
+  return names;
+}
+
+NccOptions PresetOptions(const std::string& name) {
+  NccOptions o;  // the paper's
+  if (name == "paper") return o;
+  LN_CHECK_ARG(name == "quality") << "preset: unknown preset '" << name << "' (paper, quality)";
+  o.preset = "quality";
+  o.aggregation = Aggregation::kSemiGlobal;
+  // The paper's confidence, over a window small enough for slanted ground; the aggregated
+  // cost does the work the large window did.
+  o.half_window_x_px = 3;
+  o.half_window_y_px = 3;
+  o.min_sigma = 0.5;        // only truly flat windows: the paths carry matches across weak texture
+  o.min_correlation = 0.0;  // the windows at the match must at least correlate positively
+  o.ambiguity = 0.0;        // replaced by the lobe-aware test on the aggregated cost
+  o.median_size = 3;        // smoothing only: the speckle filter removes isolated matches
+  o.semi_global.penalty_small = 15;
+  o.semi_global.penalty_large = 200;
+  o.semi_global.uniqueness = 0.10;
+  o.semi_global.left_right_max_diff_px = 3;
+  o.semi_global.speckle_max_size_px = 100;
+  o.semi_global.speckle_range_px = 2.0;
+  return o;
 }
 
 void NccOptions::Validate() const {
@@ -51,10 +85,45 @@ void NccOptions::Validate() const {
   LN_CHECK_ARG(median_size == 0 || (median_size % 2 == 1 && median_size <= 15))
       << "median: size must be 0 (off) or odd and <= 15, got " << median_size;
   LN_CHECK_ARG(num_threads >= 0) << "threads: must be >= 0";
+  LN_CHECK_ARG(bit_depth == 0 || (bit_depth >= 1 && bit_depth <= 16))
+      << "bit-depth: must be in 1..16 (0 = from the image type), got " << bit_depth;
+  if (aggregation == Aggregation::kSemiGlobal) {
+    const SemiGlobalOptions& g = semi_global;
+    LN_CHECK_ARG(g.census_half_x_px >= 0 && g.census_half_y_px >= 0 &&
+                 (2 * g.census_half_x_px + 1) * (2 * g.census_half_y_px + 1) - 1 <= 64 &&
+                 (g.census_half_x_px > 0 || g.census_half_y_px > 0))
+        << "census: half-sizes X x Y need 1 <= (2X+1)(2Y+1) - 1 <= 64 bits, got " << g.census_half_x_px << "x"
+        << g.census_half_y_px;
+    LN_CHECK_ARG(g.penalty_small >= 0 && g.penalty_large >= g.penalty_small && g.penalty_large <= 2000)
+        << "penalties: need 0 <= P1 <= P2 <= 2000, got " << g.penalty_small << ", " << g.penalty_large;
+    LN_CHECK_ARG(g.num_paths == 4 || g.num_paths == 8) << "paths: must be 4 or 8, got " << g.num_paths;
+    LN_CHECK_ARG(std::isfinite(g.uniqueness) && g.uniqueness >= 0 && g.uniqueness <= 1)
+        << "uniqueness: must be in [0, 1], got " << g.uniqueness;
+    LN_CHECK_ARG(g.left_right_max_diff_px <= 1000) << "lr-check: must be <= 1000 px";
+    LN_CHECK_ARG(g.speckle_max_size_px >= 0) << "speckle-size: must be >= 0";
+    LN_CHECK_ARG(std::isfinite(g.speckle_range_px) && g.speckle_range_px >= 0)
+        << "speckle-range: must be >= 0, got " << g.speckle_range_px;
+    LN_CHECK_ARG(max_disparity_px - min_disparity_px < 2048)
+        << "disparity: semi-global matching searches at most 2048 disparities";
+  }
 }
 
 nlohmann::json NccOptions::ToJson() const {
   nlohmann::json j;
+  j["preset"] = preset;
+  j["aggregation"] = ToString(aggregation);
+  if (aggregation == Aggregation::kSemiGlobal) {
+    const SemiGlobalOptions& g = semi_global;
+    j["semi_global"] = {{"census_half_window_px", {g.census_half_x_px, g.census_half_y_px}},
+                        {"p1", g.penalty_small},
+                        {"p2", g.penalty_large},
+                        {"paths", g.num_paths},
+                        {"uniqueness", g.uniqueness},
+                        {"left_right_max_diff_px", g.left_right_max_diff_px},
+                        {"speckle_max_size_px", g.speckle_max_size_px},
+                        {"speckle_range_px", g.speckle_range_px}};
+  }
+  j["bit_depth"] = bit_depth == 0 ? nlohmann::json("from image type") : nlohmann::json(bit_depth);
   j["half_window_px"] = {half_window_x_px, half_window_y_px};
   j["step_px"] = {step_x_px, step_y_px};
   j["disparity_range_px"] = {min_disparity_px, max_disparity_px};
@@ -97,6 +166,7 @@ nlohmann::json NccSummary::ToJson() const {
           {"pixels_rejected", rejected},
           {"rows_processed", {band_min_row, band_max_row}},
           {"working_shift_bits", working_shift_bits},
+          {"bit_depth", bit_depth},
           {"match_ms", 1e3 * match_seconds}};
 }
 

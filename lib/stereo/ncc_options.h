@@ -5,6 +5,7 @@
 #include <cstdint>
 #include <optional>
 #include <string>
+#include <vector>
 
 #include <nlohmann/json.hpp>
 #include <opencv2/core.hpp>
@@ -27,14 +28,58 @@ enum class Rejection : std::uint8_t {
   kLowCorrelation = 4,  ///< Filter 2: best correlation C < C_min.
   kAmbiguous = 5,       ///< Filter 3: (C - C') / C < M, C' the second-highest correlation peak.
   kRangeEdge = 6,       ///< The best correlation is at an end of the searched disparity range.
-  kMedian = 7           ///< Filter 4: the median filter found too few valid neighbours.
+  kMedian = 7,          ///< Filter 4: the median filter found too few valid neighbours.
+  kLeftRightMismatch = 8,  ///< Quality preset: the match seen from the other image disagrees.
+  kSpeckle = 9          ///< Quality preset: part of a small region disconnected from its surroundings.
 };
-inline constexpr int kNumRejectionCodes = 8;
+inline constexpr int kNumRejectionCodes = 10;
 /// Short snake_case name of a code ("low_texture"), used in summaries.
 std::string ToString(Rejection reason);
 
+/// How matching costs are combined over the image (docs/stereo-matcher.md).
+enum class Aggregation {
+  kWindow,     ///< The paper's: normalized correlation summed over one window (sec. 3.2).
+  kSemiGlobal  ///< Census cost aggregated along 4 or 8 image paths (semi-global matching).
+};
+std::string ToString(Aggregation aggregation);
+
+/// The stages the quality preset adds to the paper's matcher (used with
+/// Aggregation::kSemiGlobal).
+struct SemiGlobalOptions {
+  /// Half-sizes of the census window (the matching cost): (2x+1)(2y+1) - 1 <= 64 bits.
+  int census_half_x_px = 4;
+  int census_half_y_px = 3;
+  /// Penalties of the path costs, in census bits: P1 for a one-pixel disparity change between
+  /// neighbours (slanted surfaces), P2 for a larger one (depth edges). 0 <= P1 <= P2 <= 2000.
+  int penalty_small = 7;
+  int penalty_large = 100;
+  /// Aggregation directions: 4 (horizontal, vertical) or 8 (and the diagonals).
+  int num_paths = 8;
+  /// Ambiguity on the aggregated cost S: reject when S2 < (1 + uniqueness) S1, S2 the lowest
+  /// cost outside the best minimum's lobe (the disparities around it where S rises
+  /// monotonically), so that a broad minimum is not its own rival. In [0, 1]; 0 = off.
+  double uniqueness = 0.05;
+  /// Left-right check: reject when the match found from the other image differs by more than
+  /// this many pixels. < 0 = off. Needs step_x = 1 (skipped otherwise).
+  int left_right_max_diff_px = 1;
+  /// Speckle filter: connected regions (neighbours within speckle_range_px) of at most this
+  /// many image pixels (grid cells times dx dy with partial subsampling) are rejected. 0 = off.
+  int speckle_max_size_px = 100;
+  double speckle_range_px = 2.0;
+};
+
 /// Parameters of the matcher. Defaults are the paper's (Krotkov & Hebert, sec. 3.2-3.4).
 struct NccOptions {
+  /// The named set of defaults these options started from ("paper" or "quality"); recorded.
+  std::string preset = "paper";
+  /// The paper's window correlation, or the quality preset's semi-global census matching.
+  Aggregation aggregation = Aggregation::kWindow;
+  SemiGlobalOptions semi_global;
+  /// Significant bits of the grey levels: 8 for 8-bit images; for 16-bit images the depth the
+  /// camera delivered (PNG sBIT, TIFF BitsPerSample), 16 when unknown. 0 = from the image type.
+  /// Every grey-level threshold (min_sigma here, the frame checks) is given for 8-bit data
+  /// and scaled by (2^bits - 1) / 255.
+  int bit_depth = 0;
   /// Half-width w_x of the correlation window, pixels (window is 2*w_x+1 wide). >= 0.
   int half_window_x_px = 25;
   /// Half-height w_y of the correlation window, pixels. >= 0.
@@ -55,9 +100,11 @@ struct NccOptions {
   /// Which image the map is referenced to.
   ReferenceImage reference = ReferenceImage::kRight;
   /// Filter 1: minimum standard deviation of the reference window's intensities, in grey
-  /// levels of an 8-bit image (16-bit images are scaled by 255/65535). >= 0.
+  /// levels of an 8-bit image (deeper images scale it by their bit depth). >= 0. With
+  /// semi-global aggregation it is measured over the census window.
   double min_sigma = 2.0;
-  /// Filter 2: minimum best normalized correlation C_min, in [-1, 1].
+  /// Filter 2: minimum best normalized correlation C_min, in [-1, 1]. With semi-global
+  /// aggregation, C is the normalized correlation over the window at the chosen disparity.
   double min_correlation = 0.5;
   /// Filter 3: ambiguity threshold M (0.10 = 10 %): reject when (C - C')/C < M, C' the
   /// second-highest peak of the correlation curve. In [0, 1]; 0 disables it.
@@ -75,6 +122,18 @@ struct NccOptions {
   nlohmann::json ToJson() const;
 };
 
+/// Names of the presets: "paper" and "quality".
+const std::vector<std::string>& PresetNames();
+/// The options of a preset: "paper" the defaults above (sec. 3.2-3.4, bit for bit the
+/// paper's matcher); "quality" semi-global census matching with the paper's confidence and
+/// filters plus left-right and speckle checks (docs/stereo-matcher.md).
+/// @throws std::invalid_argument for an unknown name.
+NccOptions PresetOptions(const std::string& name);
+
+/// Full scale of grey levels of `bits` significant bits (255 for 8), and the factor that
+/// turns an 8-bit grey-level threshold into one for such data.
+inline double GreyScaleFactor(int bits) { return (static_cast<double>(1u << bits) - 1.0) / 255.0; }
+
 /// Counts and timing of one matched pair.
 struct NccSummary {
   int width = 0, height = 0;
@@ -83,6 +142,7 @@ struct NccSummary {
   std::array<int, kNumRejectionCodes> pixels_by_reason{};  ///< Indexed by Rejection code.
   int band_min_row = 0, band_max_row = -1;  ///< Row band actually processed.
   int working_shift_bits = 0;  ///< Right shift applied to 16-bit data to keep sums exact.
+  int bit_depth = 8;           ///< Significant bits the grey-level thresholds were scaled for.
   double match_seconds = 0;
   /// e.g. "accepted 41.2% of 307200 px (low_texture 3.1%, ...) in 12.3 ms".
   std::string BriefReport() const;

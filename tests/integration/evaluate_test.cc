@@ -161,8 +161,9 @@ TEST(EvaluateBoxes, SimulatedBoxExperimentStaysWithinThePredictedError) {
   std::vector<std::string> args = {"boxes"};
   for (const char* step : {"1x1", "5x4"}) {
     const fs::path run = tmp.path() / (std::string("run-") + step);
-    ASSERT_EQ(RunTool("stereo-batch", {sim.string(), "-o", run.string(), "--rig", (sim / "rig.json").string(),
-                                       "--disparity", "0:160", "--window", "13x9", "--step", step, "-q"},
+    ASSERT_EQ(RunTool("stereo-batch", {sim.string(), "-o", run.string(), "--preset", "paper", "--rig",
+                                       (sim / "rig.json").string(), "--disparity", "0:160", "--window", "13x9",
+                                       "--step", step, "-q"},
                       tmp.path()).exit_code, 0);
     args.push_back(run.string());
   }

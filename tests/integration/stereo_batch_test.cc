@@ -45,10 +45,15 @@ fs::path CopyPairs(const fs::path& dir) {
   return in;
 }
 
+// Both presets, the default (quality) named by omission.
 TEST(StereoBatch, MatchesTheTestdataPairsAgainstTheirGroundTruth) {
+  for (const std::string preset : {"quality", "paper"}) {
+  SCOPED_TRACE(preset);
   ScopedTempDir tmp;
   const fs::path out = tmp.path() / "out";
-  const auto run = RunTool("stereo-batch", {TestDataPath("stereo_pairs").string(), "-o", out.string(), "-q"}, tmp.path());
+  std::vector<std::string> args = {TestDataPath("stereo_pairs").string(), "-o", out.string(), "-q"};
+  if (preset == "paper") args.insert(args.end(), {"--preset", "paper"});
+  const auto run = RunTool("stereo-batch", args, tmp.path());
   ASSERT_EQ(run.exit_code, 0) << run.stderr_text;
   EXPECT_EQ(run.ErrorLines(), 0);
   for (const char* stem : kStems) {
@@ -82,8 +87,12 @@ TEST(StereoBatch, MatchesTheTestdataPairsAgainstTheirGroundTruth) {
   const nlohmann::json summary = io::ReadJson(out / "summary.json");
   EXPECT_EQ(summary["counts"]["pairs_ok"], 3);
   EXPECT_EQ(summary["counts"]["pairs_failed"], 0);
-  EXPECT_EQ(summary["options"]["half_window_px"], nlohmann::json({25, 17}));
+  EXPECT_EQ(summary["options"]["preset"], preset);
+  EXPECT_EQ(summary["options"]["half_window_px"],
+            preset == "paper" ? nlohmann::json({25, 17}) : nlohmann::json({3, 3}));
+  EXPECT_EQ(summary["options"]["aggregation"], preset == "paper" ? "window" : "semi_global");
   EXPECT_EQ(summary["pairs"].size(), 3u);
+  }
 }
 
 TEST(StereoBatch, ReportsAndSkipsBadPairs) {

@@ -1,0 +1,69 @@
+// Census cost and semi-global aggregation (Hirschmueller, "Stereo Processing by Semiglobal
+// Matching and Mutual Information", PAMI 2008; census cost as in Zabih & Woodfill 1994), the
+// core of the quality preset (docs/stereo-matcher.md). Internal to the stereo module.
+#pragma once
+
+#include <cstdint>
+#include <vector>
+
+#include <opencv2/core.hpp>
+
+namespace lunarnav::stereo::internal {
+
+/// Census transform: bit k of a pixel's code is set when the k-th neighbour of its
+/// (2 half_x + 1) x (2 half_y + 1) window (row-major, centre skipped) is darker than the centre.
+/// Works on any bit depth (only the order of grey levels matters). Pixels whose window leaves
+/// the image compare against the nearest pixel inside (replicated border).
+/// @param image  CV_8UC1 or CV_16UC1 (or CV_16SC1).
+/// @param rows   the rows to transform, [begin, end); other rows of `codes` are left alone.
+/// @param codes  CV_64FC1-sized matrix reinterpreted as uint64 codes (created here, image size).
+void CensusTransform(const cv::Mat& image, int half_x, int half_y, const cv::Range& rows,
+                     std::vector<std::uint64_t>* codes);
+
+/// What SemiGlobalAggregate needs: census codes of both images on the full pixel grid, the
+/// sample grid it matches (partial subsampling: grid pixel (i, j) is image pixel
+/// (x0 + i step_x, y0 + j step_y)), and the disparities searched: reference pixel x matches
+/// target pixel x + d for d in [d_min, d_min + num_disp).
+struct SgmInput {
+  const std::uint64_t* ref_census = nullptr;
+  const std::uint64_t* tgt_census = nullptr;
+  int width = 0;  ///< Image width (stride of the census arrays).
+  int x0 = 0, y0 = 0, step_x = 1, step_y = 1, num_cols = 0, num_rows = 0;
+  int d_min = 0, num_disp = 1;
+  int penalty_small = 8;   ///< P1: a disparity change of one pixel between neighbours.
+  int penalty_large = 96;  ///< P2: a larger change.
+  int num_paths = 8;       ///< 4 (horizontal and vertical) or 8 (and diagonals).
+};
+
+/// The aggregated costs of a pair: for every grid pixel, num_disp sums over the paths (the
+/// paths of the forward and backward passes kept in two arrays, summed when read).
+class AggregatedCost {
+ public:
+  int num_cols() const { return num_cols_; }
+  int num_rows() const { return num_rows_; }
+  int num_disp() const { return num_disp_; }
+  /// The aggregated cost of grid pixel (i, j) at disparity index k, into out[0 .. num_disp).
+  void Costs(int i, int j, std::uint32_t* out) const;
+  const std::uint16_t* forward(int i, int j) const { return &forward_[Index(i, j)]; }
+  const std::uint16_t* backward(int i, int j) const { return &backward_[Index(i, j)]; }
+
+ private:
+  friend void SemiGlobalAggregate(const SgmInput& in, AggregatedCost* out);
+  std::size_t Index(int i, int j) const {
+    return (static_cast<std::size_t>(j) * num_cols_ + i) * num_disp_;
+  }
+  int num_cols_ = 0, num_rows_ = 0, num_disp_ = 0;
+  std::vector<std::uint8_t> cost_;  ///< Census Hamming distances; invalid disparities high.
+  std::vector<std::uint16_t> forward_, backward_;
+};
+
+/// Matching cost of a disparity whose target pixel is outside the image (never chosen, but
+/// it takes part in the paths' minimisation): the largest census distance.
+inline constexpr int kInvalidCensusCost = 64;
+
+/// Fills the census cost volume and aggregates it along num_paths directions (the forward
+/// pass and the backward pass run as two tasks of the current TBB arena). Buffers in `out`
+/// are reused when large enough.
+void SemiGlobalAggregate(const SgmInput& in, AggregatedCost* out);
+
+}  // namespace lunarnav::stereo::internal

@@ -1,0 +1,320 @@
+// The quality preset's matcher: census cost, semi-global aggregation, and the paper's
+// confidence and filters with the checks real scenes need (docs/stereo-matcher.md).
+#include <algorithm>
+#include <cmath>
+#include <cstdint>
+#include <limits>
+#include <vector>
+
+#include <opencv2/calib3d.hpp>
+#include <opencv2/imgproc.hpp>
+#include <tbb/parallel_for.h>
+
+#include "stereo/disparity_filters.h"
+#include "stereo/semi_global.h"
+#include "stereo/sgm_matcher.h"
+#include "util/check.h"
+#include "util/timer.h"
+
+#if defined(__x86_64__) && defined(__GNUC__) && !defined(__clang__) && !defined(__SANITIZE_ADDRESS__)
+#define LN_SGM_CLONES __attribute__((target_clones("avx2", "default")))
+#else
+#define LN_SGM_CLONES
+#endif
+
+namespace lunarnav::stereo::internal {
+namespace {
+
+// Per-thread buffers reused across the pairs of a batch.
+struct SgmWorkspace {
+  std::vector<std::uint64_t> ref_census, tgt_census;
+  AggregatedCost cost;
+};
+SgmWorkspace& ThreadSgmWorkspace() {
+  thread_local SgmWorkspace workspace;
+  return workspace;
+}
+
+// s[k] = forward[k] + backward[k] for k in [k_lo, k_hi] (the sums fit 16 bits: two passes of at
+// most four paths of at most 64 + P2 <= 2064), and the first k of the smallest sum.
+LN_SGM_CLONES int SumAndArgMin(const std::uint16_t* forward, const std::uint16_t* backward, int k_lo, int k_hi,
+                               std::uint16_t* s) {
+  std::uint16_t smallest = std::numeric_limits<std::uint16_t>::max();
+  for (int k = k_lo; k <= k_hi; ++k) {
+    s[k] = static_cast<std::uint16_t>(forward[k] + backward[k]);
+    smallest = std::min(smallest, s[k]);
+  }
+  int k = k_lo;
+  while (s[k] != smallest) ++k;
+  return k;
+}
+
+// The left-right check's view from the target image: target column shift + k keeps the
+// smallest cost any reference pixel gives it, and that pixel's k (`cost` and `index` point at
+// column `shift`).
+LN_SGM_CLONES void TargetMinimum(const std::uint16_t* s, int k_lo, int k_hi, std::uint16_t* cost, int* index) {
+  for (int k = k_lo; k <= k_hi; ++k) {
+    const bool better = s[k] < cost[k];
+    cost[k] = better ? s[k] : cost[k];
+    index[k] = better ? k : index[k];
+  }
+}
+
+int CeilToMultiple(int value, int step) { return (value + step - 1) / step * step; }
+
+// The extent [lo, hi] of the lobe of the minimum at `best`: the disparities on either side
+// over which the cost does not fall again.
+void MinimumLobe(const std::uint16_t* s, int lo_valid, int hi_valid, int best, int* lo, int* hi) {
+  int a = best;
+  while (a > lo_valid && s[a - 1] >= s[a]) --a;
+  int b = best;
+  while (b < hi_valid && s[b + 1] >= s[b]) ++b;
+  *lo = a;
+  *hi = b;
+}
+
+// Normalized correlation of the (2hx+1) x (2hy+1) windows around ref (x, y) and tgt (x + d, y);
+// NaN when a window leaves the image or is flat.
+float WindowCorrelation(const cv::Mat& ref, const cv::Mat& tgt, int x, int y, int d, int hx, int hy) {
+  const int xt = x + d;
+  if (y - hy < 0 || y + hy >= ref.rows || x - hx < 0 || x + hx >= ref.cols || xt - hx < 0 || xt + hx >= ref.cols) {
+    return std::numeric_limits<float>::quiet_NaN();
+  }
+  double sr = 0, st = 0, srr = 0, stt = 0, srt = 0;
+  for (int wy = -hy; wy <= hy; ++wy) {
+    const float* r = ref.ptr<float>(y + wy) + x;
+    const float* t = tgt.ptr<float>(y + wy) + xt;
+    for (int wx = -hx; wx <= hx; ++wx) {
+      const double a = r[wx], b = t[wx];
+      sr += a;
+      st += b;
+      srr += a * a;
+      stt += b * b;
+      srt += a * b;
+    }
+  }
+  const double n = (2.0 * hx + 1) * (2.0 * hy + 1);
+  const double var_r = srr / n - (sr / n) * (sr / n), var_t = stt / n - (st / n) * (st / n);
+  if (!(var_r > 0 && var_t > 0)) return std::numeric_limits<float>::quiet_NaN();
+  return static_cast<float>((srt / n - sr * st / (n * n)) / std::sqrt(var_r * var_t));
+}
+
+}  // namespace
+
+void MatchSemiGlobal(const NccOptions& options, const cv::Mat& left, const cv::Mat& right, int bit_depth,
+                     NccResult* out) {
+  util::Timer timer;
+  const SemiGlobalOptions& g = options.semi_global;
+  const int width = left.cols, height = left.rows;
+  const int dx = options.step_x_px, dy = options.step_y_px;
+  const bool flip = options.reference == ReferenceImage::kLeft;
+  // Internally the reference pixel x matches the target pixel x + d (the right-reference
+  // convention); with the left image as reference both images are mirrored.
+  cv::Mat ref, tgt;
+  if (flip) {
+    cv::flip(left, ref, 1);
+    cv::flip(right, tgt, 1);
+  } else {
+    ref = right;
+    tgt = left;
+  }
+  const int band_lo = std::max(0, options.min_row.value_or(0));
+  const int band_hi = std::min(height - 1, options.max_row.value_or(height - 1));
+  const int grid_lo = CeilToMultiple(band_lo, dy);
+  const int grid_hi = band_hi >= 0 ? band_hi / dy * dy : -1;
+  const int num_rows = grid_hi >= grid_lo ? (grid_hi - grid_lo) / dy + 1 : 0;
+  const int x0 = flip ? (width - 1) % dx : 0;
+  const int num_cols = (width - 1 - x0) / dx + 1;
+  const int n = options.max_disparity_px - options.min_disparity_px + 1;
+
+  SgmWorkspace& ws = ThreadSgmWorkspace();
+  const cv::Range census_rows(num_rows > 0 ? grid_lo : 0, num_rows > 0 ? grid_hi + 1 : 0);
+  CensusTransform(ref, g.census_half_x_px, g.census_half_y_px, census_rows, &ws.ref_census);
+  CensusTransform(tgt, g.census_half_x_px, g.census_half_y_px, census_rows, &ws.tgt_census);
+  SgmInput in;
+  in.ref_census = ws.ref_census.data();
+  in.tgt_census = ws.tgt_census.data();
+  in.width = width;
+  in.x0 = x0;
+  in.y0 = grid_lo;
+  in.step_x = dx;
+  in.step_y = dy;
+  in.num_cols = num_cols;
+  in.num_rows = num_rows;
+  in.d_min = options.min_disparity_px;
+  in.num_disp = n;
+  in.penalty_small = g.penalty_small;
+  in.penalty_large = g.penalty_large;
+  in.num_paths = g.num_paths;
+  SemiGlobalAggregate(in, &ws.cost);
+
+  // Texture (filter 1) over the census window, on the true bit depth's scale.
+  cv::Mat ref_f, tgt_f;
+  ref.convertTo(ref_f, CV_32F);
+  tgt.convertTo(tgt_f, CV_32F);
+  cv::Mat mean, mean_sq;
+  const cv::Size texture_window(2 * g.census_half_x_px + 1, 2 * g.census_half_y_px + 1);
+  cv::boxFilter(ref_f, mean, CV_32F, texture_window, {-1, -1}, true, cv::BORDER_REPLICATE);
+  cv::boxFilter(ref_f.mul(ref_f), mean_sq, CV_32F, texture_window, {-1, -1}, true, cv::BORDER_REPLICATE);
+  const double sigma_min = options.min_sigma * GreyScaleFactor(bit_depth);
+  const float min_var = static_cast<float>(sigma_min * sigma_min);
+
+  // Winner-take-all, sub-pixel vertex, lobe-aware ambiguity and the correlation filter.
+  const float nan = std::numeric_limits<float>::quiet_NaN();
+  cv::Mat grid_disp(num_rows, num_cols, CV_32FC1, cv::Scalar(nan));
+  cv::Mat grid_corr(num_rows, num_cols, CV_32FC1, cv::Scalar(nan));
+  cv::Mat grid_reason(num_rows, num_cols, CV_8UC1, cv::Scalar(static_cast<int>(Rejection::kAccepted)));
+  cv::Mat grid_best(num_rows, num_cols, CV_32SC1, cv::Scalar(-1));  // integer disparity index
+  // The best disparity index seen from the target image's columns (left-right check).
+  const bool lr_check = g.left_right_max_diff_px >= 0 && dx == 1;
+  cv::Mat tgt_best(num_rows, lr_check ? width : 1, CV_32SC1, cv::Scalar(-1));
+  tbb::parallel_for(0, num_rows, [&](int j) {
+    std::vector<std::uint16_t> s(n + 16);
+    std::vector<std::uint16_t> tgt_cost(lr_check ? width : 0, std::numeric_limits<std::uint16_t>::max());
+    const int y = grid_lo + j * dy;
+    auto* disp = grid_disp.ptr<float>(j);
+    auto* corr = grid_corr.ptr<float>(j);
+    auto* reason = grid_reason.ptr<std::uint8_t>(j);
+    auto* best_k = grid_best.ptr<int>(j);
+    int* tgt_k = tgt_best.ptr<int>(j);
+    const float* m = mean.ptr<float>(y);
+    const float* m2 = mean_sq.ptr<float>(y);
+    for (int i = 0; i < num_cols; ++i) {
+      const int x = x0 + i * dx;
+      const int k_lo = std::clamp(-x - in.d_min, 0, n);
+      const int k_hi = std::clamp(width - x - in.d_min, k_lo, n) - 1;  // inclusive
+      if (k_hi < k_lo) {
+        reason[i] = static_cast<std::uint8_t>(Rejection::kBorder);
+        continue;
+      }
+      const int best = SumAndArgMin(ws.cost.forward(i, j), ws.cost.backward(i, j), k_lo, k_hi, s.data());
+      if (lr_check) {
+        const int shift = x + in.d_min;  // target column of index k: shift + k
+        TargetMinimum(s.data(), k_lo, k_hi, tgt_cost.data() + shift, tgt_k + shift);
+      }
+      best_k[i] = best;
+      if (m2[x] - m[x] * m[x] < min_var) {
+        reason[i] = static_cast<std::uint8_t>(Rejection::kLowTexture);
+        continue;
+      }
+      if (best == 0 || best == n - 1) {
+        reason[i] = static_cast<std::uint8_t>(Rejection::kRangeEdge);
+        continue;
+      }
+      if (g.uniqueness > 0) {
+        int lobe_lo, lobe_hi;
+        MinimumLobe(s.data(), k_lo, k_hi, best, &lobe_lo, &lobe_hi);
+        std::uint32_t second = std::numeric_limits<std::uint32_t>::max();
+        for (int k = k_lo; k < lobe_lo; ++k) second = std::min<std::uint32_t>(second, s[k]);
+        for (int k = lobe_hi + 1; k <= k_hi; ++k) second = std::min<std::uint32_t>(second, s[k]);
+        if (second != std::numeric_limits<std::uint32_t>::max() &&
+            static_cast<double>(second) < (1.0 + g.uniqueness) * s[best]) {
+          reason[i] = static_cast<std::uint8_t>(Rejection::kAmbiguous);
+          continue;
+        }
+      }
+      const int d_best = in.d_min + best;
+      const int hx = options.half_window_x_px, hy = options.half_window_y_px;
+      const float c = WindowCorrelation(ref_f, tgt_f, x, y, d_best, hx, hy);
+      corr[i] = c;
+      if (!(c >= options.min_correlation)) {
+        reason[i] = static_cast<std::uint8_t>(Rejection::kLowCorrelation);
+        continue;
+      }
+      // Sub-pixel: the vertex of the symmetric V through the aggregated costs of the best
+      // disparity and its two neighbours (equiangular fit: census costs grow linearly with the
+      // shift, so a parabola would pull every estimate towards whole pixels).
+      double offset = 0.0;
+      if (best > k_lo && best < k_hi) {
+        const double a = s[best - 1], b = s[best], e = s[best + 1];
+        const double rise = std::max(a - b, e - b);
+        if (rise > 0) offset = std::clamp(0.5 * (a - e) / rise, -0.5, 0.5);
+      }
+      disp[i] = static_cast<float>(in.d_min + best + offset);
+    }
+  });
+  if (lr_check) {
+    tbb::parallel_for(0, num_rows, [&](int j) {
+      const int* tgt_k = tgt_best.ptr<int>(j);
+      auto* disp = grid_disp.ptr<float>(j);
+      auto* reason = grid_reason.ptr<std::uint8_t>(j);
+      for (int i = 0; i < num_cols; ++i) {
+        if (reason[i] != static_cast<std::uint8_t>(Rejection::kAccepted)) continue;
+        const int xt = static_cast<int>(std::lround(x0 + i + disp[i]));
+        const bool ok = xt >= 0 && xt < width && tgt_k[xt] >= 0 &&
+                        std::abs(in.d_min + tgt_k[xt] - disp[i]) <= g.left_right_max_diff_px + 0.5f;
+        if (!ok) {
+          reason[i] = static_cast<std::uint8_t>(Rejection::kLeftRightMismatch);
+          disp[i] = nan;
+        }
+      }
+    });
+  }
+  MedianFilterDisparityGrid(options.median_size, &grid_disp, &grid_reason, /*reject_isolated=*/false);
+  if (g.speckle_max_size_px > 0 && num_rows > 0) {
+    // OpenCV's speckle filter on 1/16-pixel fixed point; a removed region gets `invalid`.
+    constexpr int kInvalid = std::numeric_limits<std::int16_t>::min();
+    cv::Mat fixed(num_rows, num_cols, CV_16SC1);
+    for (int j = 0; j < num_rows; ++j) {
+      const float* d = grid_disp.ptr<float>(j);
+      auto* f = fixed.ptr<std::int16_t>(j);
+      for (int i = 0; i < num_cols; ++i) {
+        f[i] = std::isfinite(d[i]) ? cv::saturate_cast<std::int16_t>(std::lround(16.0 * (d[i] - in.d_min)))
+                                   : static_cast<std::int16_t>(kInvalid);
+      }
+    }
+    // The size is given in pixels of the image; on the subsampling grid a cell stands for dx dy.
+    const int max_cells = std::max(1, g.speckle_max_size_px / (dx * dy));
+    cv::filterSpeckles(fixed, kInvalid, max_cells, 16.0 * g.speckle_range_px);
+    for (int j = 0; j < num_rows; ++j) {
+      const auto* f = fixed.ptr<std::int16_t>(j);
+      auto* d = grid_disp.ptr<float>(j);
+      auto* reason = grid_reason.ptr<std::uint8_t>(j);
+      for (int i = 0; i < num_cols; ++i) {
+        if (f[i] == kInvalid && std::isfinite(d[i])) {
+          d[i] = nan;
+          reason[i] = static_cast<std::uint8_t>(Rejection::kSpeckle);
+        }
+      }
+    }
+  }
+
+  // Full-size maps: the grid scattered into the reference image's columns.
+  NccResult& result = *out;
+  result.summary = NccSummary{};
+  result.disparity_px.create(height, width, CV_32FC1);
+  result.correlation.create(height, width, CV_32FC1);
+  result.rejection.create(height, width, CV_8UC1);
+  result.disparity_px.setTo(nan);
+  result.correlation.setTo(nan);
+  result.rejection.setTo(static_cast<int>(Rejection::kNotEvaluated));
+  NccSummary& sum = result.summary;
+  for (int j = 0; j < num_rows; ++j) {
+    const int y = grid_lo + j * dy;
+    const auto* reason = grid_reason.ptr<std::uint8_t>(j);
+    const auto* disp = grid_disp.ptr<float>(j);
+    const auto* corr = grid_corr.ptr<float>(j);
+    auto* out_reason = result.rejection.ptr<std::uint8_t>(y);
+    auto* out_disp = result.disparity_px.ptr<float>(y);
+    auto* out_corr = result.correlation.ptr<float>(y);
+    for (int i = 0; i < num_cols; ++i) {
+      const int x_work = x0 + i * dx;
+      const int x = flip ? width - 1 - x_work : x_work;
+      out_reason[x] = reason[i];
+      out_disp[x] = disp[i];
+      out_corr[x] = corr[i];
+      ++sum.pixels_by_reason[reason[i]];
+    }
+  }
+  sum.width = width;
+  sum.height = height;
+  sum.band_min_row = band_lo;
+  sum.band_max_row = band_hi;
+  sum.bit_depth = bit_depth;
+  sum.evaluated_pixels = num_rows * num_cols;
+  sum.pixels_by_reason[static_cast<int>(Rejection::kNotEvaluated)] = width * height - sum.evaluated_pixels;
+  sum.accepted_pixels = sum.pixels_by_reason[static_cast<int>(Rejection::kAccepted)];
+  sum.match_seconds = timer.ElapsedSeconds();
+}
+
+}  // namespace lunarnav::stereo::internal

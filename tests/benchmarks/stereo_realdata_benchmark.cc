@@ -1,0 +1,278 @@
+// stereo_realdata_benchmark: stereo-batch's presets side by side with OpenCV's StereoSGBM and
+// StereoBM on real pairs with ground truth, in one run: accuracy (KITTI's D1, bad-N, density)
+// and time per pair. docs/performance.md and docs/stereo-matcher.md show its table.
+//
+//   stereo_realdata_benchmark [--stereo-batch PATH] [--threads N] [--repeat R] DIR...
+//
+// Each DIR is a KITTI 2015 layout (image_2/, image_3/, disp_noc_0/ with <stem>.png), a
+// Middlebury 2014 pair (im0.png, im1.png, disp0GT.pfm, mask0nocc.png, calib.txt), or a folder
+// of such sets (each subfolder is one). Inputs are read as 8-bit grey (Rec. 601 luma).
+//
+// stereo-batch runs as a separate process per pair (the whole process is timed: start-up,
+// decoding, matching, writing); OpenCV's matchers are timed on the decoded grey images. Times
+// are medians over R runs.
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <algorithm>
+#include <chrono>
+#include <cstdio>
+#include <cstdlib>
+#include <filesystem>
+#include <fstream>
+#include <iomanip>
+#include <iostream>
+#include <map>
+#include <sstream>
+#include <string>
+#include <vector>
+
+#include <opencv2/calib3d.hpp>
+#include <opencv2/core.hpp>
+#include <opencv2/imgproc.hpp>
+
+#include "evaluation/disparity_eval.h"
+#include "io/image_io.h"
+
+namespace fs = std::filesystem;
+using namespace lunarnav;
+
+namespace {
+
+struct Pair {
+  std::string stem;
+  fs::path left, right, truth, mask;
+};
+
+struct Dataset {
+  std::string name;
+  std::string kind;  // "kitti" or "middlebury"
+  std::vector<Pair> pairs;
+  int num_disparities = 128;
+  double png_truth_scale = 256.0;
+};
+
+int RoundUp16(int v) { return (v + 15) / 16 * 16; }
+
+std::vector<Dataset> FindDatasets(const fs::path& dir) {
+  std::vector<Dataset> sets;
+  if (fs::is_directory(dir / "image_2") && fs::is_directory(dir / "image_3") && fs::is_directory(dir / "disp_noc_0")) {
+    Dataset d{dir.filename().string(), "kitti", {}, 128, 256.0};
+    std::vector<fs::path> files;
+    for (const auto& e : fs::directory_iterator(dir / "disp_noc_0")) files.push_back(e.path());
+    std::sort(files.begin(), files.end());
+    for (const fs::path& t : files) {
+      if (t.extension() != ".png") continue;
+      const std::string name = t.filename().string();
+      d.pairs.push_back({t.stem().string(), dir / "image_2" / name, dir / "image_3" / name, t, {}});
+    }
+    sets.push_back(d);
+    return sets;
+  }
+  if (fs::is_regular_file(dir / "im0.png") && fs::is_regular_file(dir / "disp0GT.pfm")) {
+    Dataset d{dir.filename().string(), "middlebury", {}, 128, 1.0};
+    std::ifstream calib(dir / "calib.txt");
+    std::string line;
+    while (std::getline(calib, line)) {
+      if (line.rfind("ndisp=", 0) == 0) d.num_disparities = RoundUp16(std::stoi(line.substr(6)));
+    }
+    d.pairs.push_back({dir.filename().string(), dir / "im0.png", dir / "im1.png", dir / "disp0GT.pfm",
+                       fs::is_regular_file(dir / "mask0nocc.png") ? dir / "mask0nocc.png" : fs::path()});
+    sets.push_back(d);
+    return sets;
+  }
+  std::vector<fs::path> subdirs;
+  for (const auto& e : fs::directory_iterator(dir)) {
+    if (e.is_directory()) subdirs.push_back(e.path());
+  }
+  std::sort(subdirs.begin(), subdirs.end());
+  for (const fs::path& s : subdirs) {
+    for (Dataset& d : FindDatasets(s)) sets.push_back(std::move(d));
+  }
+  return sets;
+}
+
+double Median(std::vector<double> v) {
+  std::sort(v.begin(), v.end());
+  return v.empty() ? NAN : (v.size() % 2 ? v[v.size() / 2] : 0.5 * (v[v.size() / 2 - 1] + v[v.size() / 2]));
+}
+
+double Now() {
+  return std::chrono::duration<double>(std::chrono::steady_clock::now().time_since_epoch()).count();
+}
+
+// OpenCV's fixed-point disparity (x16, negative = invalid) to float with NaN.
+cv::Mat FromFixed(const cv::Mat& fixed16, int min_disparity) {
+  cv::Mat out(fixed16.size(), CV_32FC1);
+  for (int y = 0; y < fixed16.rows; ++y) {
+    const auto* in = fixed16.ptr<std::int16_t>(y);
+    auto* o = out.ptr<float>(y);
+    for (int x = 0; x < fixed16.cols; ++x) {
+      o[x] = in[x] < (min_disparity - 1) * 16 + 16 ? NAN : in[x] / 16.0f;
+    }
+  }
+  return out;
+}
+
+struct MethodScores {
+  evaluation::DisparityScores scores;
+  std::vector<double> seconds;  // per pair: the median over the repeats
+};
+
+// The mask: Middlebury's 255 = non-occluded (128 occluded, 0 unknown); none for KITTI.
+cv::Mat ReadMask(const Pair& p) {
+  if (p.mask.empty()) return {};
+  cv::Mat m = io::ReadGreyImage(p.mask);
+  return m == 255;
+}
+
+void Score(const cv::Mat& estimate, const Pair& p, const Dataset& d, MethodScores* out) {
+  evaluation::DisparityEvalOptions options;
+  options.bad_thresholds_px = {1.0, 2.0, 3.0};
+  options.png_truth_scale = d.png_truth_scale;
+  const cv::Mat truth = evaluation::ReadTruthDisparity(p.truth, d.png_truth_scale);
+  out->scores.Add(evaluation::ScoreDisparity(estimate, truth, ReadMask(p), {}, options));
+}
+
+int RunCommand(const std::string& command) {
+  const int status = std::system(command.c_str());
+  return WIFEXITED(status) ? WEXITSTATUS(status) : -1;
+}
+
+std::string Fixed(double v, int digits) {
+  std::ostringstream s;
+  s << std::fixed << std::setprecision(digits) << v;
+  return s.str();
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  std::string stereo_batch = "stereo-batch";
+  int threads = 2, repeat = 3;
+  std::vector<fs::path> dirs;
+  for (int i = 1; i < argc; ++i) {
+    const std::string a = argv[i];
+    if (a == "--stereo-batch" && i + 1 < argc) {
+      stereo_batch = argv[++i];
+    } else if (a == "--threads" && i + 1 < argc) {
+      threads = std::atoi(argv[++i]);
+    } else if (a == "--repeat" && i + 1 < argc) {
+      repeat = std::max(1, std::atoi(argv[++i]));
+    } else if (a == "-h" || a == "--help") {
+      std::cout << "usage: stereo_realdata_benchmark [--stereo-batch PATH] [--threads N] [--repeat R] DIR...\n";
+      return 0;
+    } else {
+      dirs.emplace_back(a);
+    }
+  }
+  if (dirs.empty()) {
+    std::cerr << "error: no data directory given (usage: stereo_realdata_benchmark [options] DIR...)\n";
+    return 2;
+  }
+  if (stereo_batch.find('/') == std::string::npos) {
+    // Next to this program by default (build/bin).
+    const fs::path self = fs::canonical("/proc/self/exe").parent_path() / stereo_batch;
+    if (fs::exists(self)) stereo_batch = self.string();
+  }
+  cv::setNumThreads(threads);
+  const fs::path work = fs::temp_directory_path() / ("lunarnav_realdata_bench_" + std::to_string(::getpid()));
+  std::vector<Dataset> sets;
+  for (const fs::path& d : dirs) {
+    if (!fs::is_directory(d)) {
+      std::cerr << "error: " << d.string() << ": not a directory\n";
+      return 3;
+    }
+    for (Dataset& s : FindDatasets(d)) sets.push_back(std::move(s));
+  }
+  if (sets.empty()) {
+    std::cerr << "error: no KITTI or Middlebury data found under the given directories\n";
+    return 3;
+  }
+  std::cout << "| data | method | pairs | density (%) | D1 (%) | D1 or missing (%) | bad-1 (%) | bad-2 (%) | "
+               "time per pair (s) | time / SGBM |\n|---|---|---|---|---|---|---|---|---|---|\n";
+  const std::vector<std::string> methods = {"stereo-batch quality", "stereo-batch paper", "OpenCV StereoSGBM HH 5",
+                                            "OpenCV StereoBM 15"};
+  for (const Dataset& d : sets) {
+    std::map<std::string, MethodScores> results;
+    for (std::size_t k = 0; k < d.pairs.size(); ++k) {
+      const Pair& p = d.pairs[k];
+      std::cerr << "[" << d.name << "] " << p.stem << "\n";
+      const cv::Mat left = io::ReadGreyImage(p.left), right = io::ReadGreyImage(p.right);
+      cv::Mat left8, right8;
+      left.convertTo(left8, CV_8U, left.depth() == CV_8U ? 1.0 : 255.0 / 65535.0);
+      right.convertTo(right8, CV_8U, right.depth() == CV_8U ? 1.0 : 255.0 / 65535.0);
+      const int nd = d.num_disparities;
+      // OpenCV StereoSGBM as the issue measures it.
+      {
+        auto sgbm = cv::StereoSGBM::create(0, nd, 5, 8 * 25, 32 * 25, 0, 0, 10, 100, 2, cv::StereoSGBM::MODE_HH);
+        cv::Mat disp;
+        std::vector<double> times;
+        for (int r = 0; r < repeat; ++r) {
+          const double t0 = Now();
+          sgbm->compute(left8, right8, disp);
+          times.push_back(Now() - t0);
+        }
+        MethodScores& m = results["OpenCV StereoSGBM HH 5"];
+        m.seconds.push_back(Median(times));
+        Score(FromFixed(disp, 0), p, d, &m);
+      }
+      {
+        auto bm = cv::StereoBM::create(nd, 15);
+        cv::Mat disp;
+        std::vector<double> times;
+        for (int r = 0; r < repeat; ++r) {
+          const double t0 = Now();
+          bm->compute(left8, right8, disp);
+          times.push_back(Now() - t0);
+        }
+        MethodScores& m = results["OpenCV StereoBM 15"];
+        m.seconds.push_back(Median(times));
+        Score(FromFixed(disp, 0), p, d, &m);
+      }
+      for (const std::string preset : {"quality", "paper"}) {
+        const fs::path in = work / "in" / p.stem, out = work / ("out_" + std::string(preset)) / p.stem;
+        fs::create_directories(in / "left");
+        fs::create_directories(in / "right");
+        const std::string ext = p.left.extension().string();
+        fs::remove(in / "left" / ("pair" + ext));
+        fs::remove(in / "right" / ("pair" + ext));
+        fs::create_symlink(fs::absolute(p.left), in / "left" / ("pair" + ext));
+        fs::create_symlink(fs::absolute(p.right), in / "right" / ("pair" + ext));
+        std::ostringstream cmd;
+        cmd << "'" << stereo_batch << "' '" << in.string() << "' -o '" << out.string() << "' --preset " << preset
+            << " --reference left --disparity 0:" << nd - 1 << " -j " << threads << " --quiet";
+        std::vector<double> times;
+        for (int r = 0; r < repeat; ++r) {
+          fs::remove_all(out);
+          const double t0 = Now();
+          const int code = RunCommand(cmd.str());
+          times.push_back(Now() - t0);
+          if (code != 0) {
+            std::cerr << "error: " << cmd.str() << ": exit " << code << "\n";
+            return 1;
+          }
+        }
+        MethodScores& m = results["stereo-batch " + std::string(preset)];
+        m.seconds.push_back(Median(times));
+        Score(io::ReadPfm(out / "disparity" / "pair.pfm"), p, d, &m);
+      }
+    }
+    const double sgbm_time = Median(results["OpenCV StereoSGBM HH 5"].seconds);
+    for (const std::string& name : methods) {
+      const MethodScores& m = results[name];
+      const evaluation::DisparityScores& s = m.scores;
+      const double t = Median(m.seconds);
+      std::cout << "| " << d.name << " | " << name << " | " << d.pairs.size() << " | " << Fixed(s.DensityPct(), 1)
+                << " | " << Fixed(s.D1Pct(), 2) << " | " << Fixed(s.D1OrMissingPct(), 2) << " | "
+                << Fixed(s.BadPct(0), 2) << " | " << Fixed(s.BadPct(1), 2) << " | " << Fixed(t, 3) << " | "
+                << Fixed(t / sgbm_time, 2) << " |\n";
+    }
+  }
+  std::cout << "\nDensity and errors over the truth pixels (KITTI: disp_noc_0; Middlebury: mask0nocc = 255). "
+               "D1: error > 3 px and > 5 % of the truth. Times: median per pair over "
+            << repeat << " runs, " << threads
+            << " threads; stereo-batch as a whole process per pair, OpenCV on decoded grey images.\n";
+  fs::remove_all(work);
+  return 0;
+}
