@@ -178,9 +178,14 @@ LN_SGM_CLONES void FillCostRow(const SgmInput& in, int j, std::uint8_t* cost) {
     const int k_hi = std::clamp(width - x - in.d_min, k_lo, n);
     const std::uint64_t r = ref[x];
     const std::uint64_t* t = tgt + x + in.d_min;
-    for (int k = 0; k < k_lo; ++k) c[k] = kInvalidCensusCost;
     for (int k = k_lo; k < k_hi; ++k) c[k] = static_cast<std::uint8_t>(__builtin_popcountll(r ^ t[k]));
-    for (int k = k_hi; k < n; ++k) c[k] = kInvalidCensusCost;
+    // Beyond the image the nearest valid cost is repeated: a fixed high cost would push the
+    // paths towards the disparities that stay inside and break the ties of repeated patterns
+    // in favour of the wrong period.
+    const std::uint8_t first = k_lo < k_hi ? c[k_lo] : kInvalidCensusCost;
+    const std::uint8_t last = k_lo < k_hi ? c[k_hi - 1] : kInvalidCensusCost;
+    for (int k = 0; k < k_lo; ++k) c[k] = first;
+    for (int k = k_hi; k < n; ++k) c[k] = last;
   }
 }
 
@@ -203,6 +208,21 @@ void CensusTransform(const cv::Mat& image, int half_x, int half_y, const cv::Ran
     case CV_16S: CensusRows<std::int16_t>(padded, half_x, half_y, image.cols, rows, rows.start, codes->data()); break;
     default: LN_CHECK(false) << "census: unsupported image depth";
   }
+}
+
+bool IsAmbiguousMinimum(const std::uint16_t* s, int k_lo, int k_hi, int best, double uniqueness) {
+  int lo = best;
+  while (lo > k_lo && s[lo - 1] >= s[lo]) --lo;
+  int hi = best;
+  while (hi < k_hi && s[hi + 1] >= s[hi]) ++hi;
+  int rival = -1;
+  for (int k = k_lo; k < lo; ++k) {
+    if (rival < 0 || s[k] < s[rival]) rival = k;
+  }
+  for (int k = hi + 1; k <= k_hi; ++k) {
+    if (rival < 0 || s[k] < s[rival]) rival = k;
+  }
+  return rival >= 0 && static_cast<double>(s[rival]) < (1.0 + uniqueness) * s[best];
 }
 
 void AggregatedCost::Costs(int i, int j, std::uint32_t* out) const {

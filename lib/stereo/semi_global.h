@@ -57,8 +57,15 @@ class AggregatedCost {
   std::vector<std::uint16_t> forward_, backward_;
 };
 
-/// Matching cost of a disparity whose target pixel is outside the image (never chosen, but
-/// it takes part in the paths' minimisation): the largest census distance.
+/// The quality preset's ambiguity test on a pixel's aggregated costs s[k_lo .. k_hi] with its
+/// minimum at `best`: the minimum's lobe is the run of disparities on either side over which s
+/// does not fall again; the rival is the lowest cost outside the lobe. True when
+/// rival < (1 + uniqueness) s[best]. A single minimum, however broad or rippled its flanks
+/// are near the top, has no rival; a repeated pattern has one at its period.
+bool IsAmbiguousMinimum(const std::uint16_t* s, int k_lo, int k_hi, int best, double uniqueness);
+
+/// Matching cost of the disparities of a pixel none of whose targets is inside the image (a
+/// pixel with some inside repeats the nearest inside cost for the others).
 inline constexpr int kInvalidCensusCost = 64;
 
 /// Fills the census cost volume and aggregates it along num_paths directions (the forward

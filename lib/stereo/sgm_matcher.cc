@@ -62,17 +62,6 @@ LN_SGM_CLONES void TargetMinimum(const std::uint16_t* s, int k_lo, int k_hi, std
 
 int CeilToMultiple(int value, int step) { return (value + step - 1) / step * step; }
 
-// The extent [lo, hi] of the lobe of the minimum at `best`: the disparities on either side
-// over which the cost does not fall again.
-void MinimumLobe(const std::uint16_t* s, int lo_valid, int hi_valid, int best, int* lo, int* hi) {
-  int a = best;
-  while (a > lo_valid && s[a - 1] >= s[a]) --a;
-  int b = best;
-  while (b < hi_valid && s[b + 1] >= s[b]) ++b;
-  *lo = a;
-  *hi = b;
-}
-
 // Normalized correlation of the (2hx+1) x (2hy+1) windows around ref (x, y) and tgt (x + d, y);
 // NaN when a window leaves the image or is flat.
 float WindowCorrelation(const cv::Mat& ref, const cv::Mat& tgt, int x, int y, int d, int hx, int hy) {
@@ -201,21 +190,13 @@ void MatchSemiGlobal(const NccOptions& options, const cv::Mat& left, const cv::M
         reason[i] = static_cast<std::uint8_t>(Rejection::kRangeEdge);
         continue;
       }
-      if (g.uniqueness > 0) {
-        int lobe_lo, lobe_hi;
-        MinimumLobe(s.data(), k_lo, k_hi, best, &lobe_lo, &lobe_hi);
-        std::uint32_t second = std::numeric_limits<std::uint32_t>::max();
-        for (int k = k_lo; k < lobe_lo; ++k) second = std::min<std::uint32_t>(second, s[k]);
-        for (int k = lobe_hi + 1; k <= k_hi; ++k) second = std::min<std::uint32_t>(second, s[k]);
-        if (second != std::numeric_limits<std::uint32_t>::max() &&
-            static_cast<double>(second) < (1.0 + g.uniqueness) * s[best]) {
-          reason[i] = static_cast<std::uint8_t>(Rejection::kAmbiguous);
-          continue;
-        }
+      if (g.uniqueness > 0 && IsAmbiguousMinimum(s.data(), k_lo, k_hi, best, g.uniqueness)) {
+        reason[i] = static_cast<std::uint8_t>(Rejection::kAmbiguous);
+        continue;
       }
       const int d_best = in.d_min + best;
-      const int hx = options.half_window_x_px, hy = options.half_window_y_px;
-      const float c = WindowCorrelation(ref_f, tgt_f, x, y, d_best, hx, hy);
+      const float c = WindowCorrelation(ref_f, tgt_f, x, y, d_best, options.half_window_x_px,
+                                        options.half_window_y_px);
       corr[i] = c;
       if (!(c >= options.min_correlation)) {
         reason[i] = static_cast<std::uint8_t>(Rejection::kLowCorrelation);
