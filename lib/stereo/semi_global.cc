@@ -1,11 +1,18 @@
 #include "stereo/semi_global.h"
 
 #include <algorithm>
+#include <cstdlib>
 #include <cstring>
+#include <limits>
+#include <new>
+
+#include <sys/mman.h>
 
 #include <opencv2/core.hpp>
 #include <tbb/parallel_for.h>
-#include <tbb/parallel_invoke.h>
+#include <tbb/enumerable_thread_specific.h>
+#include <tbb/partitioner.h>
+#include <tbb/task_arena.h>
 
 #include "util/check.h"
 
@@ -85,94 +92,16 @@ inline __attribute__((always_inline)) std::int16_t Start(const std::uint8_t* cos
   return new_min;
 }
 
-// Path buffers of one pass: for each direction with a vertical component, the previous and
-// the current row of L (n + 2 entries a pixel, sentinels at both ends) and their minima;
-// for the horizontal direction, the previous pixel's.
-struct PassBuffers {
-  int n = 0, cols = 0, stride = 0;
-  std::vector<std::int16_t> rows[3][2];  // [direction: diagonal a, vertical, diagonal b][prev/cur]
-  std::vector<std::int16_t> mins[3][2];
-  std::vector<std::int16_t> horizontal[2];
-  void Init(int num_cols, int num_disp) {
-    n = num_disp;
-    cols = num_cols;
-    stride = num_disp + 2;
-    for (auto& dir : rows) {
-      for (auto& r : dir) r.assign(static_cast<std::size_t>(stride) * cols, kSentinel);
-    }
-    for (auto& dir : mins) {
-      for (auto& m : dir) m.assign(cols, 0);
-    }
-    for (auto& h : horizontal) h.assign(stride, kSentinel);
-  }
-  std::int16_t* Row(int dir, int which, int i) { return rows[dir][which].data() + static_cast<std::size_t>(i) * stride + 1; }
-};
-
-// One pass over the grid. kForward: rows top to bottom, columns left to right, paths from
-// the left, top-left, top and top-right; otherwise the mirror image. With four paths only the
-// horizontal and the vertical one.
-template <bool kForward>
-inline __attribute__((always_inline)) void Pass(const SgmInput& in, const std::uint8_t* cost, std::uint16_t* sum, PassBuffers* b) {
-  const int n = in.num_disp, cols = in.num_cols, rows = in.num_rows;
-  const auto p1 = static_cast<std::int16_t>(in.penalty_small);
-  const auto p2 = static_cast<std::int16_t>(in.penalty_large);
-  const bool diagonals = in.num_paths == 8;
-  const int di = kForward ? 1 : -1;
-  int cur = 0;
-  for (int jj = 0; jj < rows; ++jj) {
-    const int j = kForward ? jj : rows - 1 - jj;
-    const int prev = cur ^ 1;
-    const bool has_prev_row = jj > 0;
-    std::int16_t h_min = 0;
-    int h_cur = 0;
-    for (int ii = 0; ii < cols; ++ii) {
-      const int i = kForward ? ii : cols - 1 - ii;
-      const std::size_t at = (static_cast<std::size_t>(j) * cols + i) * n;
-      const std::uint8_t* c = cost + at;
-      std::uint16_t* s = sum + at;
-      // Horizontal path (from the left in the forward pass).
-      std::int16_t* h_out = b->horizontal[h_cur].data() + 1;
-      if (ii == 0) {
-        h_min = Start<true>(c, n, h_out, s);
-      } else {
-        h_min = Step<true>(c, b->horizontal[h_cur ^ 1].data() + 1, h_min, p1, p2, n, h_out, s);
-      }
-      h_cur ^= 1;
-      // Vertical path (from the top in the forward pass).
-      std::int16_t* v_out = b->Row(1, cur, i);
-      b->mins[1][cur][i] = has_prev_row ? Step<false>(c, b->Row(1, prev, i), b->mins[1][prev][i], p1, p2, n, v_out, s)
-                                        : Start<false>(c, n, v_out, s);
-      if (!diagonals) continue;
-      // Diagonals: from (i - di, j - dj) and from (i + di, j - dj).
-      const int ia = i - di, ib = i + di;
-      std::int16_t* a_out = b->Row(0, cur, i);
-      b->mins[0][cur][i] = has_prev_row && ia >= 0 && ia < cols
-                               ? Step<false>(c, b->Row(0, prev, ia), b->mins[0][prev][ia], p1, p2, n, a_out, s)
-                               : Start<false>(c, n, a_out, s);
-      std::int16_t* b_out = b->Row(2, cur, i);
-      b->mins[2][cur][i] = has_prev_row && ib >= 0 && ib < cols
-                               ? Step<false>(c, b->Row(2, prev, ib), b->mins[2][prev][ib], p1, p2, n, b_out, s)
-                               : Start<false>(c, n, b_out, s);
-    }
-    cur ^= 1;
-  }
-}
-
-LN_SGM_CLONES void ForwardPass(const SgmInput& in, const std::uint8_t* cost, std::uint16_t* sum, PassBuffers* b) {
-  Pass<true>(in, cost, sum, b);
-}
-LN_SGM_CLONES void BackwardPass(const SgmInput& in, const std::uint8_t* cost, std::uint16_t* sum, PassBuffers* b) {
-  Pass<false>(in, cost, sum, b);
-}
-
-LN_SGM_CLONES void FillCostRow(const SgmInput& in, int j, std::uint8_t* cost) {
+// Costs of the grid pixels [i_begin, i_end) of row j, n per pixel from cost[0].
+inline __attribute__((always_inline)) void FillCosts(const SgmInput& in, int j, int i_begin, int i_end,
+                                                     std::uint8_t* cost) {
   const int n = in.num_disp, width = in.width;
   const int y = in.y0 + j * in.step_y;
   const std::uint64_t* ref = in.ref_census + static_cast<std::size_t>(y) * width;
   const std::uint64_t* tgt = in.tgt_census + static_cast<std::size_t>(y) * width;
-  for (int i = 0; i < in.num_cols; ++i) {
+  for (int i = i_begin; i < i_end; ++i) {
     const int x = in.x0 + i * in.step_x;
-    std::uint8_t* c = cost + (static_cast<std::size_t>(j) * in.num_cols + i) * n;
+    std::uint8_t* c = cost + static_cast<std::size_t>(i - i_begin) * n;
     // Target x + d_min + k inside [0, width): k in [k_lo, k_hi).
     const int k_lo = std::clamp(-x - in.d_min, 0, n);
     const int k_hi = std::clamp(width - x - in.d_min, k_lo, n);
@@ -189,7 +118,109 @@ LN_SGM_CLONES void FillCostRow(const SgmInput& in, int j, std::uint8_t* cost) {
   }
 }
 
+// Per-thread scratch: one row's costs and the horizontal paths' two pixels.
+struct RowScratch {
+  std::vector<std::uint8_t> cost;
+  std::vector<std::int16_t> line[2];
+  void Init(int cols, int n) {
+    if (cost.size() < static_cast<std::size_t>(cols) * n) cost.resize(static_cast<std::size_t>(cols) * n);
+    for (auto& l : line) l.assign(n + 2, kSentinel);
+  }
+};
+
+// Both horizontal paths of row j: from the left (assigns the sums) and from the right (adds).
+LN_SGM_CLONES void HorizontalRow(const SgmInput& in, int j, RowScratch* scratch, std::uint16_t* sum) {
+  const int n = in.num_disp, cols = in.num_cols;
+  const auto p1 = static_cast<std::int16_t>(in.penalty_small);
+  const auto p2 = static_cast<std::int16_t>(in.penalty_large);
+  FillCosts(in, j, 0, cols, scratch->cost.data());
+  std::uint16_t* row_sum = sum + static_cast<std::size_t>(j) * cols * n;
+  std::int16_t* l[2] = {scratch->line[0].data() + 1, scratch->line[1].data() + 1};
+  std::int16_t m = 0;
+  for (int i = 0; i < cols; ++i) {
+    const std::uint8_t* c = scratch->cost.data() + static_cast<std::size_t>(i) * n;
+    std::uint16_t* s = row_sum + static_cast<std::size_t>(i) * n;
+    m = i == 0 ? Start<true>(c, n, l[i & 1], s) : Step<true>(c, l[(i & 1) ^ 1], m, p1, p2, n, l[i & 1], s);
+  }
+  for (int i = cols - 1; i >= 0; --i) {
+    const std::uint8_t* c = scratch->cost.data() + static_cast<std::size_t>(i) * n;
+    std::uint16_t* s = row_sum + static_cast<std::size_t>(i) * n;
+    m = i == cols - 1 ? Start<false>(c, n, l[i & 1], s) : Step<false>(c, l[(i & 1) ^ 1], m, p1, p2, n, l[i & 1], s);
+  }
+}
+
+// The previous and the current row of the vertical and diagonal paths of one direction of
+// travel (down or up): L with sentinels at both ends of each pixel's n values, and minima.
+struct VerticalRows {
+  int n = 0, cols = 0, stride = 0;
+  std::vector<std::int16_t> rows[3][2];  // [from i - 1, from i, from i + 1][previous/current]
+  std::vector<std::int16_t> mins[3][2];
+  void Init(int num_cols, int num_disp) {
+    n = num_disp;
+    cols = num_cols;
+    stride = num_disp + 2;
+    for (auto& dir : rows) {
+      for (auto& r : dir) r.assign(static_cast<std::size_t>(stride) * cols, kSentinel);
+    }
+    for (auto& dir : mins) {
+      for (auto& m : dir) m.assign(cols, 0);
+    }
+  }
+  std::int16_t* Row(int dir, int which, int i) {
+    return rows[dir][which].data() + static_cast<std::size_t>(i) * stride + 1;
+  }
+};
+
+// The vertical path (and with 8 paths the two diagonals) of the grid pixels [i_begin, i_end)
+// of row j, from the previous row of the direction of travel (none when first); adds to the
+// sums. Columns are independent given the previous row, so chunks of a row run in parallel.
+LN_SGM_CLONES void VerticalChunk(const SgmInput& in, int j, bool first, int cur, int i_begin, int i_end,
+                                 std::uint8_t* cost, VerticalRows* b, std::uint16_t* sum) {
+  const int n = in.num_disp, cols = in.num_cols;
+  const auto p1 = static_cast<std::int16_t>(in.penalty_small);
+  const auto p2 = static_cast<std::int16_t>(in.penalty_large);
+  const bool diagonals = in.num_paths == 8;
+  const int prev = cur ^ 1;
+  FillCosts(in, j, i_begin, i_end, cost);
+  for (int i = i_begin; i < i_end; ++i) {
+    const std::uint8_t* c = cost + static_cast<std::size_t>(i - i_begin) * n;
+    std::uint16_t* s = sum + (static_cast<std::size_t>(j) * cols + i) * n;
+    for (int dir = diagonals ? 0 : 1; dir < (diagonals ? 3 : 2); ++dir) {
+      const int from = i + dir - 1;  // column of the predecessor in the previous row
+      std::int16_t* out = b->Row(dir, cur, i);
+      b->mins[dir][cur][i] = !first && from >= 0 && from < cols
+                                 ? Step<false>(c, b->Row(dir, prev, from), b->mins[dir][prev][from], p1, p2, n, out, s)
+                                 : Start<false>(c, n, out, s);
+    }
+  }
+}
+
 }  // namespace
+
+template <typename T>
+void LargeArray<T>::Reserve(std::size_t n) {
+  if (n <= capacity_) return;
+  Release();
+  constexpr std::size_t kHugePage = std::size_t{2} << 20;
+  bytes_ = (n * sizeof(T) + kHugePage - 1) / kHugePage * kHugePage;
+  void* p = std::aligned_alloc(kHugePage, bytes_);
+  if (p == nullptr) throw std::bad_alloc();
+#ifdef MADV_HUGEPAGE
+  madvise(p, bytes_, MADV_HUGEPAGE);  // a hint: without huge pages the array works the same
+#endif
+  data_ = static_cast<T*>(p);
+  capacity_ = bytes_ / sizeof(T);
+}
+
+template <typename T>
+void LargeArray<T>::Release() {
+  std::free(data_);
+  data_ = nullptr;
+  capacity_ = bytes_ = 0;
+}
+
+template class LargeArray<std::uint8_t>;
+template class LargeArray<std::uint16_t>;
 
 void CensusTransform(const cv::Mat& image, int half_x, int half_y, const cv::Range& rows,
                      std::vector<std::uint64_t>* codes) {
@@ -210,52 +241,72 @@ void CensusTransform(const cv::Mat& image, int half_x, int half_y, const cv::Ran
   }
 }
 
+namespace {
+LN_SGM_CLONES std::uint16_t RangeMinimum(const std::uint16_t* s, int begin, int end) {
+  std::uint16_t m = std::numeric_limits<std::uint16_t>::max();
+  for (int k = begin; k < end; ++k) m = std::min(m, s[k]);
+  return m;
+}
+}  // namespace
+
 bool IsAmbiguousMinimum(const std::uint16_t* s, int k_lo, int k_hi, int best, double uniqueness) {
   int lo = best;
   while (lo > k_lo && s[lo - 1] >= s[lo]) --lo;
   int hi = best;
   while (hi < k_hi && s[hi + 1] >= s[hi]) ++hi;
-  int rival = -1;
-  for (int k = k_lo; k < lo; ++k) {
-    if (rival < 0 || s[k] < s[rival]) rival = k;
-  }
-  for (int k = hi + 1; k <= k_hi; ++k) {
-    if (rival < 0 || s[k] < s[rival]) rival = k;
-  }
-  return rival >= 0 && static_cast<double>(s[rival]) < (1.0 + uniqueness) * s[best];
+  if (lo == k_lo && hi == k_hi) return false;  // no disparity outside the lobe
+  const std::uint16_t rival = std::min(RangeMinimum(s, k_lo, lo), RangeMinimum(s, hi + 1, k_hi + 1));
+  return static_cast<double>(rival) < (1.0 + uniqueness) * s[best];
 }
 
 void AggregatedCost::Costs(int i, int j, std::uint32_t* out) const {
-  const std::size_t at = Index(i, j);
-  for (int k = 0; k < num_disp_; ++k) out[k] = static_cast<std::uint32_t>(forward_[at + k]) + backward_[at + k];
+  const std::uint16_t* s = sum(i, j);
+  for (int k = 0; k < num_disp_; ++k) out[k] = s[k];
 }
 
 void SemiGlobalAggregate(const SgmInput& in, AggregatedCost* out) {
   LN_CHECK(in.num_paths == 4 || in.num_paths == 8);
   LN_CHECK(in.num_disp >= 1 && in.num_cols >= 0 && in.num_rows >= 0);
-  // Every path cost is at most the largest matching cost plus P2, and a pass sums 4 paths.
+  // Every path cost is at most the largest matching cost plus P2: 8 paths fit 16 bits.
   LN_CHECK(in.penalty_small >= 0 && in.penalty_large >= in.penalty_small && in.penalty_large <= 2000);
   out->num_cols_ = in.num_cols;
   out->num_rows_ = in.num_rows;
   out->num_disp_ = in.num_disp;
   const std::size_t cells = static_cast<std::size_t>(in.num_cols) * in.num_rows * in.num_disp;
-  if (out->cost_.size() < cells) {
-    out->cost_.resize(cells);
-    out->forward_.resize(cells);
-    out->backward_.resize(cells);
-  }
+  out->sum_.Reserve(cells);
   if (cells == 0) return;
-  tbb::parallel_for(0, in.num_rows, [&](int j) { FillCostRow(in, j, out->cost_.data()); });
-  PassBuffers forward_buffers, backward_buffers;
-  tbb::parallel_invoke(
-      [&] {
-        forward_buffers.Init(in.num_cols, in.num_disp);
-        ForwardPass(in, out->cost_.data(), out->forward_.data(), &forward_buffers);
-      },
-      [&] {
-        backward_buffers.Init(in.num_cols, in.num_disp);
-        BackwardPass(in, out->cost_.data(), out->backward_.data(), &backward_buffers);
-      });
+  std::uint16_t* sum = out->sum_.data();
+  // The horizontal paths: rows are independent.
+  tbb::enumerable_thread_specific<RowScratch> scratch;
+  tbb::parallel_for(0, in.num_rows, [&](int j) {
+    RowScratch& s = scratch.local();
+    s.Init(in.num_cols, in.num_disp);
+    HorizontalRow(in, j, &s, sum);
+  });
+  // The vertical and diagonal paths, down then up: row after row, each row's columns in as
+  // many chunks as the arena has threads.
+  const int chunks = std::max(1, std::min(tbb::this_task_arena::max_concurrency(), in.num_cols / 64));
+  VerticalRows rows;
+  for (const bool down : {true, false}) {
+    rows.Init(in.num_cols, in.num_disp);
+    int cur = 0;
+    for (int jj = 0; jj < in.num_rows; ++jj) {
+      const int j = down ? jj : in.num_rows - 1 - jj;
+      auto run = [&](int chunk) {
+        const int begin = static_cast<int>(static_cast<long>(in.num_cols) * chunk / chunks);
+        const int end = static_cast<int>(static_cast<long>(in.num_cols) * (chunk + 1) / chunks);
+        RowScratch& s = scratch.local();
+        s.Init(in.num_cols, in.num_disp);
+        VerticalChunk(in, j, jj == 0, cur, begin, end, s.cost.data(), &rows, sum);
+      };
+      if (chunks == 1) {
+        run(0);
+      } else {
+        tbb::parallel_for(0, chunks, run, tbb::static_partitioner());
+      }
+      cur ^= 1;
+    }
+  }
 }
 
 }  // namespace lunarnav::stereo::internal

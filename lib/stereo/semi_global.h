@@ -35,8 +35,31 @@ struct SgmInput {
   int num_paths = 8;       ///< 4 (horizontal and vertical) or 8 (and diagonals).
 };
 
-/// The aggregated costs of a pair: for every grid pixel, num_disp sums over the paths (the
-/// paths of the forward and backward passes kept in two arrays, summed when read).
+/// A large array on 2 MiB pages where the kernel offers them (madvise), so that a fresh pair's
+/// hundreds of megabytes cost hundreds, not hundreds of thousands, of page faults. Grows only.
+template <typename T>
+class LargeArray {
+ public:
+  LargeArray() = default;
+  LargeArray(const LargeArray&) = delete;
+  LargeArray& operator=(const LargeArray&) = delete;
+  ~LargeArray() { Release(); }
+  /// Makes room for n elements (contents undefined).
+  void Reserve(std::size_t n);
+  T* data() { return data_; }
+  const T* data() const { return data_; }
+  T& operator[](std::size_t i) { return data_[i]; }
+  const T& operator[](std::size_t i) const { return data_[i]; }
+  std::size_t capacity() const { return capacity_; }
+
+ private:
+  void Release();
+  T* data_ = nullptr;
+  std::size_t capacity_ = 0;
+  std::size_t bytes_ = 0;
+};
+
+/// The aggregated costs of a pair: for every grid pixel, num_disp sums over the paths.
 class AggregatedCost {
  public:
   int num_cols() const { return num_cols_; }
@@ -44,8 +67,8 @@ class AggregatedCost {
   int num_disp() const { return num_disp_; }
   /// The aggregated cost of grid pixel (i, j) at disparity index k, into out[0 .. num_disp).
   void Costs(int i, int j, std::uint32_t* out) const;
-  const std::uint16_t* forward(int i, int j) const { return &forward_[Index(i, j)]; }
-  const std::uint16_t* backward(int i, int j) const { return &backward_[Index(i, j)]; }
+  /// The num_disp sums of grid pixel (i, j).
+  const std::uint16_t* sum(int i, int j) const { return &sum_[Index(i, j)]; }
 
  private:
   friend void SemiGlobalAggregate(const SgmInput& in, AggregatedCost* out);
@@ -53,8 +76,7 @@ class AggregatedCost {
     return (static_cast<std::size_t>(j) * num_cols_ + i) * num_disp_;
   }
   int num_cols_ = 0, num_rows_ = 0, num_disp_ = 0;
-  std::vector<std::uint8_t> cost_;  ///< Census Hamming distances; invalid disparities high.
-  std::vector<std::uint16_t> forward_, backward_;
+  LargeArray<std::uint16_t> sum_;
 };
 
 /// The quality preset's ambiguity test on a pixel's aggregated costs s[k_lo .. k_hi] with its
@@ -68,9 +90,10 @@ bool IsAmbiguousMinimum(const std::uint16_t* s, int k_lo, int k_hi, int best, do
 /// pixel with some inside repeats the nearest inside cost for the others).
 inline constexpr int kInvalidCensusCost = 64;
 
-/// Fills the census cost volume and aggregates it along num_paths directions (the forward
-/// pass and the backward pass run as two tasks of the current TBB arena). Buffers in `out`
-/// are reused when large enough.
+/// Aggregates the census costs along num_paths directions: the horizontal paths row by row
+/// (rows in parallel), then the vertical and diagonal paths downwards and upwards (each row's
+/// columns in parallel), computing the costs as they are needed (no cost volume). Runs in the
+/// current TBB arena; the sums' array in `out` is reused when large enough.
 void SemiGlobalAggregate(const SgmInput& in, AggregatedCost* out);
 
 }  // namespace lunarnav::stereo::internal

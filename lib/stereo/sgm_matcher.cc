@@ -35,15 +35,10 @@ SgmWorkspace& ThreadSgmWorkspace() {
   return workspace;
 }
 
-// s[k] = forward[k] + backward[k] for k in [k_lo, k_hi] (the sums fit 16 bits: two passes of at
-// most four paths of at most 64 + P2 <= 2064), and the first k of the smallest sum.
-LN_SGM_CLONES int SumAndArgMin(const std::uint16_t* forward, const std::uint16_t* backward, int k_lo, int k_hi,
-                               std::uint16_t* s) {
+// The first k in [k_lo, k_hi] of the smallest s[k].
+LN_SGM_CLONES int ArgMin(const std::uint16_t* s, int k_lo, int k_hi) {
   std::uint16_t smallest = std::numeric_limits<std::uint16_t>::max();
-  for (int k = k_lo; k <= k_hi; ++k) {
-    s[k] = static_cast<std::uint16_t>(forward[k] + backward[k]);
-    smallest = std::min(smallest, s[k]);
-  }
+  for (int k = k_lo; k <= k_hi; ++k) smallest = std::min(smallest, s[k]);
   int k = k_lo;
   while (s[k] != smallest) ++k;
   return k;
@@ -158,7 +153,6 @@ void MatchSemiGlobal(const NccOptions& options, const cv::Mat& left, const cv::M
   const bool lr_check = g.left_right_max_diff_px >= 0 && dx == 1;
   cv::Mat tgt_best(num_rows, lr_check ? width : 1, CV_32SC1, cv::Scalar(-1));
   tbb::parallel_for(0, num_rows, [&](int j) {
-    std::vector<std::uint16_t> s(n + 16);
     std::vector<std::uint16_t> tgt_cost(lr_check ? width : 0, std::numeric_limits<std::uint16_t>::max());
     const int y = grid_lo + j * dy;
     auto* disp = grid_disp.ptr<float>(j);
@@ -176,10 +170,11 @@ void MatchSemiGlobal(const NccOptions& options, const cv::Mat& left, const cv::M
         reason[i] = static_cast<std::uint8_t>(Rejection::kBorder);
         continue;
       }
-      const int best = SumAndArgMin(ws.cost.forward(i, j), ws.cost.backward(i, j), k_lo, k_hi, s.data());
+      const std::uint16_t* s = ws.cost.sum(i, j);
+      const int best = ArgMin(s, k_lo, k_hi);
       if (lr_check) {
         const int shift = x + in.d_min;  // target column of index k: shift + k
-        TargetMinimum(s.data(), k_lo, k_hi, tgt_cost.data() + shift, tgt_k + shift);
+        TargetMinimum(s, k_lo, k_hi, tgt_cost.data() + shift, tgt_k + shift);
       }
       best_k[i] = best;
       if (m2[x] - m[x] * m[x] < min_var) {
@@ -190,7 +185,7 @@ void MatchSemiGlobal(const NccOptions& options, const cv::Mat& left, const cv::M
         reason[i] = static_cast<std::uint8_t>(Rejection::kRangeEdge);
         continue;
       }
-      if (g.uniqueness > 0 && IsAmbiguousMinimum(s.data(), k_lo, k_hi, best, g.uniqueness)) {
+      if (g.uniqueness > 0 && IsAmbiguousMinimum(s, k_lo, k_hi, best, g.uniqueness)) {
         reason[i] = static_cast<std::uint8_t>(Rejection::kAmbiguous);
         continue;
       }
