@@ -1,5 +1,6 @@
 #include "calib/rectify_batch.h"
 
+#include <algorithm>
 #include <sstream>
 
 #include "calib/rectify.h"
@@ -36,11 +37,12 @@ void ProcessPair(const Rectifier& rectifier, const StereoRig& rig, const io::Pai
                  const PairPaths& out, RectifyPairOutcome* outcome) {
   LN_CHECK_INPUT(pair.problem.empty()) << pair.problem;
   util::Timer timer;
-  const cv::Mat left = io::ReadImage(pair.left);
+  io::SignificantBits left_bits, right_bits;
+  const cv::Mat left = io::ReadImage(pair.left, &left_bits);
   LN_CHECK_INPUT(left.cols == rig.width_px && left.rows == rig.height_px)
       << pair.left.string() << ": size " << left.cols << "x" << left.rows
       << " is not the rig's raw image size " << rig.width_px << "x" << rig.height_px;
-  const cv::Mat right = io::ReadImage(pair.right);
+  const cv::Mat right = io::ReadImage(pair.right, &right_bits);
   LN_CHECK_INPUT(right.cols == rig.width_px && right.rows == rig.height_px)
       << pair.right.string() << ": size " << right.cols << "x" << right.rows
       << " is not the rig's raw image size " << rig.width_px << "x" << rig.height_px;
@@ -52,8 +54,11 @@ void ProcessPair(const Rectifier& rectifier, const StereoRig& rig, const io::Pai
   outcome->rectify_s = timer.ElapsedSeconds();
 
   timer.Restart();
-  io::WriteImageAtomic(out.left, left_rect);
-  io::WriteImageAtomic(out.right, right_rect);  // last: both files present = pair complete
+  // The input's bit depth is kept: 16-bit stays 16-bit, and a PNG's significant bits (a 12-bit
+  // camera's) are written again as sBIT.
+  const int bits = std::max(left_bits.bits, right_bits.bits);
+  io::WriteImageAtomic(out.left, left_rect, bits);
+  io::WriteImageAtomic(out.right, right_rect, bits);  // last: both files present = pair complete
   outcome->write_s = timer.ElapsedSeconds();
 }
 

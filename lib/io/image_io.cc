@@ -65,6 +65,43 @@ std::string PngStructureProblem(const fs::path& path) {
   return "truncated (no IEND chunk)";
 }
 
+namespace {
+// Adds an sBIT chunk (the same depth for every channel; alpha too) after the IHDR chunk of
+// an encoded PNG.
+void InsertPngSignificantBits(std::vector<uchar>* png, int bits, int channels) {
+  constexpr std::size_t kAfterHeader = 8 + 4 + 4 + 13 + 4;  // signature, IHDR chunk
+  if (png->size() < kAfterHeader) return;
+  std::vector<uchar> chunk = {0, 0, 0, static_cast<uchar>(channels), 's', 'B', 'I', 'T'};
+  for (int c = 0; c < channels; ++c) chunk.push_back(static_cast<uchar>(bits));
+  const uLong crc = crc32(crc32(0L, Z_NULL, 0), chunk.data() + 4, static_cast<uInt>(4 + channels));
+  for (int shift = 24; shift >= 0; shift -= 8) chunk.push_back(static_cast<uchar>((crc >> shift) & 0xFF));
+  png->insert(png->begin() + kAfterHeader, chunk.begin(), chunk.end());
+}
+}  // namespace
+
+int PngSignificantBits(const fs::path& path) {
+  std::ifstream in(path, std::ios::binary);
+  unsigned char signature[8];
+  if (!in.read(reinterpret_cast<char*>(signature), 8)) return 0;
+  // Chunks before the image data: IHDR, then optional ones (sBIT among them).
+  for (int chunk = 0; chunk < 64; ++chunk) {
+    unsigned char head[8];
+    if (!in.read(reinterpret_cast<char*>(head), 8)) return 0;
+    const std::uint32_t length = BigEndian32(head);
+    const std::string type(reinterpret_cast<const char*>(head + 4), 4);
+    if (type == "IDAT" || type == "IEND" || length > (1u << 24)) return 0;
+    if (type == "sBIT") {
+      unsigned char bits[4] = {0, 0, 0, 0};
+      if (length < 1 || length > 4 || !in.read(reinterpret_cast<char*>(bits), length)) return 0;
+      // Grey: 1 byte; grey + alpha: 2; RGB: 3; RGBA: 4. The colour channels' largest.
+      const int colour = length == 2 ? 1 : std::min<int>(length, 3);
+      return *std::max_element(bits, bits + colour);
+    }
+    in.seekg(length + 4, std::ios::cur);  // data and CRC
+  }
+  return 0;
+}
+
 bool HasImageExtension(const fs::path& path) {
   static const char* kExtensions[] = {".png", ".pgm", ".ppm", ".pnm", ".tif",
                                       ".tiff", ".jpg", ".jpeg"};
@@ -76,7 +113,7 @@ bool HasImageExtension(const fs::path& path) {
 namespace {
 
 // The decoded pixels with every channel of the file, in the file's (RGB) order.
-cv::Mat ReadAllChannels(const fs::path& path) {
+cv::Mat ReadAllChannels(const fs::path& path, SignificantBits* bits) {
   std::error_code ec;
   LN_CHECK_INPUT(fs::is_regular_file(path, ec)) << path.string() << ": no such file";
   LN_CHECK_INPUT(fs::file_size(path, ec) > 0) << path.string() << ": empty file";
@@ -108,14 +145,23 @@ cv::Mat ReadAllChannels(const fs::path& path) {
   const bool ok = in->read_image(0, 0, 0, channels, read_type, raw.data) && !in->has_error();
   LN_CHECK_INPUT(ok) << path.string() << ": truncated or corrupt image (" << OiioError(in.get())
                      << ")";
+  if (bits != nullptr) {
+    *bits = {is8 ? 8 : 16, "image type"};
+    // TIFF (and other formats OIIO reads) give BitsPerSample below the container's 16.
+    const int stored = spec.get_int_attribute("oiio:BitsPerSample", 0);
+    if (stored >= 1 && stored < bits->bits) *bits = {stored, "BitsPerSample"};
+    if (LowerExtension(path) == ".png") {
+      if (const int sbit = PngSignificantBits(path); sbit >= 1 && sbit < bits->bits) *bits = {sbit, "PNG sBIT"};
+    }
+  }
   in->close();
   return raw;
 }
 
 }  // namespace
 
-cv::Mat ReadImage(const fs::path& path) {
-  const cv::Mat raw = ReadAllChannels(path);
+cv::Mat ReadImage(const fs::path& path, SignificantBits* bits) {
+  const cv::Mat raw = ReadAllChannels(path, bits);
   cv::Mat image;
   switch (raw.channels()) {
     case 1: return raw;
@@ -126,15 +172,15 @@ cv::Mat ReadImage(const fs::path& path) {
   return image;
 }
 
-cv::Mat ReadGreyImage(const fs::path& path) {
-  const cv::Mat image = ReadImage(path);
+cv::Mat ReadGreyImage(const fs::path& path, SignificantBits* bits) {
+  const cv::Mat image = ReadImage(path, bits);
   if (image.channels() == 1) return image;
   cv::Mat grey;
   cv::cvtColor(image, grey, cv::COLOR_BGR2GRAY);
   return grey;
 }
 
-void WriteImageAtomic(const fs::path& path, const cv::Mat& image) {
+void WriteImageAtomic(const fs::path& path, const cv::Mat& image, int significant_bits) {
   const std::string ext = LowerExtension(path);
   LN_CHECK(ext == ".png" || ext == ".tif" || ext == ".tiff" || ext == ".pfm")
       << "unsupported output format " << ext;
@@ -143,6 +189,9 @@ void WriteImageAtomic(const fs::path& path, const cv::Mat& image) {
   if (ext == ".png") params = {cv::IMWRITE_PNG_COMPRESSION, 3};
   if (!cv::imencode(ext, image, bytes, params)) {
     throw std::runtime_error(path.string() + ": cannot encode image");
+  }
+  if (ext == ".png" && image.depth() == CV_16U && significant_bits >= 1 && significant_bits < 16) {
+    InsertPngSignificantBits(&bytes, significant_bits, image.channels());
   }
   WriteFileAtomic(path, std::string_view(reinterpret_cast<const char*>(bytes.data()), bytes.size()));
 }

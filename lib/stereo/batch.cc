@@ -145,12 +145,16 @@ json ProcessPair(const BatchOptions& options, const PairFiles& pair, const PairO
                  PairTimings* timings) {
   LN_CHECK_INPUT(pair.problem.empty()) << pair.problem;
   util::Timer timer;
-  const cv::Mat left = io::ReadGreyImage(pair.left);
-  if (auto bad = CheckFrame(options.frame_check, left)) {
+  io::SignificantBits left_bits, right_bits;
+  const cv::Mat left = io::ReadGreyImage(pair.left, &left_bits);
+  const cv::Mat right = io::ReadGreyImage(pair.right, &right_bits);
+  // The grey levels' depth: --bit-depth, else what the files say (the deeper of the two).
+  io::SignificantBits bits = left_bits.bits >= right_bits.bits ? left_bits : right_bits;
+  if (options.matcher.bit_depth > 0) bits = {options.matcher.bit_depth, "--bit-depth"};
+  if (auto bad = CheckFrame(options.frame_check, left, bits.bits)) {
     throw InputError(pair.left.string() + ": " + *bad);
   }
-  const cv::Mat right = io::ReadGreyImage(pair.right);
-  if (auto bad = CheckFrame(options.frame_check, right)) {
+  if (auto bad = CheckFrame(options.frame_check, right, bits.bits)) {
     throw InputError(pair.right.string() + ": " + *bad);
   }
   LN_CHECK_INPUT(left.size() == right.size())
@@ -170,6 +174,7 @@ json ProcessPair(const BatchOptions& options, const PairFiles& pair, const PairO
   timer.Restart();
   NccOptions matcher = options.matcher;
   matcher.num_threads = 0;  // the batch's arena
+  matcher.bit_depth = bits.bits;
   if (window != nullptr) {  // window selection: the band replaces the rows and range
     matcher.min_row = window->window.min_row;
     matcher.max_row = window->window.max_row;
@@ -220,6 +225,7 @@ json ProcessPair(const BatchOptions& options, const PairFiles& pair, const PairO
   sidecar["options"] = options_json;
   sidecar["result"] = result->summary.ToJson();
   if (window != nullptr) sidecar["result"]["window"] = window->ToJson();
+  sidecar["result"]["bit_depth_source"] = bits.source;
   if (!result_extra.is_null()) sidecar["result"].update(result_extra);
   sidecar["result"]["timings_ms"] = {{"read", 1e3 * timings->read_s},
                                      {"match", 1e3 * timings->match_s},

@@ -1,5 +1,6 @@
 #include "stereo/frame_check.h"
 
+#include <algorithm>
 #include <cmath>
 #include <sstream>
 
@@ -20,9 +21,11 @@ nlohmann::json FrameCheckOptions::ToJson() const {
           {"saturated_max_fraction", saturated_max_fraction}};
 }
 
-std::optional<std::string> CheckFrame(const FrameCheckOptions& options, const cv::Mat& image) {
+std::optional<std::string> CheckFrame(const FrameCheckOptions& options, const cv::Mat& image, int bit_depth) {
   LN_CHECK(image.type() == CV_8UC1 || image.type() == CV_16UC1);
-  const double full_scale = image.depth() == CV_8U ? 255.0 : 65535.0;
+  const int type_bits = image.depth() == CV_8U ? 8 : 16;
+  const int bits = bit_depth > 0 ? std::min(bit_depth, type_bits) : type_bits;
+  const double full_scale = static_cast<double>((1u << bits) - 1);
   cv::Scalar mean, stddev;
   cv::meanStdDev(image, mean, stddev);
   const double sigma8 = stddev[0] * 255.0 / full_scale;

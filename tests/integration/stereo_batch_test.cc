@@ -95,6 +95,45 @@ TEST(StereoBatch, MatchesTheTestdataPairsAgainstTheirGroundTruth) {
   }
 }
 
+// A 12-bit camera's pair in 16-bit PNGs whose sBIT chunk says 12: the grey-level thresholds
+// follow the true depth, so the pair matches like its 8-bit version (the paper's sigma_min = 2
+// matters here); read as 16 significant bits the dim frame would be taken for a blank one.
+TEST(StereoBatch, TwelveBitPngPairUsesItsTrueBitDepth) {
+  ScopedTempDir tmp;
+  const fs::path eight = tmp.path() / "eight", twelve = tmp.path() / "twelve";
+  for (const char* side : {"left", "right"}) {
+    fs::create_directories(eight / side);
+    fs::create_directories(twelve / side);
+    const cv::Mat image = cv::imread((TestDataPath("stereo_pairs") / side / "frame0000.png").string(),
+                                     cv::IMREAD_GRAYSCALE);
+    cv::Mat deep;
+    image.convertTo(deep, CV_16U, 4095.0 / 255.0 / 4.0);  // a dim 12-bit exposure: 0..1023 of 4095
+    cv::Mat back;
+    deep.convertTo(back, CV_8U, 255.0 / 4095.0);
+    io::WriteImageAtomic(eight / side / "p.png", back);
+    io::WriteImageAtomic(twelve / side / "p.png", deep, 12);
+  }
+  auto accepted = [&](const fs::path& in, const std::string& name, std::vector<std::string> extra) {
+    std::vector<std::string> args = {in.string(), "-o", (tmp.path() / name).string(), "-q", "--preset", "paper"};
+    args.insert(args.end(), extra.begin(), extra.end());
+    const auto run = RunTool("stereo-batch", args, tmp.path());
+    EXPECT_EQ(run.exit_code, 0) << run.stderr_text;
+    return io::ReadJson(tmp.path() / name / "disparity" / "p.json")["result"];
+  };
+  const nlohmann::json r8 = accepted(eight, "out8", {});
+  const nlohmann::json r12 = accepted(twelve, "out12", {});
+  EXPECT_EQ(r12["bit_depth"], 12);
+  EXPECT_EQ(r12["bit_depth_source"], "PNG sBIT");
+  const double a8 = r8["pixels_accepted"], a12 = r12["pixels_accepted"];
+  EXPECT_GT(a8, 100000);
+  EXPECT_NEAR(a12, a8, 0.02 * a8);
+  const auto as16 = RunTool("stereo-batch", {twelve.string(), "-o", (tmp.path() / "out16").string(), "-q",
+                                             "--preset", "paper", "--bit-depth", "16"},
+                            tmp.path());
+  EXPECT_EQ(as16.exit_code, 4);
+  EXPECT_NE(as16.stderr_text.find("blank frame"), std::string::npos) << as16.stderr_text;
+}
+
 TEST(StereoBatch, ReportsAndSkipsBadPairs) {
   ScopedTempDir tmp;
   const fs::path in = CopyPairs(tmp.path());

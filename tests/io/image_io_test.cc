@@ -107,5 +107,30 @@ TEST(WritePfm, RoundTripsWithInfinityAndMiddleburyLayout) {
   EXPECT_EQ(back.at<float>(1, 2), 2.5f);
 }
 
+// A 12-bit camera's grey levels in 16-bit words: the depth travels in the PNG's sBIT chunk
+// (written and read by the project), and a TIFF's BitsPerSample, and defaults to the container.
+TEST(ReadGreyImage, ReportsSignificantBits) {
+  util::ScopedTempDir tmp;
+  cv::Mat twelve(8, 9, CV_16UC1);
+  cv::randu(twelve, 0, 4096);
+  WriteImageAtomic(tmp.path() / "a.png", twelve, 12);
+  EXPECT_EQ(PngSignificantBits(tmp.path() / "a.png"), 12);
+  SignificantBits bits;
+  const cv::Mat read = ReadGreyImage(tmp.path() / "a.png", &bits);
+  EXPECT_EQ(bits.bits, 12);
+  EXPECT_EQ(bits.source, "PNG sBIT");
+  EXPECT_EQ(cv::countNonZero(read != twelve), 0);  // the chunk is valid: the pixels read back
+  EXPECT_TRUE(PngStructureProblem(tmp.path() / "a.png").empty());
+  WriteImageAtomic(tmp.path() / "b.png", twelve);
+  EXPECT_EQ(PngSignificantBits(tmp.path() / "b.png"), 0);
+  ReadGreyImage(tmp.path() / "b.png", &bits);
+  EXPECT_EQ(bits.bits, 16);
+  EXPECT_EQ(bits.source, "image type");
+  cv::Mat eight(8, 9, CV_8UC1, cv::Scalar(7));
+  WriteImageAtomic(tmp.path() / "c.png", eight, 12);  // ignored for 8-bit data
+  ReadGreyImage(tmp.path() / "c.png", &bits);
+  EXPECT_EQ(bits.bits, 8);
+}
+
 }  // namespace
 }  // namespace lunarnav::io
