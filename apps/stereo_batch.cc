@@ -109,6 +109,9 @@ int main(int argc, char** argv) {
   CLI::Option* rig_option = app.add_option(
       "--rig", rig_path, "rectified rig file (rectify's rig.json): also write xyz/<stem>.exr, vehicle frame");
   app.add_flag("--ply", opt.write_ply, "also write cloud/<stem>.ply (needs --rig)");
+  app.add_flag("--preview", opt.write_preview,
+               "also write preview/<stem>.png: the disparity colour-mapped with a legend, rejected pixels "
+               "marked by reason");
   CLI::Option* sigma_option =
       app.add_option("--xyz-sigma", xyz_sigma,
                      "also write xyz_sigma/<stem>.exr, the X Y Z error of a disparity error of SIGMA px "
@@ -199,6 +202,7 @@ int main(int argc, char** argv) {
     if (opt.rig) dirs += ",xyz";
     if (opt.write_ply) dirs += ",cloud";
     if (opt.xyz_sigma_px) dirs += ",xyz_sigma";
+    if (opt.write_preview) dirs += ",preview";
     LN_LOG(Info) << "outputs in " << output_dir.string() << "/{" << dirs << "}, "
                  << "summary in " << summary.summary_path.string();
     return summary.pairs_failed > 0 ? kExitBatchPartial : kExitOk;

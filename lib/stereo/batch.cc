@@ -19,6 +19,7 @@
 #include "io/json_io.h"
 #include "io/ply_io.h"
 #include "stereo/ncc_matcher.h"
+#include "stereo/preview.h"
 #include "util/check.h"
 #include "util/log.h"
 #include "util/parallel.h"
@@ -64,6 +65,7 @@ bool OutputsComplete(const BatchOptions& batch, const PairOutputPaths& paths, co
   if (batch.rig) files.push_back(paths.xyz);
   if (batch.write_ply) files.push_back(paths.cloud);
   if (batch.xyz_sigma_px) files.push_back(paths.xyz_sigma);
+  if (batch.write_preview) files.push_back(paths.preview);
   std::error_code ec;
   for (const fs::path& p : files) {
     if (!fs::is_regular_file(p, ec)) return false;
@@ -190,6 +192,12 @@ json ProcessPair(const BatchOptions& options, const PairFiles& pair, const PairO
   io::WriteImageAtomic(out.disparity, disparity_pfm);
   io::WriteImageAtomic(out.confidence, result->correlation);
   io::WriteImageAtomic(out.rejections, result->rejection);
+  if (options.write_preview) {
+    const cv::Mat& reference = options.matcher.reference == ReferenceImage::kRight ? right : left;
+    io::WriteImageAtomic(out.preview, DisparityPreview(*result, reference, bits.bits, matcher.step_x_px,
+                                                       matcher.step_y_px, matcher.min_disparity_px,
+                                                       matcher.max_disparity_px));
+  }
   timings->write_s = timer.ElapsedSeconds();
 
   json result_extra;
@@ -222,6 +230,11 @@ json ProcessPair(const BatchOptions& options, const PairFiles& pair, const PairO
                            {"dtype", "uint8"},
                            {"meaning", "rejection code per pixel (docs/formats.md)"}};
   if (options.rig) sidecar["geometry"] = geometry;
+  if (options.write_preview) {
+    sidecar["preview"] = {{"file", fs::relative(out.preview, out.sidecar.parent_path()).string()},
+                          {"meaning", "disparity colour-mapped (Turbo) over the searched range; rejected pixels "
+                                      "in their reason's colour; legend below the image"}};
+  }
   sidecar["options"] = options_json;
   sidecar["result"] = result->summary.ToJson();
   if (window != nullptr) sidecar["result"]["window"] = window->ToJson();
@@ -286,7 +299,7 @@ PairOutputPaths OutputPathsFor(const fs::path& output_dir, const std::string& st
   return {output_dir / "disparity" / (stem + ".pfm"), output_dir / "confidence" / (stem + ".tif"),
           output_dir / "rejections" / (stem + ".png"), output_dir / "disparity" / (stem + ".json"),
           output_dir / "xyz" / (stem + ".exr"),        output_dir / "cloud" / (stem + ".ply"),
-          output_dir / "xyz_sigma" / (stem + ".exr")};
+          output_dir / "xyz_sigma" / (stem + ".exr"), output_dir / "preview" / (stem + ".png")};
 }
 
 std::string SummaryFileName(const BatchOptions& options) {
@@ -365,6 +378,7 @@ BatchSummary RunStereoBatch(const BatchOptions& options, const fs::path& input_d
   if (options.rig) subdirectories.push_back("xyz");
   if (options.write_ply) subdirectories.push_back("cloud");
   if (options.xyz_sigma_px) subdirectories.push_back("xyz_sigma");
+  if (options.write_preview) subdirectories.push_back("preview");
   for (const std::string& sub : subdirectories) {
     io::CreateOutputDirectory(output_dir / sub);
     io::RemoveStaleTempFiles(output_dir / sub);

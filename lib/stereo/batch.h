@@ -31,6 +31,7 @@ struct BatchOptions {
   int shard_count = 1;
   int num_threads = 0;           ///< 0 = all cores.
   bool show_progress = true;     ///< Progress bar on stderr (only when it is a terminal).
+  bool write_preview = false;    ///< Also OUT_DIR/preview/<stem>.png (stereo/preview.h).
 
   /// Rig geometry (issue 3). With a rig (which must be rectified, its rectified size that of
   /// the images), every pair's disparity is triangulated into OUT_DIR/xyz/<stem>.exr.
@@ -84,6 +85,7 @@ struct BatchSummary {
 struct PairOutputPaths {
   std::filesystem::path disparity, confidence, rejections, sidecar;
   std::filesystem::path xyz, cloud, xyz_sigma;
+  std::filesystem::path preview;
 };
 PairOutputPaths OutputPathsFor(const std::filesystem::path& output_dir, const std::string& stem);
 

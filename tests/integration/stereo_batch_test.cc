@@ -91,6 +91,7 @@ TEST(StereoBatch, MatchesTheTestdataPairsAgainstTheirGroundTruth) {
   EXPECT_EQ(summary["options"]["half_window_px"],
             preset == "paper" ? nlohmann::json({25, 17}) : nlohmann::json({3, 3}));
   EXPECT_EQ(summary["options"]["aggregation"], preset == "paper" ? "window" : "semi_global");
+  EXPECT_FALSE(fs::exists(out / "preview"));  // only on request
   EXPECT_EQ(summary["pairs"].size(), 3u);
   }
 }
@@ -121,7 +122,11 @@ TEST(StereoBatch, TwelveBitPngPairUsesItsTrueBitDepth) {
     return io::ReadJson(tmp.path() / name / "disparity" / "p.json")["result"];
   };
   const nlohmann::json r8 = accepted(eight, "out8", {});
-  const nlohmann::json r12 = accepted(twelve, "out12", {});
+  const nlohmann::json r12 = accepted(twelve, "out12", {"--preview"});
+  const cv::Mat preview = cv::imread((tmp.path() / "out12" / "preview" / "p.png").string(), cv::IMREAD_UNCHANGED);
+  EXPECT_EQ(preview.type(), CV_8UC3);
+  EXPECT_EQ(preview.cols, 640);
+  EXPECT_GT(preview.rows, 480);  // the image and its legend
   EXPECT_EQ(r12["bit_depth"], 12);
   EXPECT_EQ(r12["bit_depth_source"], "PNG sBIT");
   const double a8 = r8["pixels_accepted"], a12 = r12["pixels_accepted"];
