@@ -4,23 +4,14 @@
 #include <stdexcept>
 #include <system_error>
 
-#include <OpenImageIO/imageio.h>
 
 #include "io/atomic_file.h"
+#include "io/oiio_module.h"
 #include "util/check.h"
 
 namespace lunarnav::io {
 namespace fs = std::filesystem;
 
-namespace {
-
-std::string OneLine(std::string message, const char* fallback) {
-  if (message.empty()) message = fallback;
-  std::replace(message.begin(), message.end(), '\n', ' ');
-  return message;
-}
-
-}  // namespace
 
 void WriteExrAtomic(const fs::path& path, const cv::Mat& image, const std::vector<std::string>& channel_names,
                     const std::map<std::string, std::string>& attributes) {
@@ -36,28 +27,13 @@ void WriteExrAtomic(const fs::path& path, const cv::Mat& image, const std::vecto
   LN_CHECK_ARG(static_cast<int>(names.size()) == channels)
       << path.string() << ": " << names.size() << " channel names for " << channels << " channels";
 
-  OIIO::ImageSpec spec(image.cols, image.rows, channels, OIIO::TypeDesc::FLOAT);
-  spec.channelnames = names;
-  spec.attribute("compression", "zip");
-  // OpenImageIO stamps files with the time of writing unless told otherwise; an empty stamp
-  // keeps the bytes a function of the data, so reruns and shards give identical files.
-  spec.attribute("DateTime", "");
-  for (const auto& [key, value] : attributes) spec.attribute(key, value);
-
   if (!path.parent_path().empty()) fs::create_directories(path.parent_path());
   const fs::path temp = TempPathFor(path);
-  // The temporary name has no .exr extension: ask for the plugin by its format name.
-  auto out = OIIO::ImageOutput::create("openexr");
-  if (out == nullptr) throw std::runtime_error(path.string() + ": OpenImageIO has no OpenEXR writer");
-  const cv::Mat contiguous = image.isContinuous() ? image : image.clone();
-  const bool ok = out->open(temp.string(), spec) &&
-                  out->write_image(OIIO::TypeDesc::FLOAT, contiguous.ptr<float>()) && out->close();
-  if (!ok) {
-    const std::string reason = OneLine(out->geterror(), "write failed");
-    out.reset();
+  std::string error;
+  if (!internal::Oiio().WriteExr(temp.string(), image, names, attributes, &error)) {
     std::error_code ec;
     fs::remove(temp, ec);
-    throw std::runtime_error(path.string() + ": cannot write EXR (" + reason + ")");
+    throw std::runtime_error(path.string() + ": cannot write EXR (" + error + ")");
   }
   CommitTempFile(temp, path);
 }
@@ -65,24 +41,16 @@ void WriteExrAtomic(const fs::path& path, const cv::Mat& image, const std::vecto
 ExrImage ReadExr(const fs::path& path) {
   std::error_code ec;
   LN_CHECK_INPUT(fs::is_regular_file(path, ec)) << path.string() << ": no such file";
-  auto in = OIIO::ImageInput::open(path.string());
-  LN_CHECK_INPUT(in != nullptr) << path.string() << ": unreadable image ("
-                                << OneLine(OIIO::geterror(), "cannot decode") << ")";
-  const OIIO::ImageSpec& spec = in->spec();
-  LN_CHECK_INPUT(spec.width > 0 && spec.height > 0 && spec.depth == 1 && spec.nchannels >= 1 &&
-                 spec.nchannels <= 4)
-      << path.string() << ": not a 2-D image of 1 to 4 channels";
   ExrImage result;
-  result.pixels.create(spec.height, spec.width, CV_32FC(spec.nchannels));
-  const bool ok = in->read_image(0, 0, 0, spec.nchannels, OIIO::TypeDesc::FLOAT, result.pixels.data) &&
-                  !in->has_error();
-  LN_CHECK_INPUT(ok) << path.string() << ": truncated or corrupt image ("
-                     << OneLine(in->geterror(), "cannot decode") << ")";
-  result.channel_names = spec.channelnames;
-  for (const OIIO::ParamValue& p : spec.extra_attribs) {
-    if (p.type() == OIIO::TypeDesc::STRING) result.attributes[p.name().string()] = p.get_string();
+  std::string error;
+  if (!internal::Oiio().ReadFloat(path.string(), &result.pixels, &result.channel_names, &result.attributes,
+                                  &error)) {
+    const auto colon = error.find(": ");
+    const std::string kind = error.substr(0, colon), reason = error.substr(colon + 2);
+    if (kind == "unreadable") throw InputError(path.string() + ": unreadable image (" + reason + ")");
+    if (kind == "corrupt") throw InputError(path.string() + ": truncated or corrupt image (" + reason + ")");
+    throw InputError(path.string() + ": " + reason);
   }
-  in->close();
   return result;
 }
 

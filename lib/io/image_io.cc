@@ -8,12 +8,12 @@
 #include <memory>
 #include <vector>
 
-#include <OpenImageIO/imageio.h>
 #include <zlib.h>
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
 
 #include "io/atomic_file.h"
+#include "io/oiio_module.h"
 #include "util/check.h"
 
 namespace lunarnav::io {
@@ -27,12 +27,6 @@ std::string LowerExtension(const fs::path& path) {
   return ext;
 }
 
-std::string OiioError(const OIIO::ImageInput* in) {
-  std::string message = in != nullptr ? in->geterror() : OIIO::geterror();
-  if (message.empty()) message = "cannot decode";
-  std::replace(message.begin(), message.end(), '\n', ' ');
-  return message;
-}
 std::uint32_t BigEndian32(const unsigned char* p) {
   return (std::uint32_t{p[0]} << 24) | (std::uint32_t{p[1]} << 16) | (std::uint32_t{p[2]} << 8) | p[3];
 }
@@ -113,48 +107,74 @@ bool HasImageExtension(const fs::path& path) {
 namespace {
 
 // The decoded pixels with every channel of the file, in the file's (RGB) order.
+// Throws the InputError of a module error "<kind>: <reason>".
+[[noreturn]] void ThrowReadError(const fs::path& path, const std::string& error) {
+  const auto colon = error.find(": ");
+  const std::string kind = error.substr(0, colon);
+  const std::string reason = colon == std::string::npos ? error : error.substr(colon + 2);
+  if (kind == "unreadable") throw InputError(path.string() + ": unreadable image (" + reason + ")");
+  if (kind == "corrupt") throw InputError(path.string() + ": truncated or corrupt image (" + reason + ")");
+  throw InputError(path.string() + ": " + reason);
+}
+
+// A PNG decoded by OpenCV (no OpenImageIO to load): the pixels in the file's channel order.
+cv::Mat ReadPng(const fs::path& path) {
+  cv::Mat decoded;
+  try {
+    decoded = cv::imread(path.string(), cv::IMREAD_UNCHANGED);
+  } catch (const cv::Exception& e) {
+    throw InputError(path.string() + ": truncated or corrupt image (" + e.msg + ")");
+  }
+  LN_CHECK_INPUT(!decoded.empty()) << path.string() << ": truncated or corrupt image (cannot decode)";
+  LN_CHECK_INPUT(decoded.depth() == CV_8U || decoded.depth() == CV_16U)
+      << path.string() << ": pixel type is not supported (8- or 16-bit integer images only)";
+  // The colour type in the header (byte 25): 4 = grey + alpha, which OpenCV expands to BGRA.
+  std::ifstream in(path, std::ios::binary);
+  char header[26] = {};
+  in.read(header, sizeof header);
+  const int colour_type = in ? static_cast<unsigned char>(header[25]) : -1;
+  cv::Mat raw;
+  switch (decoded.channels()) {
+    case 1: return decoded;
+    case 3: cv::cvtColor(decoded, raw, cv::COLOR_BGR2RGB); return raw;
+    case 4:
+      if (colour_type == 4) {  // grey + alpha
+        std::vector<cv::Mat> planes;
+        cv::split(decoded, planes);
+        cv::merge(std::vector<cv::Mat>{planes[0], planes[3]}, raw);
+        return raw;
+      }
+      cv::cvtColor(decoded, raw, cv::COLOR_BGRA2RGBA);
+      return raw;
+    default: throw InputError(path.string() + ": " + std::to_string(decoded.channels()) + " channels are not supported");
+  }
+}
+
+// The decoded pixels with every channel of the file, in the file's (RGB) order.
 cv::Mat ReadAllChannels(const fs::path& path, SignificantBits* bits) {
   std::error_code ec;
   LN_CHECK_INPUT(fs::is_regular_file(path, ec)) << path.string() << ": no such file";
   LN_CHECK_INPUT(fs::file_size(path, ec) > 0) << path.string() << ": empty file";
-  if (LowerExtension(path) == ".png") {
+  const bool png = LowerExtension(path) == ".png";
+  cv::Mat raw;
+  int stored_bits = 0;
+  if (png) {
     // libpng prints its own stderr line on a damaged file: find the damage first.
     const std::string problem = PngStructureProblem(path);
     LN_CHECK_INPUT(problem.empty()) << path.string() << ": " << problem;
+    raw = ReadPng(path);
+  } else {
+    std::string error;
+    if (!internal::Oiio().ReadInteger(path.string(), &raw, &stored_bits, &error)) ThrowReadError(path, error);
   }
-  // The stored colour values, not multiplied by alpha (OIIO's default for PNG and TIFF).
-  OIIO::ImageSpec config;
-  config.attribute("oiio:UnassociatedAlpha", 1);
-  auto in = OIIO::ImageInput::open(path.string(), &config);
-  LN_CHECK_INPUT(in != nullptr) << path.string() << ": unreadable image (" << OiioError(nullptr) << ")";
-  const OIIO::ImageSpec& spec = in->spec();
-  LN_CHECK_INPUT(spec.width > 0 && spec.height > 0 && spec.depth == 1)
-      << path.string() << ": not a 2-D image";
-  const auto base = spec.format.basetype;
-  const bool is8 = base == OIIO::TypeDesc::UINT8 || base == OIIO::TypeDesc::INT8;
-  const bool is16 = base == OIIO::TypeDesc::UINT16 || base == OIIO::TypeDesc::INT16;
-  LN_CHECK_INPUT(is8 || is16) << path.string() << ": pixel type " << spec.format.c_str()
-                              << " is not supported (8- or 16-bit integer images only)";
-  const int channels = spec.nchannels;
-  LN_CHECK_INPUT(channels >= 1 && channels <= 4)
-      << path.string() << ": " << channels << " channels are not supported";
-  const int cv_depth = is8 ? CV_8U : CV_16U;
-  cv::Mat raw(spec.height, spec.width, CV_MAKETYPE(cv_depth, channels));
-  const OIIO::TypeDesc read_type = is8 ? OIIO::TypeDesc::UINT8 : OIIO::TypeDesc::UINT16;
-  // A truncated JPEG decodes with grey filler and only a pending error message.
-  const bool ok = in->read_image(0, 0, 0, channels, read_type, raw.data) && !in->has_error();
-  LN_CHECK_INPUT(ok) << path.string() << ": truncated or corrupt image (" << OiioError(in.get())
-                     << ")";
   if (bits != nullptr) {
-    *bits = {is8 ? 8 : 16, "image type"};
+    *bits = {raw.depth() == CV_8U ? 8 : 16, "image type"};
     // TIFF (and other formats OIIO reads) give BitsPerSample below the container's 16.
-    const int stored = spec.get_int_attribute("oiio:BitsPerSample", 0);
-    if (stored >= 1 && stored < bits->bits) *bits = {stored, "BitsPerSample"};
-    if (LowerExtension(path) == ".png") {
+    if (stored_bits >= 1 && stored_bits < bits->bits) *bits = {stored_bits, "BitsPerSample"};
+    if (png) {
       if (const int sbit = PngSignificantBits(path); sbit >= 1 && sbit < bits->bits) *bits = {sbit, "PNG sBIT"};
     }
   }
-  in->close();
   return raw;
 }
 

@@ -1,0 +1,116 @@
+// The OpenImageIO module (liblunarnav_oiio.so): everything the project does with OpenImageIO.
+#include "io/oiio_module.h"
+
+#include <algorithm>
+
+#include <OpenImageIO/imageio.h>
+
+namespace lunarnav::io::internal {
+namespace {
+
+std::string OneLine(std::string message, const char* fallback) {
+  if (message.empty()) message = fallback;
+  std::replace(message.begin(), message.end(), '\n', ' ');
+  return message;
+}
+
+class OiioModuleImpl final : public OiioModule {
+ public:
+  bool ReadInteger(const std::string& path, cv::Mat* pixels, int* bits_per_sample, std::string* error) override {
+    // The stored colour values, not multiplied by alpha (OIIO's default for PNG and TIFF).
+    OIIO::ImageSpec config;
+    config.attribute("oiio:UnassociatedAlpha", 1);
+    auto in = OIIO::ImageInput::open(path, &config);
+    if (in == nullptr) {
+      *error = "unreadable: " + OneLine(OIIO::geterror(), "cannot decode");
+      return false;
+    }
+    const OIIO::ImageSpec& spec = in->spec();
+    if (!(spec.width > 0 && spec.height > 0 && spec.depth == 1)) {
+      *error = "not2d: not a 2-D image";
+      return false;
+    }
+    const auto base = spec.format.basetype;
+    const bool is8 = base == OIIO::TypeDesc::UINT8 || base == OIIO::TypeDesc::INT8;
+    const bool is16 = base == OIIO::TypeDesc::UINT16 || base == OIIO::TypeDesc::INT16;
+    if (!is8 && !is16) {
+      *error = std::string("type: pixel type ") + spec.format.c_str() +
+               " is not supported (8- or 16-bit integer images only)";
+      return false;
+    }
+    const int channels = spec.nchannels;
+    if (channels < 1 || channels > 4) {
+      *error = "channels: " + std::to_string(channels) + " channels are not supported";
+      return false;
+    }
+    pixels->create(spec.height, spec.width, CV_MAKETYPE(is8 ? CV_8U : CV_16U, channels));
+    // A truncated JPEG decodes with grey filler and only a pending error message.
+    const bool ok = in->read_image(0, 0, 0, channels, is8 ? OIIO::TypeDesc::UINT8 : OIIO::TypeDesc::UINT16,
+                                   pixels->data) &&
+                    !in->has_error();
+    if (!ok) {
+      *error = "corrupt: " + OneLine(in->geterror(), "cannot decode");
+      return false;
+    }
+    *bits_per_sample = spec.get_int_attribute("oiio:BitsPerSample", 0);
+    in->close();
+    return true;
+  }
+
+  bool WriteExr(const std::string& path, const cv::Mat& image, const std::vector<std::string>& names,
+                const std::map<std::string, std::string>& attributes, std::string* error) override {
+    OIIO::ImageSpec spec(image.cols, image.rows, image.channels(), OIIO::TypeDesc::FLOAT);
+    spec.channelnames = names;
+    spec.attribute("compression", "zip");
+    // OpenImageIO stamps files with the time of writing unless told otherwise; an empty stamp
+    // keeps the bytes a function of the data, so reruns and shards give identical files.
+    spec.attribute("DateTime", "");
+    for (const auto& [key, value] : attributes) spec.attribute(key, value);
+    // The temporary name has no .exr extension: ask for the plugin by its format name.
+    auto out = OIIO::ImageOutput::create("openexr");
+    if (out == nullptr) {
+      *error = "OpenImageIO has no OpenEXR writer";
+      return false;
+    }
+    const cv::Mat contiguous = image.isContinuous() ? image : image.clone();
+    const bool ok = out->open(path, spec) && out->write_image(OIIO::TypeDesc::FLOAT, contiguous.ptr<float>()) &&
+                    out->close();
+    if (!ok) *error = OneLine(out->geterror(), "write failed");
+    return ok;
+  }
+
+  bool ReadFloat(const std::string& path, cv::Mat* pixels, std::vector<std::string>* names,
+                 std::map<std::string, std::string>* attributes, std::string* error) override {
+    auto in = OIIO::ImageInput::open(path);
+    if (in == nullptr) {
+      *error = "unreadable: " + OneLine(OIIO::geterror(), "cannot decode");
+      return false;
+    }
+    const OIIO::ImageSpec& spec = in->spec();
+    if (!(spec.width > 0 && spec.height > 0 && spec.depth == 1 && spec.nchannels >= 1 && spec.nchannels <= 4)) {
+      *error = "not2d: not a 2-D image of 1 to 4 channels";
+      return false;
+    }
+    pixels->create(spec.height, spec.width, CV_32FC(spec.nchannels));
+    const bool ok =
+        in->read_image(0, 0, 0, spec.nchannels, OIIO::TypeDesc::FLOAT, pixels->data) && !in->has_error();
+    if (!ok) {
+      *error = "corrupt: " + OneLine(in->geterror(), "cannot decode");
+      return false;
+    }
+    *names = spec.channelnames;
+    for (const OIIO::ParamValue& p : spec.extra_attribs) {
+      if (p.type() == OIIO::TypeDesc::STRING) (*attributes)[p.name().string()] = p.get_string();
+    }
+    in->close();
+    return true;
+  }
+};
+
+}  // namespace
+}  // namespace lunarnav::io::internal
+
+extern "C" __attribute__((visibility("default"))) lunarnav::io::internal::OiioModule* lunarnav_oiio_module() {
+  static lunarnav::io::internal::OiioModuleImpl module;
+  return &module;
+}
