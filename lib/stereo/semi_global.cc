@@ -52,7 +52,11 @@ constexpr std::int16_t kSentinel = 0x3000;  // beyond any path cost; + P2 stays 
 // One step of a path: L(p, k) = C(p, k) + min(L(q, k), L(q, k +- 1) + P1, min_k L(q) + P2)
 // - min_k L(q), q the previous pixel on the path; `prev` has sentinels at [-1] and [n].
 // Accumulates L into `sum` (assigns when kFirst) and returns min_k L(p, k).
-template <bool kFirst>
+// What a path step does with the sums: assign its L, add it, or leave them (the caller adds
+// several paths at once, so the large array of sums is read and written once for them).
+enum class SumMode { kAssign, kAdd, kNone };
+
+template <SumMode kMode>
 inline __attribute__((always_inline)) std::int16_t Step(const std::uint8_t* cost, const std::int16_t* prev,
                                                         std::int16_t prev_min, std::int16_t p1,
                                                         std::int16_t p2, int n, std::int16_t* out,
@@ -65,9 +69,9 @@ inline __attribute__((always_inline)) std::int16_t Step(const std::uint8_t* cost
     const std::int16_t v = static_cast<std::int16_t>(cost[k] + best - prev_min);
     out[k] = v;
     new_min = std::min(new_min, v);
-    if constexpr (kFirst) {
+    if constexpr (kMode == SumMode::kAssign) {
       sum[k] = static_cast<std::uint16_t>(v);
-    } else {
+    } else if constexpr (kMode == SumMode::kAdd) {
       sum[k] = static_cast<std::uint16_t>(sum[k] + v);
     }
   }
@@ -75,7 +79,7 @@ inline __attribute__((always_inline)) std::int16_t Step(const std::uint8_t* cost
 }
 
 // The first pixel of a path: L = C.
-template <bool kFirst>
+template <SumMode kMode>
 inline __attribute__((always_inline)) std::int16_t Start(const std::uint8_t* cost, int n, std::int16_t* out,
                                                          std::uint16_t* sum) {
   std::int16_t new_min = kSentinel;
@@ -83,9 +87,9 @@ inline __attribute__((always_inline)) std::int16_t Start(const std::uint8_t* cos
     const std::int16_t v = cost[k];
     out[k] = v;
     new_min = std::min(new_min, v);
-    if constexpr (kFirst) {
+    if constexpr (kMode == SumMode::kAssign) {
       sum[k] = static_cast<std::uint16_t>(v);
-    } else {
+    } else if constexpr (kMode == SumMode::kAdd) {
       sum[k] = static_cast<std::uint16_t>(sum[k] + v);
     }
   }
@@ -140,12 +144,14 @@ LN_SGM_CLONES void HorizontalRow(const SgmInput& in, int j, RowScratch* scratch,
   for (int i = 0; i < cols; ++i) {
     const std::uint8_t* c = scratch->cost.data() + static_cast<std::size_t>(i) * n;
     std::uint16_t* s = row_sum + static_cast<std::size_t>(i) * n;
-    m = i == 0 ? Start<true>(c, n, l[i & 1], s) : Step<true>(c, l[(i & 1) ^ 1], m, p1, p2, n, l[i & 1], s);
+    m = i == 0 ? Start<SumMode::kAssign>(c, n, l[i & 1], s)
+               : Step<SumMode::kAssign>(c, l[(i & 1) ^ 1], m, p1, p2, n, l[i & 1], s);
   }
   for (int i = cols - 1; i >= 0; --i) {
     const std::uint8_t* c = scratch->cost.data() + static_cast<std::size_t>(i) * n;
     std::uint16_t* s = row_sum + static_cast<std::size_t>(i) * n;
-    m = i == cols - 1 ? Start<false>(c, n, l[i & 1], s) : Step<false>(c, l[(i & 1) ^ 1], m, p1, p2, n, l[i & 1], s);
+    m = i == cols - 1 ? Start<SumMode::kAdd>(c, n, l[i & 1], s)
+                      : Step<SumMode::kAdd>(c, l[(i & 1) ^ 1], m, p1, p2, n, l[i & 1], s);
   }
 }
 
@@ -188,9 +194,19 @@ LN_SGM_CLONES void VerticalChunk(const SgmInput& in, int j, bool first, int cur,
     for (int dir = diagonals ? 0 : 1; dir < (diagonals ? 3 : 2); ++dir) {
       const int from = i + dir - 1;  // column of the predecessor in the previous row
       std::int16_t* out = b->Row(dir, cur, i);
-      b->mins[dir][cur][i] = !first && from >= 0 && from < cols
-                                 ? Step<false>(c, b->Row(dir, prev, from), b->mins[dir][prev][from], p1, p2, n, out, s)
-                                 : Start<false>(c, n, out, s);
+      b->mins[dir][cur][i] =
+          !first && from >= 0 && from < cols
+              ? Step<SumMode::kNone>(c, b->Row(dir, prev, from), b->mins[dir][prev][from], p1, p2, n, out, s)
+              : Start<SumMode::kNone>(c, n, out, s);
+    }
+    // The sums read and written once for the pixel's paths.
+    const std::int16_t* v = b->Row(1, cur, i);
+    if (diagonals) {
+      const std::int16_t* a = b->Row(0, cur, i);
+      const std::int16_t* d = b->Row(2, cur, i);
+      for (int k = 0; k < n; ++k) s[k] = static_cast<std::uint16_t>(s[k] + a[k] + v[k] + d[k]);
+    } else {
+      for (int k = 0; k < n; ++k) s[k] = static_cast<std::uint16_t>(s[k] + v[k]);
     }
   }
 }
