@@ -74,6 +74,9 @@ int main(int argc, char** argv) {
   app.add_option("--p2", given.semi_global.penalty_large,
                  "semi-global: penalty of a larger disparity change (census bits)")
       ->default_str(std::to_string(quality.semi_global.penalty_large));
+  app.add_option("--p2-edge", given.semi_global.edge_levels,
+                 "semi-global: P2 falls to P2 E / (E + g) across a grey-level step g (8-bit levels); 0 = constant")
+      ->default_str(std::to_string(quality.semi_global.edge_levels));
   app.add_option("--paths", given.semi_global.num_paths, "semi-global: aggregation directions, 4 or 8")
       ->default_str(std::to_string(quality.semi_global.num_paths));
   app.add_option("--uniqueness", given.semi_global.uniqueness,
@@ -154,6 +157,7 @@ int main(int argc, char** argv) {
     if (given_option("--p1")) m.semi_global.penalty_small = given.semi_global.penalty_small;
     if (given_option("--p2")) m.semi_global.penalty_large = given.semi_global.penalty_large;
     if (given_option("--paths")) m.semi_global.num_paths = given.semi_global.num_paths;
+    if (given_option("--p2-edge")) m.semi_global.edge_levels = given.semi_global.edge_levels;
     if (given_option("--uniqueness")) m.semi_global.uniqueness = given.semi_global.uniqueness;
     if (given_option("--lr-check")) m.semi_global.left_right_max_diff_px = given.semi_global.left_right_max_diff_px;
     if (given_option("--speckle-size")) m.semi_global.speckle_max_size_px = given.semi_global.speckle_max_size_px;

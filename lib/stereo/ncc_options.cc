@@ -48,8 +48,9 @@ NccOptions PresetOptions(const std::string& name) {
   o.ambiguity = 0.0;        // replaced by the lobe-aware test on the aggregated cost
   o.median_size = 3;        // smoothing only: the speckle filter removes isolated matches
   o.semi_global.penalty_small = 15;
-  o.semi_global.penalty_large = 200;
-  o.semi_global.uniqueness = 0.10;
+  o.semi_global.penalty_large = 240;
+  o.semi_global.edge_levels = 16;  // a grey-level step of 16 halves P2
+  o.semi_global.uniqueness = 0.08;
   o.semi_global.left_right_max_diff_px = 3;
   o.semi_global.speckle_max_size_px = 100;
   o.semi_global.speckle_range_px = 2.0;
@@ -96,6 +97,8 @@ void NccOptions::Validate() const {
         << g.census_half_y_px;
     LN_CHECK_ARG(g.penalty_small >= 0 && g.penalty_large >= g.penalty_small && g.penalty_large <= 2000)
         << "penalties: need 0 <= P1 <= P2 <= 2000, got " << g.penalty_small << ", " << g.penalty_large;
+    LN_CHECK_ARG(g.edge_levels >= 0 && g.edge_levels <= 255)
+        << "p2-edge: must be in 0..255 grey levels, got " << g.edge_levels;
     LN_CHECK_ARG(g.num_paths == 4 || g.num_paths == 8) << "paths: must be 4 or 8, got " << g.num_paths;
     LN_CHECK_ARG(std::isfinite(g.uniqueness) && g.uniqueness >= 0 && g.uniqueness <= 1)
         << "uniqueness: must be in [0, 1], got " << g.uniqueness;
@@ -117,6 +120,7 @@ nlohmann::json NccOptions::ToJson() const {
     j["semi_global"] = {{"census_half_window_px", {g.census_half_x_px, g.census_half_y_px}},
                         {"p1", g.penalty_small},
                         {"p2", g.penalty_large},
+                        {"p2_edge_levels", g.edge_levels},
                         {"paths", g.num_paths},
                         {"uniqueness", g.uniqueness},
                         {"left_right_max_diff_px", g.left_right_max_diff_px},

@@ -53,6 +53,10 @@ struct SemiGlobalOptions {
   /// neighbours (slanted surfaces), P2 for a larger one (depth edges). 0 <= P1 <= P2 <= 2000.
   int penalty_small = 7;
   int penalty_large = 100;
+  /// Edge-aware P2: between neighbours whose grey levels (8-bit scale) differ by g, P2 becomes
+  /// max(P1 + 1, P2 e / (e + g)), e this many levels: depth edges, which mostly are intensity
+  /// edges, cost less to cross. 0 = a constant P2.
+  int edge_levels = 0;
   /// Aggregation directions: 4 (horizontal, vertical) or 8 (and the diagonals).
   int num_paths = 8;
   /// Ambiguity on the aggregated cost S: reject when S2 < (1 + uniqueness) S1, S2 the lowest

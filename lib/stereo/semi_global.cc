@@ -122,6 +122,20 @@ inline __attribute__((always_inline)) void FillCosts(const SgmInput& in, int j, 
   }
 }
 
+// P2 between grid pixels whose grey levels are a and b (SgmInput::edge_levels).
+inline std::int16_t EdgePenalty(const SgmInput& in, int a, int b) {
+  if (in.edge_levels <= 0) return static_cast<std::int16_t>(in.penalty_large);
+  const int g = a > b ? a - b : b - a;
+  const int p = in.penalty_large * in.edge_levels / (in.edge_levels + g);
+  return static_cast<std::int16_t>(std::max(p, std::min(in.penalty_small + 1, in.penalty_large)));
+}
+
+// The grey level of grid pixel (i, j) (0 without edge-aware penalties).
+inline int GreyAt(const SgmInput& in, int i, int j) {
+  if (in.ref_grey == nullptr) return 0;
+  return in.ref_grey[static_cast<std::size_t>(in.y0 + j * in.step_y) * in.width + in.x0 + i * in.step_x];
+}
+
 // Per-thread scratch: one row's costs and the horizontal paths' two pixels.
 struct RowScratch {
   std::vector<std::uint8_t> cost;
@@ -144,14 +158,16 @@ LN_SGM_CLONES void HorizontalRow(const SgmInput& in, int j, RowScratch* scratch,
   for (int i = 0; i < cols; ++i) {
     const std::uint8_t* c = scratch->cost.data() + static_cast<std::size_t>(i) * n;
     std::uint16_t* s = row_sum + static_cast<std::size_t>(i) * n;
+    const std::int16_t p2_here = i == 0 ? p2 : EdgePenalty(in, GreyAt(in, i, j), GreyAt(in, i - 1, j));
     m = i == 0 ? Start<SumMode::kAssign>(c, n, l[i & 1], s)
-               : Step<SumMode::kAssign>(c, l[(i & 1) ^ 1], m, p1, p2, n, l[i & 1], s);
+               : Step<SumMode::kAssign>(c, l[(i & 1) ^ 1], m, p1, p2_here, n, l[i & 1], s);
   }
   for (int i = cols - 1; i >= 0; --i) {
     const std::uint8_t* c = scratch->cost.data() + static_cast<std::size_t>(i) * n;
     std::uint16_t* s = row_sum + static_cast<std::size_t>(i) * n;
+    const std::int16_t p2_here = i == cols - 1 ? p2 : EdgePenalty(in, GreyAt(in, i, j), GreyAt(in, i + 1, j));
     m = i == cols - 1 ? Start<SumMode::kAdd>(c, n, l[i & 1], s)
-                      : Step<SumMode::kAdd>(c, l[(i & 1) ^ 1], m, p1, p2, n, l[i & 1], s);
+                      : Step<SumMode::kAdd>(c, l[(i & 1) ^ 1], m, p1, p2_here, n, l[i & 1], s);
   }
 }
 
@@ -180,11 +196,10 @@ struct VerticalRows {
 // The vertical path (and with 8 paths the two diagonals) of the grid pixels [i_begin, i_end)
 // of row j, from the previous row of the direction of travel (none when first); adds to the
 // sums. Columns are independent given the previous row, so chunks of a row run in parallel.
-LN_SGM_CLONES void VerticalChunk(const SgmInput& in, int j, bool first, int cur, int i_begin, int i_end,
+LN_SGM_CLONES void VerticalChunk(const SgmInput& in, int j, bool down, bool first, int cur, int i_begin, int i_end,
                                  std::uint8_t* cost, VerticalRows* b, std::uint16_t* sum) {
   const int n = in.num_disp, cols = in.num_cols;
   const auto p1 = static_cast<std::int16_t>(in.penalty_small);
-  const auto p2 = static_cast<std::int16_t>(in.penalty_large);
   const bool diagonals = in.num_paths == 8;
   const int prev = cur ^ 1;
   FillCosts(in, j, i_begin, i_end, cost);
@@ -194,10 +209,14 @@ LN_SGM_CLONES void VerticalChunk(const SgmInput& in, int j, bool first, int cur,
     for (int dir = diagonals ? 0 : 1; dir < (diagonals ? 3 : 2); ++dir) {
       const int from = i + dir - 1;  // column of the predecessor in the previous row
       std::int16_t* out = b->Row(dir, cur, i);
-      b->mins[dir][cur][i] =
-          !first && from >= 0 && from < cols
-              ? Step<SumMode::kNone>(c, b->Row(dir, prev, from), b->mins[dir][prev][from], p1, p2, n, out, s)
-              : Start<SumMode::kNone>(c, n, out, s);
+      if (!first && from >= 0 && from < cols) {
+        const int j_from = down ? j - 1 : j + 1;
+        const std::int16_t p2_here = EdgePenalty(in, GreyAt(in, i, j), GreyAt(in, from, j_from));
+        b->mins[dir][cur][i] =
+            Step<SumMode::kNone>(c, b->Row(dir, prev, from), b->mins[dir][prev][from], p1, p2_here, n, out, s);
+      } else {
+        b->mins[dir][cur][i] = Start<SumMode::kNone>(c, n, out, s);
+      }
     }
     // The sums read and written once for the pixel's paths.
     const std::int16_t* v = b->Row(1, cur, i);
@@ -313,7 +332,7 @@ void SemiGlobalAggregate(const SgmInput& in, AggregatedCost* out) {
         const int end = static_cast<int>(static_cast<long>(in.num_cols) * (chunk + 1) / chunks);
         RowScratch& s = scratch.local();
         s.Init(in.num_cols, in.num_disp);
-        VerticalChunk(in, j, jj == 0, cur, begin, end, s.cost.data(), &rows, sum);
+        VerticalChunk(in, j, down, jj == 0, cur, begin, end, s.cost.data(), &rows, sum);
       };
       if (chunks == 1) {
         run(0);

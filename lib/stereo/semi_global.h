@@ -32,6 +32,12 @@ struct SgmInput {
   int d_min = 0, num_disp = 1;
   int penalty_small = 8;   ///< P1: a disparity change of one pixel between neighbours.
   int penalty_large = 96;  ///< P2: a larger change.
+  /// Edge-aware P2: with the reference image's grey levels (8-bit scale, same layout as the
+  /// census arrays) and edge_levels > 0, a step between neighbours whose grey levels differ by
+  /// g costs max(P1 + 1, P2 e / (e + g)) instead of P2 (depth edges usually are intensity
+  /// edges). Null or 0 = a constant P2.
+  const std::int16_t* ref_grey = nullptr;
+  int edge_levels = 0;
   int num_paths = 8;       ///< 4 (horizontal and vertical) or 8 (and diagonals).
 };
 

@@ -130,6 +130,12 @@ void MatchSemiGlobal(const NccOptions& options, const cv::Mat& left, const cv::M
   in.penalty_small = g.penalty_small;
   in.penalty_large = g.penalty_large;
   in.num_paths = g.num_paths;
+  cv::Mat grey8;  // the reference's grey levels on the 8-bit scale, for edge-aware P2
+  if (g.edge_levels > 0) {
+    ref.convertTo(grey8, CV_16S, 255.0 / ((1u << bit_depth) - 1.0));
+    in.ref_grey = grey8.ptr<std::int16_t>();
+    in.edge_levels = g.edge_levels;
+  }
   SemiGlobalAggregate(in, &ws.cost);
 
   // Texture (filter 1) over the census window, on the true bit depth's scale.
