@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdint>
+#include <exception>
 #include <limits>
 #include <map>
 #include <mutex>
@@ -10,6 +11,7 @@
 
 #include <opencv2/core.hpp>
 #include <tbb/enumerable_thread_specific.h>
+#include <tbb/parallel_invoke.h>
 
 #include "calib/stereo_rig_io.h"
 #include "calib/triangulation.h"
@@ -147,9 +149,28 @@ json ProcessPair(const BatchOptions& options, const PairFiles& pair, const PairO
                  PairTimings* timings) {
   LN_CHECK_INPUT(pair.problem.empty()) << pair.problem;
   util::Timer timer;
+  // Both images decoded at once (a lone pair has the threads to spare; a batch's pairs keep
+  // them busy anyway). An unreadable file is reported as the first one that failed.
   io::SignificantBits left_bits, right_bits;
-  const cv::Mat left = io::ReadGreyImage(pair.left, &left_bits);
-  const cv::Mat right = io::ReadGreyImage(pair.right, &right_bits);
+  cv::Mat left, right;
+  std::exception_ptr left_error, right_error;
+  tbb::parallel_invoke(
+      [&] {
+        try {
+          left = io::ReadGreyImage(pair.left, &left_bits);
+        } catch (...) {
+          left_error = std::current_exception();
+        }
+      },
+      [&] {
+        try {
+          right = io::ReadGreyImage(pair.right, &right_bits);
+        } catch (...) {
+          right_error = std::current_exception();
+        }
+      });
+  if (left_error) std::rethrow_exception(left_error);
+  if (right_error) std::rethrow_exception(right_error);
   // The grey levels' depth: --bit-depth, else what the files say (the deeper of the two).
   io::SignificantBits bits = left_bits.bits >= right_bits.bits ? left_bits : right_bits;
   if (options.matcher.bit_depth > 0) bits = {options.matcher.bit_depth, "--bit-depth"};
@@ -187,17 +208,22 @@ json ProcessPair(const BatchOptions& options, const PairFiles& pair, const PairO
   timings->match_s = timer.ElapsedSeconds();
 
   timer.Restart();
-  cv::Mat disparity_pfm = result->disparity_px.clone();
-  cv::patchNaNs(disparity_pfm, std::numeric_limits<double>::infinity());
-  io::WriteImageAtomic(out.disparity, disparity_pfm);
-  io::WriteImageAtomic(out.confidence, result->correlation);
-  io::WriteImageAtomic(out.rejections, result->rejection);
-  if (options.write_preview) {
-    const cv::Mat& reference = options.matcher.reference == ReferenceImage::kRight ? right : left;
-    io::WriteImageAtomic(out.preview, DisparityPreview(*result, reference, bits.bits, matcher.step_x_px,
-                                                       matcher.step_y_px, matcher.min_disparity_px,
-                                                       matcher.max_disparity_px));
-  }
+  // The maps are encoded and written side by side.
+  tbb::parallel_invoke(
+      [&] {
+        cv::Mat disparity_pfm = result->disparity_px.clone();
+        cv::patchNaNs(disparity_pfm, std::numeric_limits<double>::infinity());
+        io::WriteImageAtomic(out.disparity, disparity_pfm);
+      },
+      [&] { io::WriteImageAtomic(out.confidence, result->correlation); },
+      [&] { io::WriteImageAtomic(out.rejections, result->rejection); },
+      [&] {
+        if (!options.write_preview) return;
+        const cv::Mat& reference = options.matcher.reference == ReferenceImage::kRight ? right : left;
+        io::WriteImageAtomic(out.preview, DisparityPreview(*result, reference, bits.bits, matcher.step_x_px,
+                                                           matcher.step_y_px, matcher.min_disparity_px,
+                                                           matcher.max_disparity_px));
+      });
   timings->write_s = timer.ElapsedSeconds();
 
   json result_extra;
