@@ -521,6 +521,9 @@ int main(int argc, char** argv) {
                             "truth directory: <stem>.pfm or 16-bit <stem>.png (also under disparity/)")
       ->required();
   disparity_cmd->add_option("--masks", disparity.masks, "directory of <stem>.png masks (nonzero = evaluate)");
+  disparity_cmd->add_option("--mask-min", disparity.options.mask_min_value,
+                            "score mask pixels of at least this value (255: Middlebury 2014's non-occluded)")
+      ->capture_default_str();
   disparity_cmd->add_option("--bad", disparity.thresholds, "bad-pixel thresholds, px (default 0.5 1 2 4)")
       ->delimiter(',');
   disparity_cmd->add_option("--png-scale", disparity.options.png_truth_scale,

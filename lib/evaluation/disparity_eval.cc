@@ -72,6 +72,7 @@ void DisparityEvalOptions::Validate() const {
   LN_CHECK_ARG(!bad_thresholds_px.empty()) << "bad thresholds: need at least one";
   for (double t : bad_thresholds_px) LN_CHECK_ARG(t > 0) << "bad thresholds: must be > 0, got " << t;
   LN_CHECK_ARG(png_truth_scale > 0) << "PNG truth scale: must be > 0";
+  LN_CHECK_ARG(mask_min_value >= 1 && mask_min_value <= 255) << "mask-min: must be in 1..255, got " << mask_min_value;
 }
 
 void DisparityScores::Add(const DisparityScores& other) {
@@ -137,7 +138,7 @@ DisparityScores ScoreDisparity(const cv::Mat& estimate, const cv::Mat& truth, co
     const std::uint8_t* m = mask.empty() ? nullptr : mask.ptr<std::uint8_t>(ty);
     for (int i = 0; i < samples_x; ++i) {
       const int tx = grid.origin_x + i * grid.step_x;
-      if (!std::isfinite(t[tx]) || (m != nullptr && m[tx] == 0)) continue;
+      if (!std::isfinite(t[tx]) || (m != nullptr && m[tx] < options.mask_min_value)) continue;
       ++s.truth_pixels;
       const float estimated = e[full_size ? tx : i];
       if (!std::isfinite(estimated)) continue;

@@ -29,6 +29,10 @@ struct DisparityEvalOptions {
   std::vector<double> bad_thresholds_px = {0.5, 1.0, 2.0, 4.0};
   /// 16-bit PNG truth holds disparity * scale, 0 = no truth (KITTI's 256).
   double png_truth_scale = 256.0;
+  /// A mask pixel is scored when its value is at least this: 1 = any nonzero value; 255 =
+  /// the non-occluded pixels of Middlebury 2014's masks (255 non-occluded, 128 occluded,
+  /// 0 unknown). In 1..255.
+  int mask_min_value = 1;
   void Validate() const;
 };
 

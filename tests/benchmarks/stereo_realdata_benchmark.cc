@@ -119,17 +119,15 @@ struct MethodScores {
   std::vector<double> seconds;  // per pair: the median over the repeats
 };
 
-// The mask: Middlebury's 255 = non-occluded (128 occluded, 0 unknown); none for KITTI.
-cv::Mat ReadMask(const Pair& p) {
-  if (p.mask.empty()) return {};
-  cv::Mat m = io::ReadGreyImage(p.mask);
-  return m == 255;
-}
+// The mask: Middlebury's 255 = non-occluded (128 occluded, 0 unknown; scored with
+// mask_min_value 255); none for KITTI.
+cv::Mat ReadMask(const Pair& p) { return p.mask.empty() ? cv::Mat() : io::ReadGreyImage(p.mask); }
 
 void Score(const cv::Mat& estimate, const Pair& p, const Dataset& d, MethodScores* out) {
   evaluation::DisparityEvalOptions options;
   options.bad_thresholds_px = {1.0, 2.0, 3.0};
   options.png_truth_scale = d.png_truth_scale;
+  options.mask_min_value = 255;
   const cv::Mat truth = evaluation::ReadTruthDisparity(p.truth, d.png_truth_scale);
   out->scores.Add(evaluation::ScoreDisparity(estimate, truth, ReadMask(p), {}, options));
 }

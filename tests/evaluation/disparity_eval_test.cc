@@ -43,6 +43,31 @@ TEST(ScoreDisparity, MatchesHandCountedErrors) {
   EXPECT_DOUBLE_EQ(s.MeanAbsErrorPx(), (0.25 + 0.75 + 1.5 + 3 + 5) / 8);
   EXPECT_DOUBLE_EQ(s.RmsErrorPx(), std::sqrt((0.0625 + 0.5625 + 2.25 + 9 + 25) / 8));
   EXPECT_NEAR(s.DensityPct(), 100.0 * 8 / 9, 1e-12);
+  // KITTI's D1: error > 3 px and > 5 % of 10: only the 5 px error (3 px is not above 3).
+  EXPECT_EQ(s.d1_outliers, 1);
+  EXPECT_DOUBLE_EQ(s.D1Pct(), 100.0 / 8);
+  EXPECT_DOUBLE_EQ(s.D1OrMissingPct(), 100.0 * 2 / 9);
+}
+
+// D1's relative part: at a true disparity of 100 an error of 4 px is within 5 %.
+TEST(ScoreDisparity, D1NeedsBothTheAbsoluteAndTheRelativeError) {
+  EXPECT_FALSE(IsD1Outlier(4.0, 100.0));
+  EXPECT_TRUE(IsD1Outlier(5.5, 100.0));
+  EXPECT_FALSE(IsD1Outlier(3.0, 10.0));
+  EXPECT_TRUE(IsD1Outlier(3.01, 10.0));
+}
+
+// Middlebury 2014's masks: 255 non-occluded, 128 occluded, 0 unknown.
+TEST(ScoreDisparity, MaskMinimumSelectsMiddleburysNonOccludedPixels) {
+  const cv::Mat truth(1, 3, CV_32FC1, cv::Scalar(20));
+  const cv::Mat estimate = (cv::Mat_<float>(1, 3) << 20, 30, 40);
+  const cv::Mat mask = (cv::Mat_<std::uint8_t>(1, 3) << 255, 128, 0);
+  DisparityEvalOptions options;
+  EXPECT_EQ(ScoreDisparity(estimate, truth, mask, {}, options).truth_pixels, 2);
+  options.mask_min_value = 255;
+  const DisparityScores nonocc = ScoreDisparity(estimate, truth, mask, {}, options);
+  EXPECT_EQ(nonocc.truth_pixels, 1);
+  EXPECT_EQ(nonocc.bad[0], 0);
 }
 
 TEST(ScoreDisparity, SamplesTheTruthOnTheSubsamplingGrid) {
