@@ -169,8 +169,11 @@ cv::Mat ReadAllChannels(const fs::path& path, SignificantBits* bits) {
   }
   if (bits != nullptr) {
     *bits = {raw.depth() == CV_8U ? 8 : 16, "image type"};
-    // TIFF (and other formats OIIO reads) give BitsPerSample below the container's 16.
-    if (stored_bits >= 1 && stored_bits < bits->bits) *bits = {stored_bits, "BitsPerSample"};
+    // A TIFF of 12 (or 10, ...) bits per sample is read rescaled to the full 16 bits, so its
+    // values do span the container: nothing to correct.
+    if (stored_bits >= 1 && stored_bits < bits->bits) {
+      bits->source = "image type (a " + std::to_string(stored_bits) + "-bit file, read rescaled)";
+    }
     if (png) {
       if (const int sbit = PngSignificantBits(path); sbit >= 1 && sbit < bits->bits) *bits = {sbit, "PNG sBIT"};
     }

@@ -9,8 +9,10 @@
 namespace lunarnav::io {
 
 /// How many bits of an image's grey levels carry data, and where that came from: a 12-bit
-/// camera's 0..4095 stored in 16-bit words has 12 ("PNG sBIT" or "BitsPerSample" when the file
-/// says so; otherwise the container's 8 or 16, "image type").
+/// camera's 0..4095 stored in 16-bit words has 12 ("PNG sBIT" when the file says so);
+/// otherwise the container's 8 or 16 ("image type"). A TIFF of 12 bits per sample is read
+/// rescaled to 0..65535, so it counts as 16. Data stored without either (0..4095 in a plain
+/// 16-bit file) needs the user's word (stereo-batch --bit-depth).
 struct SignificantBits {
   int bits = 8;
   std::string source = "image type";

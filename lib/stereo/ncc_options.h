@@ -80,7 +80,8 @@ struct NccOptions {
   Aggregation aggregation = Aggregation::kWindow;
   SemiGlobalOptions semi_global;
   /// Significant bits of the grey levels: 8 for 8-bit images; for 16-bit images the depth the
-  /// camera delivered (PNG sBIT, TIFF BitsPerSample), 16 when unknown. 0 = from the image type.
+  /// camera delivered (a PNG's sBIT, or the user's --bit-depth), 16 when unknown. 0 = from
+  /// the image type.
   /// Every grey-level threshold (min_sigma here, the frame checks) is given for 8-bit data
   /// and scaled by (2^bits - 1) / 255.
   int bit_depth = 0;

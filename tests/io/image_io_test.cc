@@ -108,7 +108,7 @@ TEST(WritePfm, RoundTripsWithInfinityAndMiddleburyLayout) {
 }
 
 // A 12-bit camera's grey levels in 16-bit words: the depth travels in the PNG's sBIT chunk
-// (written and read by the project), and a TIFF's BitsPerSample, and defaults to the container.
+// (written and read by the project), and defaults to the container.
 TEST(ReadGreyImage, ReportsSignificantBits) {
   util::ScopedTempDir tmp;
   cv::Mat twelve(8, 9, CV_16UC1);
