@@ -93,7 +93,7 @@ int main(int argc, char** argv) {
                  "semi-global: disparity step, px, that disconnects a region")
       ->default_str(std::to_string(quality.semi_global.speckle_range_px));
   app.add_option("--bit-depth", given.bit_depth,
-                 "significant bits of 16-bit images (default: PNG sBIT / TIFF BitsPerSample, else 16)");
+                 "significant bits of 16-bit images (default: a PNG's sBIT, else 16)");
   CLI::Option* disparity_option =
       app.add_option("--disparity", disparity, "disparity range MIN:MAX, pixels, inclusive")
           ->capture_default_str();

@@ -14,6 +14,7 @@
 #include <vector>
 
 #include <nlohmann/json.hpp>
+#include <zlib.h>
 #include <opencv2/core.hpp>
 #include <opencv2/imgcodecs.hpp>
 
@@ -137,6 +138,30 @@ TEST(StereoBatch, TwelveBitPngPairUsesItsTrueBitDepth) {
                             tmp.path());
   EXPECT_EQ(as16.exit_code, 4);
   EXPECT_NE(as16.stderr_text.find("blank frame"), std::string::npos) << as16.stderr_text;
+}
+
+// The paper preset is the paper's matcher, bit for bit: the CRC-32 of its disparity,
+// confidence and rejection maps on the testdata pairs, recorded from the build before the
+// presets existed (commit b28f09d).
+TEST(StereoBatch, PaperPresetKeepsThePaperMatchersOutputsBitForBit) {
+  ScopedTempDir tmp;
+  const fs::path out = tmp.path() / "out";
+  const auto run = RunTool("stereo-batch", {TestDataPath("stereo_pairs").string(), "-o", out.string(), "-q",
+                                            "--preset", "paper"},
+                           tmp.path());
+  ASSERT_EQ(run.exit_code, 0) << run.stderr_text;
+  uLong crc = crc32(0L, Z_NULL, 0);
+  for (const char* stem : kStems) {
+    const cv::Mat maps[3] = {
+        io::ReadPfm(out / "disparity" / (std::string(stem) + ".pfm")),
+        cv::imread((out / "confidence" / (std::string(stem) + ".tif")).string(), cv::IMREAD_UNCHANGED),
+        cv::imread((out / "rejections" / (std::string(stem) + ".png")).string(), cv::IMREAD_UNCHANGED)};
+    for (const cv::Mat& m : maps) {
+      ASSERT_TRUE(m.isContinuous());
+      crc = crc32(crc, m.data, static_cast<uInt>(m.total() * m.elemSize()));
+    }
+  }
+  EXPECT_EQ(crc, 0x337fae43uL) << std::hex << crc;
 }
 
 TEST(StereoBatch, ReportsAndSkipsBadPairs) {
