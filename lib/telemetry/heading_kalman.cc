@@ -31,6 +31,7 @@ void HeadingKalmanOptions::Validate() const {
                std::isfinite(gyro_scale_walk_per_sqrt_s))
       << "heading filter: gyro scale sigma must be in [0, 0.5) and its walk >= 0";
   LN_CHECK_ARG(std::isfinite(initial_heading_deg)) << "initial heading: not finite";
+  LN_CHECK_ARG(bias_min_samples >= 1) << "heading filter: bias_min_samples must be >= 1";
 }
 
 nlohmann::json HeadingKalmanOptions::ToJson() const {
@@ -39,7 +40,8 @@ nlohmann::json HeadingKalmanOptions::ToJson() const {
           {"accel_gate_dps2", accel_gate_dps2},     {"gate_gain", gate_gain},
           {"gate_smoothing_s", gate_smoothing_s},       {"gyro_scale_sigma", gyro_scale_sigma},
           {"gyro_scale_walk_per_sqrt_s", gyro_scale_walk_per_sqrt_s},
-          {"estimate_gyro_bias", estimate_gyro_bias}, {"initial_heading_deg", initial_heading_deg}};
+          {"estimate_gyro_bias", estimate_gyro_bias}, {"bias_min_samples", bias_min_samples},
+          {"zero_rate_when_stationary", zero_rate_when_stationary}, {"initial_heading_deg", initial_heading_deg}};
 }
 
 HeadingKalman::HeadingKalman(const HeadingKalmanOptions& options, double first_compass_rad) : o_(options) {
@@ -100,11 +102,23 @@ HeadingKalman::Output HeadingKalman::Update(double t_s, double compass_rad, doub
   // Gyro: measures (1 + s) x the rate (after removing the bias); linearised (EKF).
   if (!std::isnan(gyro_radps)) {
     if (o_.estimate_gyro_bias && stationary) {
+      if (!was_stationary_) {  // a new stationary period
+        ++bias_periods_;
+        period_sum_ = 0;
+        period_count_ = 0;
+      }
       bias_sum_ += gyro_radps;
       ++bias_count_;
-      bias_ = bias_sum_ / bias_count_;
+      period_sum_ += gyro_radps;
+      ++period_count_;
+      // The first period's mean from its first sample; a later one's once it has enough
+      // samples (the previous bias until then).
+      if (period_count_ >= o_.bias_min_samples || bias_periods_ == 1) {
+        bias_ = period_sum_ / static_cast<double>(period_count_);
+      }
     }
-    const double rate = gyro_radps - gyro_bias_radps();
+    was_stationary_ = stationary;
+    const double rate = stationary && o_.zero_rate_when_stationary ? 0.0 : gyro_radps - gyro_bias_radps();
     if (std::isnan(gate_time_) || o_.gate_smoothing_s == 0) {
       gate_accel_ = std::isnan(gate_time_) || t_s <= gate_time_ ? 0.0 : (rate - gate_rate_) / (t_s - gate_time_);
       gate_rate_ = rate;

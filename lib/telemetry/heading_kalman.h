@@ -34,8 +34,15 @@ struct HeadingKalmanOptions {
   /// again after the turn, corrects both the heading and s. 0 = no scale state. >= 0.
   double gyro_scale_sigma = 0.02;
   double gyro_scale_walk_per_sqrt_s = 1e-4;  ///< Random walk of s (temperature drift). >= 0.
-  /// Gyro bias: estimated as the mean gyro reading while the wheels stand still (stationary).
+  /// Gyro bias: estimated as the mean gyro reading while the wheels stand still (stationary),
+  /// over the latest stationary period once it has bias_min_samples readings (a MEMS gyro's
+  /// bias wanders: each stop measures it afresh), over all of them before.
   bool estimate_gyro_bias = true;
+  int bias_min_samples = 20;            ///< >= 1.
+  /// While stationary the heading rate is known to be 0 (a rover does not turn with its
+  /// wheels still): the gyro's reading is replaced by that, so the heading does not wander
+  /// on the gyro's noise during stops.
+  bool zero_rate_when_stationary = true;
   double initial_heading_deg = 0.0;     ///< Used only when there is no compass.
   void Validate() const;
   nlohmann::json ToJson() const;
@@ -83,6 +90,8 @@ class HeadingKalman {
   double gyro_scale_error() const { return xs_; }
   double gyro_scale_sigma() const;
   int compass_updates() const { return compass_updates_; }
+  long stationary_samples() const { return bias_count_; }
+  int stationary_periods() const { return bias_periods_; }
   int gyro_updates() const { return gyro_updates_; }
 
  private:
@@ -97,7 +106,11 @@ class HeadingKalman {
   bool started_ = false;
   double bias_sum_ = 0;
   long bias_count_ = 0;
-  double bias_ = 0;  // bias_sum_ / bias_count_, 0 before the first stationary sample
+  double bias_ = 0;  // the bias used, 0 before the first stationary sample
+  int bias_periods_ = 0;
+  bool was_stationary_ = false;
+  double period_sum_ = 0;
+  long period_count_ = 0;
   double gate_rate_ = 0, gate_accel_ = 0, gate_time_;
   // The gate smoothing's alpha for the last few intervals (time stamps in tenths of a second
   // give a handful of distinct binary differences): alpha_[i] belongs to alpha_dt_[i].

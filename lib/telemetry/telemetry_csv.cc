@@ -288,6 +288,7 @@ struct TelemetryReader::Impl {
   std::vector<int> role;  // per column: -2 time, -1 unused, else a channel
   ShortRowLayout layout;  // the same, for ParseShortRow
   int time_column = -1;
+  double seconds_per_unit = 1.0;  // of the time column (the sensor model's time_units)
   std::vector<Channel> missing_columns;
   std::vector<std::string> unused_columns;
   std::array<bool, kNumChannels> has{};
@@ -310,6 +311,7 @@ struct TelemetryReader::Impl {
 
   // Header: the first line that is neither blank nor a comment.
   void ReadHeader(const SensorModel& model) {
+    seconds_per_unit = SecondsPer(model.time_units);
     const std::string name = source.string();
     std::string_view line;
     bool have_header = false;
@@ -426,7 +428,7 @@ struct TelemetryReader::Impl {
         if (trimmed.empty() || trimmed.front() == '#') continue;
         ParseGeneralRow(line);
       }
-      t[rows] = row[time_column];
+      t[rows] = row[time_column] * seconds_per_unit;
       for (const auto& [c, column] : columns) column[rows] = row[c];
       line_of[rows] = line_number;
       size = base + ++rows;
