@@ -77,6 +77,21 @@ Eigen::Isometry3d RigidAlignment(const std::vector<Eigen::Isometry3d>& from,
   return t;
 }
 
+// The same in the horizontal plane: rotation about z and translation in x and y.
+Eigen::Isometry3d RigidAlignment2d(const std::vector<Eigen::Isometry3d>& from,
+                                   const std::vector<Eigen::Isometry3d>& to) {
+  Eigen::Matrix2Xd a(2, from.size()), b(2, to.size());
+  for (std::size_t i = 0; i < from.size(); ++i) {
+    a.col(i) = from[i].translation().head<2>();
+    b.col(i) = to[i].translation().head<2>();
+  }
+  const Eigen::Matrix3d m = Eigen::umeyama(a, b, false);
+  Eigen::Isometry3d t = Eigen::Isometry3d::Identity();
+  t.linear().topLeftCorner<2, 2>() = m.topLeftCorner<2, 2>();
+  t.translation().head<2>() = m.topRightCorner<2, 1>();
+  return t;
+}
+
 }  // namespace
 
 std::string ToString(Alignment alignment) {
@@ -85,15 +100,16 @@ std::string ToString(Alignment alignment) {
     case Alignment::kStart: return "start";
     case Alignment::kOrigin: return "origin";
     case Alignment::kRigid: return "rigid";
+    case Alignment::kRigid2d: return "rigid-2d";
   }
   return "?";
 }
 
 Alignment AlignmentFromString(const std::string& text) {
-  for (Alignment a : {Alignment::kNone, Alignment::kStart, Alignment::kOrigin, Alignment::kRigid}) {
+  for (Alignment a : {Alignment::kNone, Alignment::kStart, Alignment::kOrigin, Alignment::kRigid, Alignment::kRigid2d}) {
     if (text == ToString(a)) return a;
   }
-  throw std::invalid_argument("alignment: none, start, origin or rigid, got '" + text + "'");
+  throw std::invalid_argument("alignment: none, start, origin, rigid or rigid-2d, got '" + text + "'");
 }
 
 void TrajectoryEvalOptions::Validate() const {
@@ -175,11 +191,16 @@ TrajectoryErrors EvaluateTrajectory(const std::vector<StampedPose>& estimate,
     case Alignment::kStart: align.translation() = ref[0].translation() - est[0].translation(); break;
     case Alignment::kOrigin: align = ref[0] * est[0].inverse(); break;
     case Alignment::kRigid: align = RigidAlignment(est, ref); break;
+    case Alignment::kRigid2d: align = RigidAlignment2d(est, ref); break;
   }
   std::vector<double> ape_t, ape_r;
   for (std::size_t i = 0; i < est.size(); ++i) {
     const Eigen::Isometry3d e = ref[i].inverse() * (align * est[i]);
-    ape_t.push_back(e.translation().norm());
+    if (options.alignment == Alignment::kRigid2d) {  // horizontal error
+      ape_t.push_back(((align * est[i]).translation() - ref[i].translation()).head<2>().norm());
+    } else {
+      ape_t.push_back(e.translation().norm());
+    }
     ape_r.push_back(AngleDeg(e.linear()));
   }
   errors.ape_translation_m = ErrorStats::Of(std::move(ape_t));
