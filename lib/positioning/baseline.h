@@ -41,6 +41,7 @@ class PlainDeadReckoner {
   std::array<bool, 4> wheels_;
   bool gyro_;
   int wheel_count_ = 0;
+  double inverse_wheel_count_ = 0;
   std::array<double, 4> metres_per_count_{}, period_{}, last_count_{}, travel_m_{};
   std::array<bool, 4> have_count_{};
   double gyro_radians_at_zero_ = 0, gyro_radians_per_count_ = 0;

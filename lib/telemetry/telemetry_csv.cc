@@ -428,10 +428,13 @@ struct TelemetryReader::Impl {
         if (trimmed.empty() || trimmed.front() == '#') continue;
         ParseGeneralRow(line);
       }
-      t[rows] = row[time_column] * seconds_per_unit;
+      t[rows] = row[time_column];
       for (const auto& [c, column] : columns) column[rows] = row[c];
       line_of[rows] = line_number;
       size = base + ++rows;
+    }
+    if (seconds_per_unit != 1.0) {  // time stamps in ms, us or ns: to seconds
+      for (std::size_t k = 0; k < rows; ++k) t[k] *= seconds_per_unit;
     }
     return rows;
   }
