@@ -41,9 +41,13 @@ PlainDeadReckoner::PlainDeadReckoner(const telemetry::SensorModel& model, const 
       const double d2 = d * d;
       const double c = 1.0 - d2 * (0.5 - d2 * (1.0 / 24.0)), s = d * (1.0 - d2 * (1.0 / 6.0));
       const double x = dir_x_ * c + dir_y_ * s, y = dir_y_ * c - dir_x_ * s;
-      const double renorm = 1.5 - 0.5 * (x * x + y * y);  // back onto the unit circle
-      dir_x_ = x * renorm;
-      dir_y_ = y * renorm;
+      dir_x_ = x;
+      dir_y_ = y;
+      if (++rotations_ % 64 == 0) {  // back onto the unit circle (each rotation errs by < 1e-12)
+        const double renorm = 1.5 - 0.5 * (x * x + y * y);
+        dir_x_ = x * renorm;
+        dir_y_ = y * renorm;
+      }
     } else {
       dir_x_ = std::sin(pose_.heading_rad);
       dir_y_ = std::cos(pose_.heading_rad);
@@ -62,7 +66,10 @@ void PlainDeadReckoner::Step(double t_s, const std::array<double, 4>& encoder_co
   }
   // Wheels: unwrapped travel (a step of more than half the counter is a wrap); whether any
   // count changed.
+  // (The sum in a local: the counts might alias a member sum, which the compiler would then
+  // chain from wheel to wheel through a store and a load.)
   bool moved = false, sampled = false;
+  double travel_sum = travel_sum_m_;
   for (int w = 0; w < 4; ++w) {
     const double count = encoder_counts[w];
     if (!wheels_[w] || std::isnan(count)) continue;
@@ -72,11 +79,12 @@ void PlainDeadReckoner::Step(double t_s, const std::array<double, 4>& encoder_co
       moved = moved || d != 0;
       const double half = 0.5 * period_[w];
       d -= period_[w] * (static_cast<double>(d > half) - static_cast<double>(d < -half));
-      travel_m_[w] += d * metres_per_count_[w];
+      travel_sum += d * metres_per_count_[w];
     }
     have_count_[w] = true;
     last_count_[w] = count;
   }
+  travel_sum_m_ = travel_sum;
   if (moved) {
     still_since_t_ = t_s;
     if (!bias_frozen_) [[unlikely]] {
@@ -121,12 +129,13 @@ void PlainDeadReckoner::Step(double t_s, const std::array<double, 4>& encoder_co
   // Position: at rows with encoder samples, the wheels' mean travel since the last update
   // along the mean of the last and this direction.
   if (sampled && wheel_count_ > 0) {
-    double sum = 0;
-    for (int w = 0; w < 4; ++w) sum += travel_m_[w];  // 0 for wheels not used
-    const double mean = sum * inverse_wheel_count_;
+    // (Scalars throughout: pairs read back whole after being stored apart cannot be
+    // forwarded from the store buffer, which cost more than the rest of the step.)
+    const double mean = travel_sum * inverse_wheel_count_;
     const double d = mean - mean_travel_m_;
-    pose_.x_m += d * 0.5 * (prev_dir_x_ + dir_x_);
-    pose_.y_m += d * 0.5 * (prev_dir_y_ + dir_y_);
+    const double half_d = 0.5 * d;
+    pose_.x_m += half_d * prev_dir_x_ + half_d * dir_x_;
+    pose_.y_m += half_d * prev_dir_y_ + half_d * dir_y_;
     distance_m_ += std::abs(d);
     mean_travel_m_ = mean;
     prev_dir_x_ = dir_x_;

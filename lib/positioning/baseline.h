@@ -42,7 +42,8 @@ class PlainDeadReckoner {
   bool gyro_;
   int wheel_count_ = 0;
   double inverse_wheel_count_ = 0;
-  std::array<double, 4> metres_per_count_{}, period_{}, last_count_{}, travel_m_{};
+  std::array<double, 4> metres_per_count_{}, period_{}, last_count_{};
+  double travel_sum_m_ = 0;  // the wheels' travel, summed
   std::array<bool, 4> have_count_{};
   double gyro_radians_at_zero_ = 0, gyro_radians_per_count_ = 0;
   double stationary_min_s_;
@@ -52,6 +53,7 @@ class PlainDeadReckoner {
   double mean_travel_m_ = 0;        // at the last position update
   double dir_x_ = 0, dir_y_ = 1;    // sin and cos of pose_.heading_rad
   double prev_dir_x_ = 0, prev_dir_y_ = 1;  // at the last row with encoder samples
+  unsigned rotations_ = 0;
   double still_since_t_ = 0;        // wheels unchanged since
   bool moved_ever_ = false;
   double bias_sum_ = 0;
