@@ -30,7 +30,8 @@ void PosfilterOptions::Validate() const {
   LN_CHECK_ARG(cutoff_hz > 0 && std::isfinite(cutoff_hz)) << "cutoff: must be > 0 Hz";
   LN_CHECK_ARG(stationary_min_s > 0) << "stationary time: must be > 0";
   LN_CHECK_ARG(block_rows >= 1) << "block rows: must be >= 1";
-  LN_CHECK_ARG(baseline_interval_s > 0 && baseline_drift_fraction > 0) << "baseline: interval and drift must be > 0";
+  LN_CHECK_ARG(baseline_interval_s > 0 && baseline_drift_fraction > 0 && baseline_heading_drift_dps >= 0)
+      << "baseline: interval and drift fraction must be > 0, heading drift >= 0";
   dead_reckoning.Validate();
 }
 
@@ -44,7 +45,8 @@ nlohmann::json PosfilterOptions::ToJson() const {
                     {"window_s", dead_reckoning.slip_window_s},
                     {"resolution_counts", dead_reckoning.slip_resolution_counts}}},
           {"stationary_min_s", stationary_min_s},
-          {"baseline", {{"interval_s", baseline_interval_s}, {"drift_fraction", baseline_drift_fraction}}}};
+          {"baseline", {{"interval_s", baseline_interval_s}, {"drift_fraction", baseline_drift_fraction},
+                        {"heading_drift_dps", baseline_heading_drift_dps}}}};
 }
 
 namespace {
@@ -271,6 +273,12 @@ PosfilterResult Run(ScreenedRows& input, const std::string& source, const teleme
     // Only observable states are estimated: the gyro's scale needs a heading reference.
     telemetry::HeadingKalmanOptions kalman_options = options.kalman;
     if (!have_compass) kalman_options.gyro_scale_sigma = 0;
+    // The gyro's noise from the sensor file, when stated.
+    const telemetry::ChannelModel& gyro_model = model[Channel::kGyroZ];
+    if (gyro_model.noise_rms > 0) {
+      kalman_options.gyro_sigma_dps =
+          gyro_model.units == "rad/s" ? gyro_model.noise_rms * 180.0 / M_PI : gyro_model.noise_rms;
+    }
     // The heading rate changes as fast as the vehicle can turn: with its angular acceleration
     // stated, the rate state may change by that much per sample interval (one sigma), so that
     // an abrupt turn is followed, not lagged (a lagging rate would be taken for scale error).
@@ -407,15 +415,19 @@ PosfilterResult Run(ScreenedRows& input, const std::string& source, const teleme
   r.baseline_bias_known = baseline.gyro_bias_known();
   r.baseline_end_difference_m = std::hypot(r.motion.last_pose.x_m - r.baseline_last_pose.x_m,
                                            r.motion.last_pose.y_m - r.baseline_last_pose.y_m);
-  r.baseline_expected_drift_m = options.baseline_drift_fraction * std::max(r.motion.distance_m, r.baseline_distance_m);
+  const double path_m = std::max(r.motion.distance_m, r.baseline_distance_m);
+  const double duration_s = r.screened.rows == 0 ? 0.0 : r.screened.last_t_s - r.screened.first_t_s;
+  const double heading_drift_rad =
+      std::min(options.baseline_heading_drift_dps * M_PI / 180.0 * duration_s, M_PI / 2);
+  r.baseline_expected_drift_m = path_m * (options.baseline_drift_fraction + 0.5 * heading_drift_rad);
   if (r.baseline_end_difference_m > r.baseline_expected_drift_m) {
-    char text[320];
+    char text[400];
     std::snprintf(text, sizeof(text),
                   "the filtered trajectory ends %.2f m from the plain baseline's end, more than the %.2f m the two "
-                  "may drift apart (%.0f %% of %.1f m): check the screening counts and the heading filter's states "
-                  "(docs/posfilter.md, \"Baseline\")",
+                  "may drift apart (%.0f %% of %.1f m, and %.1f deg of gyro drift in %.0f s): check the screening "
+                  "counts and the heading filter's states (docs/posfilter.md, \"Baseline\")",
                   r.baseline_end_difference_m, r.baseline_expected_drift_m, 100 * options.baseline_drift_fraction,
-                  std::max(r.motion.distance_m, r.baseline_distance_m));
+                  path_m, heading_drift_rad * 180 / M_PI, duration_s);
     r.warnings.push_back(text);
   }
   for (const telemetry::ScreenedLog::Share& w : r.screened.Warnings()) r.warnings.push_back(w.Message());

@@ -44,10 +44,13 @@ struct PosfilterOptions {
   /// The plain dead-reckoning baseline (PlainDeadReckoner) is output every this many seconds
   /// (and at the last row). > 0.
   double baseline_interval_s = 1.0;
-  /// The filtered and the baseline trajectory are expected to part by at most this share of
-  /// the path length at the end (both drift; odometry and a debiased gyro drift by a few %
-  /// of the distance): beyond it posfilter warns. > 0.
+  /// The filtered and the baseline trajectory are expected to part at the end by at most
+  /// baseline_drift_fraction of the path length D (odometry drifts by a few % of the
+  /// distance), plus the baseline's heading drift, a debiased gyro's drift rate times the
+  /// duration T (at most 90 deg), over half the path: D (fraction + min(rate T, pi/2) / 2).
+  /// Beyond it posfilter warns. > 0 and >= 0.
   double baseline_drift_fraction = 0.05;
+  double baseline_heading_drift_dps = 0.05;
   /// Rows read and screened at a time (memory and speed only: the results do not depend on
   /// it). >= 1.
   std::size_t block_rows = 1024;

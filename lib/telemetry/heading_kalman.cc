@@ -31,7 +31,8 @@ void HeadingKalmanOptions::Validate() const {
                std::isfinite(gyro_scale_walk_per_sqrt_s))
       << "heading filter: gyro scale sigma must be in [0, 0.5) and its walk >= 0";
   LN_CHECK_ARG(std::isfinite(initial_heading_deg)) << "initial heading: not finite";
-  LN_CHECK_ARG(bias_min_samples >= 1) << "heading filter: bias_min_samples must be >= 1";
+  LN_CHECK_ARG(gyro_bias_walk_dps_per_sqrt_s >= 0 && std::isfinite(gyro_bias_walk_dps_per_sqrt_s))
+      << "heading filter: the gyro bias walk must be >= 0";
 }
 
 nlohmann::json HeadingKalmanOptions::ToJson() const {
@@ -40,7 +41,7 @@ nlohmann::json HeadingKalmanOptions::ToJson() const {
           {"accel_gate_dps2", accel_gate_dps2},     {"gate_gain", gate_gain},
           {"gate_smoothing_s", gate_smoothing_s},       {"gyro_scale_sigma", gyro_scale_sigma},
           {"gyro_scale_walk_per_sqrt_s", gyro_scale_walk_per_sqrt_s},
-          {"estimate_gyro_bias", estimate_gyro_bias}, {"bias_min_samples", bias_min_samples},
+          {"estimate_gyro_bias", estimate_gyro_bias}, {"gyro_bias_walk_dps_per_sqrt_s", gyro_bias_walk_dps_per_sqrt_s},
           {"zero_rate_when_stationary", zero_rate_when_stationary}, {"initial_heading_deg", initial_heading_deg}};
 }
 
@@ -102,20 +103,19 @@ HeadingKalman::Output HeadingKalman::Update(double t_s, double compass_rad, doub
   // Gyro: measures (1 + s) x the rate (after removing the bias); linearised (EKF).
   if (!std::isnan(gyro_radps)) {
     if (o_.estimate_gyro_bias && stationary) {
-      if (!was_stationary_) {  // a new stationary period
-        ++bias_periods_;
-        period_sum_ = 0;
-        period_count_ = 0;
+      if (!was_stationary_) ++bias_periods_;  // a new stationary period
+      if (bias_count_ == 0) {  // the first reading: the estimate, with the gyro's noise
+        bias_ = gyro_radps;
+        bias_var_ = r_gyro_;
+      } else {  // the estimate has wandered since its last update; this reading corrects it
+        const double q = o_.gyro_bias_walk_dps_per_sqrt_s * kDeg;
+        bias_var_ += q * q * std::max(0.0, t_s - bias_t_);
+        const double gain = bias_var_ / (bias_var_ + r_gyro_);
+        bias_ += gain * (gyro_radps - bias_);
+        bias_var_ *= 1.0 - gain;
       }
-      bias_sum_ += gyro_radps;
+      bias_t_ = t_s;
       ++bias_count_;
-      period_sum_ += gyro_radps;
-      ++period_count_;
-      // The first period's mean from its first sample; a later one's once it has enough
-      // samples (the previous bias until then).
-      if (period_count_ >= o_.bias_min_samples || bias_periods_ == 1) {
-        bias_ = period_sum_ / static_cast<double>(period_count_);
-      }
     }
     was_stationary_ = stationary;
     const double rate = stationary && o_.zero_rate_when_stationary ? 0.0 : gyro_radps - gyro_bias_radps();

@@ -141,6 +141,29 @@ TEST(RunPosfilter, WithoutACompassTheGyroScaleIsHeldAtItsPrior) {
   EXPECT_NE(r.states["gyro_bias"].get<std::string>().find("estimated from"), std::string::npos);
 }
 
+// The baseline integrates the same counts: on a clean log it ends near the filtered
+// trajectory and near the truth; a budget too small for the two's difference is a warning.
+TEST(RunPosfilter, TheBaselineEndsNearTheFilteredTrajectoryAndPartingIsAWarning) {
+  const SkidSteerDrive drive(5);
+  PosfilterOptions options;
+  const PosfilterResult r = RunPosfilter(drive.log, drive.model, options);
+  ASSERT_FALSE(r.baseline_trajectory.empty());
+  EXPECT_EQ(r.baseline_trajectory.back().t_s, r.motion.last_pose.t_s);
+  EXPECT_NEAR(r.baseline_trajectory[1].t_s - r.baseline_trajectory[0].t_s, options.baseline_interval_s, 1e-9);
+  EXPECT_TRUE(r.baseline_bias_known);
+  EXPECT_LT(std::hypot(r.baseline_last_pose.x_m - drive.x_m, r.baseline_last_pose.y_m - drive.y_m),
+            0.03 * r.baseline_distance_m);
+  EXPECT_LT(r.baseline_end_difference_m, r.baseline_expected_drift_m);
+  EXPECT_TRUE(r.warnings.empty());
+  EXPECT_FALSE(r.SummaryJson()["baseline"]["parted"].get<bool>());
+  options.baseline_drift_fraction = 1e-6;
+  options.baseline_heading_drift_dps = 0;
+  const PosfilterResult tight = RunPosfilter(drive.log, drive.model, options);
+  ASSERT_EQ(tight.warnings.size(), 1u);
+  EXPECT_NE(tight.warnings[0].find("from the plain baseline's end"), std::string::npos);
+  EXPECT_TRUE(tight.SummaryJson()["baseline"]["parted"].get<bool>());
+}
+
 TEST(RunPosfilter, AGyroSampleRejectedMidTurnLeavesTheTurn) {
   // Row 50 * 10 is 2 s into the first arc (turning at 30 deg/s); row 50 * 14 + 10 is 0.2 s into
   // the first turn in place (45 deg/s).
