@@ -48,9 +48,10 @@ struct PosfilterOptions {
   /// baseline_drift_fraction of the path length D (odometry drifts by a few % of the
   /// distance), plus the baseline's heading drift, a debiased gyro's drift rate times the
   /// duration T (at most 90 deg), over half the path: D (fraction + min(rate T, pi/2) / 2).
+  /// The rate allows a bias measured over a few seconds' stop with a noisy gyro, and its walk.
   /// Beyond it posfilter warns. > 0 and >= 0.
   double baseline_drift_fraction = 0.05;
-  double baseline_heading_drift_dps = 0.05;
+  double baseline_heading_drift_dps = 0.1;
   /// Rows read and screened at a time (memory and speed only: the results do not depend on
   /// it). >= 1.
   std::size_t block_rows = 1024;
