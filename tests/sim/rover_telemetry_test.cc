@@ -168,6 +168,33 @@ TEST(SimulateRoverTelemetry, SkidSteerPresetsHaveTheirSensorsRatesAndModel) {
   EXPECT_THROW(SimulateRoverTelemetry(options), std::invalid_argument);
 }
 
+// Faults on the skid-steer preset land on channels it has and on rows where they have a
+// sample (the encoders are sampled in one row of five, and there is no compass).
+TEST(SimulateRoverTelemetry, FaultsOnTheSkidSteerPresetLandOnSamples) {
+  RoverTelemetryOptions options;
+  options.preset = TelemetryPreset::kSkidSteer;
+  for (const char* text : {"spikes*8", "stuck:enc_fl*1", "out-of-range*3", "spike:enc_rr@30.01"}) {
+    for (FaultSpec& spec : ParseFaultSpecs(text)) options.faults.push_back(spec);
+  }
+  const RoverTelemetry run = SimulateRoverTelemetry(options);
+  ASSERT_EQ(run.faults.size(), 13u);
+  for (const InjectedFault& f : run.faults) {
+    ASSERT_GE(f.channel, 0);
+    EXPECT_TRUE(run.sensor_model.channels[f.channel].present) << f.spec;
+    EXPECT_NE(f.original, kEmptyCell) << f.spec << " at row " << f.row;
+    EXPECT_NE(run.raw.counts[f.row][f.channel], kEmptyCell) << f.spec;
+  }
+  // The one at 30.01 s went to the encoder's next sample, at 30.1 s.
+  bool at_time = false;
+  for (const InjectedFault& f : run.faults) {
+    if (f.spec == "spike:enc_rr@30.01") {
+      at_time = true;
+      EXPECT_EQ(f.t_us, 30100000);
+    }
+  }
+  EXPECT_TRUE(at_time);
+}
+
 TEST(SimulateRoverTelemetry, RejectsBadOptions) {
   RoverTelemetryOptions options;
   options.bits = 5;
