@@ -894,9 +894,18 @@ std::string ScreenedLog::Share::Message() const {
   std::ostringstream m;
   m.imbue(std::locale::classic());
   m.precision(3);
+  const char* check = "";
+  switch (rule) {
+    case ScreeningRule::kRateLimit: check = "the sensor's noise_rms and the vehicle's limits in the sensor file"; break;
+    case ScreeningRule::kOutOfRange:
+    case ScreeningRule::kAtRail: check = "the channel's bits, valid_range, scale and offset (and --bits)"; break;
+    case ScreeningRule::kSpike: check = "the sensor's noise and wiring"; break;
+    case ScreeningRule::kStuck: check = "the sensor and the channel it is compared with"; break;
+    default: check = "the sensor file"; break;
+  }
   m << "screening rule " << ToString(rule) << " rejected " << rejected << " " << ToString(static_cast<Channel>(channel))
-    << " samples (" << 100.0 * share << " %); check the sensor's noise_rms and the vehicle's limits in the sensor "
-    << "file (docs/posfilter.md, \"When a rule rejects too much\")";
+    << " samples (" << 100.0 * share << " %); check " << check
+    << " (docs/posfilter.md, \"When a rule rejects too much\")";
   return m.str();
 }
 
