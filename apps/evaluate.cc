@@ -249,7 +249,9 @@ int RunTrajectory(const TrajectoryArgs& args, int argc, char** argv) {
                  {"ape_rmse_m", e.ape_translation_m.rmse},
                  {"ape_max_m", e.ape_translation_m.max},
                  {"poses_matched", e.poses_matched}};
-    if (reference != nullptr) per[name]["ape_mean_ratio"] = e.ape_translation_m.mean / reference->ape_translation_m.mean;
+    if (reference != nullptr) {
+      per[name]["ape_mean_ratio"] = e.ape_translation_m.mean / reference->ape_translation_m.mean;
+    }
   }
   summary["estimates"] = per;
   summary["timings_s"] = {{"total", timer.ElapsedSeconds()}};

@@ -77,18 +77,29 @@ Eigen::Isometry3d RigidAlignment(const std::vector<Eigen::Isometry3d>& from,
   return t;
 }
 
-// The same in the horizontal plane: rotation about z and translation in x and y.
+// The same in the horizontal plane: rotation about z and translation in x and y, in closed
+// form (the angle that best turns the centred points onto each other is the atan2 of their
+// summed cross and dot products).
 Eigen::Isometry3d RigidAlignment2d(const std::vector<Eigen::Isometry3d>& from,
                                    const std::vector<Eigen::Isometry3d>& to) {
-  Eigen::Matrix2Xd a(2, from.size()), b(2, to.size());
+  Eigen::Vector2d from_mean = Eigen::Vector2d::Zero(), to_mean = Eigen::Vector2d::Zero();
   for (std::size_t i = 0; i < from.size(); ++i) {
-    a.col(i) = from[i].translation().head<2>();
-    b.col(i) = to[i].translation().head<2>();
+    from_mean += from[i].translation().head<2>();
+    to_mean += to[i].translation().head<2>();
   }
-  const Eigen::Matrix3d m = Eigen::umeyama(a, b, false);
+  from_mean /= static_cast<double>(from.size());
+  to_mean /= static_cast<double>(to.size());
+  double cross = 0, dot = 0;
+  for (std::size_t i = 0; i < from.size(); ++i) {
+    const Eigen::Vector2d a = from[i].translation().head<2>() - from_mean;
+    const Eigen::Vector2d b = to[i].translation().head<2>() - to_mean;
+    cross += a.x() * b.y() - a.y() * b.x();
+    dot += a.dot(b);
+  }
+  const Eigen::Rotation2Dd rotation(std::atan2(cross, dot));
   Eigen::Isometry3d t = Eigen::Isometry3d::Identity();
-  t.linear().topLeftCorner<2, 2>() = m.topLeftCorner<2, 2>();
-  t.translation().head<2>() = m.topRightCorner<2, 1>();
+  t.linear().topLeftCorner<2, 2>() = rotation.toRotationMatrix();
+  t.translation().head<2>() = to_mean - rotation * from_mean;
   return t;
 }
 
@@ -106,7 +117,8 @@ std::string ToString(Alignment alignment) {
 }
 
 Alignment AlignmentFromString(const std::string& text) {
-  for (Alignment a : {Alignment::kNone, Alignment::kStart, Alignment::kOrigin, Alignment::kRigid, Alignment::kRigid2d}) {
+  for (Alignment a :
+       {Alignment::kNone, Alignment::kStart, Alignment::kOrigin, Alignment::kRigid, Alignment::kRigid2d}) {
     if (text == ToString(a)) return a;
   }
   throw std::invalid_argument("alignment: none, start, origin, rigid or rigid-2d, got '" + text + "'");

@@ -28,7 +28,8 @@ SensorErrorOptions SensorErrorOptions::Scaled(double scale) const {
   SensorErrorOptions o = *this;
   for (double* v : {&o.compass_bias_deg, &o.compass_noise_deg, &o.compass_wander_deg, &o.compass_turn_deg_per_dps,
                     &o.compass_turn_accel_deg_per_dps2, &o.compass_accel_deg_per_mps2, &o.gyro_bias_dps,
-                    &o.gyro_bias_walk_dps_per_sqrt_s, &o.gyro_noise_dps, &o.gyro_bias_instability_dps, &o.gyro_scale_error, &o.tilt_bias_deg,
+                    &o.gyro_bias_walk_dps_per_sqrt_s, &o.gyro_noise_dps,
+                    &o.gyro_bias_instability_dps, &o.gyro_scale_error, &o.tilt_bias_deg,
                     &o.tilt_noise_deg, &o.tilt_vibration_deg_per_mps, &o.tilt_accel_gain}) {
     *v *= scale;
   }
@@ -37,7 +38,8 @@ SensorErrorOptions SensorErrorOptions::Scaled(double scale) const {
 
 void SensorErrorOptions::Validate() const {
   for (double v : {compass_bias_deg, compass_noise_deg, compass_wander_deg, compass_transient_tau_s, gyro_bias_dps,
-                   gyro_bias_walk_dps_per_sqrt_s, gyro_noise_dps, gyro_scale_error, gyro_bias_instability_dps, tilt_bias_deg, tilt_noise_deg,
+                   gyro_bias_walk_dps_per_sqrt_s, gyro_noise_dps, gyro_scale_error, gyro_bias_instability_dps,
+                   tilt_bias_deg, tilt_noise_deg,
                    tilt_vibration_deg_per_mps, tilt_accel_gain, tilt_tau_s}) {
     LN_CHECK_ARG(v >= 0 && std::isfinite(v)) << "sensor errors: magnitudes and lags must be finite and >= 0";
   }
@@ -267,7 +269,8 @@ RawTelemetry SimulateSensors(const std::vector<RoverSample>& samples, const Sens
     for (int i = 0; i < 3; ++i) {
       tilt_transient[i] = LagStep(tilt_transient[i], e.tilt_accel_gain * accel_deg[i], e.tilt_tau_s, dt);
       const double reading = truth_deg[i] + bias_deg[i] + tilt_transient[i] + noise_deg * tilt_rng[i].Normal();
-      row[Index(tilts[i])] = model[tilts[i]].present ? DigitiseAnalog(model[tilts[i]], reading * kDeg, false) : kEmptyCell;
+      row[Index(tilts[i])] =
+          model[tilts[i]].present ? DigitiseAnalog(model[tilts[i]], reading * kDeg, false) : kEmptyCell;
     }
     raw.counts.push_back(row);
   }

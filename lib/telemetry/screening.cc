@@ -925,8 +925,9 @@ nlohmann::json ScreenedLog::ReportJson() const {
     if (samples[c] > 0) samples_json[ToString(static_cast<Channel>(c))] = samples[c];
     if (rate_limit[c] > 0) {
       const bool gyro = static_cast<Channel>(c) == Channel::kGyroZ;
-      limits[ToString(static_cast<Channel>(c))] = {{gyro ? "max_change_dps2" : "max_rate_dps", rate_limit[c] * 180 / M_PI},
-                                                   {gyro ? "slack_dps" : "slack_deg", rate_slack[c] * 180 / M_PI}};
+      limits[ToString(static_cast<Channel>(c))] = {
+          {gyro ? "max_change_dps2" : "max_rate_dps", rate_limit[c] * 180 / M_PI},
+          {gyro ? "slack_dps" : "slack_deg", rate_slack[c] * 180 / M_PI}};
     }
   }
   report["samples"] = samples_json;

@@ -139,7 +139,9 @@ TEST(EvaluateTrajectory, GivesEachEstimatesErrorAndItsRatioToTheReference) {
   EXPECT_NEAR(summary["estimates"]["filtered"]["ape_mean_ratio"].get<double>(), 0.0, 1e-2);
   EXPECT_EQ(summary["estimates"]["baseline"]["ape_mean_ratio"].get<double>(), 1.0);
   EXPECT_GT(summary["estimates"]["baseline"]["ape_mean_m"].get<double>(), 0.0);
-  for (const char* ext : {".csv", ".json", ".md"}) EXPECT_TRUE(fs::exists(eval / (std::string("trajectory_errors") + ext)));
+  for (const char* ext : {".csv", ".json", ".md"}) {
+    EXPECT_TRUE(fs::exists(eval / (std::string("trajectory_errors") + ext)));
+  }
   // A malformed estimate or alignment is a usage error.
   EXPECT_EQ(RunTool("evaluate", {"trajectory", "no-name", "--truth", (tmp.path() / "truth.csv").string(), "-o",
                                  eval.string()}, tmp.path()).exit_code, 2);

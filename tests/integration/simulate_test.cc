@@ -191,8 +191,9 @@ TEST(Simulate, OnTheSkidSteerPresetsPosfilterIsNoWorseThanThePlainBaseline) {
     Posfilter(sim, pf, tmp.path());
     const testing::ToolRun run =
         RunTool("evaluate",
-                {"trajectory", "filtered=" + (pf / "trajectory.csv").string(), "baseline=" + (pf / "baseline.csv").string(),
-                 "--truth", (sim / "truth.csv").string(), "-o", ev.string(), "-q"},
+                {"trajectory", "filtered=" + (pf / "trajectory.csv").string(),
+                 "baseline=" + (pf / "baseline.csv").string(), "--truth", (sim / "truth.csv").string(), "-o",
+                 ev.string(), "-q"},
                 tmp.path());
     ASSERT_EQ(run.exit_code, 0) << run.stderr_text;
     const nlohmann::json evaluation = io::ReadJson(ev / "summary.json");

@@ -116,8 +116,9 @@ struct SkidSteerDrive {
       }
       log.t_s.push_back(t);
       log.line.push_back(k + 2);
-      const telemetry::Channel wheels[4] = {telemetry::Channel::kEncoderFrontLeft, telemetry::Channel::kEncoderFrontRight,
-                                            telemetry::Channel::kEncoderRearLeft, telemetry::Channel::kEncoderRearRight};
+      using telemetry::Channel;
+      const Channel wheels[4] = {Channel::kEncoderFrontLeft, Channel::kEncoderFrontRight, Channel::kEncoderRearLeft,
+                                 Channel::kEncoderRearRight};
       for (int i = 0; i < 4; ++i) {
         const telemetry::ChannelModel& m = model[wheels[i]];
         const double counts = m.sign * std::floor(travel[i] / std::abs(m.MetresPerCount()));
