@@ -5,8 +5,6 @@
 
 #include <array>
 
-#include <nlohmann/json.hpp>
-
 #include "positioning/dead_reckoning.h"
 #include "telemetry/sensor_model.h"
 
@@ -16,8 +14,8 @@ namespace lunarnav::positioning {
 /// wheels' travel (encoder counters unwrapped), the heading the gyro integrated at its own
 /// rate (trapezoids between its samples) minus its bias, the bias being the mean reading over
 /// the first stationary period (the wheels still for stationary_min_s or more, from the start
-/// when the log starts so); x += D sin(psi), y += D cos(psi) with
-/// psi the mean heading over the step, z = 0. Without a gyro the heading stays at the start's.
+/// when the log starts so); x += D sin(psi), y += D cos(psi) with psi the mean heading over
+/// the step, z = 0. Without a gyro the heading stays at the start's.
 /// Cheap: a few additions a row and no trigonometric call for small heading changes.
 class PlainDeadReckoner {
  public:
