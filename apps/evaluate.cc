@@ -201,6 +201,73 @@ int RunTrials(const TrialsArgs& args, int argc, char** argv) {
   return kExitOk;
 }
 
+// `evaluate trajectory`: several estimates of one run against its truth, and each one's mean
+// position error as a multiple of a reference estimate's (posfilter's baseline.csv).
+struct TrajectoryArgs {
+  std::vector<std::string> estimates;  // NAME=PATH
+  fs::path truth, output_dir;
+  std::string alignment = "rigid-2d";
+  std::string reference = "baseline";
+  evaluation::TrajectoryEvalOptions options;
+};
+
+int RunTrajectory(const TrajectoryArgs& args, int argc, char** argv) {
+  util::Timer timer;
+  evaluation::TrajectoryEvalOptions options = args.options;
+  options.alignment = evaluation::AlignmentFromString(args.alignment);
+  options.Validate();
+  std::vector<std::pair<std::string, fs::path>> specs;
+  for (const std::string& text : args.estimates) {
+    const auto eq = text.find('=');
+    if (eq == std::string::npos || eq == 0 || eq + 1 == text.size()) {
+      throw std::invalid_argument("ESTIMATE: expected NAME=TRAJECTORY, got '" + text + "'");
+    }
+    specs.emplace_back(text.substr(0, eq), text.substr(eq + 1));
+  }
+  io::CreateOutputDirectory(args.output_dir);
+  const auto truth = evaluation::ReadPoses(args.truth);
+  std::vector<std::pair<std::string, evaluation::TrajectoryErrors>> errors;
+  json inputs = json::array();
+  for (const auto& [name, path] : specs) {
+    errors.emplace_back(name, evaluation::EvaluateTrajectory(evaluation::ReadPoses(path), truth, options));
+    inputs.push_back({{"name", name}, {"trajectory", path.string()}});
+  }
+  const evaluation::Table table = evaluation::TrajectoryErrorsTable(errors, options);
+  evaluation::WriteTable(args.output_dir, "trajectory_errors", table);
+  json summary = SummaryHead("trajectory", argc, argv);
+  summary["inputs"] = {{"truth", args.truth.string()}, {"estimates", inputs}};
+  summary["options"] = {{"alignment", args.alignment}, {"reference", args.reference},
+                        {"rpe_delta_m", options.rpe_delta_m}, {"drift_segments_m", options.drift_segments_m}};
+  summary["table"] = table.ToJson();
+  json per = json::object();
+  const evaluation::TrajectoryErrors* reference = nullptr;
+  for (const auto& [name, e] : errors) {
+    if (name == args.reference) reference = &e;
+  }
+  for (const auto& [name, e] : errors) {
+    per[name] = {{"ape_mean_m", e.ape_translation_m.mean},
+                 {"ape_rmse_m", e.ape_translation_m.rmse},
+                 {"ape_max_m", e.ape_translation_m.max},
+                 {"poses_matched", e.poses_matched}};
+    if (reference != nullptr) {
+      per[name]["ape_mean_ratio"] = e.ape_translation_m.mean / reference->ape_translation_m.mean;
+    }
+  }
+  summary["estimates"] = per;
+  summary["timings_s"] = {{"total", timer.ElapsedSeconds()}};
+  io::WriteJsonAtomic(args.output_dir / "summary.json", summary);
+  for (const auto& [name, e] : errors) {
+    std::ostringstream line;
+    line << "evaluate trajectory: " << name << ": mean position error " << e.ape_translation_m.mean << " m ("
+         << args.alignment << " alignment)";
+    if (reference != nullptr && name != args.reference) {
+      line << ", " << e.ape_translation_m.mean / reference->ape_translation_m.mean << " x " << args.reference << "'s";
+    }
+    LN_LOG(Info) << line.str();
+  }
+  return kExitOk;
+}
+
 struct CorrelationArgs {
   fs::path left, right, output_dir;
   std::vector<int> pixel;
@@ -542,7 +609,7 @@ int main(int argc, char** argv) {
   trials_cmd->add_option("--min-distance", trials.options.min_distance_m,
                          "trials shorter than this (m) get no distance error in percent")
       ->capture_default_str();
-  trials_cmd->add_option("--align", trials.alignment, "APE alignment: none, start, origin or rigid")
+  trials_cmd->add_option("--align", trials.alignment, "APE alignment: none, start, origin, rigid or rigid-2d")
       ->capture_default_str();
   trials_cmd->add_option("--rpe-delta", trials.trajectory_options.rpe_delta_m,
                          "RPE pose pairs this far apart along the true path (m)")
@@ -635,8 +702,25 @@ int main(int argc, char** argv) {
       ->capture_default_str();
   boxes_cmd->add_option("-o,--output", boxes.output_dir, "output directory (created)")->required();
 
+  TrajectoryArgs trajectory;
+  CLI::App* trajectory_cmd = app.add_subcommand(
+      "trajectory",
+      "trajectories of one run against its truth: APE, RPE, drift, and each one's mean position error\n"
+      "as a multiple of the reference's (posfilter's trajectory.csv against its baseline.csv)");
+  trajectory_cmd->add_option("ESTIMATE", trajectory.estimates, "NAME=TRAJECTORY (.csv: lunarnav; else TUM)")
+      ->required();
+  trajectory_cmd->add_option("--truth", trajectory.truth, "ground truth (e.g. simulate's truth.csv)")->required();
+  trajectory_cmd->add_option("--align", trajectory.alignment, "alignment: none, start, origin, rigid or rigid-2d")
+      ->capture_default_str();
+  trajectory_cmd->add_option("--reference", trajectory.reference, "the estimate the others are compared with")
+      ->capture_default_str();
+  trajectory_cmd->add_option("--rpe-delta", trajectory.options.rpe_delta_m, "RPE pose pairs this far apart (m)")
+      ->capture_default_str();
+  trajectory_cmd->add_option("-o,--output", trajectory.output_dir, "output directory (created)")->required();
+
   if (const auto exit_code = util::ParseCommandLine(&app, argc, argv, quiet)) return *exit_code;
   return util::RunMain([&]() -> int {
+    if (trajectory_cmd->parsed()) return RunTrajectory(trajectory, argc, argv);
     if (disparity_cmd->parsed()) return RunDisparity(disparity, argc, argv);
     if (trials_cmd->parsed()) return RunTrials(trials, argc, argv);
     if (correlation_cmd->parsed()) return RunCorrelation(correlation, argc, argv);

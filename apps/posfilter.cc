@@ -24,7 +24,8 @@ int main(int argc, char** argv) {
   CLI::App app{
       "Position estimation of Krotkov & Hebert (1995) sec. 4: screens raw encoder, compass,\n"
       "inclinometer and gyro counts, filters them, and dead-reckons a 3-D trajectory.\n"
-      "Writes OUT_DIR/trajectory.csv, trajectory.tum and summary.json.\n"
+      "Writes OUT_DIR/trajectory.csv, trajectory.tum, baseline.csv (plain dead reckoning of the same\n"
+      "counts, for comparison) and summary.json.\n"
       "Exit codes: 0 ok, 1 internal error, 2 usage, 3 bad input."};
   positioning::PosfilterOptions opt;  // defaults live in the library
   fs::path telemetry_csv, sensors, output_dir, screening_log, streams;
@@ -64,11 +65,17 @@ int main(int argc, char** argv) {
     // The log is read, screened, filtered and written a block at a time; each row goes to the
     // files as it is computed.
     positioning::TrajectoryWriter writer(output_dir / "trajectory.csv", output_dir / "trajectory.tum");
+    positioning::TrajectoryWriter baseline_writer(output_dir / "baseline.csv", {});
+    double baseline_written_t = -1e300;
     std::optional<positioning::HeadingStreamsWriter> streams_writer;
     if (!streams.empty()) streams_writer.emplace(streams, model);
     const positioning::PoseSink sink = [&](const positioning::PoseOutput& row) {
       writer.Add(row.pose, row.enu_from_body);
       if (streams_writer) streams_writer->Add(row);
+      if (row.baseline != nullptr) {
+        baseline_writer.Add(*row.baseline);
+        baseline_written_t = row.baseline->t_s;
+      }
     };
     constexpr std::size_t kSteps = 100;
     util::ProgressBar progress(kSteps, "posfilter (% of the log)", !quiet);
@@ -78,8 +85,11 @@ int main(int argc, char** argv) {
     };
     const positioning::PosfilterResult result = positioning::RunPosfilter(reader, model, opt, sink, on_block);
     writer.Commit();
+    if (result.baseline_last_pose.t_s > baseline_written_t) baseline_writer.Add(result.baseline_last_pose);
+    baseline_writer.Commit();
     if (streams_writer) streams_writer->Commit();
     for (const std::string& note : result.notes) LN_LOG(Info) << "posfilter: " << note;
+    for (const std::string& warning : result.warnings) LN_LOG(Warning) << "posfilter: " << warning;
 
     if (!screening_log.empty()) telemetry::WriteScreeningLog(screening_log, result.screened);
     nlohmann::json summary = result.SummaryJson();

@@ -77,6 +77,32 @@ Eigen::Isometry3d RigidAlignment(const std::vector<Eigen::Isometry3d>& from,
   return t;
 }
 
+// The same in the horizontal plane: rotation about z and translation in x and y, in closed
+// form (the angle that best turns the centred points onto each other is the atan2 of their
+// summed cross and dot products).
+Eigen::Isometry3d RigidAlignment2d(const std::vector<Eigen::Isometry3d>& from,
+                                   const std::vector<Eigen::Isometry3d>& to) {
+  Eigen::Vector2d from_mean = Eigen::Vector2d::Zero(), to_mean = Eigen::Vector2d::Zero();
+  for (std::size_t i = 0; i < from.size(); ++i) {
+    from_mean += from[i].translation().head<2>();
+    to_mean += to[i].translation().head<2>();
+  }
+  from_mean /= static_cast<double>(from.size());
+  to_mean /= static_cast<double>(to.size());
+  double cross = 0, dot = 0;
+  for (std::size_t i = 0; i < from.size(); ++i) {
+    const Eigen::Vector2d a = from[i].translation().head<2>() - from_mean;
+    const Eigen::Vector2d b = to[i].translation().head<2>() - to_mean;
+    cross += a.x() * b.y() - a.y() * b.x();
+    dot += a.dot(b);
+  }
+  const Eigen::Rotation2Dd rotation(std::atan2(cross, dot));
+  Eigen::Isometry3d t = Eigen::Isometry3d::Identity();
+  t.linear().topLeftCorner<2, 2>() = rotation.toRotationMatrix();
+  t.translation().head<2>() = to_mean - rotation * from_mean;
+  return t;
+}
+
 }  // namespace
 
 std::string ToString(Alignment alignment) {
@@ -85,15 +111,17 @@ std::string ToString(Alignment alignment) {
     case Alignment::kStart: return "start";
     case Alignment::kOrigin: return "origin";
     case Alignment::kRigid: return "rigid";
+    case Alignment::kRigid2d: return "rigid-2d";
   }
   return "?";
 }
 
 Alignment AlignmentFromString(const std::string& text) {
-  for (Alignment a : {Alignment::kNone, Alignment::kStart, Alignment::kOrigin, Alignment::kRigid}) {
+  for (Alignment a :
+       {Alignment::kNone, Alignment::kStart, Alignment::kOrigin, Alignment::kRigid, Alignment::kRigid2d}) {
     if (text == ToString(a)) return a;
   }
-  throw std::invalid_argument("alignment: none, start, origin or rigid, got '" + text + "'");
+  throw std::invalid_argument("alignment: none, start, origin, rigid or rigid-2d, got '" + text + "'");
 }
 
 void TrajectoryEvalOptions::Validate() const {
@@ -175,11 +203,16 @@ TrajectoryErrors EvaluateTrajectory(const std::vector<StampedPose>& estimate,
     case Alignment::kStart: align.translation() = ref[0].translation() - est[0].translation(); break;
     case Alignment::kOrigin: align = ref[0] * est[0].inverse(); break;
     case Alignment::kRigid: align = RigidAlignment(est, ref); break;
+    case Alignment::kRigid2d: align = RigidAlignment2d(est, ref); break;
   }
   std::vector<double> ape_t, ape_r;
   for (std::size_t i = 0; i < est.size(); ++i) {
     const Eigen::Isometry3d e = ref[i].inverse() * (align * est[i]);
-    ape_t.push_back(e.translation().norm());
+    if (options.alignment == Alignment::kRigid2d) {  // horizontal error
+      ape_t.push_back(((align * est[i]).translation() - ref[i].translation()).head<2>().norm());
+    } else {
+      ape_t.push_back(e.translation().norm());
+    }
     ape_r.push_back(AngleDeg(e.linear()));
   }
   errors.ape_translation_m = ErrorStats::Of(std::move(ape_t));

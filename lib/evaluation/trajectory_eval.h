@@ -25,7 +25,11 @@ enum class Alignment {
   kNone,      ///< As they are (both in one world frame, e.g. a compass-referenced ENU).
   kStart,     ///< Translated so the first positions coincide (dead reckoning starts at 0).
   kOrigin,    ///< The first poses made to coincide (evo's --align_origin).
-  kRigid      ///< Least-squares rotation and translation over all poses (Umeyama; evo -a).
+  kRigid,     ///< Least-squares rotation and translation over all poses (Umeyama; evo -a).
+  /// Least-squares rotation about the vertical and horizontal translation over all poses,
+  /// and the errors horizontal (x, y) only: for 2-D trajectories and maps (a plain dead
+  /// reckoning with z = 0, a GPS track).
+  kRigid2d
 };
 std::string ToString(Alignment alignment);
 Alignment AlignmentFromString(const std::string& text);  ///< std::invalid_argument if unknown.

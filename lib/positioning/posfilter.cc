@@ -7,6 +7,7 @@
 #include <optional>
 
 #include "io/atomic_file.h"
+#include "positioning/baseline.h"
 #include "util/check.h"
 
 namespace lunarnav::positioning {
@@ -29,6 +30,8 @@ void PosfilterOptions::Validate() const {
   LN_CHECK_ARG(cutoff_hz > 0 && std::isfinite(cutoff_hz)) << "cutoff: must be > 0 Hz";
   LN_CHECK_ARG(stationary_min_s > 0) << "stationary time: must be > 0";
   LN_CHECK_ARG(block_rows >= 1) << "block rows: must be >= 1";
+  LN_CHECK_ARG(baseline_interval_s > 0 && baseline_drift_fraction > 0 && baseline_heading_drift_dps >= 0)
+      << "baseline: interval and drift fraction must be > 0, heading drift >= 0";
   dead_reckoning.Validate();
 }
 
@@ -41,7 +44,9 @@ nlohmann::json PosfilterOptions::ToJson() const {
           {"slip", {{"fraction", dead_reckoning.slip_fraction}, {"min_m", dead_reckoning.slip_min_m},
                     {"window_s", dead_reckoning.slip_window_s},
                     {"resolution_counts", dead_reckoning.slip_resolution_counts}}},
-          {"stationary_min_s", stationary_min_s}};
+          {"stationary_min_s", stationary_min_s},
+          {"baseline", {{"interval_s", baseline_interval_s}, {"drift_fraction", baseline_drift_fraction},
+                        {"heading_drift_dps", baseline_heading_drift_dps}}}};
 }
 
 namespace {
@@ -265,12 +270,38 @@ PosfilterResult Run(ScreenedRows& input, const std::string& source, const teleme
       r.notes.push_back("no compass: heading from the gyro by the Kalman filter");
     }
     if (!have_compass) r.notes.push_back("no compass: heading from the gyro, relative to the start");
-    kalman.emplace(options.kalman, have_compass ? first_compass : kNaN);
+    // Only observable states are estimated: the gyro's scale needs a heading reference.
+    telemetry::HeadingKalmanOptions kalman_options = options.kalman;
+    if (!have_compass) kalman_options.gyro_scale_sigma = 0;
+    // The gyro's noise from the sensor file, when stated.
+    const telemetry::ChannelModel& gyro_model = model[Channel::kGyroZ];
+    if (gyro_model.noise_rms > 0) {
+      kalman_options.gyro_sigma_dps =
+          gyro_model.units == "rad/s" ? gyro_model.noise_rms * 180.0 / M_PI : gyro_model.noise_rms;
+    }
+    // The heading rate changes as fast as the vehicle can turn: with its angular acceleration
+    // stated, the rate state may change by that much per sample interval (one sigma), so that
+    // an abrupt turn is followed, not lagged (a lagging rate would be taken for scale error).
+    if (model.vehicle.max_turn_accel_dps2) {
+      kalman_options.rate_walk_dps2 = std::max(kalman_options.rate_walk_dps2,
+                                               *model.vehicle.max_turn_accel_dps2 * std::sqrt(s.typical_interval_s()));
+    }
+    r.kalman_rate_walk_dps2 = kalman_options.rate_walk_dps2;
+    kalman.emplace(kalman_options, have_compass ? first_compass : kNaN);
     r.kalman_used = true;
   } else {
     r.notes.push_back("no compass and no gyro: constant heading");
     constant_heading = options.kalman.initial_heading_deg * M_PI / 180.0;
   }
+
+  // The plain baseline, from the same rows' raw counts, starting at the same heading.
+  const double start_heading = kalman && have_compass ? first_compass
+                               : heading_lowpass      ? first_compass
+                                                      : options.kalman.initial_heading_deg * M_PI / 180.0;
+  PlainDeadReckoner baseline(model, have_wheel, have_gyro, start_heading, options.stationary_min_s);
+  double next_baseline_t = -std::numeric_limits<double>::infinity();
+  std::array<int, 4> wheel_index{};
+  for (int w = 0; w < 4; ++w) wheel_index[w] = static_cast<int>(wheel_channels[w]);
 
   // Row by row: fill, filter, Kalman heading, dead reckoning, and the row out, for the rows
   // whose look-ahead is known; then the next block.
@@ -334,6 +365,16 @@ PosfilterResult Run(ScreenedRows& input, const std::string& source, const teleme
         }
       }
       const TrajectorySample& pose = reckoner.Step(tk, heading, pitch, roll ? roll->At(k) : 0.0, wheel_m);
+      std::array<double, 4> counts;
+      for (int w = 0; w < 4; ++w) counts[w] = have_wheel[w] ? rows.raw[wheel_index[w]][i] : kNaN;
+      baseline.Step(tk, counts, have_gyro ? gyro_raw[i] : kNaN);
+      out.baseline = nullptr;
+      if (tk >= next_baseline_t) {
+        next_baseline_t = (next_baseline_t < tk - options.baseline_interval_s ? tk : next_baseline_t) +
+                          options.baseline_interval_s;
+        if (keep) r.baseline_trajectory.push_back(baseline.pose());
+        out.baseline = &baseline.pose();
+      }
       if (keep) {
         r.motion.trajectory.push_back(pose);
       } else {  // the attitude from the half angles the dead reckoning has made already
@@ -364,6 +405,46 @@ PosfilterResult Run(ScreenedRows& input, const std::string& source, const teleme
   }
   r.rows_read = input.rows_read();
   r.screened = s.report();
+  // The baseline: its last pose (also in the trajectory when it was not output there).
+  r.baseline_last_pose = baseline.pose();
+  if (keep && (r.baseline_trajectory.empty() || r.baseline_trajectory.back().t_s < baseline.pose().t_s)) {
+    r.baseline_trajectory.push_back(baseline.pose());
+  }
+  r.baseline_distance_m = baseline.distance_m();
+  r.baseline_gyro_bias_radps = baseline.gyro_bias_radps();
+  r.baseline_bias_known = baseline.gyro_bias_known();
+  r.baseline_end_difference_m = std::hypot(r.motion.last_pose.x_m - r.baseline_last_pose.x_m,
+                                           r.motion.last_pose.y_m - r.baseline_last_pose.y_m);
+  const double path_m = std::max(r.motion.distance_m, r.baseline_distance_m);
+  const double duration_s = r.screened.rows == 0 ? 0.0 : r.screened.last_t_s - r.screened.first_t_s;
+  const double heading_drift_rad =
+      std::min(options.baseline_heading_drift_dps * M_PI / 180.0 * duration_s, M_PI / 2);
+  r.baseline_expected_drift_m = path_m * (options.baseline_drift_fraction + 0.5 * heading_drift_rad);
+  if (r.baseline_end_difference_m > r.baseline_expected_drift_m) {
+    char text[400];
+    std::snprintf(text, sizeof(text),
+                  "the filtered trajectory ends %.2f m from the plain baseline's end, more than the %.2f m the two "
+                  "may drift apart (%.0f %% of %.1f m, and %.1f deg of gyro drift in %.0f s): check the screening "
+                  "counts and the heading filter's states (docs/posfilter.md, \"Baseline\")",
+                  r.baseline_end_difference_m, r.baseline_expected_drift_m, 100 * options.baseline_drift_fraction,
+                  path_m, heading_drift_rad * 180 / M_PI, duration_s);
+    r.warnings.push_back(text);
+  }
+  for (const telemetry::ScreenedLog::Share& w : r.screened.Warnings()) r.warnings.push_back(w.Message());
+  // Which states were estimated.
+  if (kalman) {
+    r.states["gyro_scale"] = have_compass && options.kalman.gyro_scale_sigma > 0
+                                 ? "estimated (compass)"
+                             : have_compass ? "held at prior 0 (no scale state configured)"
+                                            : "held at prior 0 (no compass: the scale is not observable)";
+    const long still = kalman->stationary_samples();
+    r.states["gyro_bias"] =
+        !options.kalman.estimate_gyro_bias ? "held at prior 0 (bias estimation off)"
+        : still > 0 ? "estimated from " + std::to_string(kalman->stationary_periods()) + " stationary period(s), " +
+                          std::to_string(still) + " samples"
+                    : std::string("held at prior 0 (no stationary period") +
+                          (have_compass ? "; the compass corrects the heading, not the bias)" : ")");
+  }
   return r;
 }
 
@@ -469,8 +550,19 @@ nlohmann::json PosfilterResult::SummaryJson() const {
                            {"gyro_updates", heading.gyro_updates},
                            {"gyro_bias_dps", heading.gyro_bias_radps * 180.0 / M_PI},
                            {"gyro_scale_error", heading.gyro_scale_error},
-                           {"gyro_scale_sigma", heading.gyro_scale_sigma}};
+                           {"gyro_scale_sigma", heading.gyro_scale_sigma},
+                           {"rate_walk_dps2", kalman_rate_walk_dps2}};
   }
+  j["states"] = states;
+  j["baseline"] = {{"file", "baseline.csv"},
+                   {"distance_m", baseline_distance_m},
+                   {"gyro_bias_dps", baseline_gyro_bias_radps * 180.0 / M_PI},
+                   {"gyro_bias_from_stationary_period", baseline_bias_known},
+                   {"final_position_m", {baseline_last_pose.x_m, baseline_last_pose.y_m}},
+                   {"end_difference_m", baseline_end_difference_m},
+                   {"expected_drift_m", baseline_expected_drift_m},
+                   {"parted", baseline_end_difference_m > baseline_expected_drift_m}};
+  j["warnings"] = warnings;
   const double duration = screened.rows == 0 ? 0.0 : screened.last_t_s - screened.first_t_s;
   j["motion"] = {{"distance_m", motion.distance_m},
                  {"duration_s", duration},

@@ -41,6 +41,17 @@ struct PosfilterOptions {
   telemetry::HeadingKalmanOptions kalman;
   DeadReckoningOptions dead_reckoning;
   double stationary_min_s = 1.0;  ///< Wheels still this long: stationary (gyro bias). > 0.
+  /// The plain dead-reckoning baseline (PlainDeadReckoner) is output every this many seconds
+  /// (and at the last row). > 0.
+  double baseline_interval_s = 1.0;
+  /// The filtered and the baseline trajectory are expected to part at the end by at most
+  /// baseline_drift_fraction of the path length D (odometry drifts by a few % of the
+  /// distance), plus the baseline's heading drift, a debiased gyro's drift rate times the
+  /// duration T (at most 90 deg), over half the path: D (fraction + min(rate T, pi/2) / 2).
+  /// The rate allows a bias measured over a few seconds' stop with a noisy gyro, and its walk.
+  /// Beyond it posfilter warns. > 0 and >= 0.
+  double baseline_drift_fraction = 0.05;
+  double baseline_heading_drift_dps = 0.1;
   /// Rows read and screened at a time (memory and speed only: the results do not depend on
   /// it). >= 1.
   std::size_t block_rows = 1024;
@@ -55,9 +66,24 @@ struct PosfilterResult {
   telemetry::LowPassDesign design;           ///< Low-pass used for pitch, roll (and heading).
   telemetry::HeadingEstimate heading;        ///< When the Kalman filter ran.
   bool kalman_used = false;
+  double kalman_rate_walk_dps2 = 0;          ///< The heading rate's process noise used.
   double sample_rate_hz = 0;
   std::vector<std::string> channels_used;
   std::vector<std::string> notes;            ///< Substitutions ("no compass: ...").
+  /// What became of each state the heading filter could estimate: "estimated" or "held at
+  /// prior" with the reason (gyro_scale, gyro_bias).
+  nlohmann::json states = nlohmann::json::object();
+  /// The plain baseline: its trajectory (when the result holds the trajectory), last pose,
+  /// path length and gyro bias; the end difference from the filtered trajectory (metres,
+  /// horizontal) and the difference expected (baseline_drift_fraction x path length).
+  std::vector<TrajectorySample> baseline_trajectory;
+  TrajectorySample baseline_last_pose;
+  double baseline_distance_m = 0, baseline_gyro_bias_radps = 0;
+  bool baseline_bias_known = false;
+  double baseline_end_difference_m = 0, baseline_expected_drift_m = 0;
+  /// Warnings for the user (a screening rule rejecting much of a channel, the baseline
+  /// parting from the filtered trajectory); also in summary.json.
+  std::vector<std::string> warnings;
   nlohmann::json SummaryJson() const;
 };
 
@@ -67,6 +93,8 @@ struct PoseOutput {
   Eigen::Quaterniond enu_from_body;  ///< EnuFromBody of the pose's heading, pitch and roll.
   double heading_rate_radps = 0;     ///< The Kalman filter's; NaN when it did not run.
   double compass_count = 0, gyro_count = 0;  ///< The row's raw counts; NaN for no sample.
+  /// The baseline's pose when one is due (every baseline_interval_s), else null.
+  const TrajectorySample* baseline = nullptr;
 };
 /// Receives the rows' results one by one as they are computed.
 using PoseSink = std::function<void(const PoseOutput&)>;

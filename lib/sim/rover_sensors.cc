@@ -28,7 +28,8 @@ SensorErrorOptions SensorErrorOptions::Scaled(double scale) const {
   SensorErrorOptions o = *this;
   for (double* v : {&o.compass_bias_deg, &o.compass_noise_deg, &o.compass_wander_deg, &o.compass_turn_deg_per_dps,
                     &o.compass_turn_accel_deg_per_dps2, &o.compass_accel_deg_per_mps2, &o.gyro_bias_dps,
-                    &o.gyro_bias_walk_dps_per_sqrt_s, &o.gyro_noise_dps, &o.gyro_scale_error, &o.tilt_bias_deg,
+                    &o.gyro_bias_walk_dps_per_sqrt_s, &o.gyro_noise_dps,
+                    &o.gyro_bias_instability_dps, &o.gyro_scale_error, &o.tilt_bias_deg,
                     &o.tilt_noise_deg, &o.tilt_vibration_deg_per_mps, &o.tilt_accel_gain}) {
     *v *= scale;
   }
@@ -37,13 +38,15 @@ SensorErrorOptions SensorErrorOptions::Scaled(double scale) const {
 
 void SensorErrorOptions::Validate() const {
   for (double v : {compass_bias_deg, compass_noise_deg, compass_wander_deg, compass_transient_tau_s, gyro_bias_dps,
-                   gyro_bias_walk_dps_per_sqrt_s, gyro_noise_dps, gyro_scale_error, tilt_bias_deg, tilt_noise_deg,
+                   gyro_bias_walk_dps_per_sqrt_s, gyro_noise_dps, gyro_scale_error, gyro_bias_instability_dps,
+                   tilt_bias_deg, tilt_noise_deg,
                    tilt_vibration_deg_per_mps, tilt_accel_gain, tilt_tau_s}) {
     LN_CHECK_ARG(v >= 0 && std::isfinite(v)) << "sensor errors: magnitudes and lags must be finite and >= 0";
   }
   for (double v : {compass_turn_deg_per_dps, compass_turn_accel_deg_per_dps2, compass_accel_deg_per_mps2}) {
     LN_CHECK_ARG(std::isfinite(v)) << "sensor errors: compass transient gains must be finite";
   }
+  LN_CHECK_ARG(gyro_bias_instability_tau_s > 0) << "sensor errors: the gyro bias instability time must be > 0";
   LN_CHECK_ARG(compass_noise_corner_hz > 0 && compass_wander_tau_s > 0)
       << "sensor errors: the compass noise corner and wander time must be > 0";
 }
@@ -62,6 +65,8 @@ nlohmann::json SensorErrorOptions::ToJson() const {
           {"gyro_bias_walk_dps_per_sqrt_s", gyro_bias_walk_dps_per_sqrt_s},
           {"gyro_noise_dps", gyro_noise_dps},
           {"gyro_scale_error", gyro_scale_error},
+          {"gyro_bias_instability_dps", gyro_bias_instability_dps},
+          {"gyro_bias_instability_tau_s", gyro_bias_instability_tau_s},
           {"tilt_bias_deg", tilt_bias_deg},
           {"tilt_noise_deg", tilt_noise_deg},
           {"tilt_vibration_deg_per_mps", tilt_vibration_deg_per_mps},
@@ -112,6 +117,49 @@ telemetry::SensorModel SimulatedSensorModel(int bits) {
   return model;
 }
 
+telemetry::SensorModel MemsRoverSensorModel(bool compass) {
+  telemetry::SensorModel model;
+  for (Channel c : telemetry::kAllChannels) {
+    telemetry::ChannelModel& m = model[c];
+    m.column = telemetry::ToString(c);
+    m.bits = 10;
+    m.valid_min = 0;
+    m.valid_max = 1023;
+    if (telemetry::IsEncoder(c)) {
+      m.present = true;
+      m.counter_bits = 10;
+      m.counts_per_revolution = 1024;
+      m.wheel_radius_m = 0.11;
+      m.sign = (c == Channel::kEncoderFrontLeft || c == Channel::kEncoderRearLeft) ? -1 : 1;
+    } else if (c == Channel::kCompass) {
+      m.present = compass;
+      m.scale = 360.0 / 1024;
+      m.units = "deg";
+      m.noise_rms = 2.0;
+    } else if (c == Channel::kGyroZ) {
+      m.present = true;
+      m.scale = 2.0 / 1024;
+      m.offset = -1.0;
+      m.units = "rad/s";
+      m.noise_rms = 0.006;  // rad/s per sample at 50 Hz: 0.07 deg/s/sqrt(Hz) x sqrt(25 Hz)
+    } else if (c == Channel::kPitchRight) {
+      m.present = false;  // one pitch from the accelerometer
+    } else {
+      m.present = true;
+      if (c == Channel::kPitchLeft) m.column = "pitch";
+      m.scale = 60.0 / 1024;
+      m.offset = -30.0;
+      m.units = "deg";
+      m.noise_rms = 1.5;  // vibration of an accelerometer on a driving rover
+    }
+  }
+  model.vehicle.max_speed_mps = 1.0;
+  model.vehicle.max_turn_rate_dps = 90.0;
+  model.vehicle.max_turn_accel_dps2 = 600.0;
+  model.vehicle.max_tilt_rate_dps = 60.0;
+  return model;
+}
+
 std::int64_t DigitiseAnalog(const telemetry::ChannelModel& m, double value_rad, bool wraps) {
   const bool degrees = m.units == "deg" || m.units == "deg/s";
   const double value = degrees ? value_rad / kDeg : value_rad;
@@ -139,7 +187,6 @@ RawTelemetry SimulateSensors(const std::vector<RoverSample>& samples, const Sens
                              SensorErrorDraws* draws) {
   e.Validate();
   LN_CHECK_ARG(rate_hz > 0) << "sample rate: must be > 0 Hz";
-  for (Channel c : telemetry::kAllChannels) LN_CHECK(model[c].present);
   const double dt = 1.0 / rate_hz;
   // Independent streams: one per sensor, one for the per-run draws.
   PortableRandom draw_rng(seed, "sensor-draws"), compass_rng(seed, "compass"), gyro_rng(seed, "gyro");
@@ -168,6 +215,9 @@ RawTelemetry SimulateSensors(const std::vector<RoverSample>& samples, const Sens
   const double wander_phi = std::exp(-dt / e.compass_wander_tau_s);
   double hp_x = compass_rng.Normal(), hp_y = 0, wander = compass_rng.Normal(0, e.compass_wander_deg);
   double transient = 0, gyro_walk = 0;
+  const double instability_phi = std::exp(-dt / e.gyro_bias_instability_tau_s);
+  // (Drawn only when there is one: the other streams stay those of logs without it.)
+  double instability = e.gyro_bias_instability_dps > 0 ? gyro_rng.Normal(0, e.gyro_bias_instability_dps) : 0.0;
   std::array<double, 3> tilt_transient{};
 
   RawTelemetry raw;
@@ -192,12 +242,20 @@ RawTelemetry SimulateSensors(const std::vector<RoverSample>& samples, const Sens
                         e.compass_transient_tau_s, dt);
     const double compass_deg =
         s.heading_rad / kDeg + d.compass_bias_deg + wander + e.compass_noise_deg * hp_gain * hp_y + transient;
-    row[Index(Channel::kCompass)] = DigitiseAnalog(model[Channel::kCompass], compass_deg * kDeg, true);
+    row[Index(Channel::kCompass)] = model[Channel::kCompass].present
+                                        ? DigitiseAnalog(model[Channel::kCompass], compass_deg * kDeg, true)
+                                        : kEmptyCell;
 
     // Gyro.
     gyro_walk += e.gyro_bias_walk_dps_per_sqrt_s * std::sqrt(dt) * gyro_rng.Normal();
-    const double gyro_dps =
-        (1.0 + d.gyro_scale_error) * turn_dps + d.gyro_bias_dps + gyro_walk + e.gyro_noise_dps * gyro_rng.Normal();
+    if (e.gyro_bias_instability_dps > 0) {
+      instability = instability_phi * instability + e.gyro_bias_instability_dps *
+                                                        std::sqrt(1 - instability_phi * instability_phi) *
+                                                        gyro_rng.Normal();
+    }
+    const double gyro_dps = (1.0 + d.gyro_scale_error) * turn_dps + d.gyro_bias_dps + gyro_walk +
+                            (e.gyro_bias_instability_dps > 0 ? instability : 0.0) +
+                            e.gyro_noise_dps * gyro_rng.Normal();
     row[Index(Channel::kGyroZ)] = DigitiseAnalog(model[Channel::kGyroZ], gyro_dps * kDeg, false);
 
     // Inclinometers: gravity minus acceleration, lagged by the pendulum, plus noise.
@@ -211,7 +269,8 @@ RawTelemetry SimulateSensors(const std::vector<RoverSample>& samples, const Sens
     for (int i = 0; i < 3; ++i) {
       tilt_transient[i] = LagStep(tilt_transient[i], e.tilt_accel_gain * accel_deg[i], e.tilt_tau_s, dt);
       const double reading = truth_deg[i] + bias_deg[i] + tilt_transient[i] + noise_deg * tilt_rng[i].Normal();
-      row[Index(tilts[i])] = DigitiseAnalog(model[tilts[i]], reading * kDeg, false);
+      row[Index(tilts[i])] =
+          model[tilts[i]].present ? DigitiseAnalog(model[tilts[i]], reading * kDeg, false) : kEmptyCell;
     }
     raw.counts.push_back(row);
   }
@@ -239,16 +298,30 @@ std::string FormatMicroseconds(std::int64_t t_us) {
 }
 
 void WriteTelemetryCsv(const std::filesystem::path& path, const RawTelemetry& raw, const std::string& description) {
+  telemetry::SensorModel all;
+  for (Channel c : telemetry::kAllChannels) {
+    all[c].present = true;
+    all[c].column = telemetry::ToString(c);
+  }
+  WriteTelemetryCsv(path, raw, description, all);
+}
+
+void WriteTelemetryCsv(const std::filesystem::path& path, const RawTelemetry& raw, const std::string& description,
+                       const telemetry::SensorModel& model) {
   io::AtomicOutputFile file(path);
   std::string s = "# lunarnav simulated telemetry: t in seconds, the rest raw integer counts (sensors.json converts them)\n";
   s += "# " + description + "\n";
   s += "t";
-  for (Channel c : telemetry::kAllChannels) s += "," + telemetry::ToString(c);
+  for (Channel c : telemetry::kAllChannels) {
+    if (model[c].present) s += "," + model[c].column;
+  }
   s += '\n';
   char buf[32];
   for (std::size_t k = 0; k < raw.size(); ++k) {
     s += FormatMicroseconds(raw.t_us[k]);
-    for (std::int64_t v : raw.counts[k]) {
+    for (int c = 0; c < telemetry::kNumChannels; ++c) {
+      if (!model.channels[c].present) continue;
+      const std::int64_t v = raw.counts[k][c];
       s += ',';
       if (v != kEmptyCell) s.append(buf, std::to_chars(buf, buf + sizeof(buf), v).ptr);
     }

@@ -44,6 +44,10 @@ struct SensorErrorOptions {
   double gyro_bias_walk_dps_per_sqrt_s = 0.002;  ///< Random walk of the bias.
   double gyro_noise_dps = 0.3;            ///< White noise, RMS per sample.
   double gyro_scale_error = 0.02;         ///< RMS of the scale-factor error (fraction).
+  /// Bias instability of a MEMS gyro: a Gauss-Markov bias of this RMS and correlation time
+  /// on top of the constant bias and the random walk (0: none).
+  double gyro_bias_instability_dps = 0.0;
+  double gyro_bias_instability_tau_s = 100.0;  ///< > 0.
   // Inclinometers (left body pitch, right body pitch, roll).
   double tilt_bias_deg = 0.2;             ///< RMS of each sensor's constant bias.
   double tilt_noise_deg = 0.3;            ///< White noise, RMS per sample.
@@ -77,6 +81,15 @@ struct SensorErrorDraws {
 /// sensors read with fewer bits (telemetry::SensorModel::OverrideBits).
 telemetry::SensorModel SimulatedSensorModel(int bits);
 
+/// The sensor model of a small skid-steered rover with MEMS sensors (the `skid-steer`
+/// presets): 10-bit wrapping encoder counters, 1024 counts per revolution of 0.11 m wheels,
+/// the left wheels counting down when driving forward (sign -1); a MEMS gyro of +-1 rad/s
+/// over 10 bits; pitch (column `pitch`, the pitch_left channel) and roll derived from an
+/// accelerometer, +-30 deg over 10 bits; with `compass`, a 10-bit compass over 360 deg. The
+/// sensor file also states the sensors' noise (noise_rms) and the vehicle's limits
+/// (docs/formats.md): what screening derives its thresholds from.
+telemetry::SensorModel MemsRoverSensorModel(bool compass);
+
 /// A cell with no sample.
 inline constexpr std::int64_t kEmptyCell = std::numeric_limits<std::int64_t>::min();
 
@@ -99,7 +112,8 @@ std::int64_t DigitiseAnalog(const telemetry::ChannelModel& model, double value_r
 /// turned (floor), times the channel's sign, from `initial_count`, modulo 2^counter_bits.
 std::int64_t DigitiseEncoder(const telemetry::ChannelModel& model, double travel_m, std::int64_t initial_count);
 
-/// Reads every sensor at every sample of `samples` and digitises with `model`. The noise of
+/// Reads every sensor at every sample of `samples` and digitises with `model` (channels the
+/// model does not have are left empty). The noise of
 /// each sensor comes from its own stream of `seed`, so the same seed gives the same counts
 /// whatever else changes (faults, other sensors' settings).
 RawTelemetry SimulateSensors(const std::vector<RoverSample>& samples, const SensorErrorOptions& errors,
@@ -111,6 +125,9 @@ RawTelemetry SimulateSensors(const std::vector<RoverSample>& samples, const Sens
 /// sample; time stamps in seconds with up to 6 decimals, counts as integers, missing cells
 /// empty.
 void WriteTelemetryCsv(const std::filesystem::path& path, const RawTelemetry& raw, const std::string& description);
+/// The same with the columns `model` names, in channel order (channels it lacks left out).
+void WriteTelemetryCsv(const std::filesystem::path& path, const RawTelemetry& raw, const std::string& description,
+                       const telemetry::SensorModel& model);
 
 /// A time stamp in microseconds as the shortest exact decimal seconds ("12.3", "0.05").
 std::string FormatMicroseconds(std::int64_t t_us);

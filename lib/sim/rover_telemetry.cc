@@ -65,6 +65,36 @@ std::vector<MotionCommand> TraverseRoute(std::uint64_t seed, double duration_s, 
   return route;
 }
 
+// A short run of a small skid-steered rover: straights, turns in place and tight arcs, each
+// from rest to rest (the motors start and stop abruptly), now and then a pause.
+std::vector<MotionCommand> SkidSteerRoute(std::uint64_t seed, double duration_s) {
+  PortableRandom rng(seed, "route");
+  std::vector<MotionCommand> route = {MotionCommand::Pause(6.0)};
+  double time = 6.0;
+  while (time < duration_s + 10.0) {
+    const double pick = rng.Uniform();
+    MotionCommand c;
+    if (pick < 0.5) {
+      c = MotionCommand::Straight(rng.Uniform(3.0, 10.0), 0.55);
+      time += c.PathLength() / 0.55 + 0.6;
+    } else if (pick < 0.8) {
+      c = MotionCommand::TurnInPlace(rng.Sign() * rng.Uniform(30.0, 120.0), 45.0);
+      time += std::abs(c.angle_deg) / 45.0 + 0.3;
+    } else {
+      c = MotionCommand::Arc(rng.Uniform(1.5, 5.0), rng.Sign() * rng.Uniform(20.0, 90.0), 0.45);
+      time += c.PathLength() / 0.45 + 0.6;
+    }
+    c.stop_at_end = true;
+    route.push_back(c);
+    if (rng.Uniform() < 0.3) {
+      const double pause = rng.Uniform(2.0, 5.0);
+      route.push_back(MotionCommand::Pause(pause));
+      time += pause;
+    }
+  }
+  return route;
+}
+
 // Fixed-point text, locale-independent, without negative zero.
 std::string Fixed(double v, int decimals) {
   const double scale = std::pow(10.0, decimals);
@@ -102,6 +132,8 @@ std::string ToString(TelemetryPreset preset) {
     case TelemetryPreset::kTrialB: return "trial-b";
     case TelemetryPreset::kTrialC: return "trial-c";
     case TelemetryPreset::kTraverse: return "traverse";
+    case TelemetryPreset::kSkidSteer: return "skid-steer";
+    case TelemetryPreset::kSkidSteerCompass: return "skid-steer-compass";
   }
   return "unknown";
 }
@@ -110,7 +142,9 @@ std::map<std::string, TelemetryPreset> TelemetryPresetNames() {
   return {{"trial-a", TelemetryPreset::kTrialA},
           {"trial-b", TelemetryPreset::kTrialB},
           {"trial-c", TelemetryPreset::kTrialC},
-          {"traverse", TelemetryPreset::kTraverse}};
+          {"traverse", TelemetryPreset::kTraverse},
+          {"skid-steer", TelemetryPreset::kSkidSteer},
+          {"skid-steer-compass", TelemetryPreset::kSkidSteerCompass}};
 }
 
 nlohmann::json TelemetryScenario::ToJson() const {
@@ -124,6 +158,12 @@ nlohmann::json TelemetryScenario::ToJson() const {
                       {"initial_heading_deg", initial_heading_deg},
                       {"commands", commands_json}};
   if (duration_s) j["duration_s"] = *duration_s;
+  if (mems) {
+    j["mems"] = true;
+    j["compass"] = compass;
+    j["imu_rate_hz"] = imu_rate_hz;
+    j["encoder_rate_hz"] = imu_rate_hz / encoder_decimation;
+  }
   return j;
 }
 
@@ -205,6 +245,55 @@ TelemetryScenario PresetScenario(TelemetryPreset preset, std::uint64_t seed, std
       s.commands = TraverseRoute(seed, *s.duration_s, 0.4);
       break;
     }
+    case TelemetryPreset::kSkidSteer:
+    case TelemetryPreset::kSkidSteerCompass: {
+      s.compass = preset == TelemetryPreset::kSkidSteerCompass;
+      s.description =
+          std::string("Skid-steer: a small four-wheel skid-steered rover with MEMS sensors on rough ground, ") +
+          "straights at 0.55 m/s, turns in place at 45 deg/s and tight arcs, each started and stopped abruptly " +
+          "(turn accelerations to 500 deg/s^2); encoders at 10 Hz, gyro and accelerometer tilt at 50 Hz" +
+          (s.compass ? ", compass at 10 Hz" : ", no compass");
+      s.mems = true;
+      s.ground = SlagHeap();
+      s.rover.track_m = 0.45;
+      s.rover.wheelbase_m = 0.40;
+      s.rover.max_accel_mps2 = 1.5;
+      s.rover.max_turn_accel_dps2 = 500.0;
+      s.rover.skid_track_factor = 1.6;
+      s.rover.slip_mean = 0.03;
+      s.rover.wheel_slip_sigma = 0.02;
+      s.rover.turn_slip_rate_hz = 0.1;
+      s.rover.yaw_disturbance_per_m = 0.01;
+      // MEMS gyro: 0.07 deg/s/sqrt(Hz) noise density (0.35 deg/s RMS at 50 Hz), a bias that
+      // differs from run to run and wanders with temperature, a scale error of a few %.
+      s.sensor_errors.gyro_bias_dps = 0.5;
+      s.sensor_errors.gyro_noise_dps = 0.07 * std::sqrt(25.0);
+      s.sensor_errors.gyro_bias_walk_dps_per_sqrt_s = 0.003;
+      s.sensor_errors.gyro_bias_instability_dps = 0.1;
+      s.sensor_errors.gyro_bias_instability_tau_s = 60.0;
+      s.sensor_errors.gyro_scale_error = 0.03;
+      // Pitch and roll from an accelerometer: no pendulum lag, every acceleration read as
+      // tilt, and the vibration of driving (1.5 deg RMS at 0.5 m/s).
+      s.sensor_errors.tilt_bias_deg = 0.5;
+      s.sensor_errors.tilt_noise_deg = 0.3;
+      s.sensor_errors.tilt_vibration_deg_per_mps = 3.0;
+      s.sensor_errors.tilt_accel_gain = 1.0;
+      s.sensor_errors.tilt_tau_s = 0.0;
+      // An electronic compass (magnetometer), not a fluid-damped flux-gate: no swirl lagging
+      // the turns; accelerations read as tilt still deflect it, and the motors' currents and
+      // the ground disturb the field.
+      s.sensor_errors.compass_noise_deg = 2.0;
+      s.sensor_errors.compass_wander_deg = 1.5;
+      s.sensor_errors.compass_wander_tau_s = 20.0;
+      s.sensor_errors.compass_turn_deg_per_dps = -0.05;
+      s.sensor_errors.compass_turn_accel_deg_per_dps2 = 0.0;
+      s.sensor_errors.compass_accel_deg_per_mps2 = 2.0;
+      s.sensor_errors.compass_transient_tau_s = 0.2;
+      s.duration_s = duration_s.value_or(177.0);
+      s.initial_heading_deg = PortableRandom(seed, "initial-heading").Uniform(0.0, 360.0);
+      s.commands = SkidSteerRoute(seed, *s.duration_s);
+      break;
+    }
   }
   return s;
 }
@@ -237,12 +326,28 @@ RoverTelemetry SimulateRoverTelemetry(const RoverTelemetryOptions& options) {
   run.scenario.sensor_errors = run.scenario.sensor_errors.Scaled(options.noise_scale);
   const std::optional<double> duration = options.duration_s ? options.duration_s : run.scenario.duration_s;
   const GroundSurface ground(run.scenario.ground, options.seed);
+  const bool mems = run.scenario.mems;
+  LN_CHECK_ARG(!mems || (options.rate_hz == RoverTelemetryOptions().rate_hz && options.bits == 10))
+      << "preset " << run.scenario.name << ": its sensors have their own rates (encoders 10 Hz, IMU 50 Hz) and "
+      << "10 bits; --rate and --bits do not apply";
+  const double rate_hz = mems ? run.scenario.imu_rate_hz : options.rate_hz;
   run.drive = DriveRover(run.scenario.commands, run.scenario.rover, ground, run.scenario.initial_heading_deg,
-                         options.rate_hz, duration, options.seed);
+                         rate_hz, duration, options.seed);
   LN_CHECK_ARG(run.drive.samples.size() <= kMaxRows) << "the log would exceed " << kMaxRows << " rows";
-  run.sensor_model = SimulatedSensorModel(options.bits);
-  run.raw = SimulateSensors(run.drive.samples, run.scenario.sensor_errors, run.sensor_model, options.rate_hz,
+  run.sensor_model = mems ? MemsRoverSensorModel(run.scenario.compass) : SimulatedSensorModel(options.bits);
+  run.raw = SimulateSensors(run.drive.samples, run.scenario.sensor_errors, run.sensor_model, rate_hz,
                             options.seed, &run.draws);
+  if (mems) {  // the encoders and the compass at their lower rate: every n-th row
+    const int n = run.scenario.encoder_decimation;
+    for (std::size_t k = 0; k < run.raw.size(); ++k) {
+      if (k % static_cast<std::size_t>(n) == 0) continue;
+      for (telemetry::Channel c : {telemetry::Channel::kEncoderFrontLeft, telemetry::Channel::kEncoderFrontRight,
+                                   telemetry::Channel::kEncoderRearLeft, telemetry::Channel::kEncoderRearRight,
+                                   telemetry::Channel::kCompass}) {
+        run.raw.counts[k][static_cast<int>(c)] = kEmptyCell;
+      }
+    }
+  }
   run.faults = InjectFaults(options.faults, run.sensor_model, options.seed, &run.raw);
   return run;
 }
@@ -354,13 +459,23 @@ void WriteRoverTelemetry(const std::filesystem::path& dir, const RoverTelemetry&
   io::CreateOutputDirectory(dir);
   std::ostringstream description;
   description.imbue(std::locale::classic());
-  description << "preset " << run.scenario.name << ", seed " << options.seed << ", " << options.bits << " bits, "
-              << options.rate_hz << " Hz (lunarnav simulate telemetry)";
-  WriteTelemetryCsv(dir / "telemetry.csv", run.raw, description.str());
+  description << "preset " << run.scenario.name << ", seed " << options.seed << ", " << options.bits << " bits, ";
+  if (run.scenario.mems) {
+    description << "encoders " << run.scenario.imu_rate_hz / run.scenario.encoder_decimation << " Hz, IMU "
+                << run.scenario.imu_rate_hz << " Hz";
+  } else {
+    description << options.rate_hz << " Hz";
+  }
+  description << " (lunarnav simulate telemetry)";
+  WriteTelemetryCsv(dir / "telemetry.csv", run.raw, description.str(), run.sensor_model);
   nlohmann::json sensors = run.sensor_model.ToJson();
   sensors["description"] = "Sensor model of the simulated rover (" + description.str() +
                            "): nominal calibration; the sensors' own errors are in summary.json";
   sensors["bits"] = options.bits;
+  if (!run.sensor_model.vehicle.empty()) {
+    sensors["vehicle"]["description"] =
+        "physical limits of the vehicle (generous): screening's rate limits derive from them";
+  }
   io::WriteJsonAtomic(dir / "sensors.json", sensors);
   WriteTruthCsv(dir / "truth.csv", run.drive.samples);
   io::WriteJsonAtomic(dir / "trials.json", TrialsJson(run));

@@ -25,10 +25,15 @@ enum class TelemetryPreset {
   kTrialA,   ///< Straight lines on a slag heap, motion control not yet tuned.
   kTrialB,   ///< Straight lines and turns in place on the slag heap, tuned motion control.
   kTrialC,   ///< Curved arcs on a flat, grassy field.
-  kTraverse  ///< A long drive over rough, sloping terrain, stopping now and then.
+  kTraverse,  ///< A long drive over rough, sloping terrain, stopping now and then.
+  /// A small skid-steered rover with MEMS sensors, like the logs of real rovers: encoders at
+  /// 10 Hz, gyro and accelerometer-derived pitch and roll at 50 Hz, abrupt turns; no compass.
+  kSkidSteer,
+  kSkidSteerCompass  ///< The same with a compass at 10 Hz.
 };
 std::string ToString(TelemetryPreset preset);
-/// Names for the command line: "trial-a", "trial-b", "trial-c", "traverse".
+/// Names for the command line: "trial-a", "trial-b", "trial-c", "traverse", "skid-steer",
+/// "skid-steer-compass".
 std::map<std::string, TelemetryPreset> TelemetryPresetNames();
 
 /// Everything a preset fixes: ground, vehicle, sensors and the commanded motions.
@@ -40,6 +45,13 @@ struct TelemetryScenario {
   double initial_heading_deg = 0;
   std::vector<MotionCommand> commands;
   std::optional<double> duration_s;  ///< Default log length; unset: until the commands end.
+  /// The skid-steer presets: MEMS sensors (MemsRoverSensorModel) sampled at imu_rate_hz, the
+  /// encoders (and the compass) only every encoder_decimation-th row; `compass`: whether
+  /// the rover has one.
+  bool mems = false;
+  bool compass = true;
+  double imu_rate_hz = 50.0;
+  int encoder_decimation = 5;
   nlohmann::json ToJson() const;
 };
 
@@ -52,7 +64,9 @@ struct RoverTelemetryOptions {
   std::uint64_t seed = 1;             ///< Every output is a function of the options and this.
   int bits = 10;                      ///< Digitisation, 6..16: 10, or 7 as in old telemetry.
   std::optional<double> duration_s;   ///< Log length, s, > 0; default: the preset's.
-  double rate_hz = 10.0;              ///< Samples per second, [1, 1000].
+  /// Samples per second, [1, 1000]. The skid-steer presets have their sensors' own rates
+  /// (encoders 10 Hz, IMU 50 Hz) and take only the default.
+  double rate_hz = 10.0;
   double noise_scale = 1.0;           ///< Multiplies every sensor error, [0, 10]; 0 = ideal sensors.
   double slip_scale = 1.0;            ///< Multiplies every slip and wander term, [0, 10]; 0 = none.
   std::vector<FaultSpec> faults;

@@ -163,6 +163,18 @@ std::vector<InjectedFault> InjectFaults(const std::vector<FaultSpec>& specs, con
   };
   std::vector<Placement> placements;
   std::vector<Extent> taken;
+  // Channels a random fault may hit: those the model has (all of them in the paper's
+  // presets, so the draws are those of a choice among nine); a channel fault lands on a row
+  // where the channel has a sample (channels at lower rates leave cells empty).
+  std::vector<int> channels;
+  for (Channel c : telemetry::kAllChannels) {
+    if (model[c].present) channels.push_back(static_cast<int>(c));
+  }
+  LN_CHECK_ARG(!channels.empty()) << "faults: the sensor model has no channel";
+  auto random_channel = [&] { return channels[rng.UniformInt(channels.size())]; };
+  auto sampled = [&](int channel, std::size_t row) {
+    return channel < 0 || raw->counts[row][channel] != kEmptyCell;
+  };
   auto run_rows = [&](const FaultSpec& s, std::size_t row) {
     const std::size_t len = s.Duration() > 0 ? std::max<std::size_t>(1, rows_for(s.Duration())) : 1;
     return std::min(len, n - row);
@@ -175,10 +187,11 @@ std::vector<InjectedFault> InjectFaults(const std::vector<FaultSpec>& specs, con
         << "fault '" << s.text << "': " << *s.at_s << " s is after the end of the log (" << span_s << " s)";
     // Stuck, repeated and out-of-order need a previous row.
     const bool needs_previous = s.kind == FaultKind::kStuck || IsRowFault(s.kind);
-    const std::size_t row = std::max<std::size_t>(needs_previous ? 1 : 0, static_cast<std::size_t>(it - raw->t_us.begin()));
-    const int channel = IsRowFault(s.kind) ? -1
-                        : s.channel        ? static_cast<int>(*s.channel)
-                                           : static_cast<int>(rng.UniformInt(telemetry::kNumChannels));
+    std::size_t row = std::max<std::size_t>(needs_previous ? 1 : 0, static_cast<std::size_t>(it - raw->t_us.begin()));
+    const int channel = IsRowFault(s.kind) ? -1 : s.channel ? static_cast<int>(*s.channel) : random_channel();
+    while (row + 1 < n && !sampled(channel, row)) ++row;  // the channel's next sample
+    LN_CHECK_ARG(sampled(channel, row)) << "fault '" << s.text << "': the channel has no sample from " << *s.at_s
+                                        << " s on";
     const std::size_t len = run_rows(s, row);
     placements.push_back({&s, channel, row, len});
     taken.push_back({row, row + len - 1, channel});
@@ -188,15 +201,13 @@ std::vector<InjectedFault> InjectFaults(const std::vector<FaultSpec>& specs, con
     if (s.at_s) continue;
     const int count = s.per_minute ? static_cast<int>(std::lround(*s.per_minute * span_s / 60.0)) : s.count;
     for (int i = 0; i < count; ++i) {
-      const int channel = IsRowFault(s.kind) ? -1
-                          : s.channel        ? static_cast<int>(*s.channel)
-                                             : static_cast<int>(rng.UniformInt(telemetry::kNumChannels));
+      const int channel = IsRowFault(s.kind) ? -1 : s.channel ? static_cast<int>(*s.channel) : random_channel();
       const std::size_t len = std::max<std::size_t>(1, s.Duration() > 0 ? rows_for(s.Duration()) : 1);
       LN_CHECK_ARG(n > 2 * margin + len + 1) << "fault '" << s.text << "': the log is too short to place it";
       bool ok = false;
       for (int attempt = 0; attempt < kPlacementAttempts && !ok; ++attempt) {
         const std::size_t row = margin + static_cast<std::size_t>(rng.UniformInt(n - 2 * margin - len));
-        ok = true;
+        ok = sampled(channel, row);
         for (const Extent& e : taken) {
           const bool related = e.channel == channel || e.channel < 0 || channel < 0;
           const std::size_t gap = rows_for(related ? kSameChannelClearanceS : kClearanceS);
@@ -268,9 +279,13 @@ std::vector<InjectedFault> InjectFaults(const std::vector<FaultSpec>& specs, con
         cell = rng.Sign() > 0 ? m.valid_max + beyond : m.valid_min - beyond;
         break;
       }
-      case FaultKind::kStuck: {
-        const std::int64_t held = raw->counts[p.row - 1][p.channel];
-        for (std::size_t r = p.row; r < p.row + p.rows; ++r) raw->counts[r][p.channel] = held;
+      case FaultKind::kStuck: {  // the last sample before repeated in the run's sampled cells
+        std::size_t before = p.row - 1;
+        while (before > 0 && raw->counts[before][p.channel] == kEmptyCell) --before;
+        const std::int64_t held = raw->counts[before][p.channel];
+        for (std::size_t r = p.row; r < p.row + p.rows; ++r) {
+          if (raw->counts[r][p.channel] != kEmptyCell) raw->counts[r][p.channel] = held;
+        }
         break;
       }
       case FaultKind::kDropout:

@@ -74,7 +74,10 @@ struct InjectedFault {
 
 /// Places and applies the requests in order. Faults at random times keep clear of the
 /// others (1 s between any two, 2 s on one channel, 2 s from either end of the log); one
-/// at a given time goes exactly there. A stuck or dropout run is cut at the log's end.
+/// at a given time goes exactly there (or, for a channel at a lower rate than the rows, to
+/// its next sample). A random channel is one the model has; a channel fault lands on a row
+/// where the channel has a sample, and a stuck run repeats the sample before it in the
+/// run's sampled cells. A stuck or dropout run is cut at the log's end.
 /// @param seed  the "faults" stream: the same requests and seed give the same faults.
 /// @throws std::invalid_argument for a time outside the log, or too many faults to place.
 std::vector<InjectedFault> InjectFaults(const std::vector<FaultSpec>& specs, const telemetry::SensorModel& model,

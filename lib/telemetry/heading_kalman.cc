@@ -31,6 +31,8 @@ void HeadingKalmanOptions::Validate() const {
                std::isfinite(gyro_scale_walk_per_sqrt_s))
       << "heading filter: gyro scale sigma must be in [0, 0.5) and its walk >= 0";
   LN_CHECK_ARG(std::isfinite(initial_heading_deg)) << "initial heading: not finite";
+  LN_CHECK_ARG(gyro_bias_walk_dps_per_sqrt_s >= 0 && std::isfinite(gyro_bias_walk_dps_per_sqrt_s))
+      << "heading filter: the gyro bias walk must be >= 0";
 }
 
 nlohmann::json HeadingKalmanOptions::ToJson() const {
@@ -39,7 +41,8 @@ nlohmann::json HeadingKalmanOptions::ToJson() const {
           {"accel_gate_dps2", accel_gate_dps2},     {"gate_gain", gate_gain},
           {"gate_smoothing_s", gate_smoothing_s},       {"gyro_scale_sigma", gyro_scale_sigma},
           {"gyro_scale_walk_per_sqrt_s", gyro_scale_walk_per_sqrt_s},
-          {"estimate_gyro_bias", estimate_gyro_bias}, {"initial_heading_deg", initial_heading_deg}};
+          {"estimate_gyro_bias", estimate_gyro_bias}, {"gyro_bias_walk_dps_per_sqrt_s", gyro_bias_walk_dps_per_sqrt_s},
+          {"zero_rate_when_stationary", zero_rate_when_stationary}, {"initial_heading_deg", initial_heading_deg}};
 }
 
 HeadingKalman::HeadingKalman(const HeadingKalmanOptions& options, double first_compass_rad) : o_(options) {
@@ -100,11 +103,22 @@ HeadingKalman::Output HeadingKalman::Update(double t_s, double compass_rad, doub
   // Gyro: measures (1 + s) x the rate (after removing the bias); linearised (EKF).
   if (!std::isnan(gyro_radps)) {
     if (o_.estimate_gyro_bias && stationary) {
-      bias_sum_ += gyro_radps;
+      if (!was_stationary_) ++bias_periods_;  // a new stationary period
+      if (bias_count_ == 0) {  // the first reading: the estimate, with the gyro's noise
+        bias_ = gyro_radps;
+        bias_var_ = r_gyro_;
+      } else {  // the estimate has wandered since its last update; this reading corrects it
+        const double q = o_.gyro_bias_walk_dps_per_sqrt_s * kDeg;
+        bias_var_ += q * q * std::max(0.0, t_s - bias_t_);
+        const double gain = bias_var_ / (bias_var_ + r_gyro_);
+        bias_ += gain * (gyro_radps - bias_);
+        bias_var_ *= 1.0 - gain;
+      }
+      bias_t_ = t_s;
       ++bias_count_;
-      bias_ = bias_sum_ / bias_count_;
     }
-    const double rate = gyro_radps - gyro_bias_radps();
+    was_stationary_ = stationary;
+    const double rate = stationary && o_.zero_rate_when_stationary ? 0.0 : gyro_radps - gyro_bias_radps();
     if (std::isnan(gate_time_) || o_.gate_smoothing_s == 0) {
       gate_accel_ = std::isnan(gate_time_) || t_s <= gate_time_ ? 0.0 : (rate - gate_rate_) / (t_s - gate_time_);
       gate_rate_ = rate;

@@ -34,8 +34,17 @@ struct HeadingKalmanOptions {
   /// again after the turn, corrects both the heading and s. 0 = no scale state. >= 0.
   double gyro_scale_sigma = 0.02;
   double gyro_scale_walk_per_sqrt_s = 1e-4;  ///< Random walk of s (temperature drift). >= 0.
-  /// Gyro bias: estimated as the mean gyro reading while the wheels stand still (stationary).
+  /// Gyro bias: estimated from the gyro's readings while the wheels stand still
+  /// (stationary), by a scalar Kalman filter: each reading (noise gyro_sigma_dps) updates the
+  /// estimate, whose variance grows by gyro_bias_walk_dps_per_sqrt_s^2 per second between
+  /// them, so that a stop's readings count more than older stops' as the bias wanders (a MEMS
+  /// gyro's does, with temperature). With no walk it is the mean of all stationary readings.
   bool estimate_gyro_bias = true;
+  double gyro_bias_walk_dps_per_sqrt_s = 0.005;  ///< >= 0.
+  /// While stationary the heading rate is known to be 0 (a rover does not turn with its
+  /// wheels still): the gyro's reading is replaced by that, so the heading does not wander
+  /// on the gyro's noise during stops.
+  bool zero_rate_when_stationary = true;
   double initial_heading_deg = 0.0;     ///< Used only when there is no compass.
   void Validate() const;
   nlohmann::json ToJson() const;
@@ -83,6 +92,8 @@ class HeadingKalman {
   double gyro_scale_error() const { return xs_; }
   double gyro_scale_sigma() const;
   int compass_updates() const { return compass_updates_; }
+  long stationary_samples() const { return bias_count_; }
+  int stationary_periods() const { return bias_periods_; }
   int gyro_updates() const { return gyro_updates_; }
 
  private:
@@ -95,9 +106,11 @@ class HeadingKalman {
   double p_[3][3] = {};
   double last_t_ = 0;
   bool started_ = false;
-  double bias_sum_ = 0;
   long bias_count_ = 0;
-  double bias_ = 0;  // bias_sum_ / bias_count_, 0 before the first stationary sample
+  double bias_ = 0;  // the bias used, 0 before the first stationary sample
+  double bias_var_ = 0, bias_t_ = 0;  // its variance (rad/s)^2, and the time of its last update
+  int bias_periods_ = 0;
+  bool was_stationary_ = false;
   double gate_rate_ = 0, gate_accel_ = 0, gate_time_;
   // The gate smoothing's alpha for the last few intervals (time stamps in tenths of a second
   // give a handful of distinct binary differences): alpha_[i] belongs to alpha_dt_[i].

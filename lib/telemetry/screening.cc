@@ -71,6 +71,7 @@ class ScreeningStream::Impl {
   Impl(const SensorModel& model, const ScreeningOptions& options, const std::array<bool, kNumChannels>& present)
       : model_(model), o_(options), window_rows_(options.statistics_intervals + 1) {
     options.Validate();
+    out_.warning_share = o_.warning_share;
     for (Channel c : kAllChannels) {
       const int ch = static_cast<int>(c);
       ChannelState& s = ch_[ch];
@@ -82,16 +83,22 @@ class ScreeningStream::Impl {
       s.hampel = !encoder;
       s.full_scale = std::ldexp(1.0, m.bits) - 1.0;
       s.period = std::ldexp(1.0, m.counter_bits);
+      // The vehicle's limits: the sensor file's, else the options' defaults.
+      const VehicleLimits& vehicle = model_.vehicle;
       if (encoder) {
-        s.limit = o_.max_speed_mps / std::abs(m.MetresPerCount());
+        s.limit = vehicle.max_speed_mps.value_or(o_.max_speed_mps) / std::abs(m.MetresPerCount());
         s.slack = o_.rate_slack_counts;
       } else {
         const double unit = std::abs(m.ToRadians(1.0) - m.ToRadians(0.0));  // radians per count
-        s.slack = o_.rate_slack_counts * unit;
+        // Two samples' noise may part them by rate_noise_sigmas x sqrt(2) x noise_rms.
         const double deg = M_PI / 180.0;
-        if (c == Channel::kCompass) s.limit = o_.max_turn_rate_dps * deg;
-        else if (c == Channel::kGyroZ) s.limit = o_.max_turn_accel_dps2 * deg;
-        else s.limit = o_.max_tilt_rate_dps * deg;
+        const double noise = m.units == "rad" || m.units == "rad/s" ? m.noise_rms : m.noise_rms * deg;
+        s.slack = o_.rate_slack_counts * unit + o_.rate_noise_sigmas * std::sqrt(2.0) * noise;
+        if (c == Channel::kCompass) s.limit = vehicle.max_turn_rate_dps.value_or(o_.max_turn_rate_dps) * deg;
+        else if (c == Channel::kGyroZ) s.limit = vehicle.max_turn_accel_dps2.value_or(o_.max_turn_accel_dps2) * deg;
+        else s.limit = vehicle.max_tilt_rate_dps.value_or(o_.max_tilt_rate_dps) * deg;
+        out_.rate_limit[ch] = s.limit;
+        out_.rate_slack[ch] = s.slack;
         // Counts to radians is linear: precomputed, not called per sample.
         s.radians_at_zero = m.ToRadians(0.0);
         s.radians_per_count = m.ToRadians(1.0) - s.radians_at_zero;
@@ -403,6 +410,7 @@ class ScreeningStream::Impl {
     double* queue_t = nullptr;
     std::size_t* queue_row = nullptr;
     std::size_t accepted_in_window = s.accepted_in_window;
+    long samples = 0;  // present in the rows passed
     if constexpr (kind != kEncoderKind) {
       const std::size_t room = queued + (out_.rows - s.pass_end);
       s.queue_value.resize(room);
@@ -416,6 +424,7 @@ class ScreeningStream::Impl {
       const std::size_t i = k - b;
       const double r = raw[i];
       if (std::isnan(r)) continue;
+      ++samples;
       if (typical_state == Typical::kKnown) {
         if (t[i] - last_present_t > dropout_limit) Record(k, ch, ScreeningRule::kDropout, r);
         last_present_t = t[i];
@@ -482,6 +491,7 @@ class ScreeningStream::Impl {
     s.rejected_run = rejected_run;
     s.last_present_t = last_present_t;
     s.pass_end = out_.rows;
+    out_.samples[ch] += samples;
   }
 
   // A sample of a channel with fewer than three in the statistics window: its first three
@@ -821,6 +831,8 @@ void ScreeningOptions::Validate() const {
                max_turn_accel_dps2 > 0)
       << "rate limits: must be > 0";
   LN_CHECK_ARG(rate_slack_counts >= 0 && hampel_min_counts >= 0) << "slacks: must be >= 0";
+  LN_CHECK_ARG(rate_noise_sigmas >= 0 && std::isfinite(rate_noise_sigmas)) << "rate noise sigmas: must be >= 0";
+  LN_CHECK_ARG(warning_share > 0 && warning_share <= 1) << "warning share: must be in (0, 1]";
   LN_CHECK_ARG(hampel_half_window >= 2) << "Hampel half window: must be >= 2";
   LN_CHECK_ARG(hampel_threshold > 0) << "Hampel threshold: must be > 0";
   LN_CHECK_ARG(stuck_min_s > 0) << "stuck duration: must be > 0";
@@ -834,6 +846,8 @@ nlohmann::json ScreeningOptions::ToJson() const {
           {"max_tilt_rate_dps", max_tilt_rate_dps},
           {"max_turn_accel_dps2", max_turn_accel_dps2},
           {"rate_slack_counts", rate_slack_counts},
+          {"rate_noise_sigmas", rate_noise_sigmas},
+          {"warning_share", warning_share},
           {"hampel_half_window", hampel_half_window},
           {"hampel_threshold", hampel_threshold},
           {"hampel_min_counts", hampel_min_counts},
@@ -847,6 +861,54 @@ long ScreenedLog::Count(ScreeningRule rule) const {
   return total;
 }
 
+namespace {
+// The rules that take samples out of a channel (the others drop rows, report or repair).
+bool Rejects(ScreeningRule rule) {
+  return rule == ScreeningRule::kOutOfRange || rule == ScreeningRule::kAtRail || rule == ScreeningRule::kRateLimit ||
+         rule == ScreeningRule::kSpike || rule == ScreeningRule::kStuck;
+}
+}  // namespace
+
+std::vector<ScreenedLog::Share> ScreenedLog::RejectionShares() const {
+  std::vector<Share> shares;
+  for (int r = 0; r < kNumScreeningRules; ++r) {
+    if (!Rejects(static_cast<ScreeningRule>(r))) continue;
+    for (int c = 0; c < kNumChannels; ++c) {
+      if (counts[r][c] == 0 || samples[c] == 0) continue;
+      shares.push_back({static_cast<ScreeningRule>(r), c, counts[r][c],
+                        static_cast<double>(counts[r][c]) / static_cast<double>(samples[c])});
+    }
+  }
+  return shares;
+}
+
+std::vector<ScreenedLog::Share> ScreenedLog::Warnings() const {
+  std::vector<Share> warnings;
+  for (const Share& s : RejectionShares()) {
+    if (s.share > warning_share) warnings.push_back(s);
+  }
+  return warnings;
+}
+
+std::string ScreenedLog::Share::Message() const {
+  std::ostringstream m;
+  m.imbue(std::locale::classic());
+  m.precision(3);
+  const char* check = "";
+  switch (rule) {
+    case ScreeningRule::kRateLimit: check = "the sensor's noise_rms and the vehicle's limits in the sensor file"; break;
+    case ScreeningRule::kOutOfRange:
+    case ScreeningRule::kAtRail: check = "the channel's bits, valid_range, scale and offset (and --bits)"; break;
+    case ScreeningRule::kSpike: check = "the sensor's noise and wiring"; break;
+    case ScreeningRule::kStuck: check = "the sensor and the channel it is compared with"; break;
+    default: check = "the sensor file"; break;
+  }
+  m << "screening rule " << ToString(rule) << " rejected " << rejected << " " << ToString(static_cast<Channel>(channel))
+    << " samples (" << 100.0 * share << " %); check " << check
+    << " (docs/posfilter.md, \"When a rule rejects too much\")";
+  return m.str();
+}
+
 nlohmann::json ScreenedLog::ReportJson() const {
   nlohmann::json report = nlohmann::json::object();
   for (int r = 0; r < kNumScreeningRules; ++r) {
@@ -858,6 +920,28 @@ nlohmann::json ScreenedLog::ReportJson() const {
     report[ToString(static_cast<ScreeningRule>(r))] = {{"total", Count(static_cast<ScreeningRule>(r))},
                                                        {"by_channel", per}};
   }
+  nlohmann::json samples_json = nlohmann::json::object(), limits = nlohmann::json::object();
+  for (int c = 0; c < kNumChannels; ++c) {
+    if (samples[c] > 0) samples_json[ToString(static_cast<Channel>(c))] = samples[c];
+    if (rate_limit[c] > 0) {
+      const bool gyro = static_cast<Channel>(c) == Channel::kGyroZ;
+      limits[ToString(static_cast<Channel>(c))] = {
+          {gyro ? "max_change_dps2" : "max_rate_dps", rate_limit[c] * 180 / M_PI},
+          {gyro ? "slack_dps" : "slack_deg", rate_slack[c] * 180 / M_PI}};
+    }
+  }
+  report["samples"] = samples_json;
+  report["rate_limits"] = limits;
+  nlohmann::json shares = nlohmann::json::array(), warnings = nlohmann::json::array();
+  for (const Share& s : RejectionShares()) {
+    nlohmann::json j = {{"rule", ToString(s.rule)}, {"channel", ToString(static_cast<Channel>(s.channel))},
+                        {"rejected", s.rejected}, {"share", s.share}};
+    shares.push_back(j);
+    if (s.share > warning_share) warnings.push_back(s.Message());
+  }
+  report["rejection_shares"] = shares;
+  report["warning_share"] = warning_share;
+  report["warnings"] = warnings;
   return report;
 }
 

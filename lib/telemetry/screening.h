@@ -39,9 +39,19 @@ struct ScreeningOptions {
   double max_speed_mps = 2.0;         ///< Rate limit of each wheel's travel. > 0.
   double max_turn_rate_dps = 90.0;    ///< Rate limit of the compass heading. > 0.
   double max_tilt_rate_dps = 60.0;    ///< Rate limit of pitch and roll. > 0.
-  double max_turn_accel_dps2 = 180.0; ///< Rate limit of the gyro's reading. > 0.
-  /// Slack added to every rate limit, in counts of the channel (quantisation and noise).
+  /// Rate limit of the gyro's reading (angular acceleration): a skid-steered rover starts
+  /// and stops turning abruptly, several hundred deg/s^2. > 0.
+  double max_turn_accel_dps2 = 500.0;
+  /// The sensor file's vehicle limits (SensorModel::vehicle), when stated, replace the four
+  /// above.
+  /// Slack added to every rate limit, in counts of the channel (quantisation).
   double rate_slack_counts = 4.0;
+  /// And in the channel's noise (ChannelModel::noise_rms): two samples' noise parts them by
+  /// up to this many sigmas x sqrt(2). >= 0.
+  double rate_noise_sigmas = 5.0;
+  /// A rule that rejects more than this share of a channel's samples is reported as a
+  /// warning (a threshold or a sensor description that does not fit the log). (0, 1].
+  double warning_share = 0.01;
   int hampel_half_window = 3;         ///< Hampel test over +-k accepted samples. >= 2.
   /// In robust sigmas: the larger of the window's 1.4826 MAD and the channel's noise level
   /// (from its second differences). > 0.
@@ -80,7 +90,25 @@ struct ScreenedLog {
   /// NaN where the sample is missing or was rejected. Empty for absent channels.
   std::array<std::vector<double>, kNumChannels> value;
   std::array<std::array<long, kNumChannels + 1>, kNumScreeningRules> counts{};  ///< [rule][channel or kNumChannels for rows]
+  std::array<long, kNumChannels> samples{};  ///< Samples present per channel (rows kept).
+  /// Each analog channel's rate limit (rad/s; the gyro's rad/s^2) and slack (rad; rad/s), as
+  /// derived from the vehicle's limits and the sensor's noise (0: not an analog channel).
+  std::array<double, kNumChannels> rate_limit{}, rate_slack{};
+  double warning_share = 0.01;  ///< ScreeningOptions::warning_share.
   std::vector<ScreeningEvent> events;
+
+  /// The share of a channel's samples one rule rejected.
+  struct Share {
+    ScreeningRule rule;
+    int channel;
+    long rejected;
+    double share;
+    std::string Message() const;  ///< The warning line.
+  };
+  /// Every rejecting rule's share per channel (rules that rejected nothing left out).
+  std::vector<Share> RejectionShares() const;
+  /// Those above warning_share.
+  std::vector<Share> Warnings() const;
 
   bool Has(Channel c) const { return !value[static_cast<int>(c)].empty(); }
   long Count(ScreeningRule rule) const;  ///< Over all channels and rows.

@@ -65,6 +65,26 @@ std::optional<Channel> ChannelFromString(const std::string& name) {
   return std::nullopt;
 }
 
+std::string ToString(TimeUnits units) {
+  switch (units) {
+    case TimeUnits::kSeconds: return "s";
+    case TimeUnits::kMilliseconds: return "ms";
+    case TimeUnits::kMicroseconds: return "us";
+    case TimeUnits::kNanoseconds: return "ns";
+  }
+  return "s";
+}
+
+double SecondsPer(TimeUnits units) {
+  switch (units) {
+    case TimeUnits::kSeconds: return 1.0;
+    case TimeUnits::kMilliseconds: return 1e-3;
+    case TimeUnits::kMicroseconds: return 1e-6;
+    case TimeUnits::kNanoseconds: return 1e-9;
+  }
+  return 1.0;
+}
+
 bool IsEncoder(Channel channel) {
   return channel == Channel::kEncoderFrontLeft || channel == Channel::kEncoderFrontRight ||
          channel == Channel::kEncoderRearLeft || channel == Channel::kEncoderRearRight;
@@ -103,6 +123,15 @@ nlohmann::json SensorModel::ToJson() const {
   nlohmann::json j;
   j["format"] = kFormat;
   j["time_column"] = time_column;
+  if (time_units != TimeUnits::kSeconds) j["time_units"] = ToString(time_units);
+  if (!vehicle.empty()) {
+    nlohmann::json v = nlohmann::json::object();
+    if (vehicle.max_speed_mps) v["max_speed_mps"] = *vehicle.max_speed_mps;
+    if (vehicle.max_turn_rate_dps) v["max_turn_rate_dps"] = *vehicle.max_turn_rate_dps;
+    if (vehicle.max_turn_accel_dps2) v["max_turn_accel_dps2"] = *vehicle.max_turn_accel_dps2;
+    if (vehicle.max_tilt_rate_dps) v["max_tilt_rate_dps"] = *vehicle.max_tilt_rate_dps;
+    j["vehicle"] = v;
+  }
   nlohmann::json chans = nlohmann::json::object();
   for (Channel c : kAllChannels) {
     const ChannelModel& m = (*this)[c];
@@ -117,6 +146,7 @@ nlohmann::json SensorModel::ToJson() const {
       cj["scale"] = m.scale;
       cj["offset"] = m.offset;
       cj["units"] = m.units;
+      if (m.noise_rms > 0) cj["noise_rms"] = m.noise_rms;
     }
     chans[ToString(c)] = cj;
   }
@@ -127,11 +157,38 @@ nlohmann::json SensorModel::ToJson() const {
 SensorModel SensorModelFromJson(const nlohmann::json& j, const std::string& source) {
   LN_CHECK_INPUT(j.is_object()) << source << ": a sensor model is a JSON object";
   Reader top(j, source);
-  top.OnlyKeys({"format", "time_column", "bits", "channels", "description"});
+  top.OnlyKeys({"format", "time_column", "time_units", "vehicle", "bits", "channels", "description"});
   LN_CHECK_INPUT(top.String("format") == kFormat)
       << source << ".format: expected \"" << kFormat << "\"";
   SensorModel model;
   if (top.Has("time_column")) model.time_column = top.String("time_column");
+  if (top.Has("time_units")) {
+    const std::string units = top.String("time_units");
+    bool known = false;
+    for (TimeUnits u : {TimeUnits::kSeconds, TimeUnits::kMilliseconds, TimeUnits::kMicroseconds,
+                        TimeUnits::kNanoseconds}) {
+      if (units == ToString(u)) {
+        model.time_units = u;
+        known = true;
+      }
+    }
+    LN_CHECK_INPUT(known) << source << ".time_units: '" << units << "' (expected s, ms, us or ns)";
+  }
+  if (top.Has("vehicle")) {
+    const nlohmann::json& vj = j["vehicle"];
+    LN_CHECK_INPUT(vj.is_object()) << source << ".vehicle: expected an object";
+    Reader v(vj, source + ".vehicle");
+    v.OnlyKeys({"max_speed_mps", "max_turn_rate_dps", "max_turn_accel_dps2", "max_tilt_rate_dps", "description"});
+    auto limit = [&](const char* key, std::optional<double>* out) {
+      if (!v.Has(key)) return;
+      *out = v.Number(key);
+      LN_CHECK_INPUT(**out > 0) << source << ".vehicle." << key << ": must be > 0";
+    };
+    limit("max_speed_mps", &model.vehicle.max_speed_mps);
+    limit("max_turn_rate_dps", &model.vehicle.max_turn_rate_dps);
+    limit("max_turn_accel_dps2", &model.vehicle.max_turn_accel_dps2);
+    limit("max_tilt_rate_dps", &model.vehicle.max_tilt_rate_dps);
+  }
   const int default_bits = top.Has("bits") ? static_cast<int>(top.Integer("bits")) : 10;
   LN_CHECK_INPUT(default_bits >= 1 && default_bits <= 24)
       << source << ".bits: must be in 1..24, got " << default_bits;
@@ -179,10 +236,12 @@ SensorModel SensorModelFromJson(const nlohmann::json& j, const std::string& sour
       m.sign = r.Has("sign") ? static_cast<int>(r.Integer("sign")) : 1;
       LN_CHECK_INPUT(m.sign == 1 || m.sign == -1) << where << ".sign: must be 1 or -1";
     } else {
-      r.OnlyKeys({"column", "bits", "valid_range", "scale", "offset", "units"});
+      r.OnlyKeys({"column", "bits", "valid_range", "scale", "offset", "units", "noise_rms"});
       m.scale = r.Number("scale");
       LN_CHECK_INPUT(m.scale != 0) << where << ".scale: must not be 0";
       m.offset = r.Has("offset") ? r.Number("offset") : 0.0;
+      m.noise_rms = r.Has("noise_rms") ? r.Number("noise_rms") : 0.0;
+      LN_CHECK_INPUT(m.noise_rms >= 0) << where << ".noise_rms: must be >= 0";
       const bool rate = *channel == Channel::kGyroZ;
       m.units = r.Has("units") ? r.String("units") : (rate ? "deg/s" : "deg");
       LN_CHECK_INPUT(rate ? (m.units == "deg/s" || m.units == "rad/s")

@@ -48,6 +48,12 @@ struct ChannelModel {
   double scale = 1.0;
   double offset = 0.0;
   std::string units;          ///< "deg" or "rad"; the gyro "deg/s" or "rad/s".
+  /// Analog channels: the sensor's noise per sample, RMS, in `units` (vibration included:
+  /// an inclinometer derived from an accelerometer on a driving rover reads a degree or more;
+  /// a gyro's is its noise density times sqrt(sample rate / 2)). >= 0; 0 = unknown (the
+  /// rate limit then allows only its slack of counts). Screening's rate limit adds
+  /// ScreeningOptions::rate_noise_sigmas x sqrt(2) of it per sample.
+  double noise_rms = 0.0;
   /// Counts outside [valid_min, valid_max] are out of range (screening). Default: the full
   /// digitisation range [0, 2^bits - 1].
   long long valid_min = 0;
@@ -66,10 +72,33 @@ struct ChannelModel {
   double ToRadians(double count) const;
 };
 
+/// The vehicle's physical limits, from which screening's rate limits derive (unset: the
+/// ScreeningOptions defaults, docs/posfilter.md). Generous bounds of what the vehicle can do,
+/// not typical values: a sample beyond them is not a measurement of motion.
+struct VehicleLimits {
+  std::optional<double> max_speed_mps;        ///< Any wheel's rim speed. > 0.
+  std::optional<double> max_turn_rate_dps;    ///< Heading rate. > 0.
+  /// Angular acceleration about the vertical: a skid-steered rover starts and stops turning
+  /// abruptly (several hundred deg/s^2). > 0.
+  std::optional<double> max_turn_accel_dps2;
+  std::optional<double> max_tilt_rate_dps;    ///< Pitch and roll rate of the body. > 0.
+  bool empty() const {
+    return !max_speed_mps && !max_turn_rate_dps && !max_turn_accel_dps2 && !max_tilt_rate_dps;
+  }
+};
+
+/// Units of the time column: seconds, milliseconds, microseconds or nanoseconds (Unix epoch
+/// time stamps are any of these; they are converted to seconds as read).
+enum class TimeUnits { kSeconds, kMilliseconds, kMicroseconds, kNanoseconds };
+std::string ToString(TimeUnits units);
+double SecondsPer(TimeUnits units);
+
 /// The whole sensor model.
 struct SensorModel {
   std::array<ChannelModel, kNumChannels> channels;
-  std::string time_column = "t";  ///< Time stamps, seconds.
+  std::string time_column = "t";  ///< Time stamps, in time_units.
+  TimeUnits time_units = TimeUnits::kSeconds;
+  VehicleLimits vehicle;
 
   const ChannelModel& operator[](Channel c) const { return channels[static_cast<int>(c)]; }
   ChannelModel& operator[](Channel c) { return channels[static_cast<int>(c)]; }

@@ -15,7 +15,8 @@ namespace lunarnav::telemetry {
 /// A log as read: time stamps and raw counts, nothing screened or converted yet.
 struct TelemetryLog {
   std::filesystem::path source;
-  std::vector<double> t_s;            ///< Time stamp of each row, seconds, as written.
+  /// Time stamp of each row, seconds (the time column in the units the sensor model declares).
+  std::vector<double> t_s;
   std::vector<long> line;             ///< 1-based line number of each row in the file.
   /// Raw counts per channel, one per row; NaN for an empty cell (a channel sampled at a lower
   /// rate). Empty vector when the channel is not in the sensor model or not in the file.

@@ -112,6 +112,30 @@ TEST(EvaluateTrajectory, RigidAlignmentRemovesAConstantHeadingOffset) {
   EXPECT_NEAR(e.ape_rotation_deg.max, 0.0, 1e-4);
 }
 
+TEST(EvaluateTrajectory, TwoDimensionalAlignmentComparesAFlatTrajectoryHorizontally) {
+  util::ScopedTempDir tmp;
+  const auto truth = Poses(Drive(), tmp);  // climbs 0.01 m per m north
+  // A flat (z = 0) copy turned by 30 deg about the vertical and moved 5 m east.
+  auto flat = truth;
+  const Eigen::Isometry3d move = Eigen::Translation3d(5, 0, 0) * Eigen::AngleAxisd(0.5236, Eigen::Vector3d::UnitZ());
+  for (StampedPose& p : flat) {
+    p.world_from_body.translation().z() = 0;
+    p.world_from_body = move * p.world_from_body;
+  }
+  TrajectoryEvalOptions options;
+  options.alignment = Alignment::kRigid2d;
+  EXPECT_NEAR(EvaluateTrajectory(flat, truth, options).ape_translation_m.max, 0.0, 1e-6);
+  // A 3-D rigid alignment would have to tilt the flat copy and still leave the climb's error.
+  options.alignment = Alignment::kRigid;
+  EXPECT_GT(EvaluateTrajectory(flat, truth, options).ape_translation_m.max, 0.01);
+  // Horizontal errors are kept: 0.3 m east of the truth everywhere after the first half.
+  auto off = truth;
+  for (std::size_t i = off.size() / 2; i < off.size(); ++i) off[i].world_from_body.translation().x() += 0.3;
+  options.alignment = Alignment::kRigid2d;
+  EXPECT_GT(EvaluateTrajectory(off, truth, options).ape_translation_m.mean, 0.05);
+  EXPECT_EQ(AlignmentFromString("rigid-2d"), Alignment::kRigid2d);
+}
+
 TEST(ReadPoses, CsvAndTumGiveTheSamePoses) {
   util::ScopedTempDir tmp;
   auto samples = Drive();

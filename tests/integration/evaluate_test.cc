@@ -112,6 +112,44 @@ TEST(EvaluateTrials, ScoresAPosfilterTrajectoryAgainstTapeMeasuredTrials) {
   EXPECT_EQ(outside.ErrorLines(), 1) << outside.stderr_text;
 }
 
+// posfilter's trajectory and baseline against a truth that is the trajectory itself turned by
+// 20 deg and moved: after the 2-D alignment the trajectory has no error, the baseline its
+// difference from the trajectory, and the ratio is 0.
+TEST(EvaluateTrajectory, GivesEachEstimatesErrorAndItsRatioToTheReference) {
+  ScopedTempDir tmp;
+  const fs::path pos = tmp.path() / "pos", eval = tmp.path() / "eval";
+  ASSERT_EQ(RunTool("posfilter", {TestDataPath("telemetry/turning.csv").string(), "--sensors",
+                                  TestDataPath("telemetry/ratler_sensors.json").string(), "-o", pos.string(), "-q"},
+                    tmp.path()).exit_code, 0);
+  auto samples = positioning::ReadTrajectoryCsv(pos / "trajectory.csv");
+  const double c = std::cos(0.35), s = std::sin(0.35);
+  for (auto& p : samples) {
+    const double x = p.x_m, y = p.y_m;
+    p.x_m = 3 + c * x - s * y;
+    p.y_m = -2 + s * x + c * y;
+  }
+  positioning::WriteTrajectoryCsv(tmp.path() / "truth.csv", samples);
+  const auto result = RunTool("evaluate", {"trajectory", "filtered=" + (pos / "trajectory.csv").string(),
+                                           "baseline=" + (pos / "baseline.csv").string(), "--truth",
+                                           (tmp.path() / "truth.csv").string(), "-o", eval.string(), "-q"},
+                              tmp.path());
+  ASSERT_EQ(result.exit_code, 0) << result.stderr_text;
+  const nlohmann::json summary = io::ReadJson(eval / "summary.json");
+  EXPECT_NEAR(summary["estimates"]["filtered"]["ape_mean_m"].get<double>(), 0.0, 1e-3);
+  EXPECT_NEAR(summary["estimates"]["filtered"]["ape_mean_ratio"].get<double>(), 0.0, 1e-2);
+  EXPECT_EQ(summary["estimates"]["baseline"]["ape_mean_ratio"].get<double>(), 1.0);
+  EXPECT_GT(summary["estimates"]["baseline"]["ape_mean_m"].get<double>(), 0.0);
+  for (const char* ext : {".csv", ".json", ".md"}) {
+    EXPECT_TRUE(fs::exists(eval / (std::string("trajectory_errors") + ext)));
+  }
+  // A malformed estimate or alignment is a usage error.
+  EXPECT_EQ(RunTool("evaluate", {"trajectory", "no-name", "--truth", (tmp.path() / "truth.csv").string(), "-o",
+                                 eval.string()}, tmp.path()).exit_code, 2);
+  EXPECT_EQ(RunTool("evaluate", {"trajectory", "a=" + (pos / "trajectory.csv").string(), "--align", "wobbly",
+                                 "--truth", (tmp.path() / "truth.csv").string(), "-o", eval.string()}, tmp.path())
+                .exit_code, 2);
+}
+
 TEST(EvaluateCorrelation, FindsTheTrueDisparityAtEverySubsampling) {
   ScopedTempDir tmp;
   const fs::path pairs = TestDataPath("stereo_pairs"), out = tmp.path() / "corr";

@@ -77,6 +77,18 @@ TEST(Posfilter, DeadReckonsAHandBuiltDrive) {
   EXPECT_NEAR(summary["lowpass"]["delay_samples"].get<double>(), std::sqrt(2.0) / (2 * M_PI * 0.25) * 10, 0.05);
   EXPECT_TRUE(fs::exists(out / "trajectory.tum"));
   EXPECT_TRUE(fs::exists(tmp.path() / "screening.csv"));
+  // The plain baseline beside it: once a second and at the last row, from the same start,
+  // ending near the filtered trajectory's end; the states the heading filter estimated.
+  const auto baseline = positioning::ReadTrajectoryCsv(out / "baseline.csv");
+  ASSERT_EQ(baseline.size(), 81u);
+  EXPECT_EQ(baseline.back().t_s, trajectory.back().t_s);
+  EXPECT_EQ(baseline.front().x_m, 0.0);
+  const double apart_m =
+      std::hypot(baseline.back().x_m - trajectory.back().x_m, baseline.back().y_m - trajectory.back().y_m);
+  EXPECT_NEAR(summary["baseline"]["end_difference_m"].get<double>(), apart_m, 1e-3);
+  EXPECT_FALSE(summary["baseline"]["parted"].get<bool>());
+  EXPECT_EQ(summary["states"]["gyro_scale"], "estimated (compass)");
+  EXPECT_TRUE(summary["warnings"].empty());
 }
 
 TEST(Posfilter, ReadsSevenBitTelemetry) {

@@ -178,6 +178,44 @@ TEST(Simulate, PosfilterScreeningReportsEveryInjectedFaultWhereFaultsCsvSaysItIs
   }
 }
 
+// The real-like presets (a small skid-steered rover with MEMS sensors, encoders at 10 Hz, the
+// IMU at 50 Hz, abrupt turns), with and without a compass: posfilter's trajectory is at least
+// as close to the truth as the plain baseline's it writes beside it (by `evaluate
+// trajectory`, after a 2-D alignment), no screening rule rejects more than its warning
+// share, and without a compass the gyro's scale is not adapted.
+TEST(Simulate, OnTheSkidSteerPresetsPosfilterIsNoWorseThanThePlainBaseline) {
+  util::ScopedTempDir tmp;
+  for (const std::string preset : {"skid-steer", "skid-steer-compass"}) {
+    const fs::path sim = tmp.path() / preset, pf = tmp.path() / (preset + "-pf"), ev = tmp.path() / (preset + "-ev");
+    Simulate({"--preset", preset}, sim, tmp.path());
+    Posfilter(sim, pf, tmp.path());
+    const testing::ToolRun run =
+        RunTool("evaluate",
+                {"trajectory", "filtered=" + (pf / "trajectory.csv").string(),
+                 "baseline=" + (pf / "baseline.csv").string(), "--truth", (sim / "truth.csv").string(), "-o",
+                 ev.string(), "-q"},
+                tmp.path());
+    ASSERT_EQ(run.exit_code, 0) << run.stderr_text;
+    const nlohmann::json evaluation = io::ReadJson(ev / "summary.json");
+    const double ratio = evaluation["estimates"]["filtered"]["ape_mean_ratio"].get<double>();
+    EXPECT_LE(ratio, 1.0) << preset;
+    EXPECT_LT(evaluation["estimates"]["baseline"]["ape_mean_m"].get<double>(), 5.0) << preset;
+    const nlohmann::json summary = io::ReadJson(pf / "summary.json");
+    EXPECT_TRUE(summary["warnings"].empty()) << summary["warnings"].dump();
+    const double warning_share = summary["screening"]["warning_share"].get<double>();
+    for (const auto& share : summary["screening"]["rejection_shares"]) {
+      EXPECT_LT(share["share"].get<double>(), warning_share) << preset << ": " << share.dump();
+    }
+    EXPECT_FALSE(summary["baseline"]["parted"].get<bool>());
+    if (preset == "skid-steer") {
+      EXPECT_EQ(summary["heading_kalman"]["gyro_scale_error"].get<double>(), 0.0);
+      EXPECT_NE(summary["states"]["gyro_scale"].get<std::string>().find("held at prior"), std::string::npos);
+    } else {
+      EXPECT_LE(ratio, 0.8) << "the issue's target, met with a compass";
+    }
+  }
+}
+
 TEST(Simulate, SameSeedSameBytesOtherSeedOtherBytes) {
   util::ScopedTempDir tmp;
   const std::vector<std::string> args = {"--preset", "traverse", "--duration", "60", "--bits", "7",

@@ -2,6 +2,7 @@
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <fstream>
 #include <sstream>
@@ -12,6 +13,8 @@
 
 namespace lunarnav::sim {
 namespace {
+
+constexpr double kDeg = M_PI / 180.0;
 
 namespace fs = std::filesystem;
 constexpr const char* kOutputs[] = {"telemetry.csv", "sensors.json", "truth.csv", "trials.json", "faults.csv"};
@@ -106,10 +109,12 @@ TEST(SimulateRoverTelemetry, EveryPresetRunsAndDescribesItself) {
     options.duration_s = 100;
     const RoverTelemetry run = SimulateRoverTelemetry(options);
     EXPECT_EQ(run.scenario.name, name);
-    EXPECT_EQ(run.raw.size(), 1001u) << name;
+    // The skid-steer presets' rows are at the IMU's 50 Hz, the others' at --rate.
+    const std::size_t rows = run.scenario.mems ? 5001u : 1001u;
+    EXPECT_EQ(run.raw.size(), rows) << name;
     EXPECT_GT(run.drive.samples.back().distance_m, 10.0) << name;
     EXPECT_FALSE(run.scenario.description.empty());
-    EXPECT_EQ(run.CountsJson()["rows"], 1001);
+    EXPECT_EQ(run.CountsJson()["rows"], rows);
   }
   // The trials end by themselves without --duration.
   RoverTelemetryOptions options;
@@ -118,6 +123,76 @@ TEST(SimulateRoverTelemetry, EveryPresetRunsAndDescribesItself) {
   EXPECT_EQ(run.drive.trials.size(), 6u);
   EXPECT_EQ(run.drive.trials_truncated, 0);
   EXPECT_EQ(run.drive.commands_completed, static_cast<int>(run.scenario.commands.size()));
+}
+
+// The real-like preset: encoders at 10 Hz, the gyro and tilt at 50 Hz, the sensor model of a
+// small skid-steered rover (left wheels counting down), abrupt turns; a compass only in the
+// -compass variant.
+TEST(SimulateRoverTelemetry, SkidSteerPresetsHaveTheirSensorsRatesAndModel) {
+  for (const bool compass : {false, true}) {
+    RoverTelemetryOptions options;
+    options.preset = compass ? TelemetryPreset::kSkidSteerCompass : TelemetryPreset::kSkidSteer;
+    const RoverTelemetry run = SimulateRoverTelemetry(options);
+    const int fl = static_cast<int>(telemetry::Channel::kEncoderFrontLeft);
+    const int gyro = static_cast<int>(telemetry::Channel::kGyroZ);
+    const int heading = static_cast<int>(telemetry::Channel::kCompass);
+    long encoder_samples = 0, gyro_samples = 0, compass_samples = 0;
+    for (const auto& row : run.raw.counts) {
+      encoder_samples += row[fl] != kEmptyCell;
+      gyro_samples += row[gyro] != kEmptyCell;
+      compass_samples += row[heading] != kEmptyCell;
+    }
+    const double duration = run.drive.samples.back().t_s;
+    EXPECT_NEAR(duration, 177.0, 0.1);
+    EXPECT_NEAR(encoder_samples / duration, 10.0, 0.1);
+    EXPECT_NEAR(gyro_samples / duration, 50.0, 0.1);
+    EXPECT_NEAR(compass_samples / duration, compass ? 10.0 : 0.0, 0.1);
+    EXPECT_EQ(run.sensor_model[telemetry::Channel::kCompass].present, compass);
+    EXPECT_EQ(run.sensor_model[telemetry::Channel::kEncoderFrontLeft].sign, -1);
+    EXPECT_EQ(run.sensor_model[telemetry::Channel::kEncoderFrontLeft].counts_per_revolution, 1024);
+    EXPECT_NEAR(run.sensor_model[telemetry::Channel::kGyroZ].ToRadians(1023), 1.0, 0.01);
+    // Abrupt turns: the turn rate changes at up to 500 deg/s^2, and reaches 45 deg/s.
+    double max_accel = 0, max_rate = 0;
+    for (const RoverSample& s : run.drive.samples) {
+      max_accel = std::max(max_accel, std::abs(s.turn_accel_radps2) / kDeg);
+      max_rate = std::max(max_rate, std::abs(s.turn_rate_radps) / kDeg);
+    }
+    EXPECT_GT(max_accel, 400.0);
+    EXPECT_LE(max_accel, 501.0);
+    EXPECT_NEAR(max_rate, 45.0, 1.0);
+    EXPECT_GT(run.drive.samples.back().distance_m, 60.0);
+  }
+  RoverTelemetryOptions options;
+  options.preset = TelemetryPreset::kSkidSteer;
+  options.rate_hz = 20;
+  EXPECT_THROW(SimulateRoverTelemetry(options), std::invalid_argument);
+}
+
+// Faults on the skid-steer preset land on channels it has and on rows where they have a
+// sample (the encoders are sampled in one row of five, and there is no compass).
+TEST(SimulateRoverTelemetry, FaultsOnTheSkidSteerPresetLandOnSamples) {
+  RoverTelemetryOptions options;
+  options.preset = TelemetryPreset::kSkidSteer;
+  for (const char* text : {"spikes*8", "stuck:enc_fl*1", "out-of-range*3", "spike:enc_rr@30.01"}) {
+    for (FaultSpec& spec : ParseFaultSpecs(text)) options.faults.push_back(spec);
+  }
+  const RoverTelemetry run = SimulateRoverTelemetry(options);
+  ASSERT_EQ(run.faults.size(), 13u);
+  for (const InjectedFault& f : run.faults) {
+    ASSERT_GE(f.channel, 0);
+    EXPECT_TRUE(run.sensor_model.channels[f.channel].present) << f.spec;
+    EXPECT_NE(f.original, kEmptyCell) << f.spec << " at row " << f.row;
+    EXPECT_NE(run.raw.counts[f.row][f.channel], kEmptyCell) << f.spec;
+  }
+  // The one at 30.01 s went to the encoder's next sample, at 30.1 s.
+  bool at_time = false;
+  for (const InjectedFault& f : run.faults) {
+    if (f.spec == "spike:enc_rr@30.01") {
+      at_time = true;
+      EXPECT_EQ(f.t_us, 30100000);
+    }
+  }
+  EXPECT_TRUE(at_time);
 }
 
 TEST(SimulateRoverTelemetry, RejectsBadOptions) {

@@ -143,6 +143,76 @@ TelemetryLog Slice(const TelemetryLog& log, std::size_t from, std::size_t to) {
 // log's screening row for row (every value, event and count), whatever the block size; and
 // the rows waiting for their look-ahead stay few: the spike test's next samples, the
 // longest stuck run, the statistics window at the start.
+// A small skid-steered rover at 50 Hz: pitch from an accelerometer that vibrates (1.5 deg RMS)
+// and a gyro through turns started and stopped at 500 deg/s^2 (0 to 45 deg/s in 0.09 s).
+struct VibratingLog {
+  SensorModel model = SensorModelFromJson(nlohmann::json::parse(R"({
+    "format": "lunarnav.sensors/1",
+    "channels": {
+      "enc_fl": {"counts_per_revolution": 1024, "wheel_radius_m": 0.11},
+      "pitch_left": {"scale": 0.05859375, "offset": -30.0, "units": "deg"},
+      "gyro_z": {"scale": 0.001953125, "offset": -1.0, "units": "rad/s"}
+    }
+  })"),
+                                          "model");
+  TelemetryLog log;
+  VibratingLog() {
+    std::mt19937 rng(5);
+    std::normal_distribution<double> gauss(0.0, 1.0);
+    double rate_dps = 0, travel_m = 0;
+    for (int i = 0; i < 3000; ++i) {  // 60 s
+      const double t = 0.02 * i;
+      const double phase = std::fmod(t, 6.0);  // turning for 2 s of every 6
+      const double target = phase < 2.0 ? 45.0 : 0.0;
+      rate_dps += std::clamp(target - rate_dps, -500.0 * 0.02, 500.0 * 0.02);
+      travel_m += 0.5 * 0.02;
+      log.t_s.push_back(t);
+      log.line.push_back(i + 2);
+      log.counts[static_cast<int>(Channel::kEncoderFrontLeft)].push_back(
+          std::fmod(std::floor(travel_m / model[Channel::kEncoderFrontLeft].MetresPerCount()), 1024.0));
+      log.counts[static_cast<int>(Channel::kPitchLeft)].push_back(
+          std::round((2.0 + 1.5 * gauss(rng) + 30.0) / 0.05859375));
+      log.counts[static_cast<int>(Channel::kGyroZ)].push_back(
+          std::round((rate_dps * M_PI / 180 + 0.006 * gauss(rng) + 1.0) / 0.001953125));
+    }
+  }
+};
+
+TEST(ScreenTelemetry, RateLimitsDeriveFromTheVehiclesLimitsAndTheSensorsNoise) {
+  VibratingLog v;
+  const int pitch = static_cast<int>(Channel::kPitchLeft), gyro = static_cast<int>(Channel::kGyroZ);
+  const int rate_limit = static_cast<int>(ScreeningRule::kRateLimit);
+  {  // Limits that ignore the vibration and the abrupt turns: the rules reject real motion and
+     // noise by the thousand, and say so.
+    SensorModel m = v.model;
+    m.vehicle.max_turn_accel_dps2 = 180.0;
+    const ScreenedLog s = ScreenTelemetry(v.log, m, ScreeningOptions{});
+    EXPECT_EQ(s.samples[pitch], 3000);
+    EXPECT_GT(s.counts[rate_limit][pitch], 300);
+    EXPECT_GT(s.counts[rate_limit][gyro], 10);
+    bool pitch_warned = false;
+    for (const ScreenedLog::Share& w : s.Warnings()) {
+      pitch_warned = pitch_warned || (w.channel == pitch && w.rule == ScreeningRule::kRateLimit);
+      EXPECT_GT(w.share, s.warning_share);
+    }
+    EXPECT_TRUE(pitch_warned);
+    EXPECT_FALSE(s.ReportJson()["warnings"].empty());
+  }
+  {  // The sensor file states the noise and the vehicle's angular acceleration: nothing
+     // real is rejected, and no warning.
+    SensorModel m = v.model;
+    m[Channel::kPitchLeft].noise_rms = 1.5;
+    m[Channel::kGyroZ].noise_rms = 0.006;
+    m.vehicle.max_turn_accel_dps2 = 600.0;
+    const ScreenedLog s = ScreenTelemetry(v.log, m, ScreeningOptions{});
+    EXPECT_EQ(s.counts[rate_limit][pitch], 0);
+    EXPECT_EQ(s.counts[rate_limit][gyro], 0);
+    EXPECT_NEAR(s.rate_limit[gyro] * 180 / M_PI, 600.0, 1e-9);
+    EXPECT_TRUE(s.Warnings().empty()) << s.ReportJson()["warnings"].dump();
+    for (const ScreenedLog::Share& share : s.RejectionShares()) EXPECT_LT(share.share, s.warning_share);
+  }
+}
+
 TEST(ScreeningStream, BlocksAndReleasesGiveTheWholeLogsResult) {
   Scenario sc;
   sc.At(Channel::kCompass, 300) += 23;                                            // spike

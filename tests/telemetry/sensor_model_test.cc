@@ -81,6 +81,41 @@ TEST(SensorModelFromJson, NamesTheKeyOfEveryMistake) {
   j = Minimal();
   j["format"] = "something else";
   expect_error(j, "format");
+  j = Minimal();
+  j["time_units"] = "fortnights";
+  expect_error(j, "s.json.time_units: 'fortnights'");
+  j = Minimal();
+  j["vehicle"] = {{"max_turn_accel_dps2", -5}};
+  expect_error(j, "s.json.vehicle.max_turn_accel_dps2: must be > 0");
+  j = Minimal();
+  j["vehicle"] = {{"top_speed", 1}};
+  expect_error(j, "s.json.vehicle: unknown field 'top_speed'");
+  j = Minimal();
+  j["channels"]["compass"]["noise_rms"] = -1;
+  expect_error(j, "noise_rms: must be >= 0");
+}
+
+TEST(SensorModelFromJson, ReadsTimeUnitsVehicleLimitsAndNoiseAndWritesThemBack) {
+  nlohmann::json j = Minimal();
+  j["time_units"] = "ns";
+  j["vehicle"] = {{"max_turn_accel_dps2", 500}, {"max_tilt_rate_dps", 45}};
+  j["channels"]["compass"]["noise_rms"] = 2.5;
+  const SensorModel m = SensorModelFromJson(j, "s.json");
+  EXPECT_EQ(m.time_units, TimeUnits::kNanoseconds);
+  EXPECT_EQ(SecondsPer(m.time_units), 1e-9);
+  EXPECT_EQ(m.vehicle.max_turn_accel_dps2, 500.0);
+  EXPECT_EQ(m.vehicle.max_tilt_rate_dps, 45.0);
+  EXPECT_FALSE(m.vehicle.max_speed_mps.has_value());
+  EXPECT_EQ(m[Channel::kCompass].noise_rms, 2.5);
+  const SensorModel back = SensorModelFromJson(m.ToJson(), "back");
+  EXPECT_EQ(back.time_units, TimeUnits::kNanoseconds);
+  EXPECT_EQ(back.vehicle.max_turn_accel_dps2, 500.0);
+  EXPECT_EQ(back[Channel::kCompass].noise_rms, 2.5);
+  // Defaults: seconds, no limits (screening's own), noise unknown.
+  const SensorModel plain = SensorModelFromJson(Minimal(), "s.json");
+  EXPECT_EQ(plain.time_units, TimeUnits::kSeconds);
+  EXPECT_TRUE(plain.vehicle.empty());
+  EXPECT_EQ(plain[Channel::kCompass].noise_rms, 0.0);
 }
 
 TEST(ReadSensorModel, ReadsThePaperRoversExample) {

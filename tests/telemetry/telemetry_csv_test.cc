@@ -150,6 +150,25 @@ TEST(ParseTelemetryCsv, RowsAmidALongLogReadAsAlone) {
   }
 }
 
+TEST(ParseTelemetryCsv, TimeStampsInTheDeclaredUnitsBecomeSeconds) {
+  // Unix epoch nanoseconds, milliseconds and seconds of the same rows, 20 ms apart.
+  const std::string ns = "t,compass\n1700000000000000000,1\n1700000000020000000,2\n";
+  const std::string ms = "t,compass\n1700000000000,1\n1700000000020,2\n";
+  const std::string s = "t,compass\n1700000000.00,1\n1700000000.02,2\n";
+  SensorModel model = Model();
+  model.time_units = TimeUnits::kNanoseconds;
+  const TelemetryLog a = ParseTelemetryCsv(ns, "ns.csv", model);
+  model.time_units = TimeUnits::kMilliseconds;
+  const TelemetryLog b = ParseTelemetryCsv(ms, "ms.csv", model);
+  model.time_units = TimeUnits::kSeconds;
+  const TelemetryLog c = ParseTelemetryCsv(s, "s.csv", model);
+  for (const TelemetryLog* log : {&a, &b, &c}) {
+    ASSERT_EQ(log->size(), 2u);
+    EXPECT_NEAR(log->t_s[0], 1.7e9, 1e-6);
+    EXPECT_NEAR(log->t_s[1] - log->t_s[0], 0.02, 1e-6);
+  }
+}
+
 TEST(ParseTelemetryCsv, ReadsColumnsByNameWithGapsAndComments) {
   const std::string text =
       "# logger v2\n"
