@@ -125,9 +125,10 @@ TEST(EvaluateTrajectory, TwoDimensionalAlignmentComparesAFlatTrajectoryHorizonta
   TrajectoryEvalOptions options;
   options.alignment = Alignment::kRigid2d;
   EXPECT_NEAR(EvaluateTrajectory(flat, truth, options).ape_translation_m.max, 0.0, 1e-6);
-  // A 3-D rigid alignment would have to tilt the flat copy and still leave the climb's error.
+  // A 3-D rigid alignment has to tilt the flat copy onto the climbing plane, which cannot
+  // stretch it by the climb's sqrt(1 + 0.01^2): it leaves errors the 2-D one does not.
   options.alignment = Alignment::kRigid;
-  EXPECT_GT(EvaluateTrajectory(flat, truth, options).ape_translation_m.max, 0.01);
+  EXPECT_GT(EvaluateTrajectory(flat, truth, options).ape_translation_m.max, 1e-4);
   // Horizontal errors are kept: 0.3 m east of the truth everywhere after the first half.
   auto off = truth;
   for (std::size_t i = off.size() / 2; i < off.size(); ++i) off[i].world_from_body.translation().x() += 0.3;
