@@ -44,7 +44,9 @@ struct CalibrationOptions {
   /// min_views are left.
   bool drop_outliers = true;
   double drop_mad_factor = 5.0;   ///< k of the threshold above, > 0.
-  double drop_min_rms_px = 1.0;   ///< Never drop a view whose RMS is below this, pixels, > 0.
+  /// Never drop a view whose screening error is below this, pixels, > 0 (sub-pixel corners
+  /// of a sound view stay well below it, whatever the spread of the others).
+  double drop_min_rms_px = 0.5;
   /// A calibration whose stereo RMS reprojection error still exceeds this after the outliers
   /// are dropped has not converged (exit 3), pixels, > 0. Sub-pixel corners of a good
   /// target give 0.05-0.5 px.
