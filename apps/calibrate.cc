@@ -41,7 +41,8 @@ int main(int argc, char** argv) {
   std::vector<fs::path> opencv_files;
   std::string image_size;
   app.add_option("INPUT", inputs, "directory holding left/ and right/; with --from, the format's files");
-  app.add_option("--from", from, "import FORMAT's files instead of calibrating (opencv, ros, kalibr, middlebury, kitti)")
+  app.add_option("--from", from,
+                 "import FORMAT's files instead of calibrating (opencv, ros, kalibr, middlebury, kitti)")
       ->transform(CLI::CheckedTransformer(calib::RigFormatNames(), CLI::ignore_case));
   app.add_option("--from-opencv", opencv_files,
                  "INTRINSICS.yml EXTRINSICS.yml: import OpenCV's stereo calibration (M1 D1 M2 D2; R T) as its "

@@ -265,7 +265,8 @@ double Median(std::vector<double> values) {
 std::string WorstViews(const Solution& s, const std::vector<const StereoCorners*>& views, std::size_t count) {
   std::vector<std::size_t> index(views.size());
   for (std::size_t k = 0; k < index.size(); ++k) index[k] = k;
-  std::sort(index.begin(), index.end(), [&](std::size_t a, std::size_t b) { return ViewError(s, a) > ViewError(s, b); });
+  std::sort(index.begin(), index.end(),
+            [&](std::size_t a, std::size_t b) { return ViewError(s, a) > ViewError(s, b); });
   std::ostringstream text;
   for (std::size_t k = 0; k < std::min(count, index.size()); ++k) {
     if (k > 0) text << ", ";
@@ -300,9 +301,10 @@ void CheckConverged(const CalibrationOptions& options, const Solution& s,
     }
   }
   if (problem.tellp() == 0) return;
-  throw InputError("calibration did not converge: " + std::to_string(views.size()) + " views give " +
-                   problem.str() + "; stereo RMS " + Cell(s.rms_stereo_px, 2) +
-                   " px; the views with the largest errors: " + WorstViews(s, views, 3) +
+  std::string text = problem.str();
+  if (text.find("RMS") == std::string::npos) text += " at a stereo RMS of " + Cell(s.rms_stereo_px, 2) + " px";
+  throw InputError("calibration did not converge: " + std::to_string(views.size()) + " views give " + text +
+                   "; the views with the largest errors: " + WorstViews(s, views, 3) +
                    ". Check their detections (docs/calibrate.md), remove them, or take more views");
 }
 

@@ -213,7 +213,6 @@ StereoRig ReadOpenCvCalibration(const std::filesystem::path& intrinsics,
   }
   RepairPrintedPrecision(&rig, ex_name);
   rig.Validate(ex_name);
-  for (const std::string& note : rig.notes) LN_LOG(Warning) << note;
   return rig;
 }
 

@@ -193,7 +193,8 @@ TEST(ReadMiddleburyCalib, IsARectifiedRigWhoseXyzHonoursDoffs) {
 
   std::string text = kMiddleburyCalib;
   WriteText(tmp.path() / "nodoffs.txt", text.substr(0, text.find("doffs")) + text.substr(text.find("baseline")));
-  ExpectError([&] { ReadMiddleburyCalib(tmp.path() / "nodoffs.txt", MastPose{}); }, "nodoffs.txt: missing field 'doffs'");
+  ExpectError([&] { ReadMiddleburyCalib(tmp.path() / "nodoffs.txt", MastPose{}); },
+              "nodoffs.txt: missing field 'doffs'");
   text.replace(text.find("53.271"), 6, "50.000");
   WriteText(tmp.path() / "baddoffs.txt", text);
   ExpectError([&] { ReadMiddleburyCalib(tmp.path() / "baddoffs.txt", MastPose{}); }, "baddoffs.txt: doffs: 50");
