@@ -271,8 +271,12 @@ json RigImportOptions::ToJson() const {
 }
 
 StereoRig ReadRosCameraInfoPair(const fs::path& left, const fs::path& right, const MastPose& mast) {
-  const RosCamera l = ReadRosCamera(left), r = ReadRosCamera(right);
+  RosCamera l = ReadRosCamera(left), r = ReadRosCamera(right);
   const std::string lf = left.string(), rf = right.string();
+  // The rotations may be printed: make them exact before deriving the raw pose from them.
+  std::vector<std::string> notes;
+  RepairPrintedRotation(&l.R, lf + ".rectification_matrix", &notes);
+  RepairPrintedRotation(&r.R, rf + ".rectification_matrix", &notes);
   LN_CHECK_INPUT(l.width == r.width && l.height == r.height)
       << rf << ".image_width, image_height: " << r.width << "x" << r.height << " differs from " << lf << "'s "
       << l.width << "x" << l.height;
@@ -296,8 +300,8 @@ StereoRig ReadRosCameraInfoPair(const fs::path& left, const fs::path& right, con
   g.width_px = l.width;
   g.height_px = l.height;
   rig.rectified = g;
-  // The rotations may be printed: make them exact before deriving the raw pose from them.
-  RepairPrintedPrecision(&rig, lf + " and " + rf);
+  rig.notes = notes;
+  RepairPrintedPrecision(&rig, rf);  // the right projection's shared values
   const RectifiedGeometry& e = *rig.rectified;
   // x_rect_right = x_rect_left + (P_right[0][3] / f', 0, 0); x_rect = R x for each camera.
   const Eigen::Vector3d t_rect(e.P_right(0, 3) / e.P_right(0, 0), 0, 0);
@@ -350,7 +354,7 @@ StereoRig ReadKalibrCamchain(const fs::path& camchain, const MastPose& mast) {
       << tw << ": the last row must be [0, 0, 0, 1]";
   rig.right_from_left_R = m.topLeftCorner<3, 3>();
   rig.right_from_left_t_m = m.topRightCorner<3, 1>();
-  RepairPrintedPrecision(&rig, f + ".cam1.T_cn_cnm1");
+  RepairPrintedRotation(&rig.right_from_left_R, tw, &rig.notes);
   rig.Validate(f);
   return rig;
 }

@@ -53,7 +53,9 @@ std::string Scientific(double value) {
   return text;
 }
 
-void RepairRotation(Eigen::Matrix3d* r, const std::string& where, std::vector<std::string>* notes) {
+}  // namespace
+
+void RepairPrintedRotation(Eigen::Matrix3d* r, const std::string& where, std::vector<std::string>* notes) {
   LN_CHECK_INPUT(r->allFinite()) << where << ": not finite";
   const double orthogonality = (r->transpose() * *r - Eigen::Matrix3d::Identity()).norm();
   const double det_error = std::abs(r->determinant() - 1.0);
@@ -71,6 +73,8 @@ void RepairRotation(Eigen::Matrix3d* r, const std::string& where, std::vector<st
   }
 }
 
+namespace {
+
 void RepairShared(double left, double* right, const std::string& where, std::vector<std::string>* notes) {
   if (*right == left) return;
   const double relative = std::abs(*right - left) / std::max(std::abs(left), 1.0);
@@ -83,11 +87,11 @@ void RepairShared(double left, double* right, const std::string& where, std::vec
 }  // namespace
 
 void RepairPrintedPrecision(StereoRig* rig, const std::string& source) {
-  RepairRotation(&rig->right_from_left_R, source + ".right_from_left.R", &rig->notes);
+  RepairPrintedRotation(&rig->right_from_left_R, source + ".right_from_left.R", &rig->notes);
   if (rig->rectified) {
     RectifiedGeometry& g = *rig->rectified;
-    RepairRotation(&g.rect_from_left, source + ".rectified.rect_from_left", &rig->notes);
-    RepairRotation(&g.rect_from_right, source + ".rectified.rect_from_right", &rig->notes);
+    RepairPrintedRotation(&g.rect_from_left, source + ".rectified.rect_from_left", &rig->notes);
+    RepairPrintedRotation(&g.rect_from_right, source + ".rectified.rect_from_right", &rig->notes);
     RepairShared(g.P_left(0, 0), &g.P_right(0, 0), source + ".rectified.P_right[0][0]", &rig->notes);
     RepairShared(g.P_left(1, 1), &g.P_right(1, 1), source + ".rectified.P_right[1][1]", &rig->notes);
     RepairShared(g.P_left(1, 2), &g.P_right(1, 2), source + ".rectified.P_right[1][2]", &rig->notes);

@@ -79,6 +79,11 @@ constexpr double kPrintedProjectionTolerance = 1e-6;
 /// The rotation nearest to `m` in the Frobenius norm (U V^T of its SVD, det +1).
 Eigen::Matrix3d NearestRotation(const Eigen::Matrix3d& m);
 
+/// Replaces a rotation within kPrintedRotationTolerance of one by the nearest rotation, and
+/// appends a note naming `where` to `notes` when that changed it.
+/// @throws InputError naming `where` for a matrix beyond the tolerance or not finite.
+void RepairPrintedRotation(Eigen::Matrix3d* r, const std::string& where, std::vector<std::string>* notes);
+
 /// Makes values typed or printed with limited precision exact, before Validate: every
 /// rotation of the rig (right_from_left.R, rectified.rect_from_left, rect_from_right) within
 /// kPrintedRotationTolerance of a rotation is replaced by the nearest rotation, and a right
