@@ -374,6 +374,7 @@ int RunTiming(TimingArgs args, int argc, char** argv, bool quiet) {
   }
   json summary = SummaryHead("timing", argc, argv);
   summary["inputs"] = {{"pairs", args.pairs.string()}, {"rig", args.rig.string()}, {"stems", stems}};
+  summary["rig_notes"] = rig.notes;  // what reading the rig changed (printed precision)
   summary["options"] = options.ToJson();
   summary["options"]["max_pairs"] = args.max_pairs;
   summary["counts"] = {{"pairs", study.pairs}, {"windows", study.points.size() + 1}, {"repeat", options.repeat}};
@@ -530,8 +531,10 @@ int RunBoxes(const BoxesArgs& args, int argc, char** argv) {
   }
   // The predicted E_Y of a one-pixel disparity error at the centre of each face.
   std::map<long, double> predicted;
+  std::vector<std::string> rig_notes;
   if (!args.rig.empty()) {
     const calib::StereoRig rig = calib::ReadStereoRig(args.rig);
+    rig_notes = rig.notes;
     LN_CHECK_ARG(rig.rectified.has_value()) << args.rig.string() << ": not a rectified rig";
     std::vector<evaluation::BoxFace> faces = boxes.boxes;
     for (const auto& [stem, list] : boxes.frames) faces.insert(faces.end(), list.begin(), list.end());
@@ -549,6 +552,7 @@ int RunBoxes(const BoxesArgs& args, int argc, char** argv) {
   }
   json summary = SummaryHead("boxes", argc, argv);
   summary["inputs"] = {{"runs", runs_json}, {"boxes", args.boxes.string()}, {"rig", args.rig.string()}};
+  summary["rig_notes"] = rig_notes;  // what reading the rig changed (printed precision)
   summary["options"] = {{"edge_margin_m", args.options.edge_margin_m},
                         {"y_gate_fraction", args.options.y_gate_fraction},
                         {"sigma_d_px", args.sigma_d_px}};

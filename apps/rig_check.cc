@@ -47,6 +47,7 @@ int main(int argc, char** argv) {
     if (!json_path.empty()) {
       nlohmann::json j = util::SummaryHead("rig-check", util::CommandLineJson(argc, argv));
       j["inputs"] = {{"rig", rig_path.string()}, {"vehicle", vehicle_path.string()}};
+      j["rig_notes"] = rig.notes;  // what reading the rig changed (printed precision)
       j["options"] = {{"gravity", calib::ToString(gravity)}};
       j["vehicle"] = calib::VehicleSpecToJson(vehicle);
       j.update(result.ToJson());

@@ -198,7 +198,8 @@ RectifyBatchSummary RunRectifyBatch(const RectifyBatchOptions& options, const St
   j["rig"] = {{"input", rig_source},
               {"input_was_rectified", rig.rectified.has_value()},
               {"output", summary.rig_path.filename().string()},
-              {"rectified", RectifiedRigJson(summary.rectified_rig)}};
+              {"rectified", RectifiedRigJson(summary.rectified_rig)},
+              {"notes", rig.notes}};
   j["options"] = options.ToJson();
   j["shard"] = {options.shard_index, options.shard_count};
   j["threads"] = util::EffectiveThreadCount(options.num_threads);

@@ -1,7 +1,10 @@
 #include "calib/stereo_rig.h"
 
 #include <cmath>
+#include <cstdio>
 #include <string>
+
+#include <Eigen/SVD>
 
 #include "util/check.h"
 
@@ -34,6 +37,66 @@ void CheckCamera(const CameraIntrinsics& c, int width, int height, const std::st
 }
 
 }  // namespace
+
+Eigen::Matrix3d NearestRotation(const Eigen::Matrix3d& m) {
+  const Eigen::JacobiSVD<Eigen::Matrix3d> svd(m, Eigen::ComputeFullU | Eigen::ComputeFullV);
+  Eigen::Matrix3d d = Eigen::Matrix3d::Identity();
+  d(2, 2) = (svd.matrixU() * svd.matrixV().transpose()).determinant() < 0 ? -1.0 : 1.0;
+  return svd.matrixU() * d * svd.matrixV().transpose();
+}
+
+namespace {
+
+std::string Scientific(double value) {
+  char text[32];
+  std::snprintf(text, sizeof(text), "%.1e", value);
+  return text;
+}
+
+}  // namespace
+
+void RepairPrintedRotation(Eigen::Matrix3d* r, const std::string& where, std::vector<std::string>* notes) {
+  LN_CHECK_INPUT(r->allFinite()) << where << ": not finite";
+  const double orthogonality = (r->transpose() * *r - Eigen::Matrix3d::Identity()).norm();
+  const double det_error = std::abs(r->determinant() - 1.0);
+  if (orthogonality <= 1e-12 && det_error <= 1e-12) return;  // exact to double precision
+  LN_CHECK_INPUT(orthogonality <= kPrintedRotationTolerance && det_error <= kPrintedRotationTolerance)
+      << where << ": not a rotation matrix (||R^T R - I|| = " << Scientific(orthogonality) << ", |det R - 1| = "
+      << Scientific(det_error) << "; printed values are accepted within " << Scientific(kPrintedRotationTolerance)
+      << ")";
+  const Eigen::Matrix3d nearest = NearestRotation(*r);
+  const double change = (nearest - *r).cwiseAbs().maxCoeff();
+  *r = nearest;
+  if (change > 1e-12) {
+    notes->push_back(where + ": not exactly a rotation (||R^T R - I|| = " + Scientific(orthogonality) +
+                     "), replaced by the nearest rotation (elements changed by at most " + Scientific(change) + ")");
+  }
+}
+
+namespace {
+
+void RepairShared(double left, double* right, const std::string& where, std::vector<std::string>* notes) {
+  if (*right == left) return;
+  const double relative = std::abs(*right - left) / std::max(std::abs(left), 1.0);
+  if (relative > kPrintedProjectionTolerance) return;  // Validate names it
+  notes->push_back(where + ": " + std::to_string(*right) + " differs from the left projection's " +
+                   std::to_string(left) + " by round-off (" + Scientific(relative) + "); the left's value is used");
+  *right = left;
+}
+
+}  // namespace
+
+void RepairPrintedPrecision(StereoRig* rig, const std::string& source) {
+  RepairPrintedRotation(&rig->right_from_left_R, source + ".right_from_left.R", &rig->notes);
+  if (rig->rectified) {
+    RectifiedGeometry& g = *rig->rectified;
+    RepairPrintedRotation(&g.rect_from_left, source + ".rectified.rect_from_left", &rig->notes);
+    RepairPrintedRotation(&g.rect_from_right, source + ".rectified.rect_from_right", &rig->notes);
+    RepairShared(g.P_left(0, 0), &g.P_right(0, 0), source + ".rectified.P_right[0][0]", &rig->notes);
+    RepairShared(g.P_left(1, 1), &g.P_right(1, 1), source + ".rectified.P_right[1][1]", &rig->notes);
+    RepairShared(g.P_left(1, 2), &g.P_right(1, 2), source + ".rectified.P_right[1][2]", &rig->notes);
+  }
+}
 
 Eigen::Matrix3d VehicleFromHeadRotation(double tilt_deg) {
   const double t = tilt_deg * kDeg;

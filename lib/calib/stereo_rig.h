@@ -9,6 +9,7 @@
 #pragma once
 
 #include <optional>
+#include <string>
 #include <vector>
 
 #include <Eigen/Core>
@@ -49,6 +50,10 @@ struct StereoRig {
   Eigen::Vector3d right_from_left_t_m = Eigen::Vector3d(-0.9, 0, 0);
   MastPose mast;
   std::optional<RectifiedGeometry> rectified;
+  /// What reading the rig changed (e.g. a printed rotation replaced by the nearest rotation),
+  /// one sentence each naming the file and field; not written to rig files. Tools that read a
+  /// rig report these in their summary.
+  std::vector<std::string> notes;
 
   /// Distance between the optical centres, metres.
   double BaselineM() const { return right_from_left_t_m.norm(); }
@@ -61,6 +66,32 @@ struct StereoRig {
   /// zero baseline, a tilt outside (-90, 90) deg, an inconsistent rectified geometry.
   void Validate(const std::string& source) const;
 };
+
+/// Printed precision: a rotation read from a file whose ||R^T R - I|| (Frobenius) and
+/// |det R - 1| are both at most this is taken as a rotation printed to a few significant
+/// digits (6 digits give about 1e-6) and replaced by the nearest rotation; beyond it, it is
+/// not a rotation.
+constexpr double kPrintedRotationTolerance = 1e-4;
+/// Printed precision of the rectified projections' shared values (focal length, principal
+/// row): relative differences up to this are round-off, and the right's are set to the left's.
+constexpr double kPrintedProjectionTolerance = 1e-6;
+
+/// The rotation nearest to `m` in the Frobenius norm (U V^T of its SVD, det +1).
+Eigen::Matrix3d NearestRotation(const Eigen::Matrix3d& m);
+
+/// Replaces a rotation within kPrintedRotationTolerance of one by the nearest rotation, and
+/// appends a note naming `where` to `notes` when that changed it.
+/// @throws InputError naming `where` for a matrix beyond the tolerance or not finite.
+void RepairPrintedRotation(Eigen::Matrix3d* r, const std::string& where, std::vector<std::string>* notes);
+
+/// Makes values typed or printed with limited precision exact, before Validate: every
+/// rotation of the rig (right_from_left.R, rectified.rect_from_left, rect_from_right) within
+/// kPrintedRotationTolerance of a rotation is replaced by the nearest rotation, and a right
+/// rectified projection whose focal lengths and principal row agree with the left's within
+/// kPrintedProjectionTolerance gets the left's. Each change is appended to rig->notes, naming
+/// `source` and the field and saying how much changed.
+/// @throws InputError naming `source` and the field for a matrix beyond the tolerance.
+void RepairPrintedPrecision(StereoRig* rig, const std::string& source);
 
 /// The rotation taking head (left camera) axes to vehicle axes for a head pitched down by
 /// tilt: the optical axis z points along (0, cos t, -sin t), x along the vehicle's X.

@@ -7,6 +7,7 @@
 
 #include "io/json_io.h"
 #include "util/check.h"
+#include "util/log.h"
 
 namespace lunarnav::calib {
 namespace {
@@ -145,12 +146,15 @@ StereoRig StereoRigFromJson(const nlohmann::json& j, const std::string& source) 
     std::tie(g.width_px, g.height_px) = SizeFrom(Field(rj, "size_px", r), r + ".size_px");
     rig.rectified = g;
   }
+  RepairPrintedPrecision(&rig, source);
   rig.Validate(source);
   return rig;
 }
 
 StereoRig ReadStereoRig(const std::filesystem::path& path) {
-  return StereoRigFromJson(io::ReadJson(path), path.string());
+  StereoRig rig = StereoRigFromJson(io::ReadJson(path), path.string());
+  for (const std::string& note : rig.notes) LN_LOG(Warning) << note;
+  return rig;
 }
 
 void WriteStereoRig(const std::filesystem::path& path, const StereoRig& rig) {
@@ -207,6 +211,7 @@ StereoRig ReadOpenCvCalibration(const std::filesystem::path& intrinsics,
     g.height_px = height_px;
     rig.rectified = g;
   }
+  RepairPrintedPrecision(&rig, ex_name);
   rig.Validate(ex_name);
   return rig;
 }

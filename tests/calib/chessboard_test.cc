@@ -2,6 +2,8 @@
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
+
 #include <opencv2/imgproc.hpp>
 
 namespace lunarnav::calib {
@@ -75,6 +77,64 @@ TEST(DetectChessboardCorners, OrdersTheCornersLeftToRightTopToBottomForAnUpsideD
   }
   EXPECT_LT((*found)[0].x, (*found)[8].x);
   EXPECT_LT((*found)[0].y, (*found)[9].y);
+}
+
+// A board's corners seen fronto-parallel: column i, row j at origin + step * (i, j).
+std::vector<cv::Point2f> Grid(const ChessboardSpec& spec, cv::Point2f origin, float step) {
+  std::vector<cv::Point2f> corners;
+  for (int j = 0; j < spec.rows; ++j) {
+    for (int i = 0; i < spec.cols; ++i) corners.push_back(origin + step * cv::Point2f(i, j));
+  }
+  return corners;
+}
+
+TEST(SymmetricCornerOrders, AreTheGridsSymmetriesIdentityFirst) {
+  const ChessboardSpec spec;  // 9 x 6: four orders
+  const std::vector<std::vector<int>> orders = SymmetricCornerOrders(spec);
+  ASSERT_EQ(orders.size(), 4u);
+  for (int k = 0; k < 54; ++k) EXPECT_EQ(orders[0][k], k);
+  EXPECT_EQ(orders[1][0], 53);  // the 180-degree turn starts at the last corner
+  EXPECT_EQ(orders[2][0], 8);   // a mirror image starts at the end of the first row
+  EXPECT_EQ(orders[3][0], 45);  // the other at the start of the last row
+  for (const std::vector<int>& order : orders) {
+    std::vector<int> sorted = order;
+    std::sort(sorted.begin(), sorted.end());
+    for (int k = 0; k < 54; ++k) ASSERT_EQ(sorted[k], k);  // a permutation
+  }
+  EXPECT_EQ(SymmetricCornerOrders(ChessboardSpec{5, 5, 0.1}).size(), 8u);
+}
+
+TEST(CanonicalCornerOrder, PointsTheFirstRowRightwardsWithoutMirroring) {
+  const ChessboardSpec spec;
+  const std::vector<cv::Point2f> upright = Grid(spec, {40, 30}, 20);
+  std::vector<cv::Point2f> turned(upright.rbegin(), upright.rend());
+  const std::vector<cv::Point2f> canonical = CanonicalCornerOrder(spec, turned);
+  for (std::size_t k = 0; k < upright.size(); ++k) EXPECT_EQ(canonical[k], upright[k]) << k;
+}
+
+TEST(MatchRightCornerOrder, RestoresTheLeftOrderFromAnySymmetricOrder) {
+  const ChessboardSpec spec;
+  std::vector<cv::Point2f> left = Grid(spec, {200, 100}, 25);
+  // The board turned 90 deg in the image (rows vertical), as held near-vertical.
+  for (cv::Point2f& p : left) p = cv::Point2f(400 - (p.y - 100), 100 + (p.x - 200));
+  // The right image: shifted by a disparity that varies a little over the board (tilt).
+  std::vector<cv::Point2f> right;
+  for (const cv::Point2f& p : left) right.push_back(p + cv::Point2f(-120 - 0.1f * (p.y - 100), 0.3f));
+  for (const std::vector<int>& order : SymmetricCornerOrders(spec)) {
+    std::vector<cv::Point2f> detected;
+    for (int k : order) detected.push_back(right[static_cast<std::size_t>(k)]);
+    const CornerOrderMatch match = MatchRightCornerOrder(spec, left, detected);
+    ASSERT_TRUE(match.right.has_value()) << match.reason;
+    for (std::size_t k = 0; k < right.size(); ++k) EXPECT_EQ((*match.right)[k], right[k]) << k;
+    EXPECT_LT(match.spread_px, 10.0);
+    EXPECT_GT(match.runner_up_spread_px, 2 * match.spread_px);
+  }
+  // A right board shrunk to a tenth: no order is clearly right.
+  std::vector<cv::Point2f> collapsed;
+  for (const cv::Point2f& p : left) collapsed.push_back(cv::Point2f(300, 200) + 0.1f * (p - cv::Point2f(300, 200)));
+  const CornerOrderMatch undecided = MatchRightCornerOrder(spec, left, collapsed);
+  EXPECT_FALSE(undecided.right.has_value());
+  EXPECT_NE(undecided.reason.find("orientation undecided"), std::string::npos);
 }
 
 TEST(DetectChessboardCorners, ReturnsNothingWithoutABoard) {

@@ -2,6 +2,10 @@
 
 #include <gtest/gtest.h>
 
+#include <cstdio>
+#include <cstdlib>
+#include <fstream>
+
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
 
@@ -141,6 +145,34 @@ TEST(RunRectifyBatch, ResumesOnlyWithTheSameRectifiedRig) {
   EXPECT_THROW(RunRectifyBatch(options, testing::PaperRig(), "rig.json", in, out), std::invalid_argument);
   options.resume = false;
   EXPECT_EQ(RunRectifyBatch(options, testing::PaperRig(), "rig.json", in, out).pairs_ok, 2);
+}
+
+TEST(RunRectifyBatch, ReportsARotationRepairedWhenTheRigWasRead) {
+  // A rig whose rotation was printed to 6 significant digits: read, repaired, and the repair
+  // listed in the run's summary.
+  util::ScopedTempDir tmp;
+  StereoRig rig = testing::PaperRig();
+  nlohmann::json j = StereoRigToJson(rig);
+  for (int r = 0; r < 3; ++r) {
+    for (int c = 0; c < 3; ++c) {
+      char text[32];
+      std::snprintf(text, sizeof(text), "%.6g", rig.right_from_left_R(r, c));
+      j["right_from_left"]["R"][r][c] = std::strtod(text, nullptr);
+    }
+  }
+  const StereoRig read = StereoRigFromJson(j, "printed.json");
+  ASSERT_EQ(read.notes.size(), 1u);
+  const sim::RenderedPair pair = RenderScene();
+  for (const char* side : {"left", "right"}) fs::create_directories(tmp.path() / "in" / side);
+  cv::imwrite((tmp.path() / "in" / "left" / "a.png").string(), pair.left);
+  cv::imwrite((tmp.path() / "in" / "right" / "a.png").string(), pair.right);
+  const RectifyBatchSummary summary =
+      RunRectifyBatch(Quiet(), read, "printed.json", tmp.path() / "in", tmp.path() / "out");
+  EXPECT_EQ(summary.pairs_ok, 1);
+  std::ifstream in(summary.summary_path);
+  const nlohmann::json s = nlohmann::json::parse(in);
+  ASSERT_EQ(s["rig"]["notes"].size(), 1u);
+  EXPECT_NE(s["rig"]["notes"][0].get<std::string>().find("printed.json.right_from_left.R"), std::string::npos);
 }
 
 TEST(RunRectifyBatch, UsesTheRigsOwnRectificationUnlessAlphaIsGiven) {

@@ -2,6 +2,9 @@
 
 #include <gtest/gtest.h>
 
+#include <cstdio>
+#include <cstdlib>
+
 #include <opencv2/core.hpp>
 
 #include "calib/opencv_calibration_files.h"
@@ -61,6 +64,68 @@ TEST(StereoRigJson, NamesUnknownAndMissingFields) {
   j = good;
   j["format"] = "lunarnav.rig/2";
   expect_error(j, "rig.json.format");
+}
+
+// A rotation as a paper prints it: every element rounded to `digits` significant digits.
+Eigen::Matrix3d Printed(const Eigen::Matrix3d& r, int digits) {
+  Eigen::Matrix3d out;
+  for (int i = 0; i < 9; ++i) {
+    char text[64];
+    std::snprintf(text, sizeof(text), "%.*g", digits, r(i));
+    out(i) = std::strtod(text, nullptr);
+  }
+  return out;
+}
+
+TEST(StereoRigJson, AcceptsARotationPrintedToSixDigitsAndRefusesOneOffByAHundredth) {
+  StereoRig truth = testing::PaperRig();
+  // A rotation with every element non-trivial (about 3 deg about a skew axis).
+  truth.right_from_left_R = Eigen::AngleAxisd(0.05, Eigen::Vector3d(0.3, 0.9, 0.2).normalized()).toRotationMatrix();
+  nlohmann::json j = StereoRigToJson(truth);
+  const Eigen::Matrix3d printed = Printed(truth.right_from_left_R, 6);
+  ASSERT_GT((printed.transpose() * printed - Eigen::Matrix3d::Identity()).norm(), 1e-7);  // not exact
+  for (int r = 0; r < 3; ++r) {
+    for (int c = 0; c < 3; ++c) j["right_from_left"]["R"][r][c] = printed(r, c);
+  }
+  const StereoRig read = StereoRigFromJson(j, "paper.json");
+  const Eigen::Matrix3d& r = read.right_from_left_R;
+  EXPECT_LT((r.transpose() * r - Eigen::Matrix3d::Identity()).norm(), 1e-12);
+  EXPECT_NEAR(r.determinant(), 1.0, 1e-12);
+  // The nearest rotation is the true one to the printing's round-off (5e-7 per element).
+  EXPECT_LT((r - truth.right_from_left_R).cwiseAbs().maxCoeff(), 1e-6);
+  ASSERT_EQ(read.notes.size(), 1u);
+  EXPECT_NE(read.notes[0].find("paper.json.right_from_left.R"), std::string::npos) << read.notes[0];
+  EXPECT_NE(read.notes[0].find("nearest rotation"), std::string::npos) << read.notes[0];
+  // An exact rotation is taken as it is, with no note.
+  EXPECT_TRUE(StereoRigFromJson(StereoRigToJson(truth), "exact.json").notes.empty());
+
+  // One element off by 1e-2: not a rotation, whatever the printing.
+  j["right_from_left"]["R"][0][1] = printed(0, 1) + 1e-2;
+  try {
+    StereoRigFromJson(j, "paper.json");
+    ADD_FAILURE() << "accepted a matrix 1e-2 from a rotation";
+  } catch (const InputError& e) {
+    EXPECT_NE(std::string(e.what()).find("paper.json.right_from_left.R: not a rotation matrix"), std::string::npos)
+        << e.what();
+  }
+}
+
+TEST(StereoRigJson, RepairsPrintedRectifiedRotationsAndProjections) {
+  StereoRig rig = testing::PaperRig();
+  RectifiedGeometry g;
+  g.rect_from_left = Printed(Eigen::AngleAxisd(0.02, Eigen::Vector3d(0.2, 1, 0).normalized()).toRotationMatrix(), 6);
+  g.rect_from_right = Printed(Eigen::AngleAxisd(0.03, Eigen::Vector3d(0.1, 1, 0.1).normalized()).toRotationMatrix(), 6);
+  g.P_left << 712.345, 0, 320, 0, 0, 712.345, 240.5, 0, 0, 0, 1, 0;
+  // The right's focal length printed from another rounding of the same value.
+  g.P_right << 712.3450001, 0, 320, -641.1, 0, 712.345, 240.5, 0, 0, 0, 1, 0;
+  g.width_px = 640;
+  g.height_px = 480;
+  rig.rectified = g;
+  const StereoRig read = StereoRigFromJson(StereoRigToJson(rig), "rig.json");
+  EXPECT_EQ(read.notes.size(), 3u);
+  EXPECT_EQ(read.rectified->P_right(0, 0), read.rectified->P_left(0, 0));
+  const Eigen::Matrix3d& r = read.rectified->rect_from_right;
+  EXPECT_LT((r.transpose() * r - Eigen::Matrix3d::Identity()).norm(), 1e-12);
 }
 
 TEST(ReadOpenCvCalibration, AgreesWithTheJsonItProduces) {
