@@ -498,6 +498,7 @@ BatchSummary RunStereoBatch(const BatchOptions& options, const fs::path& input_d
     j["counts"]["points"] = summary.points;
     j["timings_s"]["xyz_sum"] = summary.xyz_seconds;
     j["geometry"] = {{"rig_file", options.rig_source},
+                     {"rig_notes", options.rig->notes},  // what reading the rig changed (printed precision)
                      {"frame", kVehicleFrame},
                      {"outputs", subdirectories}};
     if (range_window) j["geometry"]["window_range_y"] = range_window->ToJson();
