@@ -16,14 +16,6 @@
 
 #include "util/check.h"
 
-// The cost fill and the two passes are compiled for AVX2 (with POPCNT) and for plain x86-64,
-// chosen at start-up; the arithmetic is integer, so both give the same bits.
-#if defined(__x86_64__) && defined(__GNUC__) && !defined(__clang__) && !defined(__SANITIZE_ADDRESS__)
-#define LN_SGM_CLONES __attribute__((target_clones("avx2", "default")))
-#else
-#define LN_SGM_CLONES
-#endif
-
 namespace lunarnav::stereo::internal {
 namespace {
 
@@ -57,6 +49,15 @@ constexpr std::int16_t kSentinel = 0x3000;  // beyond any path cost; + P2 stays 
 enum class SumMode { kAssign, kAdd, kNone };
 
 template <SumMode kMode>
+inline __attribute__((always_inline)) void Accumulate(std::int16_t v, std::uint16_t* sum) {
+  if constexpr (kMode == SumMode::kAssign) {
+    *sum = static_cast<std::uint16_t>(v);
+  } else if constexpr (kMode == SumMode::kAdd) {
+    *sum = static_cast<std::uint16_t>(*sum + v);
+  }
+}
+
+template <SumMode kMode>
 inline __attribute__((always_inline)) std::int16_t Step(const std::uint8_t* cost, const std::int16_t* prev,
                                                         std::int16_t prev_min, std::int16_t p1,
                                                         std::int16_t p2, int n, std::int16_t* out,
@@ -69,11 +70,7 @@ inline __attribute__((always_inline)) std::int16_t Step(const std::uint8_t* cost
     const std::int16_t v = static_cast<std::int16_t>(cost[k] + best - prev_min);
     out[k] = v;
     new_min = std::min(new_min, v);
-    if constexpr (kMode == SumMode::kAssign) {
-      sum[k] = static_cast<std::uint16_t>(v);
-    } else if constexpr (kMode == SumMode::kAdd) {
-      sum[k] = static_cast<std::uint16_t>(sum[k] + v);
-    }
+    Accumulate<kMode>(v, &sum[k]);
   }
   return new_min;
 }
@@ -87,11 +84,7 @@ inline __attribute__((always_inline)) std::int16_t Start(const std::uint8_t* cos
     const std::int16_t v = cost[k];
     out[k] = v;
     new_min = std::min(new_min, v);
-    if constexpr (kMode == SumMode::kAssign) {
-      sum[k] = static_cast<std::uint16_t>(v);
-    } else if constexpr (kMode == SumMode::kAdd) {
-      sum[k] = static_cast<std::uint16_t>(sum[k] + v);
-    }
+    Accumulate<kMode>(v, &sum[k]);
   }
   return new_min;
 }

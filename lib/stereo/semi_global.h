@@ -8,6 +8,14 @@
 
 #include <opencv2/core.hpp>
 
+// The stereo module's integer loops (cost fill, paths, minima) are compiled for AVX2 (with
+// POPCNT) and for plain x86-64, chosen at start-up; integer arithmetic, so both give the same bits.
+#if defined(__x86_64__) && defined(__GNUC__) && !defined(__clang__) && !defined(__SANITIZE_ADDRESS__)
+#define LN_SGM_CLONES __attribute__((target_clones("avx2", "default")))
+#else
+#define LN_SGM_CLONES
+#endif
+
 namespace lunarnav::stereo::internal {
 
 /// Census transform: bit k of a pixel's code is set when the k-th neighbour of its

@@ -16,12 +16,6 @@
 #include "util/check.h"
 #include "util/timer.h"
 
-#if defined(__x86_64__) && defined(__GNUC__) && !defined(__clang__) && !defined(__SANITIZE_ADDRESS__)
-#define LN_SGM_CLONES __attribute__((target_clones("avx2", "default")))
-#else
-#define LN_SGM_CLONES
-#endif
-
 namespace lunarnav::stereo::internal {
 namespace {
 
