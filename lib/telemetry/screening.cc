@@ -37,7 +37,8 @@ double SubsampledMedian(std::size_t count, Value value) {
 // The spike test's shortcut for the interior samples q in [b, e) of a channel's queue (see
 // HampelTests: the half window 3): the trend (the median of the six slopes joining the seven
 // samples q - 3 ... q + 3) and the farthest of their residuals from sample q, into
-// farthest_of[q - b]; slope[] (e - b + 6 values) is scratch. A branch-free loop the compiler
+// farthest_of[q - b]; slope[] (e - b + 5 values: the steps from q - 3 to q + 3 of every q) is
+// scratch. Reads value[] and time[] at b - 3 ... e + 2 only. A branch-free loop the compiler
 // vectorises, built twice on x86-64 (four lanes with AVX2, two with SSE2, chosen when the
 // program starts); both do the same arithmetic (no fused multiply-add), so they decide alike.
 #if defined(__x86_64__) && defined(__GNUC__)
@@ -45,7 +46,7 @@ __attribute__((target_clones("avx2", "default")))
 #endif
 void ShortcutDistances(const double* value, const double* time, std::size_t b, std::size_t e, double* slope,
                        double* farthest_of) {
-  for (std::size_t q = b - 2; q < e + 4; ++q) {
+  for (std::size_t q = b - 2; q < e + 3; ++q) {
     slope[q - (b - 2)] = (value[q] - value[q - 1]) / (time[q] - time[q - 1]);
   }
   for (std::size_t q = b; q < e; ++q) {

@@ -98,12 +98,14 @@ TEST(SimulatedSensors, SensorModelIsThePapersRoverAndItsOldTelemetry) {
 }
 
 TEST(DigitiseAnalog, RoundsClampsAndWrapsTheCompass) {
-  const telemetry::ChannelModel& compass = SimulatedSensorModel(10)[Channel::kCompass];
+  const telemetry::SensorModel model_compass = SimulatedSensorModel(10);  // kept: the reference below points into it
+  const telemetry::ChannelModel& compass = model_compass[Channel::kCompass];
   EXPECT_EQ(DigitiseAnalog(compass, 0.0, true), 0);
   EXPECT_EQ(DigitiseAnalog(compass, -0.1 * kDeg, true), 0);
   EXPECT_EQ(DigitiseAnalog(compass, -1.0 * kDeg, true), 1021);  // -2.84 counts
   EXPECT_EQ(DigitiseAnalog(compass, 361.0 * kDeg, true), 3);
-  const telemetry::ChannelModel& gyro = SimulatedSensorModel(10)[Channel::kGyroZ];
+  const telemetry::SensorModel model_gyro = SimulatedSensorModel(10);  // kept: the reference below points into it
+  const telemetry::ChannelModel& gyro = model_gyro[Channel::kGyroZ];
   EXPECT_EQ(DigitiseAnalog(gyro, 0.0, false), 512);
   EXPECT_EQ(DigitiseAnalog(gyro, 100.0 * kDeg, false), 1023);  // beyond +60 deg/s: the rail
   EXPECT_EQ(DigitiseAnalog(gyro, -100.0 * kDeg, false), 0);
