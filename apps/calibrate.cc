@@ -11,6 +11,7 @@
 #include "calib/stereo_rig_io.h"
 #include "io/json_io.h"
 #include "util/check.h"
+#include "io/image_io.h"
 #include "util/cli.h"
 #include "util/errors.h"
 #include "util/log.h"
@@ -80,10 +81,13 @@ int main(int argc, char** argv) {
       ->capture_default_str();
   app.add_option("--summary", summary_path, "summary file (default: summary.json beside the rig file)");
   app.add_option("-j,--threads", opt.num_threads, "corner detection threads (0 = all cores)")->capture_default_str();
+  long long max_pixels = io::kDefaultMaxImagePixels;
+  util::AddMaxPixelsFlag(&app, &max_pixels);
   util::AddCommonFlags(&app, &quiet);
   if (const auto exit_code = util::ParseCommandLine(&app, argc, argv, quiet)) return *exit_code;
 
   return util::RunMain([&] {
+    io::SetMaxImagePixels(max_pixels);
     if (!opencv_files.empty()) {  // the older spelling of --from opencv
       LN_CHECK_ARG(app.count("--from") == 0 && inputs.empty())
           << "--from-opencv takes the two files itself: give no INPUT or --from";

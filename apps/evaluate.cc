@@ -580,6 +580,8 @@ int main(int argc, char** argv) {
   app.require_subcommand(1);
   app.fallthrough();  // --quiet, --version also after the subcommand
   bool quiet = false;
+  long long max_pixels = io::kDefaultMaxImagePixels;
+  util::AddMaxPixelsFlag(&app, &max_pixels);
   util::AddCommonFlags(&app, &quiet);
 
   DisparityArgs disparity;
@@ -724,6 +726,7 @@ int main(int argc, char** argv) {
 
   if (const auto exit_code = util::ParseCommandLine(&app, argc, argv, quiet)) return *exit_code;
   return util::RunMain([&]() -> int {
+    io::SetMaxImagePixels(max_pixels);
     if (trajectory_cmd->parsed()) return RunTrajectory(trajectory, argc, argv);
     if (disparity_cmd->parsed()) return RunDisparity(disparity, argc, argv);
     if (trials_cmd->parsed()) return RunTrials(trials, argc, argv);

@@ -5,6 +5,7 @@
 
 #include "calib/rectify_batch.h"
 #include "calib/stereo_rig_io.h"
+#include "io/image_io.h"
 #include "util/cli.h"
 #include "util/errors.h"
 #include "util/log.h"
@@ -36,10 +37,13 @@ int main(int argc, char** argv) {
       ->capture_default_str();
   util::AddBatchFlags(&app, "skip pairs whose two outputs exist (same rectified rig)", &opt.resume, &shard,
                      &opt.num_threads);
+  long long max_pixels = io::kDefaultMaxImagePixels;
+  util::AddMaxPixelsFlag(&app, &max_pixels);
   util::AddCommonFlags(&app, &quiet);
   if (const auto exit_code = util::ParseCommandLine(&app, argc, argv, quiet)) return *exit_code;
 
   return util::RunMain([&] {
+    io::SetMaxImagePixels(max_pixels);
     if (app.count("--alpha") > 0) opt.alpha = alpha;
     util::ApplyShard(shard, &opt.shard_index, &opt.shard_count);
     opt.show_progress = !quiet;

@@ -9,6 +9,7 @@
 #include "stereo/batch.h"
 #include "stereo/window_requests.h"
 #include "util/check.h"
+#include "io/image_io.h"
 #include "util/cli.h"
 #include "util/errors.h"
 #include "util/log.h"
@@ -136,10 +137,13 @@ int main(int argc, char** argv) {
   app.get_option("--ply")->needs(rig_option);
   util::AddBatchFlags(&app, "skip pairs whose outputs are complete (same options)", &opt.resume, &shard,
                      &opt.num_threads);
+  long long max_pixels = io::kDefaultMaxImagePixels;
+  util::AddMaxPixelsFlag(&app, &max_pixels);
   util::AddCommonFlags(&app, &quiet);
   if (const auto exit_code = util::ParseCommandLine(&app, argc, argv, quiet)) return *exit_code;
 
   return util::RunMain([&] {
+    io::SetMaxImagePixels(max_pixels);
     opt.matcher = stereo::PresetOptions(preset);
     stereo::NccOptions& m = opt.matcher;
     auto given_option = [&](const char* name) { return app.get_option(name)->count() > 0; };

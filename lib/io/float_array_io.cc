@@ -6,6 +6,7 @@
 
 
 #include "io/atomic_file.h"
+#include "io/image_io.h"
 #include "io/oiio_module.h"
 #include "util/check.h"
 
@@ -43,7 +44,7 @@ ExrImage ReadExr(const fs::path& path) {
   LN_CHECK_INPUT(fs::is_regular_file(path, ec)) << path.string() << ": no such file";
   ExrImage result;
   std::string error;
-  if (!internal::Oiio().ReadFloat(path.string(), &result.pixels, &result.channel_names, &result.attributes,
+  if (!internal::Oiio().ReadFloat(path.string(), MaxImagePixels(), &result.pixels, &result.channel_names, &result.attributes,
                                   &error)) {
     const auto colon = error.find(": ");
     const std::string kind = error.substr(0, colon), reason = error.substr(colon + 2);

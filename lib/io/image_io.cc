@@ -1,6 +1,7 @@
 #include "io/image_io.h"
 
 #include <algorithm>
+#include <atomic>
 #include <bit>
 #include <cctype>
 #include <cstdint>
@@ -107,6 +108,25 @@ bool HasImageExtension(const fs::path& path) {
 namespace {
 
 // The decoded pixels with every channel of the file, in the file's (RGB) order.
+std::atomic<long long> max_image_pixels{kDefaultMaxImagePixels};
+
+// What is wrong with the size a PNG's header claims (0 pixels, or above the limit), or "".
+std::string PngSizeProblem(const fs::path& path) {
+  std::ifstream in(path, std::ios::binary);
+  unsigned char head[24] = {};
+  if (!in.read(reinterpret_cast<char*>(head), sizeof head)) return "";  // too short: the structure check says so
+  if (std::string(reinterpret_cast<const char*>(head + 12), 4) != "IHDR") return "";
+  const long long width = BigEndian32(head + 16), height = BigEndian32(head + 20);
+  if (width == 0 || height == 0) {
+    return "invalid PNG header (" + std::to_string(width) + " x " + std::to_string(height) + " pixels)";
+  }
+  if (width * height > max_image_pixels.load()) {
+    return "the header claims " + std::to_string(width) + " x " + std::to_string(height) +
+           " pixels, more than the limit of " + std::to_string(max_image_pixels.load()) + " (--max-pixels)";
+  }
+  return "";
+}
+
 // Throws the InputError of a module error "<kind>: <reason>".
 [[noreturn]] void ThrowReadError(const fs::path& path, const std::string& error) {
   const auto colon = error.find(": ");
@@ -159,13 +179,18 @@ cv::Mat ReadAllChannels(const fs::path& path, SignificantBits* bits) {
   cv::Mat raw;
   int stored_bits = 0;
   if (png) {
-    // libpng prints its own stderr line on a damaged file: find the damage first.
+    // The claimed size first (before anything is read or allocated), then the chunks: libpng
+    // prints its own stderr line on a damaged file, so the damage is found first.
+    const std::string size_problem = PngSizeProblem(path);
+    LN_CHECK_INPUT(size_problem.empty()) << path.string() << ": " << size_problem;
     const std::string problem = PngStructureProblem(path);
     LN_CHECK_INPUT(problem.empty()) << path.string() << ": " << problem;
     raw = ReadPng(path);
   } else {
     std::string error;
-    if (!internal::Oiio().ReadInteger(path.string(), &raw, &stored_bits, &error)) ThrowReadError(path, error);
+    if (!internal::Oiio().ReadInteger(path.string(), MaxImagePixels(), &raw, &stored_bits, &error)) {
+      ThrowReadError(path, error);
+    }
   }
   if (bits != nullptr) {
     *bits = {raw.depth() == CV_8U ? 8 : 16, "image type"};
@@ -182,6 +207,12 @@ cv::Mat ReadAllChannels(const fs::path& path, SignificantBits* bits) {
 }
 
 }  // namespace
+
+void SetMaxImagePixels(long long pixels) {
+  LN_CHECK_ARG(pixels >= 1) << "max-pixels: must be >= 1, got " << pixels;
+  max_image_pixels.store(pixels);
+}
+long long MaxImagePixels() { return max_image_pixels.load(); }
 
 cv::Mat ReadImage(const fs::path& path, SignificantBits* bits) {
   const cv::Mat raw = ReadAllChannels(path, bits);
@@ -233,6 +264,9 @@ cv::Mat ReadPfm(const fs::path& path) {
   LN_CHECK_INPUT(in && (magic == "Pf" || magic == "PF")) << path.string() << ": not a PFM file (bad header)";
   LN_CHECK_INPUT(width > 0 && height > 0 && width <= (1L << 20) && height <= (1L << 20) && scale != 0)
       << path.string() << ": impossible PFM header (" << width << " x " << height << ", scale " << scale << ")";
+  LN_CHECK_INPUT(width * height <= MaxImagePixels())
+      << path.string() << ": the header claims " << width << " x " << height << " pixels, more than the limit of "
+      << MaxImagePixels() << " (--max-pixels)";
   in.get();  // the single whitespace byte before the data
   const int channels = magic == "PF" ? 3 : 1;
   cv::Mat m(static_cast<int>(height), static_cast<int>(width), CV_32FC(channels));

@@ -18,6 +18,13 @@ struct SignificantBits {
   std::string source = "image type";
 };
 
+/// The largest image (width x height, pixels) the readers accept: a file claiming more is
+/// refused from its header, before anything is allocated (a damaged or hostile header would
+/// otherwise ask for terabytes). Default kDefaultMaxImagePixels; the tools' --max-pixels.
+inline constexpr long long kDefaultMaxImagePixels = 1LL << 28;  // 268 million, e.g. 16384 x 16384
+void SetMaxImagePixels(long long pixels);
+long long MaxImagePixels();
+
 /// The sBIT chunk of a PNG file: the colour channels' largest significant bit count, or 0
 /// when the file has none (or cannot be read).
 int PngSignificantBits(const std::filesystem::path& path);

@@ -14,9 +14,19 @@ std::string OneLine(std::string message, const char* fallback) {
   return message;
 }
 
+// True (with the message) when the header claims more pixels than the limit.
+bool TooLarge(const OIIO::ImageSpec& spec, long long max_pixels, std::string* error) {
+  const long long pixels = static_cast<long long>(spec.width) * spec.height;
+  if (pixels <= max_pixels) return false;
+  *error = "size: the header claims " + std::to_string(spec.width) + " x " + std::to_string(spec.height) +
+           " pixels, more than the limit of " + std::to_string(max_pixels) + " (--max-pixels)";
+  return true;
+}
+
 class OiioModuleImpl final : public OiioModule {
  public:
-  bool ReadInteger(const std::string& path, cv::Mat* pixels, int* bits_per_sample, std::string* error) override {
+  bool ReadInteger(const std::string& path, long long max_pixels, cv::Mat* pixels, int* bits_per_sample,
+                   std::string* error) override {
     // The stored colour values, not multiplied by alpha (OIIO's default for PNG and TIFF).
     OIIO::ImageSpec config;
     config.attribute("oiio:UnassociatedAlpha", 1);
@@ -30,6 +40,7 @@ class OiioModuleImpl final : public OiioModule {
       *error = "not2d: not a 2-D image";
       return false;
     }
+    if (TooLarge(spec, max_pixels, error)) return false;
     const auto base = spec.format.basetype;
     const bool is8 = base == OIIO::TypeDesc::UINT8 || base == OIIO::TypeDesc::INT8;
     const bool is16 = base == OIIO::TypeDesc::UINT16 || base == OIIO::TypeDesc::INT16;
@@ -79,7 +90,7 @@ class OiioModuleImpl final : public OiioModule {
     return ok;
   }
 
-  bool ReadFloat(const std::string& path, cv::Mat* pixels, std::vector<std::string>* names,
+  bool ReadFloat(const std::string& path, long long max_pixels, cv::Mat* pixels, std::vector<std::string>* names,
                  std::map<std::string, std::string>* attributes, std::string* error) override {
     auto in = OIIO::ImageInput::open(path);
     if (in == nullptr) {
@@ -91,6 +102,7 @@ class OiioModuleImpl final : public OiioModule {
       *error = "not2d: not a 2-D image of 1 to 4 channels";
       return false;
     }
+    if (TooLarge(spec, max_pixels, error)) return false;
     pixels->create(spec.height, spec.width, CV_32FC(spec.nchannels));
     const bool ok =
         in->read_image(0, 0, 0, spec.nchannels, OIIO::TypeDesc::FLOAT, pixels->data) && !in->has_error();

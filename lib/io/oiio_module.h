@@ -19,13 +19,15 @@ class OiioModule {
   /// Reads an 8- or 16-bit integer image with all its channels in the file's order (alpha
   /// not premultiplied). On failure returns false with `error` = "<kind>: <reason>", kind one
   /// of unreadable, not2d, type, channels, corrupt.
-  virtual bool ReadInteger(const std::string& path, cv::Mat* pixels, int* bits_per_sample, std::string* error) = 0;
+  /// Images of more than `max_pixels` pixels are refused from their header ("size: ...").
+  virtual bool ReadInteger(const std::string& path, long long max_pixels, cv::Mat* pixels, int* bits_per_sample,
+                           std::string* error) = 0;
   /// Writes a float map as a ZIP-compressed scanline OpenEXR file (no time stamp).
   virtual bool WriteExr(const std::string& path, const cv::Mat& image, const std::vector<std::string>& names,
                         const std::map<std::string, std::string>& attributes, std::string* error) = 0;
   /// Reads a float image (EXR and the like) with its channel names and string attributes.
   /// On failure `error` as for ReadInteger.
-  virtual bool ReadFloat(const std::string& path, cv::Mat* pixels, std::vector<std::string>* names,
+  virtual bool ReadFloat(const std::string& path, long long max_pixels, cv::Mat* pixels, std::vector<std::string>* names,
                          std::map<std::string, std::string>* attributes, std::string* error) = 0;
 };
 

@@ -22,6 +22,12 @@ void AddBatchFlags(CLI::App* app, const std::string& resume_help, bool* resume, 
   app->add_option("-j,--threads", *threads, "worker threads (0 = all cores)")->capture_default_str();
 }
 
+void AddMaxPixelsFlag(CLI::App* app, long long* max_pixels) {
+  app->add_option("--max-pixels", *max_pixels,
+                  "refuse images whose header claims more pixels than this (width x height), before reading them")
+      ->capture_default_str();
+}
+
 void ApplyShard(const std::string& shard, int* index, int* count) {
   if (!shard.empty()) std::tie(*index, *count) = ParseIntPair(shard, '/', "--shard");
 }

@@ -18,6 +18,10 @@ void AddCommonFlags(CLI::App* app, bool* quiet);
 void AddBatchFlags(CLI::App* app, const std::string& resume_help, bool* resume, std::string* shard,
                    int* threads);
 
+/// Adds --max-pixels: the largest image (width x height) the tool reads; `*max_pixels` holds
+/// the default (io::kDefaultMaxImagePixels) and receives the value.
+void AddMaxPixelsFlag(CLI::App* app, long long* max_pixels);
+
 /// Reads --shard's K/N into *index and *count; nothing when `shard` is empty.
 /// @throws std::invalid_argument when it is not two integers separated by '/'.
 void ApplyShard(const std::string& shard, int* index, int* count);

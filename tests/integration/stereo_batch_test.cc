@@ -164,6 +164,45 @@ TEST(StereoBatch, PaperPresetKeepsThePaperMatchersOutputsBitForBit) {
   EXPECT_EQ(crc, 0x337fae43uL) << std::hex << crc;
 }
 
+// A PNG whose header claims another size, its chunk CRCs made right (a hostile or damaged
+// file that libpng would try to decode).
+void ForgePngSize(const fs::path& path, std::uint32_t width, std::uint32_t height) {
+  std::string bytes = testing::ReadFileBytes(path);
+  auto put = [&](std::size_t at, std::uint32_t v) {
+    for (int k = 0; k < 4; ++k) bytes[at + k] = static_cast<char>((v >> (24 - 8 * k)) & 0xFF);
+  };
+  put(16, width);
+  put(20, height);
+  put(29, static_cast<std::uint32_t>(crc32(crc32(0L, Z_NULL, 0), reinterpret_cast<const Bytef*>(&bytes[12]), 17)));
+  std::ofstream(path, std::ios::binary | std::ios::trunc).write(bytes.data(), static_cast<std::streamsize>(bytes.size()));
+}
+
+// Headers claiming a million by a million pixels, or none: those pairs fail with one line
+// naming the file and the claimed size, before anything is allocated; the others run.
+TEST(StereoBatch, RefusesImagesLargerThanTheLimitFromTheirHeader) {
+  ScopedTempDir tmp;
+  const fs::path in = CopyPairs(tmp.path());
+  ForgePngSize(in / "left" / "frame0001.png", 1000000, 1000000);
+  ForgePngSize(in / "right" / "frame0002.png", 0, 0);
+  const fs::path out = tmp.path() / "out";
+  const auto run = RunTool("stereo-batch", {in.string(), "-o", out.string(), "-q", "--preset", "paper"}, tmp.path());
+  EXPECT_EQ(run.exit_code, 4) << run.stderr_text;
+  EXPECT_EQ(run.ErrorLines(), 2) << run.stderr_text;
+  EXPECT_NE(run.stderr_text.find("frame0001.png: the header claims 1000000 x 1000000 pixels"), std::string::npos)
+      << run.stderr_text;
+  EXPECT_NE(run.stderr_text.find("frame0002.png: invalid PNG header (0 x 0 pixels)"), std::string::npos)
+      << run.stderr_text;
+  EXPECT_LT(run.stderr_text.size(), 1000u);
+  EXPECT_TRUE(fs::exists(out / "disparity" / "frame0000.pfm"));
+  // A smaller limit refuses the good pairs too, by name.
+  const auto small = RunTool("stereo-batch", {in.string(), "-o", (tmp.path() / "small").string(), "-q",
+                                              "--preset", "paper", "--max-pixels", "1000"},
+                             tmp.path());
+  EXPECT_EQ(small.exit_code, 4);
+  EXPECT_NE(small.stderr_text.find("frame0000.png: the header claims 640 x 480 pixels"), std::string::npos)
+      << small.stderr_text;
+}
+
 TEST(StereoBatch, ReportsAndSkipsBadPairs) {
   ScopedTempDir tmp;
   const fs::path in = CopyPairs(tmp.path());
