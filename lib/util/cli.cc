@@ -1,5 +1,7 @@
 #include "util/cli.h"
 
+#include <filesystem>
+#include <iostream>
 #include <string>
 #include <tuple>
 
@@ -36,7 +38,11 @@ std::optional<int> ParseCommandLine(CLI::App* app, int argc, char** argv, const 
   try {
     app->parse(argc, argv);
   } catch (const CLI::ParseError& e) {
-    return app->exit(e) == 0 ? kExitOk : kExitUsage;
+    if (e.get_exit_code() == 0) return app->exit(e) == 0 ? kExitOk : kExitUsage;  // --help, --version
+    // One line with the prefix every other error has.
+    std::cerr << "error: " << e.what() << " (" << std::filesystem::path(app->get_name()).filename().string()
+              << " --help lists the options)\n";
+    return kExitUsage;
   }
   if (quiet) SetLogLevel(LogLevel::kWarning);
   return std::nullopt;

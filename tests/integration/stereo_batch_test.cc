@@ -351,6 +351,13 @@ TEST(StereoBatch, UsageAndInputErrorsHaveTheirExitCodes) {
   const std::string out = (tmp.path() / "out").string();
   EXPECT_EQ(RunTool("stereo-batch", {"--help"}, tmp.path()).exit_code, 0);
   EXPECT_EQ(RunTool("stereo-batch", {in.string()}, tmp.path()).exit_code, 2);  // no -o
+  // Command-line errors are one line with the prefix every error has.
+  for (const std::vector<std::string>& args : {std::vector<std::string>{}, {in.string(), "-o", "x", "--bogus"}}) {
+    const auto bad = RunTool("stereo-batch", args, tmp.path());
+    EXPECT_EQ(bad.exit_code, 2);
+    EXPECT_EQ(bad.stderr_text.rfind("error: ", 0), 0u) << bad.stderr_text;
+    EXPECT_EQ(std::count(bad.stderr_text.begin(), bad.stderr_text.end(), '\n'), 1) << bad.stderr_text;
+  }
   EXPECT_EQ(RunTool("stereo-batch", {in.string(), "-o", out, "--window", "big"}, tmp.path()).exit_code, 2);
   EXPECT_EQ(RunTool("stereo-batch", {in.string(), "-o", out, "--shard", "2/2"}, tmp.path()).exit_code, 2);
   EXPECT_EQ(RunTool("stereo-batch", {in.string(), "-o", out, "--median", "4"}, tmp.path()).exit_code, 2);
