@@ -19,6 +19,9 @@ nlohmann::json ReadJson(const std::filesystem::path& path) {
     return nlohmann::json::parse(in);
   } catch (const nlohmann::json::parse_error& e) {
     throw InputError(path.string() + ": invalid JSON (" + e.what() + ")");
+  } catch (const nlohmann::json::exception& e) {
+    // e.g. a number beyond a double's range ("1e999"): bad input, named by its file.
+    throw InputError(path.string() + ": unusable JSON (" + e.what() + ")");
   }
 }
 

@@ -192,8 +192,12 @@ json ProcessPair(const BatchOptions& options, const PairFiles& pair, const PairO
         << " differs from the rig's rectified size " << g.width_px << "x" << g.height_px << " ("
         << options.rig_source << ")";
   }
+  // A --rows band that misses the images entirely is a mistake in the options (exit 2), not
+  // in the data: nothing would be evaluated.
+  LN_CHECK_ARG(window != nullptr || !options.matcher.min_row || *options.matcher.min_row < left.rows)
+      << "rows: " << *options.matcher.min_row << ":" << *options.matcher.max_row << " lies outside the images' "
+      << left.rows << " rows (0:" << left.rows - 1 << ")";
   timings->read_s = timer.ElapsedSeconds();
-
   timer.Restart();
   NccOptions matcher = options.matcher;
   matcher.num_threads = 0;  // the batch's arena

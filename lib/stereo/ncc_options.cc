@@ -62,6 +62,8 @@ void NccOptions::Validate() const {
       << "window: half-sizes must be >= 0, got " << half_window_x_px << "x" << half_window_y_px;
   LN_CHECK_ARG(half_window_x_px <= 500 && half_window_y_px <= 500)
       << "window: half-sizes must be <= 500";
+  LN_CHECK_ARG(half_window_x_px > 0 || half_window_y_px > 0)
+      << "window: 0x0 is a single pixel, which has no correlation; give at least one half-size >= 1";
   LN_CHECK_ARG(step_x_px >= 1 && step_y_px >= 1)
       << "step: must be >= 1, got " << step_x_px << "x" << step_y_px;
   LN_CHECK_ARG(step_x_px <= 64 && step_y_px <= 64) << "step: must be <= 64";

@@ -351,6 +351,10 @@ TEST(StereoBatch, UsageAndInputErrorsHaveTheirExitCodes) {
   const std::string out = (tmp.path() / "out").string();
   EXPECT_EQ(RunTool("stereo-batch", {"--help"}, tmp.path()).exit_code, 0);
   EXPECT_EQ(RunTool("stereo-batch", {in.string()}, tmp.path()).exit_code, 2);  // no -o
+  EXPECT_EQ(RunTool("stereo-batch", {in.string(), "-o", out, "--window", "0x0"}, tmp.path()).exit_code, 2);
+  const auto rows = RunTool("stereo-batch", {in.string(), "-o", out, "--rows", "1000:2000"}, tmp.path());
+  EXPECT_EQ(rows.exit_code, 2);
+  EXPECT_NE(rows.stderr_text.find("outside the images' 480 rows"), std::string::npos) << rows.stderr_text;
   // Command-line errors are one line with the prefix every error has.
   for (const std::vector<std::string>& args : {std::vector<std::string>{}, {in.string(), "-o", "x", "--bogus"}}) {
     const auto bad = RunTool("stereo-batch", args, tmp.path());
