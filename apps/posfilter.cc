@@ -35,7 +35,8 @@ int main(int argc, char** argv) {
   app.add_option("TELEMETRY", telemetry_csv, "telemetry CSV (header; time in s, raw counts)")->required();
   app.add_option("--sensors", sensors, "sensor model JSON (docs/formats.md)")->required();
   app.add_option("-o,--output", output_dir, "output directory (created)")->required();
-  app.add_option("--bits", bits, "digitisation of every channel, e.g. 7 for old telemetry (default: the sensor file's)");
+  app.add_option("--bits", bits, "digitisation of every channel, e.g. 7 for old telemetry (default: the sensor file's)")
+      ->check(CLI::Range(1, 16));
   app.add_option("--filter", filter, "low-pass filter type")->check(CLI::IsMember({"butterworth", "bessel"}))
       ->capture_default_str();
   app.add_option("--order", opt.filter_order, "low-pass filter order")->capture_default_str();

@@ -443,7 +443,7 @@ BatchSummary RunStereoBatch(const BatchOptions& options, const fs::path& input_d
         outcome.status = PairOutcome::Status::kOk;
       } catch (const InputError& e) {
         outcome.status = PairOutcome::Status::kFailed;
-        outcome.error = e.what();
+        outcome.error = util::BoundedMessage(e.what());
         LN_LOG(Error) << "pair " << pair.stem << ": " << e.what();
       }
     }

@@ -324,6 +324,8 @@ struct TelemetryReader::Impl {
     }
     LN_CHECK_INPUT(have_header) << name << ": no header line (the file is empty)";
     const long header_line = line_number;
+    // A UTF-8 byte-order mark (spreadsheets write one) is not part of the first column's name.
+    if (line_number == 1 && line.substr(0, 3) == "\xEF\xBB\xBF") line.remove_prefix(3);
     std::vector<std::string_view> cells;
     const int num_columns = SplitCells(line, &cells);
     header.assign(cells.begin(), cells.end());
@@ -343,7 +345,10 @@ struct TelemetryReader::Impl {
       if (!m.present) continue;
       int found = -1;
       for (int c = 0; c < num_columns; ++c) {
-        if (header[c] == m.column) found = c;
+        if (header[c] != m.column) continue;
+        LN_CHECK_INPUT(found < 0) << name << ":" << header_line << ": column '" << m.column
+                                  << "' appears twice (columns " << found + 1 << " and " << c + 1 << ")";
+        found = c;
       }
       if (found < 0) {
         missing_columns.push_back(ch);

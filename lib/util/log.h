@@ -14,6 +14,10 @@ LogLevel GetLogLevel();
 
 /// Writes one whole line to stderr under a lock, clearing a progress bar first.
 /// Errors are prefixed with "error: " and warnings with "warning: ".
+/// A message as one bounded line: control characters (a NUL or a newline from a file's
+/// contents) written as \xHH, and at most `max_bytes` bytes, the rest counted, not printed.
+std::string BoundedMessage(const std::string& message, std::size_t max_bytes = 2000);
+
 void LogLine(LogLevel level, const std::string& line);
 
 namespace internal {

@@ -209,6 +209,16 @@ TEST(ParseTelemetryCsv, ErrorsNameTheFileAndLine) {
   // The cell count is checked before the cells' text; the text is quoted trimmed.
   expect_error("t,compass\n0,1\nx,abc,3\n", "log.csv:3: 3 cells, the header has 2");
   expect_error("t,compass\n0,1\n0.1, a b \r\n", "log.csv:3: column 'compass': 'a b' is not an integer count");
+  // A column named twice is ambiguous: both are named.
+  expect_error("t,compass,compass\n0,1,2\n", "log.csv:1: column 'compass' appears twice (columns 2 and 3)");
+}
+
+// Spreadsheets start their CSV files with a UTF-8 byte-order mark.
+TEST(ParseTelemetryCsv, AcceptsAByteOrderMark) {
+  const TelemetryLog plain = ParseTelemetryCsv("t,compass\n0,1\n0.1,2\n", "log.csv", Model());
+  const TelemetryLog marked = ParseTelemetryCsv("\xEF\xBB\xBFt,compass\n0,1\n0.1,2\n", "log.csv", Model());
+  EXPECT_EQ(plain.t_s, marked.t_s);
+  EXPECT_EQ(marked.t_s.size(), 2u);
 }
 
 void ExpectSameLog(const TelemetryLog& a, const TelemetryLog& b) {

@@ -20,6 +20,16 @@ TEST(RunMain, MapsEachKindOfFailureToItsExitCode) {
   EXPECT_EQ(RunMain([]() -> int { throw std::runtime_error("disk full"); }), 1);
 }
 
+// A NUL or newline from a file's contents must neither cut nor split the error line, and a
+// library that repeats itself must not fill the terminal.
+TEST(BoundedMessage, EscapesControlCharactersAndCapsTheLength) {
+  EXPECT_EQ(BoundedMessage(std::string("a\0b\nc", 5)), "a\\x00b\\x0Ac");
+  EXPECT_EQ(BoundedMessage("plain text"), "plain text");
+  const std::string longer(5000, 'x');
+  const std::string bounded = BoundedMessage(longer, 100);
+  EXPECT_EQ(bounded, std::string(100, 'x') + " ... (4900 more bytes)");
+}
+
 TEST(Check, InternalChecksCarryTheSourceLocationUserChecksDoNot) {
   try {
     LN_CHECK(false) << "boom";
