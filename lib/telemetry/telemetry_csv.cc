@@ -19,6 +19,7 @@
 #endif
 
 #include "util/check.h"
+#include "util/log.h"
 
 namespace lunarnav::telemetry {
 namespace {
@@ -460,8 +461,9 @@ struct TelemetryReader::Impl {
     const std::string name = source.string();
     LN_CHECK_INPUT(n == num_columns) << name << ":" << line_number << ": " << n << " cells, the header has "
                                      << num_columns;
+    // The cell quoted printable (a NUL would cut the message where it is carried as C text).
     LN_CHECK_INPUT(bad < 0) << name << ":" << line_number << ": column '" << header[bad] << "': '"
-                            << Trim(SplitCell(line, bad)) << "' is not "
+                            << util::BoundedMessage(std::string(Trim(SplitCell(line, bad))), 200) << "' is not "
                             << (bad == time_column ? "a time stamp" : "an integer count");
   }
 };

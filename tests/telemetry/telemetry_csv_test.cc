@@ -209,6 +209,8 @@ TEST(ParseTelemetryCsv, ErrorsNameTheFileAndLine) {
   // The cell count is checked before the cells' text; the text is quoted trimmed.
   expect_error("t,compass\n0,1\nx,abc,3\n", "log.csv:3: 3 cells, the header has 2");
   expect_error("t,compass\n0,1\n0.1, a b \r\n", "log.csv:3: column 'compass': 'a b' is not an integer count");
+  // A NUL in a cell is shown, not the end of the message.
+  expect_error(std::string("t,compass\n0,1\n0.1,a\0b\n", 22), "log.csv:3: column 'compass': 'a\\x00b' is not an integer count");
   // A column named twice is ambiguous: both are named.
   expect_error("t,compass,compass\n0,1,2\n", "log.csv:1: column 'compass' appears twice (columns 2 and 3)");
 }
