@@ -173,7 +173,15 @@ cv::Mat ReadPng(const fs::path& path) {
 // The decoded pixels with every channel of the file, in the file's (RGB) order.
 cv::Mat ReadAllChannels(const fs::path& path, SignificantBits* bits) {
   std::error_code ec;
-  LN_CHECK_INPUT(fs::is_regular_file(path, ec)) << path.string() << ": no such file";
+  if (!fs::is_regular_file(path, ec)) {
+    std::error_code link_ec;
+    if (fs::is_symlink(path, link_ec)) {
+      // Looping (ELOOP) or dangling: say which.
+      throw InputError(path.string() + ": unusable symbolic link (" +
+                       (ec ? ec.message() : std::string("it points to no regular file")) + ")");
+    }
+    throw InputError(path.string() + ": no such file");
+  }
   LN_CHECK_INPUT(fs::file_size(path, ec) > 0) << path.string() << ": empty file";
   const bool png = LowerExtension(path) == ".png";
   cv::Mat raw;

@@ -14,11 +14,14 @@ namespace {
 std::map<std::string, std::vector<fs::path>> ImagesByStem(const fs::path& dir) {
   std::map<std::string, std::vector<fs::path>> by_stem;
   std::error_code ec;
-  for (const auto& entry : fs::directory_iterator(dir, ec)) {
-    const fs::path& path = entry.path();
+  for (auto it = fs::directory_iterator(dir, ec); !ec && it != fs::directory_iterator(); it.increment(ec)) {
+    const fs::path& path = it->path();
     const std::string name = path.filename().string();
     if (name.empty() || name[0] == '.' || !HasImageExtension(path)) continue;
-    if (!entry.is_regular_file(ec) && !entry.is_symlink(ec)) continue;
+    // An entry's own trouble (a link looping or pointing nowhere) is that pair's problem,
+    // reported when it is read; it must not stop the listing of the others.
+    std::error_code entry_ec;
+    if (!it->is_regular_file(entry_ec) && !it->is_symlink(entry_ec)) continue;
     by_stem[path.stem().string()].push_back(path);
   }
   LN_CHECK_INPUT(!ec) << dir.string() << ": cannot list (" << ec.message() << ")";

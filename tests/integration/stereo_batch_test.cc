@@ -203,6 +203,25 @@ TEST(StereoBatch, RefusesImagesLargerThanTheLimitFromTheirHeader) {
       << small.stderr_text;
 }
 
+// Links that loop (two pointing at each other, one at itself) are those pairs' problems; the
+// listing and the other pairs go on.
+TEST(StereoBatch, LoopingLinksFailTheirPairsOnly) {
+  ScopedTempDir tmp;
+  const fs::path in = CopyPairs(tmp.path());
+  fs::create_symlink(in / "left" / "b.png", in / "left" / "a.png");
+  fs::create_symlink(in / "left" / "a.png", in / "left" / "b.png");
+  fs::create_symlink(in / "right" / "c.png", in / "right" / "c.png");
+  for (const char* stem : {"a", "b"}) fs::copy_file(in / "right" / "frame0000.png", in / "right" / (std::string(stem) + ".png"));
+  fs::copy_file(in / "left" / "frame0000.png", in / "left" / "c.png");
+  const fs::path out = tmp.path() / "out";
+  const auto run = RunTool("stereo-batch", {in.string(), "-o", out.string(), "-q", "--preset", "paper"}, tmp.path());
+  EXPECT_EQ(run.exit_code, 4) << run.stderr_text;
+  EXPECT_EQ(run.ErrorLines(), 3) << run.stderr_text;
+  EXPECT_NE(run.stderr_text.find("a.png: unusable symbolic link (Too many levels of symbolic links)"),
+            std::string::npos) << run.stderr_text;
+  for (const char* stem : kStems) EXPECT_TRUE(fs::exists(out / "disparity" / (std::string(stem) + ".pfm"))) << stem;
+}
+
 TEST(StereoBatch, ReportsAndSkipsBadPairs) {
   ScopedTempDir tmp;
   const fs::path in = CopyPairs(tmp.path());
