@@ -60,6 +60,9 @@ std::string ReferenceConvention(ReferenceImage reference) {
                                              : "x_right = x_left - d (left image reference)";
 }
 
+// An output's name in the sidecar's file_bytes: its folder and file ("xyz/a.exr").
+std::string OutputKey(const fs::path& p) { return (p.parent_path().filename() / p.filename()).generic_string(); }
+
 // True when the outputs of `stem` are complete and were made with the same options.
 bool OutputsComplete(const BatchOptions& batch, const PairOutputPaths& paths, const json& options,
                      json* sidecar) {
@@ -77,8 +80,27 @@ bool OutputsComplete(const BatchOptions& batch, const PairOutputPaths& paths, co
   } catch (const InputError&) {
     return false;
   }
-  return sidecar->value("format", "") == kSidecarFormat && sidecar->contains("options") &&
-         (*sidecar)["options"] == options;
+  if (sidecar->value("format", "") != kSidecarFormat || !sidecar->contains("options") ||
+      (*sidecar)["options"] != options) {
+    return false;
+  }
+  // Every output has the size it was written with (a file cut or replaced since is redone).
+  const json sizes = sidecar->value("file_bytes", json::object());
+  for (const fs::path& p : files) {
+    if (p == paths.sidecar) continue;
+    const auto it = sizes.find(OutputKey(p));
+    if (it == sizes.end() || !it->is_number_unsigned() || it->get<std::uintmax_t>() != fs::file_size(p, ec) || ec) {
+      return false;
+    }
+  }
+  return true;
+}
+
+// The byte sizes of a pair's written outputs, by OutputKey, for --resume's check.
+json FileSizes(const std::vector<fs::path>& files) {
+  json sizes = json::object();
+  for (const fs::path& p : files) sizes[OutputKey(p)] = static_cast<std::uintmax_t>(fs::file_size(p));
+  return sizes;
 }
 
 struct PairTimings {
@@ -274,6 +296,12 @@ json ProcessPair(const BatchOptions& options, const PairFiles& pair, const PairO
                                      {"match", 1e3 * timings->match_s},
                                      {"write", 1e3 * timings->write_s}};
   if (options.rig) sidecar["result"]["timings_ms"]["xyz"] = 1e3 * timings->xyz_s;
+  std::vector<fs::path> written = {out.disparity, out.confidence, out.rejections};
+  if (options.rig) written.push_back(out.xyz);
+  if (options.write_ply) written.push_back(out.cloud);
+  if (options.xyz_sigma_px) written.push_back(out.xyz_sigma);
+  if (options.write_preview) written.push_back(out.preview);
+  sidecar["file_bytes"] = FileSizes(written);
   sidecar["version"] = kVersion;
   io::WriteJsonAtomic(out.sidecar, sidecar);  // last: its presence marks the pair complete
   return sidecar["result"];

@@ -274,6 +274,12 @@ TEST(StereoBatch, ResumeSkipsCompletePairsAndRedoesIncompleteOnes) {
   EXPECT_EQ(summary["counts"]["pairs_resumed"], 2);
   EXPECT_EQ(summary["counts"]["pairs_ok"], 1);
   EXPECT_TRUE(fs::exists(out / "disparity" / "frame0001.json"));
+  // A map cut short by hand under its final name, its sidecar intact: that pair is redone.
+  const fs::path cut = out / "disparity" / "frame0002.pfm";
+  fs::resize_file(cut, fs::file_size(cut) / 2);
+  ASSERT_EQ(RunTool("stereo-batch", resume, tmp.path()).exit_code, 0);
+  EXPECT_EQ(io::ReadJson(out / "summary.json")["counts"]["pairs_resumed"], 2);
+  EXPECT_EQ(io::ReadPfm(cut).rows, 480);
   // Other options: nothing is reused.
   resume.push_back("--c-min");
   resume.push_back("0.6");
