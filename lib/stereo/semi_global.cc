@@ -115,18 +115,26 @@ inline __attribute__((always_inline)) void FillCosts(const SgmInput& in, int j, 
   }
 }
 
-// P2 between grid pixels whose grey levels are a and b (SgmInput::edge_levels).
-inline std::int16_t EdgePenalty(const SgmInput& in, int a, int b) {
-  if (in.edge_levels <= 0) return static_cast<std::int16_t>(in.penalty_large);
-  const int g = a > b ? a - b : b - a;
-  const int p = in.penalty_large * in.edge_levels / (in.edge_levels + g);
-  return static_cast<std::int16_t>(std::max(p, std::min(in.penalty_small + 1, in.penalty_large)));
-}
+// P2 by the grey-level step between neighbours (SgmInput::edge_levels): a table over the step
+// in 8-bit levels (larger steps use the last entry), built once per pair.
+struct EdgePenalties {
+  std::int16_t by_step[256];
+  explicit EdgePenalties(const SgmInput& in) {
+    for (int g = 0; g < 256; ++g) {
+      const int p = in.edge_levels > 0 ? in.penalty_large * in.edge_levels / (in.edge_levels + g) : in.penalty_large;
+      by_step[g] = static_cast<std::int16_t>(std::max(p, std::min(in.penalty_small + 1, in.penalty_large)));
+    }
+  }
+  std::int16_t operator()(int a, int b) const {
+    const int g = a > b ? a - b : b - a;
+    return by_step[g < 255 ? g : 255];
+  }
+};
 
-// The grey level of grid pixel (i, j) (0 without edge-aware penalties).
-inline int GreyAt(const SgmInput& in, int i, int j) {
-  if (in.ref_grey == nullptr) return 0;
-  return in.ref_grey[static_cast<std::size_t>(in.y0 + j * in.step_y) * in.width + in.x0 + i * in.step_x];
+// The grey levels of grid row j (read at i * step_x), or null without edge-aware penalties.
+inline const std::int16_t* GreyRow(const SgmInput& in, int j) {
+  if (in.ref_grey == nullptr || in.edge_levels <= 0) return nullptr;
+  return in.ref_grey + static_cast<std::size_t>(in.y0 + j * in.step_y) * in.width + in.x0;
 }
 
 // Per-thread scratch: one row's costs and the horizontal paths' two pixels.
@@ -140,25 +148,28 @@ struct RowScratch {
 };
 
 // Both horizontal paths of row j: from the left (assigns the sums) and from the right (adds).
-LN_SGM_CLONES void HorizontalRow(const SgmInput& in, int j, RowScratch* scratch, std::uint16_t* sum) {
+LN_SGM_CLONES void HorizontalRow(const SgmInput& in, const EdgePenalties& edge, int j, RowScratch* scratch,
+                                 std::uint16_t* sum) {
   const int n = in.num_disp, cols = in.num_cols;
   const auto p1 = static_cast<std::int16_t>(in.penalty_small);
   const auto p2 = static_cast<std::int16_t>(in.penalty_large);
   FillCosts(in, j, 0, cols, scratch->cost.data());
+  const std::int16_t* grey = GreyRow(in, j);
+  const int sx = in.step_x;
   std::uint16_t* row_sum = sum + static_cast<std::size_t>(j) * cols * n;
   std::int16_t* l[2] = {scratch->line[0].data() + 1, scratch->line[1].data() + 1};
   std::int16_t m = 0;
   for (int i = 0; i < cols; ++i) {
     const std::uint8_t* c = scratch->cost.data() + static_cast<std::size_t>(i) * n;
     std::uint16_t* s = row_sum + static_cast<std::size_t>(i) * n;
-    const std::int16_t p2_here = i == 0 ? p2 : EdgePenalty(in, GreyAt(in, i, j), GreyAt(in, i - 1, j));
+    const std::int16_t p2_here = i == 0 || grey == nullptr ? p2 : edge(grey[i * sx], grey[(i - 1) * sx]);
     m = i == 0 ? Start<SumMode::kAssign>(c, n, l[i & 1], s)
                : Step<SumMode::kAssign>(c, l[(i & 1) ^ 1], m, p1, p2_here, n, l[i & 1], s);
   }
   for (int i = cols - 1; i >= 0; --i) {
     const std::uint8_t* c = scratch->cost.data() + static_cast<std::size_t>(i) * n;
     std::uint16_t* s = row_sum + static_cast<std::size_t>(i) * n;
-    const std::int16_t p2_here = i == cols - 1 ? p2 : EdgePenalty(in, GreyAt(in, i, j), GreyAt(in, i + 1, j));
+    const std::int16_t p2_here = i == cols - 1 || grey == nullptr ? p2 : edge(grey[i * sx], grey[(i + 1) * sx]);
     m = i == cols - 1 ? Start<SumMode::kAdd>(c, n, l[i & 1], s)
                       : Step<SumMode::kAdd>(c, l[(i & 1) ^ 1], m, p1, p2_here, n, l[i & 1], s);
   }
@@ -189,13 +200,18 @@ struct VerticalRows {
 // The vertical path (and with 8 paths the two diagonals) of the grid pixels [i_begin, i_end)
 // of row j, from the previous row of the direction of travel (none when first); adds to the
 // sums. Columns are independent given the previous row, so chunks of a row run in parallel.
-LN_SGM_CLONES void VerticalChunk(const SgmInput& in, int j, bool down, bool first, int cur, int i_begin, int i_end,
+LN_SGM_CLONES void VerticalChunk(const SgmInput& in, const EdgePenalties& edge, int j, bool down, bool first, int cur,
+                                 int i_begin, int i_end,
                                  std::uint8_t* cost, VerticalRows* b, std::uint16_t* sum) {
   const int n = in.num_disp, cols = in.num_cols;
   const auto p1 = static_cast<std::int16_t>(in.penalty_small);
   const bool diagonals = in.num_paths == 8;
   const int prev = cur ^ 1;
   FillCosts(in, j, i_begin, i_end, cost);
+  const auto p2 = static_cast<std::int16_t>(in.penalty_large);
+  const std::int16_t* grey = GreyRow(in, j);
+  const std::int16_t* grey_from = first ? nullptr : GreyRow(in, down ? j - 1 : j + 1);
+  const int sx = in.step_x;
   for (int i = i_begin; i < i_end; ++i) {
     const std::uint8_t* c = cost + static_cast<std::size_t>(i - i_begin) * n;
     std::uint16_t* s = sum + (static_cast<std::size_t>(j) * cols + i) * n;
@@ -203,8 +219,7 @@ LN_SGM_CLONES void VerticalChunk(const SgmInput& in, int j, bool down, bool firs
       const int from = i + dir - 1;  // column of the predecessor in the previous row
       std::int16_t* out = b->Row(dir, cur, i);
       if (!first && from >= 0 && from < cols) {
-        const int j_from = down ? j - 1 : j + 1;
-        const std::int16_t p2_here = EdgePenalty(in, GreyAt(in, i, j), GreyAt(in, from, j_from));
+        const std::int16_t p2_here = grey == nullptr ? p2 : edge(grey[i * sx], grey_from[from * sx]);
         b->mins[dir][cur][i] =
             Step<SumMode::kNone>(c, b->Row(dir, prev, from), b->mins[dir][prev][from], p1, p2_here, n, out, s);
       } else {
@@ -304,12 +319,13 @@ void SemiGlobalAggregate(const SgmInput& in, AggregatedCost* out) {
   out->sum_.Reserve(cells);
   if (cells == 0) return;
   std::uint16_t* sum = out->sum_.data();
+  const EdgePenalties edge(in);
   // The horizontal paths: rows are independent.
   tbb::enumerable_thread_specific<RowScratch> scratch;
   tbb::parallel_for(0, in.num_rows, [&](int j) {
     RowScratch& s = scratch.local();
     s.Init(in.num_cols, in.num_disp);
-    HorizontalRow(in, j, &s, sum);
+    HorizontalRow(in, edge, j, &s, sum);
   });
   // The vertical and diagonal paths, down then up: row after row, each row's columns in as
   // many chunks as the arena has threads.
@@ -325,7 +341,7 @@ void SemiGlobalAggregate(const SgmInput& in, AggregatedCost* out) {
         const int end = static_cast<int>(static_cast<long>(in.num_cols) * (chunk + 1) / chunks);
         RowScratch& s = scratch.local();
         s.Init(in.num_cols, in.num_disp);
-        VerticalChunk(in, j, down, jj == 0, cur, begin, end, s.cost.data(), &rows, sum);
+        VerticalChunk(in, edge, j, down, jj == 0, cur, begin, end, s.cost.data(), &rows, sum);
       };
       if (chunks == 1) {
         run(0);

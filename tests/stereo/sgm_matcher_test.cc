@@ -274,8 +274,11 @@ TEST(CensusTransform, MatchesTheDefinitionWithReplicatedBorders) {
   }
 }
 
-// Semi-global aggregation against a brute-force implementation of the recurrence.
+// Semi-global aggregation against a brute-force implementation of the recurrence, with a
+// constant P2 and with the edge-aware one (P2 from the grey-level step along each path).
 TEST(SemiGlobalAggregate, MatchesABruteForceRecurrence) {
+  for (const int edge_levels : {0, 16}) {
+  SCOPED_TRACE(edge_levels);
   const int w = 23, h = 9, n = 7;
   cv::Mat ref(h, w, CV_8UC1), tgt(h, w, CV_8UC1);
   cv::randu(ref, 0, 256);
@@ -293,6 +296,15 @@ TEST(SemiGlobalAggregate, MatchesABruteForceRecurrence) {
   in.num_disp = n;
   in.penalty_small = 5;
   in.penalty_large = 40;
+  cv::Mat grey;
+  ref.convertTo(grey, CV_16S);
+  in.ref_grey = grey.ptr<std::int16_t>();
+  in.edge_levels = edge_levels;
+  auto p2_between = [&](int x, int y, int px, int py) {
+    if (edge_levels == 0) return in.penalty_large;
+    const int g = std::min(255, std::abs(grey.at<std::int16_t>(y, x) - grey.at<std::int16_t>(py, px)));
+    return std::max(in.penalty_large * edge_levels / (edge_levels + g), in.penalty_small + 1);
+  };
   internal::AggregatedCost agg;
   internal::SemiGlobalAggregate(in, &agg);
   auto cost = [&](int x, int y, int k) {
@@ -311,7 +323,7 @@ TEST(SemiGlobalAggregate, MatchesABruteForceRecurrence) {
       if (px < 0 || px >= w || py < 0 || py >= h) return v = cost(x, y, k);
       long prev_min = LONG_MAX;
       for (int q = 0; q < n; ++q) prev_min = std::min(prev_min, path(px, py, q));
-      long best = std::min(path(px, py, k), prev_min + in.penalty_large);
+      long best = std::min(path(px, py, k), prev_min + p2_between(x, y, px, py));
       if (k > 0) best = std::min(best, path(px, py, k - 1) + in.penalty_small);
       if (k + 1 < n) best = std::min(best, path(px, py, k + 1) + in.penalty_small);
       return v = cost(x, y, k) + best - prev_min;
@@ -332,6 +344,7 @@ TEST(SemiGlobalAggregate, MatchesABruteForceRecurrence) {
       }
     }
   }
+}
 }
 
 }  // namespace
