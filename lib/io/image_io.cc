@@ -1,6 +1,8 @@
 #include "io/image_io.h"
 
 #include <algorithm>
+#include <csetjmp>
+#include <cstdio>
 #include <atomic>
 #include <bit>
 #include <cctype>
@@ -9,6 +11,7 @@
 #include <memory>
 #include <vector>
 
+#include <png.h>
 #include <zlib.h>
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
@@ -107,7 +110,6 @@ bool HasImageExtension(const fs::path& path) {
 
 namespace {
 
-// The decoded pixels with every channel of the file, in the file's (RGB) order.
 std::atomic<long long> max_image_pixels{kDefaultMaxImagePixels};
 
 // What is wrong with the size a PNG's header claims (0 pixels, or above the limit), or "".
@@ -137,37 +139,51 @@ std::string PngSizeProblem(const fs::path& path) {
   throw InputError(path.string() + ": " + reason);
 }
 
-// A PNG decoded by OpenCV (no OpenImageIO to load): the pixels in the file's channel order.
+// libpng's errors and warnings, kept for the caller's message instead of printed on stderr.
+struct PngMessages {
+  std::jmp_buf jump;
+  std::string error;
+};
+void PngError(png_structp png, png_const_charp message) {
+  auto* m = static_cast<PngMessages*>(png_get_error_ptr(png));
+  m->error = message;
+  std::longjmp(m->jump, 1);
+}
+void PngWarning(png_structp, png_const_charp) {}
+
+// A PNG decoded by libpng (no OpenImageIO to load), its messages in the error line: the pixels
+// in the file's channel order, 8 or 16 bits (palettes and grey below 8 bits expanded).
 cv::Mat ReadPng(const fs::path& path) {
-  cv::Mat decoded;
-  try {
-    decoded = cv::imread(path.string(), cv::IMREAD_UNCHANGED);
-  } catch (const cv::Exception& e) {
-    throw InputError(path.string() + ": truncated or corrupt image (" + e.msg + ")");
-  }
-  LN_CHECK_INPUT(!decoded.empty()) << path.string() << ": truncated or corrupt image (cannot decode)";
-  LN_CHECK_INPUT(decoded.depth() == CV_8U || decoded.depth() == CV_16U)
-      << path.string() << ": pixel type is not supported (8- or 16-bit integer images only)";
-  // The colour type in the header (byte 25): 4 = grey + alpha, which OpenCV expands to BGRA.
-  std::ifstream in(path, std::ios::binary);
-  char header[26] = {};
-  in.read(header, sizeof header);
-  const int colour_type = in ? static_cast<unsigned char>(header[25]) : -1;
+  std::FILE* file = std::fopen(path.c_str(), "rb");
+  LN_CHECK_INPUT(file != nullptr) << path.string() << ": cannot open";
+  PngMessages messages;
+  png_structp png = png_create_read_struct(PNG_LIBPNG_VER_STRING, &messages, &PngError, &PngWarning);
+  png_infop info = png != nullptr ? png_create_info_struct(png) : nullptr;
   cv::Mat raw;
-  switch (decoded.channels()) {
-    case 1: return decoded;
-    case 3: cv::cvtColor(decoded, raw, cv::COLOR_BGR2RGB); return raw;
-    case 4:
-      if (colour_type == 4) {  // grey + alpha
-        std::vector<cv::Mat> planes;
-        cv::split(decoded, planes);
-        cv::merge(std::vector<cv::Mat>{planes[0], planes[3]}, raw);
-        return raw;
-      }
-      cv::cvtColor(decoded, raw, cv::COLOR_BGRA2RGBA);
-      return raw;
-    default: throw InputError(path.string() + ": " + std::to_string(decoded.channels()) + " channels are not supported");
+  std::vector<png_bytep> rows;
+  volatile bool ok = false;  // read after a longjmp from libpng's error handler
+  if (png != nullptr && info != nullptr && setjmp(messages.jump) == 0) {
+    png_init_io(png, file);
+    png_set_user_limits(png, 0x7fffffff, 0x7fffffff);  // sizes are checked before (--max-pixels)
+    png_read_info(png, info);
+    png_set_expand(png);  // palette to RGB, grey below 8 bits to 8, tRNS to alpha
+    if (png_get_bit_depth(png, info) == 16) png_set_swap(png);  // to the host's byte order
+    png_read_update_info(png, info);
+    const int channels = png_get_channels(png, info);
+    const int depth = png_get_bit_depth(png, info) == 16 ? CV_16U : CV_8U;
+    raw.create(static_cast<int>(png_get_image_height(png, info)), static_cast<int>(png_get_image_width(png, info)),
+               CV_MAKETYPE(depth, channels));
+    rows.resize(raw.rows);
+    for (int y = 0; y < raw.rows; ++y) rows[y] = raw.ptr(y);
+    png_read_image(png, rows.data());
+    png_read_end(png, nullptr);
+    ok = true;
   }
+  png_destroy_read_struct(png != nullptr ? &png : nullptr, info != nullptr ? &info : nullptr, nullptr);
+  std::fclose(file);
+  LN_CHECK_INPUT(ok) << path.string() << ": truncated or corrupt image ("
+                     << (messages.error.empty() ? std::string("cannot decode") : messages.error) << ")";
+  return raw;
 }
 
 // The decoded pixels with every channel of the file, in the file's (RGB) order.

@@ -201,6 +201,17 @@ TEST(StereoBatch, RefusesImagesLargerThanTheLimitFromTheirHeader) {
   EXPECT_EQ(small.exit_code, 4);
   EXPECT_NE(small.stderr_text.find("frame0000.png: the header claims 640 x 480 pixels"), std::string::npos)
       << small.stderr_text;
+  // A size within the limit that the data cannot fill: libpng's reason in the one error line,
+  // nothing printed by the library itself.
+  ForgePngSize(in / "left" / "frame0000.png", 1000, 1000);
+  const auto short_data =
+      RunTool("stereo-batch", {in.string(), "-o", (tmp.path() / "short").string(), "-q", "--preset", "paper"},
+              tmp.path());
+  EXPECT_EQ(short_data.exit_code, 4);
+  EXPECT_EQ(short_data.ErrorLines(), 3) << short_data.stderr_text;
+  EXPECT_EQ(short_data.stderr_text.find("libpng"), std::string::npos) << short_data.stderr_text;
+  EXPECT_NE(short_data.stderr_text.find("frame0000.png: truncated or corrupt image ("), std::string::npos)
+      << short_data.stderr_text;
 }
 
 // Links that loop (two pointing at each other, one at itself) are those pairs' problems; the
