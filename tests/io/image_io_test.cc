@@ -132,5 +132,38 @@ TEST(ReadGreyImage, ReportsSignificantBits) {
   EXPECT_EQ(bits.bits, 8);
 }
 
+// A 110-byte TIFF whose header claims 100,000 x 100,000 pixels is refused from its header, with
+// one short message (libtiff would repeat itself for every strip it cannot read).
+TEST(ReadGreyImage, RefusesAHeaderClaimingMorePixelsThanTheLimit) {
+  util::ScopedTempDir tmp;
+  std::string tiff = std::string("II*\0", 4) + std::string("\x08\0\0\0", 4) + std::string("\x08\0", 2);
+  auto entry = [&](std::uint16_t tag, std::uint16_t type, std::uint32_t value) {
+    const std::uint32_t count = 1;
+    tiff.append(reinterpret_cast<const char*>(&tag), 2);
+    tiff.append(reinterpret_cast<const char*>(&type), 2);
+    tiff.append(reinterpret_cast<const char*>(&count), 4);
+    tiff.append(reinterpret_cast<const char*>(&value), 4);  // little-endian host: SHORTs fit the low half
+  };
+  entry(256, 4, 100000);  // width
+  entry(257, 4, 100000);  // height
+  entry(258, 3, 8);
+  entry(259, 3, 1);
+  entry(262, 3, 1);
+  entry(273, 4, 8);
+  entry(277, 3, 1);
+  entry(279, 4, 10);
+  tiff.append(4, '\0');
+  const auto path = tmp.path() / "huge.tif";
+  std::ofstream(path, std::ios::binary) << tiff;
+  try {
+    ReadGreyImage(path);
+    ADD_FAILURE() << "accepted";
+  } catch (const InputError& e) {
+    const std::string what = e.what();
+    EXPECT_NE(what.find("the header claims 100000 x 100000 pixels"), std::string::npos) << what;
+    EXPECT_LT(what.size(), 300u);
+  }
+}
+
 }  // namespace
 }  // namespace lunarnav::io
