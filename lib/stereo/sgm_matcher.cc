@@ -10,6 +10,7 @@
 #include <opencv2/imgproc.hpp>
 #include <tbb/parallel_for.h>
 
+#include "stereo/correlation_curve.h"
 #include "stereo/disparity_filters.h"
 #include "stereo/semi_global.h"
 #include "stereo/sgm_matcher.h"
@@ -51,31 +52,6 @@ LN_SGM_CLONES void TargetMinimum(const std::uint16_t* s, int k_lo, int k_hi, std
 
 int CeilToMultiple(int value, int step) { return (value + step - 1) / step * step; }
 
-// Normalized correlation of the (2hx+1) x (2hy+1) windows around ref (x, y) and tgt (x + d, y);
-// NaN when a window leaves the image or is flat.
-float WindowCorrelation(const cv::Mat& ref, const cv::Mat& tgt, int x, int y, int d, int hx, int hy) {
-  const int xt = x + d;
-  if (y - hy < 0 || y + hy >= ref.rows || x - hx < 0 || x + hx >= ref.cols || xt - hx < 0 || xt + hx >= ref.cols) {
-    return std::numeric_limits<float>::quiet_NaN();
-  }
-  double sr = 0, st = 0, srr = 0, stt = 0, srt = 0;
-  for (int wy = -hy; wy <= hy; ++wy) {
-    const float* r = ref.ptr<float>(y + wy) + x;
-    const float* t = tgt.ptr<float>(y + wy) + xt;
-    for (int wx = -hx; wx <= hx; ++wx) {
-      const double a = r[wx], b = t[wx];
-      sr += a;
-      st += b;
-      srr += a * a;
-      stt += b * b;
-      srt += a * b;
-    }
-  }
-  const double n = (2.0 * hx + 1) * (2.0 * hy + 1);
-  const double var_r = srr / n - (sr / n) * (sr / n), var_t = stt / n - (st / n) * (st / n);
-  if (!(var_r > 0 && var_t > 0)) return std::numeric_limits<float>::quiet_NaN();
-  return static_cast<float>((srt / n - sr * st / (n * n)) / std::sqrt(var_r * var_t));
-}
 
 }  // namespace
 
@@ -133,9 +109,8 @@ void MatchSemiGlobal(const NccOptions& options, const cv::Mat& left, const cv::M
   SemiGlobalAggregate(in, &ws.cost);
 
   // Texture (filter 1) over the census window, on the true bit depth's scale.
-  cv::Mat ref_f, tgt_f;
+  cv::Mat ref_f;
   ref.convertTo(ref_f, CV_32F);
-  tgt.convertTo(tgt_f, CV_32F);
   cv::Mat mean, mean_sq;
   const cv::Size texture_window(2 * g.census_half_x_px + 1, 2 * g.census_half_y_px + 1);
   cv::boxFilter(ref_f, mean, CV_32F, texture_window, {-1, -1}, true, cv::BORDER_REPLICATE);
@@ -190,8 +165,8 @@ void MatchSemiGlobal(const NccOptions& options, const cv::Mat& left, const cv::M
         continue;
       }
       const int d_best = in.d_min + best;
-      const float c = WindowCorrelation(ref_f, tgt_f, x, y, d_best, options.half_window_x_px,
-                                        options.half_window_y_px);
+      // The paper's C at the chosen disparity (in the images' own columns).
+      const auto c = static_cast<float>(Correlation(left, right, options, flip ? width - 1 - x : x, y, d_best));
       corr[i] = c;
       if (!(c >= options.min_correlation)) {
         reason[i] = static_cast<std::uint8_t>(Rejection::kLowCorrelation);
