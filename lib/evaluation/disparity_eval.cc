@@ -53,13 +53,19 @@ SampleGrid GridOf(const fs::path& estimate) {
     grid.origin_y = g.at("origin_px").at(1).get<int>();
     grid.step_x = g.at("step_px").at(0).get<int>();
     grid.step_y = g.at("step_px").at(1).get<int>();
-    const auto& rows = j.at("options").at("rows");
+    // The band the matcher processed: the pair's window (window selection: --range-y or
+    // --requests) when it has one, else --rows.
+    const auto& options = j.at("options");
+    const nlohmann::json& rows = options.contains("window") && options.at("window").contains("rows")
+                                     ? options.at("window").at("rows")
+                                     : options.at("rows");
     if (!rows.is_null()) {
       grid.min_row = rows.at(0).get<int>();
       grid.max_row = rows.at(1).get<int>();
     }
   } catch (const nlohmann::json::exception& e) {
-    throw InputError(sidecar.string() + ": no usable disparity.grid or options.rows (" + e.what() + ")");
+    throw InputError(sidecar.string() + ": no usable disparity.grid, options.window.rows or options.rows (" +
+                     e.what() + ")");
   }
   LN_CHECK_INPUT(grid.step_x >= 1 && grid.step_y >= 1 && grid.origin_x >= 0 && grid.origin_y >= 0)
       << sidecar.string() << ": impossible disparity.grid";

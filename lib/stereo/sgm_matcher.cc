@@ -118,6 +118,8 @@ void MatchSemiGlobal(const NccOptions& options, const cv::Mat& left, const cv::M
   const double sigma_min = options.min_sigma * GreyScaleFactor(bit_depth);
   const float min_var = static_cast<float>(sigma_min * sigma_min);
 
+  NccOptions confidence_options = options;
+  confidence_options.step_x_px = confidence_options.step_y_px = 1;
   // Winner-take-all, sub-pixel vertex, lobe-aware ambiguity and the correlation filter.
   const float nan = std::numeric_limits<float>::quiet_NaN();
   cv::Mat grid_disp(num_rows, num_cols, CV_32FC1, cv::Scalar(nan));
@@ -165,8 +167,10 @@ void MatchSemiGlobal(const NccOptions& options, const cv::Mat& left, const cv::M
         continue;
       }
       const int d_best = in.d_min + best;
-      // The paper's C at the chosen disparity (in the images' own columns).
-      const auto c = static_cast<float>(Correlation(left, right, options, flip ? width - 1 - x : x, y, d_best));
+      // The paper's C at the chosen disparity (in the images' own columns), over the whole
+      // window at full resolution whatever the grid's steps (a window of 7 x 7 subsampled by
+      // 5 x 4 would be a single pixel).
+      const auto c = static_cast<float>(Correlation(left, right, confidence_options, flip ? width - 1 - x : x, y, d_best));
       corr[i] = c;
       if (!(c >= options.min_correlation)) {
         reason[i] = static_cast<std::uint8_t>(Rejection::kLowCorrelation);

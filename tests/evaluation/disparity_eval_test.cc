@@ -4,6 +4,7 @@
 
 #include <cmath>
 #include <fstream>
+#include <limits>
 
 #include <opencv2/imgcodecs.hpp>
 
@@ -140,6 +141,27 @@ TEST(EvaluateDisparityDirectories, PairsStemsAndNamesEveryMismatch) {
   fs::remove(truth / "a.pfm");
   fs::remove(truth / "b.pfm");
   EXPECT_THROW(EvaluateDisparityDirectories(results, truth, {}, {}), InputError);
+}
+
+// With window selection the processed band is the pair's window (options.window.rows in the
+// sidecar), not --rows: rows the matcher never searched are not scored.
+TEST(EvaluateDisparityDirectories, ScoresOnlyTheWindowsRows) {
+  util::ScopedTempDir tmp;
+  const fs::path results = tmp.path() / "run", truth = tmp.path() / "truth";
+  fs::create_directories(results / "disparity");
+  fs::create_directories(truth);
+  const cv::Mat map(8, 10, CV_32FC1, cv::Scalar(20));
+  io::WriteImageAtomic(truth / "a.pfm", map);
+  cv::Mat estimate(8, 10, CV_32FC1, cv::Scalar(std::numeric_limits<float>::infinity()));
+  estimate.rowRange(2, 4).setTo(20);  // the window: rows 2 and 3
+  io::WriteImageAtomic(results / "disparity" / "a.pfm", estimate);
+  const nlohmann::json sidecar = {{"disparity", {{"grid", {{"origin_px", {0, 0}}, {"step_px", {1, 1}}}}}},
+                                  {"options", {{"rows", nullptr}, {"window", {{"rows", {2, 3}}}}}}};
+  io::WriteJsonAtomic(results / "disparity" / "a.json", sidecar);
+  const std::vector<DisparityItem> items = EvaluateDisparityDirectories(results, truth, {}, {});
+  ASSERT_EQ(items.size(), 1u);
+  EXPECT_EQ(items[0].scores.truth_pixels, 20);
+  EXPECT_DOUBLE_EQ(items[0].scores.DensityPct(), 100.0);
 }
 
 }  // namespace
