@@ -235,7 +235,7 @@ TEST(SemiGlobal, TexturedSceneIsRarelyAmbiguous) {
 TEST(SemiGlobal, PartialSubsamplingKeepsFullDisparityResolution) {
   const auto pair = RenderLayeredPair(Scene({Plane(9.6, 0.01, 0.0)}));
   // 5 x 4 (the paper's steps) is wider than half the 7 x 7 confidence window.
-  for (const auto [sx, sy] : {std::pair{3, 2}, std::pair{5, 4}}) {
+  for (const auto& [sx, sy] : {std::pair{3, 2}, std::pair{5, 4}}) {
   SCOPED_TRACE(sx);
   NccOptions o = Quality();
   o.step_x_px = sx;
