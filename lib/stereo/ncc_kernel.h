@@ -12,6 +12,8 @@
 
 #include <cstddef>
 #include <cstdint>
+#include <utility>
+#include <vector>
 
 namespace lunarnav::stereo::internal {
 
@@ -69,5 +71,9 @@ using KernelFn = void (*)(const KernelInput& in, int row_begin, int row_end, voi
 KernelFn SelectKernel(const char** name = nullptr);
 /// The portable kernel (for tests that compare both).
 KernelFn BaselineKernel();
+
+/// Every kernel this build has and this CPU runs, by name, the baseline first (for tests that
+/// check they all agree).
+std::vector<std::pair<const char*, KernelFn>> RunnableKernels();
 
 }  // namespace lunarnav::stereo::internal

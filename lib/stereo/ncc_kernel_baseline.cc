@@ -58,4 +58,18 @@ KernelFn SelectKernel(const char** name) {
   return &baseline::RunKernelImpl;
 }
 
+std::vector<std::pair<const char*, KernelFn>> RunnableKernels() {
+  std::vector<std::pair<const char*, KernelFn>> kernels = {{"baseline", &baseline::RunKernelImpl}};
+#if defined(LUNARNAV_HAVE_AVX2_KERNEL)
+  if (__builtin_cpu_supports("avx2")) kernels.emplace_back("avx2", &avx2::RunKernel);
+#endif
+#if defined(LUNARNAV_HAVE_AVX512_KERNEL)
+  if (__builtin_cpu_supports("avx512f") && __builtin_cpu_supports("avx512bw") && __builtin_cpu_supports("avx512dq") &&
+      __builtin_cpu_supports("avx512vl") && __builtin_cpu_supports("avx512cd")) {
+    kernels.emplace_back("avx512", &avx512::RunKernel);
+  }
+#endif
+  return kernels;
+}
+
 }  // namespace lunarnav::stereo::internal
