@@ -44,13 +44,9 @@ ExrImage ReadExr(const fs::path& path) {
   LN_CHECK_INPUT(fs::is_regular_file(path, ec)) << path.string() << ": no such file";
   ExrImage result;
   std::string error;
-  if (!internal::Oiio().ReadFloat(path.string(), MaxImagePixels(), &result.pixels, &result.channel_names, &result.attributes,
-                                  &error)) {
-    const auto colon = error.find(": ");
-    const std::string kind = error.substr(0, colon), reason = error.substr(colon + 2);
-    if (kind == "unreadable") throw InputError(path.string() + ": unreadable image (" + reason + ")");
-    if (kind == "corrupt") throw InputError(path.string() + ": truncated or corrupt image (" + reason + ")");
-    throw InputError(path.string() + ": " + reason);
+  if (!internal::Oiio().ReadFloat(path.string(), MaxImagePixels(), &result.pixels, &result.channel_names,
+                                  &result.attributes, &error)) {
+    internal::ThrowModuleReadError(path, error);
   }
   return result;
 }

@@ -129,15 +129,6 @@ std::string PngSizeProblem(const fs::path& path) {
   return "";
 }
 
-// Throws the InputError of a module error "<kind>: <reason>".
-[[noreturn]] void ThrowReadError(const fs::path& path, const std::string& error) {
-  const auto colon = error.find(": ");
-  const std::string kind = error.substr(0, colon);
-  const std::string reason = colon == std::string::npos ? error : error.substr(colon + 2);
-  if (kind == "unreadable") throw InputError(path.string() + ": unreadable image (" + reason + ")");
-  if (kind == "corrupt") throw InputError(path.string() + ": truncated or corrupt image (" + reason + ")");
-  throw InputError(path.string() + ": " + reason);
-}
 
 // libpng's errors and warnings, kept for the caller's message instead of printed on stderr.
 struct PngMessages {
@@ -213,7 +204,7 @@ cv::Mat ReadAllChannels(const fs::path& path, SignificantBits* bits) {
   } else {
     std::string error;
     if (!internal::Oiio().ReadInteger(path.string(), MaxImagePixels(), &raw, &stored_bits, &error)) {
-      ThrowReadError(path, error);
+      internal::ThrowModuleReadError(path, error);
     }
   }
   if (bits != nullptr) {

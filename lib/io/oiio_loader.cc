@@ -9,9 +9,19 @@
 #include <vector>
 
 #include "io/oiio_module.h"
+#include "util/errors.h"
 
 namespace lunarnav::io::internal {
 namespace fs = std::filesystem;
+
+void ThrowModuleReadError(const fs::path& path, const std::string& error) {
+  const auto colon = error.find(": ");
+  const std::string kind = error.substr(0, colon);
+  const std::string reason = colon == std::string::npos ? error : error.substr(colon + 2);
+  if (kind == "unreadable") throw InputError(path.string() + ": unreadable image (" + reason + ")");
+  if (kind == "corrupt") throw InputError(path.string() + ": truncated or corrupt image (" + reason + ")");
+  throw InputError(path.string() + ": " + reason);
+}
 
 OiioModule& Oiio() {
   static OiioModule* module = nullptr;

@@ -3,6 +3,7 @@
 // write a format that needs it (TIFF, JPEG, EXR, ...), never for PNG. Internal to io/.
 #pragma once
 
+#include <filesystem>
 #include <map>
 #include <string>
 #include <vector>
@@ -30,6 +31,9 @@ class OiioModule {
   virtual bool ReadFloat(const std::string& path, long long max_pixels, cv::Mat* pixels, std::vector<std::string>* names,
                          std::map<std::string, std::string>* attributes, std::string* error) = 0;
 };
+
+/// Throws the InputError of a read error "<kind>: <reason>" from the module, naming `path`.
+[[noreturn]] void ThrowModuleReadError(const std::filesystem::path& path, const std::string& error);
 
 /// The module, loaded on first use (thread-safe): $LUNARNAV_OIIO_MODULE, else
 /// liblunarnav_oiio.so beside the running program, else in the build's bin directory.

@@ -330,12 +330,15 @@ void MatchStereoPair(const NccOptions& options, const cv::Mat& left, const cv::M
       << "image types differ (one is 8-bit, the other 16-bit)";
   LN_CHECK_INPUT(left.type() == CV_8UC1 || left.type() == CV_16UC1)
       << "images must be 8- or 16-bit single-channel";
+  // Isolated: while this pair's parallel loops wait, the thread runs only their tasks, never
+  // another pair's match, which would take over the per-thread workspace this one is using.
+  auto match = [&] { tbb::this_task_arena::isolate([&] { MatchInCurrentArena(options, left, right, result); }); };
   if (options.num_threads == 0) {
-    MatchInCurrentArena(options, left, right, result);
+    match();
     return;
   }
   tbb::task_arena arena(options.num_threads);
-  arena.execute([&] { MatchInCurrentArena(options, left, right, result); });
+  arena.execute(match);
 }
 
 }  // namespace lunarnav::stereo

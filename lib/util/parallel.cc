@@ -12,7 +12,13 @@ void ParallelForEachItem(std::size_t n, int num_threads, const std::function<voi
   arena.execute([&] {
     tbb::parallel_for(tbb::blocked_range<std::size_t>(0, n, 1),
                       [&](const tbb::blocked_range<std::size_t>& range) {
-                        for (std::size_t i = range.begin(); i != range.end(); ++i) fn(i);
+                        // Isolated: a thread waiting inside an item's own parallel work must not
+                        // pick up another item meanwhile, which would reuse that thread's
+                        // per-thread buffers (the matcher's workspace, the batch's result maps)
+                        // while they are still in use.
+                        for (std::size_t i = range.begin(); i != range.end(); ++i) {
+                          tbb::this_task_arena::isolate([&] { fn(i); });
+                        }
                       },
                       tbb::simple_partitioner());
   });
