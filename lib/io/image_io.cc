@@ -144,7 +144,7 @@ void PngWarning(png_structp, png_const_charp) {}
 
 // A PNG decoded by libpng (no OpenImageIO to load), its messages in the error line: the pixels
 // in the file's channel order, 8 or 16 bits (palettes and grey below 8 bits expanded).
-cv::Mat ReadPng(const fs::path& path) {
+cv::Mat ReadPng(const fs::path& path, int* significant_bits) {
   std::FILE* file = std::fopen(path.c_str(), "rb");
   LN_CHECK_INPUT(file != nullptr) << path.string() << ": cannot open";
   PngMessages messages;
@@ -157,6 +157,15 @@ cv::Mat ReadPng(const fs::path& path) {
     png_init_io(png, file);
     png_set_user_limits(png, 0x7fffffff, 0x7fffffff);  // sizes are checked before (--max-pixels)
     png_read_info(png, info);
+    // sBIT: the colour channels' largest significant bit count (alpha aside); 0 without one.
+    png_color_8p sbit = nullptr;
+    *significant_bits = 0;
+    if (png_get_sBIT(png, info, &sbit) != 0 && sbit != nullptr) {
+      const int colour = png_get_color_type(png, info);
+      *significant_bits = (colour & PNG_COLOR_MASK_COLOR) != 0
+                              ? std::max({int{sbit->red}, int{sbit->green}, int{sbit->blue}})
+                              : int{sbit->gray};
+    }
     png_set_expand(png);  // palette to RGB, grey below 8 bits to 8, tRNS to alpha
     if (png_get_bit_depth(png, info) == 16) png_set_swap(png);  // to the host's byte order
     png_read_update_info(png, info);
@@ -192,7 +201,7 @@ cv::Mat ReadAllChannels(const fs::path& path, SignificantBits* bits) {
   LN_CHECK_INPUT(fs::file_size(path, ec) > 0) << path.string() << ": empty file";
   const bool png = LowerExtension(path) == ".png";
   cv::Mat raw;
-  int stored_bits = 0;
+  int stored_bits = 0, png_sbit = 0;
   if (png) {
     // The claimed size first (before anything is read or allocated), then the chunks: libpng
     // prints its own stderr line on a damaged file, so the damage is found first.
@@ -200,7 +209,7 @@ cv::Mat ReadAllChannels(const fs::path& path, SignificantBits* bits) {
     LN_CHECK_INPUT(size_problem.empty()) << path.string() << ": " << size_problem;
     const std::string problem = PngStructureProblem(path);
     LN_CHECK_INPUT(problem.empty()) << path.string() << ": " << problem;
-    raw = ReadPng(path);
+    raw = ReadPng(path, &png_sbit);
   } else {
     std::string error;
     if (!internal::Oiio().ReadInteger(path.string(), MaxImagePixels(), &raw, &stored_bits, &error)) {
@@ -215,7 +224,7 @@ cv::Mat ReadAllChannels(const fs::path& path, SignificantBits* bits) {
       bits->source = "image type (a " + std::to_string(stored_bits) + "-bit file, read rescaled)";
     }
     if (png) {
-      if (const int sbit = PngSignificantBits(path); sbit >= 1 && sbit < bits->bits) *bits = {sbit, "PNG sBIT"};
+      if (png_sbit >= 1 && png_sbit < bits->bits) *bits = {png_sbit, "PNG sBIT"};
     }
   }
   return raw;

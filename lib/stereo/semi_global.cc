@@ -302,11 +302,6 @@ bool IsAmbiguousMinimum(const std::uint16_t* s, int k_lo, int k_hi, int best, do
   return static_cast<double>(rival) < (1.0 + uniqueness) * s[best];
 }
 
-void AggregatedCost::Costs(int i, int j, std::uint32_t* out) const {
-  const std::uint16_t* s = sum(i, j);
-  for (int k = 0; k < num_disp_; ++k) out[k] = s[k];
-}
-
 void SemiGlobalAggregate(const SgmInput& in, AggregatedCost* out) {
   LN_CHECK(in.num_paths == 4 || in.num_paths == 8);
   LN_CHECK(in.num_disp >= 1 && in.num_cols >= 0 && in.num_rows >= 0);

@@ -79,8 +79,6 @@ class AggregatedCost {
   int num_cols() const { return num_cols_; }
   int num_rows() const { return num_rows_; }
   int num_disp() const { return num_disp_; }
-  /// The aggregated cost of grid pixel (i, j) at disparity index k, into out[0 .. num_disp).
-  void Costs(int i, int j, std::uint32_t* out) const;
   /// The num_disp sums of grid pixel (i, j).
   const std::uint16_t* sum(int i, int j) const { return &sum_[Index(i, j)]; }
 

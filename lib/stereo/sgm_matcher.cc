@@ -125,7 +125,6 @@ void MatchSemiGlobal(const NccOptions& options, const cv::Mat& left, const cv::M
   cv::Mat grid_disp(num_rows, num_cols, CV_32FC1, cv::Scalar(nan));
   cv::Mat grid_corr(num_rows, num_cols, CV_32FC1, cv::Scalar(nan));
   cv::Mat grid_reason(num_rows, num_cols, CV_8UC1, cv::Scalar(static_cast<int>(Rejection::kAccepted)));
-  cv::Mat grid_best(num_rows, num_cols, CV_32SC1, cv::Scalar(-1));  // integer disparity index
   // The best disparity index seen from the target image's columns (left-right check).
   const bool lr_check = g.left_right_max_diff_px >= 0 && dx == 1;
   cv::Mat tgt_best(num_rows, lr_check ? width : 1, CV_32SC1, cv::Scalar(-1));
@@ -135,7 +134,6 @@ void MatchSemiGlobal(const NccOptions& options, const cv::Mat& left, const cv::M
     auto* disp = grid_disp.ptr<float>(j);
     auto* corr = grid_corr.ptr<float>(j);
     auto* reason = grid_reason.ptr<std::uint8_t>(j);
-    auto* best_k = grid_best.ptr<int>(j);
     int* tgt_k = tgt_best.ptr<int>(j);
     const float* m = mean.ptr<float>(y);
     const float* m2 = mean_sq.ptr<float>(y);
@@ -153,7 +151,6 @@ void MatchSemiGlobal(const NccOptions& options, const cv::Mat& left, const cv::M
         const int shift = x + in.d_min;  // target column of index k: shift + k
         TargetMinimum(s, k_lo, k_hi, tgt_cost.data() + shift, tgt_k + shift);
       }
-      best_k[i] = best;
       if (m2[x] - m[x] * m[x] < min_var) {
         reason[i] = static_cast<std::uint8_t>(Rejection::kLowTexture);
         continue;
