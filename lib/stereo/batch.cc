@@ -63,15 +63,22 @@ std::string ReferenceConvention(ReferenceImage reference) {
 // An output's name in the sidecar's file_bytes: its folder and file ("xyz/a.exr").
 std::string OutputKey(const fs::path& p) { return (p.parent_path().filename() / p.filename()).generic_string(); }
 
-// True when the outputs of `stem` are complete and were made with the same options.
-bool OutputsComplete(const BatchOptions& batch, const PairOutputPaths& paths, const json& options,
-                     json* sidecar) {
-  std::vector<fs::path> files = {paths.disparity, paths.confidence, paths.rejections, paths.sidecar};
+// A pair's output files that the options enable (the sidecar aside).
+std::vector<fs::path> EnabledOutputs(const BatchOptions& batch, const PairOutputPaths& paths) {
+  std::vector<fs::path> files = {paths.disparity, paths.confidence, paths.rejections};
   if (batch.rig) files.push_back(paths.xyz);
   if (batch.write_ply) files.push_back(paths.cloud);
   if (batch.xyz_sigma_px) files.push_back(paths.xyz_sigma);
   if (batch.write_preview) files.push_back(paths.preview);
+  return files;
+}
+
+// True when the outputs of `stem` are complete and were made with the same options.
+bool OutputsComplete(const BatchOptions& batch, const PairOutputPaths& paths, const json& options,
+                     json* sidecar) {
+  const std::vector<fs::path> files = EnabledOutputs(batch, paths);
   std::error_code ec;
+  if (!fs::is_regular_file(paths.sidecar, ec)) return false;
   for (const fs::path& p : files) {
     if (!fs::is_regular_file(p, ec)) return false;
   }
@@ -87,7 +94,6 @@ bool OutputsComplete(const BatchOptions& batch, const PairOutputPaths& paths, co
   // Every output has the size it was written with (a file cut or replaced since is redone).
   const json sizes = sidecar->value("file_bytes", json::object());
   for (const fs::path& p : files) {
-    if (p == paths.sidecar) continue;
     const auto it = sizes.find(OutputKey(p));
     if (it == sizes.end() || !it->is_number_unsigned() || it->get<std::uintmax_t>() != fs::file_size(p, ec) || ec) {
       return false;
@@ -296,12 +302,7 @@ json ProcessPair(const BatchOptions& options, const PairFiles& pair, const PairO
                                      {"match", 1e3 * timings->match_s},
                                      {"write", 1e3 * timings->write_s}};
   if (options.rig) sidecar["result"]["timings_ms"]["xyz"] = 1e3 * timings->xyz_s;
-  std::vector<fs::path> written = {out.disparity, out.confidence, out.rejections};
-  if (options.rig) written.push_back(out.xyz);
-  if (options.write_ply) written.push_back(out.cloud);
-  if (options.xyz_sigma_px) written.push_back(out.xyz_sigma);
-  if (options.write_preview) written.push_back(out.preview);
-  sidecar["file_bytes"] = FileSizes(written);
+  sidecar["file_bytes"] = FileSizes(EnabledOutputs(options, out));
   sidecar["version"] = kVersion;
   io::WriteJsonAtomic(out.sidecar, sidecar);  // last: its presence marks the pair complete
   return sidecar["result"];
