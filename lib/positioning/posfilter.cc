@@ -438,12 +438,16 @@ PosfilterResult Run(ScreenedRows& input, const std::string& source, const teleme
                              : have_compass ? "held at prior 0 (no scale state configured)"
                                             : "held at prior 0 (no compass: the scale is not observable)";
     const long still = kalman->stationary_samples();
+    char bias_sigma[64];
+    std::snprintf(bias_sigma, sizeof(bias_sigma), "%.3f", kalman->gyro_bias_sigma_radps() * 180.0 / M_PI);
     r.states["gyro_bias"] =
         !options.kalman.estimate_gyro_bias ? "held at prior 0 (bias estimation off)"
         : still > 0 ? "estimated from " + std::to_string(kalman->stationary_periods()) + " stationary period(s), " +
-                          std::to_string(still) + " samples"
-                    : std::string("held at prior 0 (no stationary period") +
-                          (have_compass ? "; the compass corrects the heading, not the bias)" : ")");
+                          std::to_string(still) + " samples" +
+                          (kalman->gyro_bias_prior_from_compass() ? " (the compass's estimate before the first as prior)" : "")
+        : kalman->gyro_bias_from_compass()
+            ? std::string("estimated from the compass (no stationary period), sigma ") + bias_sigma + " deg/s"
+            : std::string("held at prior 0 (no compass and no stationary period: the bias is not observable)");
   }
   return r;
 }

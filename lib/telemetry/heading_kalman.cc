@@ -33,6 +33,8 @@ void HeadingKalmanOptions::Validate() const {
   LN_CHECK_ARG(std::isfinite(initial_heading_deg)) << "initial heading: not finite";
   LN_CHECK_ARG(gyro_bias_walk_dps_per_sqrt_s >= 0 && std::isfinite(gyro_bias_walk_dps_per_sqrt_s))
       << "heading filter: the gyro bias walk must be >= 0";
+  LN_CHECK_ARG(gyro_bias_sigma_dps > 0 && std::isfinite(gyro_bias_sigma_dps))
+      << "heading filter: the gyro bias prior sigma must be > 0";
 }
 
 nlohmann::json HeadingKalmanOptions::ToJson() const {
@@ -42,6 +44,7 @@ nlohmann::json HeadingKalmanOptions::ToJson() const {
           {"gate_smoothing_s", gate_smoothing_s},       {"gyro_scale_sigma", gyro_scale_sigma},
           {"gyro_scale_walk_per_sqrt_s", gyro_scale_walk_per_sqrt_s},
           {"estimate_gyro_bias", estimate_gyro_bias}, {"gyro_bias_walk_dps_per_sqrt_s", gyro_bias_walk_dps_per_sqrt_s},
+          {"gyro_bias_sigma_dps", gyro_bias_sigma_dps},
           {"zero_rate_when_stationary", zero_rate_when_stationary}, {"initial_heading_deg", initial_heading_deg}};
 }
 
@@ -50,7 +53,8 @@ HeadingKalman::HeadingKalman(const HeadingKalmanOptions& options, double first_c
   r_compass_ = std::pow(o_.compass_sigma_deg * kDeg, 2);
   r_gyro_ = std::pow(o_.gyro_sigma_dps * kDeg, 2);
   q_rate_ = std::pow(o_.rate_walk_dps2 * kDeg, 2);  // per second
-  estimate_scale_ = o_.gyro_scale_sigma > 0;
+  // Only observable states: the scale needs a heading reference (a compass).
+  estimate_scale_ = o_.gyro_scale_sigma > 0 && !std::isnan(first_compass_rad);
   q_scale_ = std::pow(o_.gyro_scale_walk_per_sqrt_s, 2);  // per second
   turn_gate_ = o_.turn_gate_dps * kDeg;
   accel_gate_ = o_.accel_gate_dps2 * kDeg;
@@ -60,7 +64,11 @@ HeadingKalman::HeadingKalman(const HeadingKalmanOptions& options, double first_c
   xh_ = have_compass ? first_compass_rad : o_.initial_heading_deg * kDeg;
   p_[0][0] = have_compass ? r_compass_ : 0.0;
   p_[1][1] = std::pow(5 * kDeg, 2);
-  p_[2][2] = std::pow(o_.gyro_scale_sigma, 2);
+  p_[2][2] = estimate_scale_ ? std::pow(o_.gyro_scale_sigma, 2) : 0.0;
+  // With a compass the bias is a state (observable through the compass) until the first stop.
+  joint_bias_ = have_compass && o_.estimate_gyro_bias;
+  q_bias_ = std::pow(o_.gyro_bias_walk_dps_per_sqrt_s * kDeg, 2);  // per second
+  if (joint_bias_) p_[3][3] = std::pow(o_.gyro_bias_sigma_dps * kDeg, 2);
   // The gate's turn rate and acceleration: the gyro's rate low-passed (first order, time
   // constant gate_smoothing_s) and that rate's derivative low-passed the same way. A damped
   // compass's transients are smoothed functions of the motion, and so is the gate: it falls
@@ -72,13 +80,34 @@ HeadingKalman::HeadingKalman(const HeadingKalmanOptions& options, double first_c
 
 double HeadingKalman::gyro_scale_sigma() const { return std::sqrt(std::max(0.0, p_[2][2])); }
 
-// The covariance is kept as plain numbers, P a 3x3 matrix updated in place: each expression
+double HeadingKalman::gyro_bias_sigma_radps() const {
+  if (joint_bias_) return std::sqrt(std::max(0.0, p_[3][3]));
+  return bias_count_ > 0 ? std::sqrt(bias_var_) : 0.0;
+}
+
+void HeadingKalman::Measure(const double (&h)[4], double innovation, double r) {
+  double (&P)[4][4] = p_;
+  double hp[4];  // H P, which is (P H')' as P is symmetric
+  for (int j = 0; j < 4; ++j) hp[j] = h[0] * P[0][j] + h[1] * P[1][j] + h[2] * P[2][j] + h[3] * P[3][j];
+  const double s = hp[0] * h[0] + hp[1] * h[1] + hp[2] * h[2] + hp[3] * h[3] + r;
+  double gain[4];
+  for (int i = 0; i < 4; ++i) gain[i] = hp[i] / s;
+  xh_ += gain[0] * innovation;
+  xr_ += gain[1] * innovation;
+  xs_ += gain[2] * innovation;
+  xb_ += gain[3] * innovation;
+  for (int i = 0; i < 4; ++i) {
+    for (int j = 0; j < 4; ++j) P[i][j] -= gain[i] * hp[j];
+  }
+}
+
+// The covariance is kept as plain numbers, P a 4x4 matrix updated in place: each expression
 // is the one the matrix form (F P F' + Q, P - K H P, ...) reduces to once the known zeros and
 // ones of F and H are taken out; written out it is several times faster than general 3x3
 // products.
 HeadingKalman::Output HeadingKalman::Update(double t_s, double compass_rad, double gyro_radps, bool stationary) {
-  double (&P)[3][3] = p_;
-  // Predict: F = [1 dt 0; 0 1 0; 0 0 1].
+  double (&P)[4][4] = p_;
+  // Predict: F = [1 dt 0 0; 0 1 0 0; 0 0 1 0; 0 0 0 1].
   if (started_) {
     const double dt = t_s - last_t_;
     xh_ = xh_ + dt * xr_;
@@ -91,6 +120,11 @@ HeadingKalman::Output HeadingKalman::Update(double t_s, double compass_rad, doub
     P[0][2] = P[0][2] + dt * P[1][2];
     P[1][0] = P[1][0] + dt * P[1][1];
     P[2][0] = P[2][0] + dt * P[2][1];
+    if (joint_bias_) {
+      P[0][3] = P[0][3] + dt * P[1][3];
+      P[3][0] = P[3][0] + dt * P[3][1];
+      P[3][3] += q_bias_ * dt;
+    }
     const double q01 = q_rate_ * dt * dt / 2;
     P[0][0] += q_rate_ * dt * dt * dt / 3;
     P[0][1] += q01;
@@ -102,9 +136,25 @@ HeadingKalman::Output HeadingKalman::Update(double t_s, double compass_rad, doub
   last_t_ = t_s;
   // Gyro: measures (1 + s) x the rate (after removing the bias); linearised (EKF).
   if (!std::isnan(gyro_radps)) {
+    if (o_.estimate_gyro_bias && stationary && joint_bias_) {
+      // The first stop: from here on the stops show the bias, directly; the compass showed it
+      // through its transients (a damped compass lags a long turn by a steady amount, which a
+      // bias state learning from it all along would take in and keep). What the compass has
+      // taught so far (once it has halved the prior's sigma) is the stops' prior, and the bias
+      // leaves the filter's state.
+      joint_bias_ = false;
+      if (P[3][3] < 0.25 * std::pow(o_.gyro_bias_sigma_dps * kDeg, 2)) {  // the compass has shown something
+        bias_ = xb_;
+        bias_var_ = P[3][3];
+        bias_t_ = t_s;
+        bias_prior_from_compass_ = true;
+      }
+      for (int j = 0; j < 4; ++j) P[3][j] = P[j][3] = 0.0;
+      xb_ = 0.0;
+    }
     if (o_.estimate_gyro_bias && stationary) {
       if (!was_stationary_) ++bias_periods_;  // a new stationary period
-      if (bias_count_ == 0) {  // the first reading: the estimate, with the gyro's noise
+      if (bias_count_ == 0 && !bias_prior_from_compass_) {  // the first reading: the estimate, with the gyro's noise
         bias_ = gyro_radps;
         bias_var_ = r_gyro_;
       } else {  // the estimate has wandered since its last update; this reading corrects it
@@ -139,24 +189,34 @@ HeadingKalman::Output HeadingKalman::Update(double t_s, double compass_rad, doub
       gate_accel_ += alpha * ((gate_rate_ - previous) / dt - gate_accel_);
     }
     gate_time_ = t_s;
-    // H = [0, 1 + s, rate] (rate only with the scale state).
-    const double h1 = 1.0 + xs_, h2 = estimate_scale_ ? xr_ : 0.0;
-    double hp[3];  // H P
-    for (int j = 0; j < 3; ++j) hp[j] = h1 * P[1][j] + h2 * P[2][j];
-    const double s = (hp[1] * h1 + hp[2] * h2) + r_gyro_;
-    double gain[3];
-    for (int i = 0; i < 3; ++i) gain[i] = (P[i][1] * h1 + P[i][2] * h2) / s;
-    const double innovation = rate - (1.0 + xs_) * xr_;
-    xh_ += gain[0] * innovation;
-    xr_ += gain[1] * innovation;
-    xs_ += gain[2] * innovation;
-    double khp[3][3];  // (K H) P
-    for (int i = 0; i < 3; ++i) {
-      const double k1 = gain[i] * h1, k2 = gain[i] * h2;
-      for (int j = 0; j < 3; ++j) khp[i][j] = k1 * P[1][j] + k2 * P[2][j];
-    }
-    for (int i = 0; i < 3; ++i) {
-      for (int j = 0; j < 3; ++j) P[i][j] -= khp[i][j];
+    if (joint_bias_) {
+      // The reading is (1 + s) x rate + b: H = [0, 1 + s, rate, 1] (rate only with the scale
+      // state). Standing still, the rate is first known to be 0 (a rover does not turn with
+      // its wheels still: a measurement far finer than the gyro), so the reading shows b.
+      if (stationary && o_.zero_rate_when_stationary) Measure({0.0, 1.0, 0.0, 0.0}, -xr_, 1e-4 * r_gyro_);
+      const double h[4] = {0.0, 1.0 + xs_, estimate_scale_ ? xr_ : 0.0, 1.0};
+      Measure(h, gyro_radps - (1.0 + xs_) * xr_ - xb_, r_gyro_);
+    } else {
+      // The rate, bias removed, is the measurement: H = [0, 1 + s, rate] (rate only with the
+      // scale state).
+      const double h1 = 1.0 + xs_, h2 = estimate_scale_ ? xr_ : 0.0;
+      double hp[3];  // H P
+      for (int j = 0; j < 3; ++j) hp[j] = h1 * P[1][j] + h2 * P[2][j];
+      const double s = (hp[1] * h1 + hp[2] * h2) + r_gyro_;
+      double gain[3];
+      for (int i = 0; i < 3; ++i) gain[i] = (P[i][1] * h1 + P[i][2] * h2) / s;
+      const double innovation = rate - (1.0 + xs_) * xr_;
+      xh_ += gain[0] * innovation;
+      xr_ += gain[1] * innovation;
+      xs_ += gain[2] * innovation;
+      double khp[3][3];  // (K H) P
+      for (int i = 0; i < 3; ++i) {
+        const double k1 = gain[i] * h1, k2 = gain[i] * h2;
+        for (int j = 0; j < 3; ++j) khp[i][j] = k1 * P[1][j] + k2 * P[2][j];
+      }
+      for (int i = 0; i < 3; ++i) {
+        for (int j = 0; j < 3; ++j) P[i][j] -= khp[i][j];
+      }
     }
     ++gyro_updates_;
   }
@@ -165,18 +225,19 @@ HeadingKalman::Output HeadingKalman::Update(double t_s, double compass_rad, doub
     const double gate = 1.0 + o_.gate_gain * (std::pow(gate_rate_ / turn_gate_, 2) + std::pow(gate_accel_ / accel_gate_, 2));
     const double innovation = WrapPi(compass_rad - xh_);
     const double s = P[0][0] + r_compass_ * gate;
-    const double gain[3] = {P[0][0] / s, P[1][0] / s, P[2][0] / s};
+    const double gain[4] = {P[0][0] / s, P[1][0] / s, P[2][0] / s, P[3][0] / s};
     xh_ += gain[0] * innovation;
     xr_ += gain[1] * innovation;
     xs_ += gain[2] * innovation;
-    const double row0[3] = {P[0][0], P[0][1], P[0][2]};
-    for (int i = 0; i < 3; ++i) {
-      for (int j = 0; j < 3; ++j) P[i][j] -= gain[i] * row0[j];
+    xb_ += gain[3] * innovation;  // 0 without the bias state
+    const double row0[4] = {P[0][0], P[0][1], P[0][2], P[0][3]};
+    for (int i = 0; i < 4; ++i) {
+      for (int j = 0; j < 4; ++j) P[i][j] -= gain[i] * row0[j];
     }
     ++compass_updates_;
   }
-  for (int i = 0; i < 3; ++i) {  // symmetric: 0.5 (P + P')
-    for (int j = i + 1; j < 3; ++j) P[i][j] = P[j][i] = 0.5 * (P[i][j] + P[j][i]);
+  for (int i = 0; i < 4; ++i) {  // symmetric: 0.5 (P + P')
+    for (int j = i + 1; j < 4; ++j) P[i][j] = P[j][i] = 0.5 * (P[i][j] + P[j][i]);
   }
   return {xh_, xr_, std::sqrt(std::max(0.0, P[0][0]))};
 }
@@ -207,6 +268,7 @@ HeadingEstimate FilterHeading(const HeadingInputs& in, const HeadingKalmanOption
   out.gyro_scale_error = filter.gyro_scale_error();
   out.gyro_scale_sigma = filter.gyro_scale_sigma();
   out.gyro_bias_radps = filter.gyro_bias_radps();
+  out.gyro_bias_from_compass = filter.gyro_bias_from_compass();
   out.compass_updates = filter.compass_updates();
   out.gyro_updates = filter.gyro_updates();
   return out;

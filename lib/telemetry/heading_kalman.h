@@ -39,8 +39,19 @@ struct HeadingKalmanOptions {
   /// estimate, whose variance grows by gyro_bias_walk_dps_per_sqrt_s^2 per second between
   /// them, so that a stop's readings count more than older stops' as the bias wanders (a MEMS
   /// gyro's does, with temperature). With no walk it is the mean of all stationary readings.
+  ///
+  ///
+  /// With a compass, until the first stop, the bias is a fourth state of the heading filter,
+  /// observed through the compass: the heading the gyro integrates drifts from the compass's
+  /// by the bias times the time, so a log without any stop still has its bias estimated.
+  /// At the first stop that estimate becomes the stationary filter's prior and the stops take
+  /// over (they show the bias directly; the compass shows it through its transients). Without
+  /// a compass nothing but a stop shows the bias, and it is held at 0 until the first one.
   bool estimate_gyro_bias = true;
   double gyro_bias_walk_dps_per_sqrt_s = 0.005;  ///< >= 0.
+  /// Prior standard deviation of the bias state (with a compass): a MEMS gyro's turn-on bias
+  /// is a fraction of a deg/s to a few deg/s. > 0.
+  double gyro_bias_sigma_dps = 1.0;
   /// While stationary the heading rate is known to be 0 (a rover does not turn with its
   /// wheels still): the gyro's reading is replaced by that, so the heading does not wander
   /// on the gyro's noise during stops.
@@ -63,6 +74,7 @@ struct HeadingEstimate {
   std::vector<double> rate_radps;
   std::vector<double> heading_sigma_rad;
   double gyro_bias_radps = 0;           ///< Final bias estimate.
+  bool gyro_bias_from_compass = false;  ///< The bias was a state observed through the compass.
   double gyro_scale_error = 0;          ///< Final estimate of s (0 without the scale state).
   double gyro_scale_sigma = 0;          ///< Its standard deviation.
   int compass_updates = 0, gyro_updates = 0;
@@ -88,7 +100,14 @@ class HeadingKalman {
   /// readings (NaN: none). `stationary`: the wheels stand still (the gyro's bias is learnt).
   Output Update(double t_s, double compass_rad, double gyro_radps, bool stationary);
 
-  double gyro_bias_radps() const { return bias_; }
+  double gyro_bias_radps() const { return joint_bias_ ? xb_ : bias_; }
+  /// Standard deviation of the bias estimate (0 before anything has shown it).
+  double gyro_bias_sigma_radps() const;
+  /// The bias is (still) a state of the filter observed through the compass: a log with a
+  /// compass and no stop so far.
+  bool gyro_bias_from_compass() const { return joint_bias_; }
+  /// The stops' bias estimate started from what the compass had shown before the first stop.
+  bool gyro_bias_prior_from_compass() const { return bias_prior_from_compass_; }
   double gyro_scale_error() const { return xs_; }
   double gyro_scale_sigma() const;
   int compass_updates() const { return compass_updates_; }
@@ -98,16 +117,24 @@ class HeadingKalman {
 
  private:
   HeadingKalmanOptions o_;
-  double r_compass_, r_gyro_, q_rate_, q_scale_, turn_gate_, accel_gate_;
+  // One scalar measurement z = H x + noise (variance r) of the four states, `innovation`
+  // z - H x: the general Kalman update.
+  void Measure(const double (&h)[4], double innovation, double r);
+
+  double r_compass_, r_gyro_, q_rate_, q_scale_, q_bias_, turn_gate_, accel_gate_;
   bool estimate_scale_;
+  bool joint_bias_ = false;  // the bias is state 3 (with a compass, until the first stop)
+  bool bias_prior_from_compass_ = false;  // the stops' bias filter started from state 3
   // State: heading, true heading rate, gyro scale error s (the gyro reads (1 + s) x rate),
-  // and its covariance P. Without the scale state s stays 0 with no variance.
-  double xh_, xr_ = 0, xs_ = 0;
-  double p_[3][3] = {};
+  // gyro bias b (with a compass), and their covariance P. Without the scale state s stays 0
+  // with no variance; without a compass, and from the first stop on, b's row and column are 0
+  // and the bias comes from the stationary readings' own scalar filter below.
+  double xh_, xr_ = 0, xs_ = 0, xb_ = 0;
+  double p_[4][4] = {};
   double last_t_ = 0;
   bool started_ = false;
   long bias_count_ = 0;
-  double bias_ = 0;  // the bias used, 0 before the first stationary sample
+  double bias_ = 0;  // without a compass: the bias used, 0 before the first stationary sample
   double bias_var_ = 0, bias_t_ = 0;  // its variance (rad/s)^2, and the time of its last update
   int bias_periods_ = 0;
   bool was_stationary_ = false;

@@ -157,5 +157,50 @@ TEST(FilterHeading, AfterATurnWithAGyroScaleErrorTheCompassCorrectsTheHeadingPro
   EXPECT_NEAR(kalman.gyro_bias_radps / kDeg, 0.5, 0.1);
 }
 
+TEST(FilterHeading, WithACompassAndNoStopTheBiasIsLearntFromTheCompass) {
+  ScaleErrorLog log;
+  std::fill(log.inputs.stationary.begin(), log.inputs.stationary.end(), 0);  // never still
+  const HeadingEstimate kalman = FilterHeading(log.inputs, HeadingKalmanOptions{});
+  HeadingKalmanOptions no_bias;
+  no_bias.estimate_gyro_bias = false;
+  const HeadingEstimate without = FilterHeading(log.inputs, no_bias);
+  EXPECT_TRUE(kalman.gyro_bias_from_compass);
+  // Measured when written: 0.50 deg/s (true 0.5); heading RMS 1.48 deg against 9.64 deg with
+  // the bias held at 0 (the compass is hardly believed in the turns, where the bias adds up).
+  EXPECT_NEAR(kalman.gyro_bias_radps / kDeg, 0.5, 0.1);
+  EXPECT_FALSE(without.gyro_bias_from_compass);
+  EXPECT_EQ(without.gyro_bias_radps, 0.0);
+  const double rms = RmsErrorDeg(kalman.heading_rad, log.truth_rad);
+  const double rms_without = RmsErrorDeg(without.heading_rad, log.truth_rad);
+  EXPECT_LT(rms, 0.5 * rms_without) << rms << " vs " << rms_without;
+}
+
+TEST(FilterHeading, WithoutACompassOrAStopTheBiasIsHeldAtZero) {
+  ScaleErrorLog log;
+  std::fill(log.inputs.stationary.begin(), log.inputs.stationary.end(), 0);
+  log.inputs.compass_rad.clear();
+  const HeadingEstimate kalman = FilterHeading(log.inputs, HeadingKalmanOptions{});
+  EXPECT_FALSE(kalman.gyro_bias_from_compass);
+  EXPECT_EQ(kalman.gyro_bias_radps, 0.0);
+  EXPECT_EQ(kalman.gyro_scale_error, 0.0);
+}
+
+TEST(FilterHeading, AtTheFirstStopTheStopsTakeOverTheBiasFromTheCompass) {
+  // Still for the first 10 s: the stationary readings give the bias, the compass does not
+  // move it afterwards (its estimate is the one of the stops' filter).
+  const ScaleErrorLog log;
+  HeadingKalman filter(HeadingKalmanOptions{}, log.inputs.compass_rad[0]);
+  EXPECT_TRUE(filter.gyro_bias_from_compass());
+  double bias_at_end_of_stop = 0;
+  for (std::size_t k = 0; k < log.inputs.t_s.size(); ++k) {
+    filter.Update(log.inputs.t_s[k], log.inputs.compass_rad[k], log.inputs.gyro_radps[k], log.inputs.stationary[k]);
+    if (log.inputs.stationary[k]) bias_at_end_of_stop = filter.gyro_bias_radps();
+  }
+  EXPECT_FALSE(filter.gyro_bias_from_compass());
+  EXPECT_FALSE(filter.gyro_bias_prior_from_compass());  // the log starts still: no compass before
+  EXPECT_EQ(filter.gyro_bias_radps(), bias_at_end_of_stop);
+  EXPECT_NEAR(filter.gyro_bias_radps() / kDeg, 0.5, 0.1);
+}
+
 }  // namespace
 }  // namespace lunarnav::telemetry
