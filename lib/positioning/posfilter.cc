@@ -278,6 +278,8 @@ PosfilterResult Run(ScreenedRows& input, const std::string& source, const teleme
     if (gyro_model.noise_rms > 0) {
       kalman_options.gyro_sigma_dps =
           gyro_model.units == "rad/s" ? gyro_model.noise_rms * 180.0 / M_PI : gyro_model.noise_rms;
+    } else if (s.rate_noise_from_log(Channel::kGyroZ) && s.rate_noise(Channel::kGyroZ) > 0) {
+      kalman_options.gyro_sigma_dps = s.rate_noise(Channel::kGyroZ) * 180.0 / M_PI;  // as estimated from the log
     }
     // The heading rate changes as fast as the vehicle can turn: with its angular acceleration
     // stated, the rate state may change by that much per sample interval (one sigma), so that

@@ -95,6 +95,8 @@ class ScreeningStream::Impl {
         const double deg = M_PI / 180.0;
         const double noise = m.units == "rad" || m.units == "rad/s" ? m.noise_rms : m.noise_rms * deg;
         s.slack = o_.rate_slack_counts * unit + o_.rate_noise_sigmas * std::sqrt(2.0) * noise;
+        s.noise_from_log = m.noise_rms <= 0 && o_.estimate_missing_noise;  // estimated from the statistics window
+        out_.rate_noise[ch] = noise;
         if (c == Channel::kCompass) s.limit = vehicle.max_turn_rate_dps.value_or(o_.max_turn_rate_dps) * deg;
         else if (c == Channel::kGyroZ) s.limit = vehicle.max_turn_accel_dps2.value_or(o_.max_turn_accel_dps2) * deg;
         else s.limit = vehicle.max_tilt_rate_dps.value_or(o_.max_tilt_rate_dps) * deg;
@@ -270,6 +272,7 @@ class ScreeningStream::Impl {
     Kind kind = kAnalogKind;
     bool hampel = false;  // analog channels get the spike test
     double full_scale = 0, period = 0, limit = 0, slack = 0, radians_at_zero = 0, radians_per_count = 0;
+    bool noise_from_log = false;  // the slack waits for the noise estimated from the log
     // Range, rails, rate limit and unwrapping, against the last accepted sample.
     std::size_t pass_end = 0;  // rows before it have been through them
     bool have_last = false;
@@ -313,6 +316,7 @@ class ScreeningStream::Impl {
       ChannelState& s = ch_[static_cast<int>(c)];
       if (!s.present) continue;
       if (s.typical_state == Typical::kUnknown && s.pass_end == 0) ChannelInterval(c);
+      if (s.noise_from_log && s.pass_end == 0) NoiseFromLog(c);
       PassStage(c);
       if (s.typical_state == Typical::kUnknown && finished_) s.typical_state = Typical::kNone;
       if (s.hampel) {
@@ -366,6 +370,37 @@ class ScreeningStream::Impl {
     if (present_t.size() < 3) return;
     SetChannelInterval(
         &s, SubsampledMedian(present_t.size() - 1, [&](std::size_t i) { return present_t[i + 1] - present_t[i]; }));
+  }
+  // A channel whose noise the sensor file does not state: its noise from its samples in the
+  // statistics window (the rows are all held then), the robust sigma of their second
+  // differences (for white noise their variance is 6 sigma^2; a smooth motion adds little,
+  // and the median ignores the few abrupt changes and faults), and the rate limit's slack
+  // from it as from a stated noise_rms. Without it an accelerometer's tilt, which vibrates
+  // by a degree or more while driving, had a third of its samples rejected.
+  void NoiseFromLog(Channel c) {
+    ChannelState& s = ch_[static_cast<int>(c)];
+    s.noise_from_log = false;
+    const ChannelModel& m = model_[c];
+    const std::vector<double>& raw = raw_[static_cast<int>(c)];
+    const std::size_t n = std::min(out_.rows, window_rows_);
+    std::vector<double> value;
+    for (std::size_t k = 0; k < n; ++k) {
+      const double r = raw[k];
+      if (std::isnan(r) || r < m.valid_min || r > m.valid_max || r == 0 || r == s.full_scale) continue;
+      value.push_back(s.radians_at_zero + s.radians_per_count * r);
+    }
+    if (value.size() < 8) return;  // too few: the slack stays the counts' alone
+    const double noise = 1.4826 *
+                         SubsampledMedian(value.size() - 2, [&](std::size_t q) {
+                           double d2 = value[q + 2] - 2.0 * value[q + 1] + value[q];
+                           if (s.kind == kCompassKind) d2 = std::remainder(d2, 2.0 * M_PI);  // across +-180 deg
+                           return std::abs(d2);
+                         }) /
+                         std::sqrt(6.0);
+    s.slack += o_.rate_noise_sigmas * std::sqrt(2.0) * noise;
+    out_.rate_slack[static_cast<int>(c)] = s.slack;
+    out_.rate_noise[static_cast<int>(c)] = noise;
+    out_.rate_noise_from_log[static_cast<int>(c)] = true;
   }
   void SetChannelInterval(ChannelState* s, double typical) {
     s->typical_state = Typical::kKnown;
@@ -798,6 +833,10 @@ void ScreeningStream::Finish() { impl_->Finish(); }
 bool ScreeningStream::finished() const { return impl_->finished(); }
 bool ScreeningStream::statistics_ready() const { return impl_->statistics_ready(); }
 double ScreeningStream::typical_interval_s() const { return impl_->report().typical_interval_s; }
+double ScreeningStream::rate_noise(Channel c) const { return impl_->report().rate_noise[static_cast<int>(c)]; }
+bool ScreeningStream::rate_noise_from_log(Channel c) const {
+  return impl_->report().rate_noise_from_log[static_cast<int>(c)];
+}
 bool ScreeningStream::Has(Channel c) const { return impl_->Has(c); }
 std::size_t ScreeningStream::begin() const { return impl_->begin(); }
 std::size_t ScreeningStream::end() const { return impl_->end(); }
@@ -848,6 +887,7 @@ nlohmann::json ScreeningOptions::ToJson() const {
           {"max_turn_accel_dps2", max_turn_accel_dps2},
           {"rate_slack_counts", rate_slack_counts},
           {"rate_noise_sigmas", rate_noise_sigmas},
+          {"estimate_missing_noise", estimate_missing_noise},
           {"warning_share", warning_share},
           {"hampel_half_window", hampel_half_window},
           {"hampel_threshold", hampel_threshold},
@@ -928,7 +968,9 @@ nlohmann::json ScreenedLog::ReportJson() const {
       const bool gyro = static_cast<Channel>(c) == Channel::kGyroZ;
       limits[ToString(static_cast<Channel>(c))] = {
           {gyro ? "max_change_dps2" : "max_rate_dps", rate_limit[c] * 180 / M_PI},
-          {gyro ? "slack_dps" : "slack_deg", rate_slack[c] * 180 / M_PI}};
+          {gyro ? "slack_dps" : "slack_deg", rate_slack[c] * 180 / M_PI},
+          {gyro ? "noise_dps" : "noise_deg", rate_noise[c] * 180 / M_PI},
+          {"noise_from", rate_noise_from_log[c] ? "log" : rate_noise[c] > 0 ? "sensor file" : "none"}};
     }
   }
   report["samples"] = samples_json;

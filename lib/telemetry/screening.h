@@ -49,6 +49,10 @@ struct ScreeningOptions {
   /// And in the channel's noise (ChannelModel::noise_rms): two samples' noise parts them by
   /// up to this many sigmas x sqrt(2). >= 0.
   double rate_noise_sigmas = 5.0;
+  /// A channel whose noise the sensor file does not state has it estimated from its samples
+  /// in the statistics window (robust sigma of the second differences), for the slack above;
+  /// summary.json says which (`rate_limits.CHANNEL.noise_from`: "sensor file" or "log").
+  bool estimate_missing_noise = true;
   /// A rule that rejects more than this share of a channel's samples is reported as a
   /// warning (a threshold or a sensor description that does not fit the log). (0, 1].
   double warning_share = 0.01;
@@ -94,6 +98,9 @@ struct ScreenedLog {
   /// Each analog channel's rate limit (rad/s; the gyro's rad/s^2) and slack (rad; rad/s), as
   /// derived from the vehicle's limits and the sensor's noise (0: not an analog channel).
   std::array<double, kNumChannels> rate_limit{}, rate_slack{};
+  /// The noise in that slack (rad; rad/s), from the sensor file or estimated from the log.
+  std::array<double, kNumChannels> rate_noise{};
+  std::array<bool, kNumChannels> rate_noise_from_log{};
   double warning_share = 0.01;  ///< ScreeningOptions::warning_share.
   std::vector<ScreeningEvent> events;
 
@@ -145,6 +152,10 @@ class ScreeningStream {
   /// Whether the statistics window has been read (typical_interval_s() is known).
   bool statistics_ready() const;
   double typical_interval_s() const;
+  /// An analog channel's noise (rad; rad/s) as the rate limit uses it, from the sensor file
+  /// or, where it states none, estimated from the statistics window (known once it is read).
+  double rate_noise(Channel c) const;
+  bool rate_noise_from_log(Channel c) const;
 
   bool Has(Channel c) const;
   std::size_t begin() const;      ///< First row held.

@@ -182,11 +182,13 @@ TEST(ScreenTelemetry, RateLimitsDeriveFromTheVehiclesLimitsAndTheSensorsNoise) {
   VibratingLog v;
   const int pitch = static_cast<int>(Channel::kPitchLeft), gyro = static_cast<int>(Channel::kGyroZ);
   const int rate_limit = static_cast<int>(ScreeningRule::kRateLimit);
-  {  // Limits that ignore the vibration and the abrupt turns: the rules reject real motion and
-     // noise by the thousand, and say so.
+  {  // Limits that ignore the vibration and the abrupt turns (no noise stated, none estimated):
+     // the rules reject real motion and noise by the thousand, and say so.
     SensorModel m = v.model;
     m.vehicle.max_turn_accel_dps2 = 180.0;
-    const ScreenedLog s = ScreenTelemetry(v.log, m, ScreeningOptions{});
+    ScreeningOptions options;
+    options.estimate_missing_noise = false;
+    const ScreenedLog s = ScreenTelemetry(v.log, m, options);
     EXPECT_EQ(s.samples[pitch], 3000);
     EXPECT_GT(s.counts[rate_limit][pitch], 300);
     EXPECT_GT(s.counts[rate_limit][gyro], 10);
@@ -210,6 +212,22 @@ TEST(ScreenTelemetry, RateLimitsDeriveFromTheVehiclesLimitsAndTheSensorsNoise) {
     EXPECT_NEAR(s.rate_limit[gyro] * 180 / M_PI, 600.0, 1e-9);
     EXPECT_TRUE(s.Warnings().empty()) << s.ReportJson()["warnings"].dump();
     for (const ScreenedLog::Share& share : s.RejectionShares()) EXPECT_LT(share.share, s.warning_share);
+    EXPECT_FALSE(s.rate_noise_from_log[pitch]);
+    EXPECT_DOUBLE_EQ(s.rate_noise[pitch] * 180 / M_PI, 1.5);
+  }
+  {  // No noise stated: it is estimated from the log (1.5 deg and 0.006 rad/s, quantised),
+     // and again nothing real is rejected.
+    SensorModel m = v.model;
+    m.vehicle.max_turn_accel_dps2 = 600.0;
+    const ScreenedLog s = ScreenTelemetry(v.log, m, ScreeningOptions{});
+    EXPECT_TRUE(s.rate_noise_from_log[pitch]);
+    EXPECT_TRUE(s.rate_noise_from_log[gyro]);
+    EXPECT_NEAR(s.rate_noise[pitch] * 180 / M_PI, 1.5, 0.15);
+    EXPECT_NEAR(s.rate_noise[gyro], 0.006, 0.0006);
+    EXPECT_EQ(s.counts[rate_limit][pitch], 0);
+    EXPECT_EQ(s.counts[rate_limit][gyro], 0);
+    EXPECT_TRUE(s.Warnings().empty()) << s.ReportJson()["warnings"].dump();
+    EXPECT_EQ(s.ReportJson()["rate_limits"]["pitch_left"]["noise_from"], "log");
   }
 }
 
