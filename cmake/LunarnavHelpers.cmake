@@ -17,8 +17,14 @@ endif()
 function(lunarnav_set_common_options target)
   target_compile_options(${target} PRIVATE ${LUNARNAV_WARNING_FLAGS})
   if(LUNARNAV_SANITIZE)
-    target_compile_options(${target} PRIVATE -fsanitize=address,undefined -fno-omit-frame-pointer)
+    # Undefined behaviour stops the program (a test fails), as an address error does.
+    target_compile_options(${target} PRIVATE -fsanitize=address,undefined -fno-sanitize-recover=undefined
+                                             -fno-omit-frame-pointer)
     target_link_options(${target} PRIVATE -fsanitize=address,undefined)
+  endif()
+  if(LUNARNAV_FUZZ)
+    # Coverage for libFuzzer in every target; the fuzzers themselves link its main.
+    target_compile_options(${target} PRIVATE -fsanitize=fuzzer-no-link)
   endif()
 endfunction()
 

@@ -318,6 +318,9 @@ struct TelemetryReader::Impl {
     std::string_view line;
     bool have_header = false;
     while (NextLine(&line)) {
+      // A UTF-8 byte-order mark (spreadsheets write one) is no part of the first line, be it
+      // the header or a comment.
+      if (line_number == 1 && line.substr(0, 3) == "\xEF\xBB\xBF") line.remove_prefix(3);
       const std::string_view trimmed = Trim(line);
       if (trimmed.empty() || trimmed.front() == '#') continue;
       have_header = true;
@@ -325,8 +328,6 @@ struct TelemetryReader::Impl {
     }
     LN_CHECK_INPUT(have_header) << name << ": no header line (the file is empty)";
     const long header_line = line_number;
-    // A UTF-8 byte-order mark (spreadsheets write one) is not part of the first column's name.
-    if (line_number == 1 && line.substr(0, 3) == "\xEF\xBB\xBF") line.remove_prefix(3);
     std::vector<std::string_view> cells;
     const int num_columns = SplitCells(line, &cells);
     header.assign(cells.begin(), cells.end());

@@ -18,6 +18,7 @@
 #include <opencv2/core.hpp>
 #include <opencv2/imgcodecs.hpp>
 
+#include "integration/hostile_files.h"
 #include "integration/run_tool.h"
 #include "io/atomic_file.h"
 #include "io/image_io.h"
@@ -27,6 +28,7 @@
 namespace lunarnav {
 namespace {
 namespace fs = std::filesystem;
+using testing::ForgePngSize;
 using testing::RunTool;
 using util::ScopedTempDir;
 using util::TestDataPath;
@@ -162,19 +164,6 @@ TEST(StereoBatch, PaperPresetKeepsThePaperMatchersOutputsBitForBit) {
     }
   }
   EXPECT_EQ(crc, 0x337fae43uL) << std::hex << crc;
-}
-
-// A PNG whose header claims another size, its chunk CRCs made right (a hostile or damaged
-// file that libpng would try to decode).
-void ForgePngSize(const fs::path& path, std::uint32_t width, std::uint32_t height) {
-  std::string bytes = testing::ReadFileBytes(path);
-  auto put = [&](std::size_t at, std::uint32_t v) {
-    for (int k = 0; k < 4; ++k) bytes[at + k] = static_cast<char>((v >> (24 - 8 * k)) & 0xFF);
-  };
-  put(16, width);
-  put(20, height);
-  put(29, static_cast<std::uint32_t>(crc32(crc32(0L, Z_NULL, 0), reinterpret_cast<const Bytef*>(&bytes[12]), 17)));
-  std::ofstream(path, std::ios::binary | std::ios::trunc).write(bytes.data(), static_cast<std::streamsize>(bytes.size()));
 }
 
 // Headers claiming a million by a million pixels, or none: those pairs fail with one line

@@ -221,6 +221,10 @@ TEST(ParseTelemetryCsv, AcceptsAByteOrderMark) {
   const TelemetryLog marked = ParseTelemetryCsv("\xEF\xBB\xBFt,compass\n0,1\n0.1,2\n", "log.csv", Model());
   EXPECT_EQ(plain.t_s, marked.t_s);
   EXPECT_EQ(marked.t_s.size(), 2u);
+  // Before a comment line too (the mark was taken for the header's first character).
+  const TelemetryLog commented =
+      ParseTelemetryCsv("\xEF\xBB\xBF# a log\nt,compass\n0,1\n0.1,2\n", "log.csv", Model());
+  EXPECT_EQ(plain.t_s, commented.t_s);
 }
 
 void ExpectSameLog(const TelemetryLog& a, const TelemetryLog& b) {

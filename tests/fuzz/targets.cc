@@ -1,0 +1,185 @@
+#include "fuzz/targets.h"
+
+#include <unistd.h>
+
+#include <filesystem>
+#include <fstream>
+#include <string_view>
+
+#include "calib/rig_import.h"
+#include "calib/stereo_rig_io.h"
+#include "calib/vehicle.h"
+#include "io/float_array_io.h"
+#include "io/image_io.h"
+#include "positioning/trajectory_io.h"
+#include "stereo/window_requests.h"
+#include "telemetry/screening.h"
+#include "telemetry/sensor_model.h"
+#include "telemetry/telemetry_csv.h"
+#include "util/errors.h"
+
+namespace lunarnav::fuzz {
+namespace {
+namespace fs = std::filesystem;
+
+// A folder of this process's own for the files the readers are given.
+// Removed when the process exits normally (a crash leaves it, with the input that did it).
+struct Scratch {
+  fs::path dir = fs::temp_directory_path() / ("lunarnav-fuzz-" + std::to_string(::getpid()));
+  Scratch() { fs::create_directories(dir); }
+  ~Scratch() {
+    std::error_code ignored;
+    fs::remove_all(dir, ignored);
+  }
+};
+
+const fs::path& ScratchDir() {
+  static const Scratch scratch;
+  return scratch.dir;
+}
+
+fs::path WriteScratch(const std::string& name, std::string_view bytes) {
+  const fs::path path = ScratchDir() / name;
+  std::ofstream out(path, std::ios::binary | std::ios::trunc);
+  out.write(bytes.data(), static_cast<std::streamsize>(bytes.size()));
+  return path;
+}
+
+std::string_view Bytes(const std::uint8_t* data, std::size_t size) {
+  return {reinterpret_cast<const char*>(data), size};
+}
+
+// Two files in one input: split at the first NUL byte (none: the same bytes for both).
+std::pair<std::string_view, std::string_view> SplitTwo(std::string_view bytes) {
+  const std::size_t nul = bytes.find('\0');
+  if (nul == std::string_view::npos) return {bytes, bytes};
+  return {bytes.substr(0, nul), bytes.substr(nul + 1)};
+}
+
+// Runs a reader: a refusal of the input (InputError) is the expected way to fail.
+template <typename F>
+bool Refusing(F&& read) {
+  try {
+    read();
+    return true;
+  } catch (const InputError&) {
+    return false;
+  }
+}
+
+// posfilter's reference sensor model (the Ratler's, a compass and inclinometers included).
+const telemetry::SensorModel& Model() {
+  static const telemetry::SensorModel model =
+      telemetry::ReadSensorModel(fs::path(LUNARNAV_TESTDATA_DIR) / "telemetry" / "ratler_sensors.json");
+  return model;
+}
+
+}  // namespace
+
+bool TelemetryCsv(const std::uint8_t* data, std::size_t size) {
+  return Refusing([&] {
+    const telemetry::TelemetryLog log = telemetry::ParseTelemetryCsv(Bytes(data, size), "fuzz.csv", Model());
+    telemetry::ScreenTelemetry(log, Model(), telemetry::ScreeningOptions{});
+  });
+}
+
+bool SensorJson(const std::uint8_t* data, std::size_t size) {
+  const fs::path path = WriteScratch("sensors.json", Bytes(data, size));
+  return Refusing([&] { telemetry::ReadSensorModel(path); });
+}
+
+bool RigJson(const std::uint8_t* data, std::size_t size) {
+  const fs::path path = WriteScratch("rig.json", Bytes(data, size));
+  return Refusing([&] { calib::ReadStereoRig(path); });
+}
+
+bool VehicleJson(const std::uint8_t* data, std::size_t size) {
+  const fs::path path = WriteScratch("vehicle.json", Bytes(data, size));
+  return Refusing([&] { calib::ReadVehicleSpec(path); });
+}
+
+bool RigImport(const std::uint8_t* data, std::size_t size) {
+  if (size == 0) return false;
+  const std::string_view bytes = Bytes(data + 1, size - 1);
+  const calib::MastPose mast;
+  switch (data[0] % 5) {
+    case 0: {
+      const auto [intrinsics, extrinsics] = SplitTwo(bytes);
+      const fs::path a = WriteScratch("intrinsics.yml", intrinsics), b = WriteScratch("extrinsics.yml", extrinsics);
+      return Refusing([&] { calib::ReadOpenCvCalibration(a, b, 640, 480, 0.025, mast); });
+    }
+    case 1: {
+      const auto [left, right] = SplitTwo(bytes);
+      const fs::path a = WriteScratch("left.yaml", left), b = WriteScratch("right.yaml", right);
+      return Refusing([&] { calib::ReadRosCameraInfoPair(a, b, mast); });
+    }
+    case 2: {
+      const fs::path path = WriteScratch("camchain.yaml", bytes);
+      return Refusing([&] { calib::ReadKalibrCamchain(path, mast); });
+    }
+    case 3: {
+      const fs::path path = WriteScratch("calib.txt", bytes);
+      return Refusing([&] { calib::ReadMiddleburyCalib(path, mast); });
+    }
+    default: {
+      const fs::path path = WriteScratch("calib_cam_to_cam.txt", bytes);
+      return Refusing([&] { calib::ReadKittiCamToCam(path, mast); });
+    }
+  }
+}
+
+bool Image(const std::uint8_t* data, std::size_t size) {
+  if (size == 0) return false;
+  const std::string_view bytes = Bytes(data + 1, size - 1);
+  // Fuzzed headers claim large sizes: keep what a reader may allocate small.
+  io::SetMaxImagePixels(1 << 20);
+  switch (data[0] % 6) {
+    case 0: {
+      const fs::path path = WriteScratch("image.png", bytes);
+      return Refusing([&] {
+        io::SignificantBits bits;
+        io::ReadGreyImage(path, &bits);
+      });
+    }
+    case 1: {
+      const fs::path path = WriteScratch("image.tif", bytes);
+      return Refusing([&] { io::ReadImage(path); });
+    }
+    case 2: {
+      const fs::path path = WriteScratch("image.pgm", bytes);
+      return Refusing([&] { io::ReadGreyImage(path); });
+    }
+    case 3: {
+      const fs::path path = WriteScratch("image.png", bytes);
+      return Refusing([&] { io::ReadImage(path); });
+    }
+    case 4: {
+      const fs::path path = WriteScratch("disparity.pfm", bytes);
+      return Refusing([&] { io::ReadPfm(path); });
+    }
+    default: {
+      const fs::path path = WriteScratch("xyz.exr", bytes);
+      return Refusing([&] { io::ReadExr(path); });
+    }
+  }
+}
+
+bool RequestsCsv(const std::uint8_t* data, std::size_t size) {
+  const fs::path path = WriteScratch("requests.csv", Bytes(data, size));
+  return Refusing([&] { stereo::ReadWindowRequests(path); });
+}
+
+bool TrajectoryCsv(const std::uint8_t* data, std::size_t size) {
+  const fs::path path = WriteScratch("trajectory.csv", Bytes(data, size));
+  return Refusing([&] { positioning::ReadTrajectoryCsv(path); });
+}
+
+const std::vector<NamedTarget>& AllTargets() {
+  static const std::vector<NamedTarget> targets = {
+      {"telemetry_csv", TelemetryCsv}, {"sensor_json", SensorJson},   {"rig_json", RigJson},
+      {"vehicle_json", VehicleJson},   {"rig_import", RigImport},     {"image", Image},
+      {"requests_csv", RequestsCsv},   {"trajectory_csv", TrajectoryCsv}};
+  return targets;
+}
+
+}  // namespace lunarnav::fuzz

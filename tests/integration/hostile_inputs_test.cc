@@ -1,0 +1,339 @@
+// The hostile-input corpus: each tool run on damaged, forged and malicious inputs, as a user
+// or a broken disk hands them over. Every case asserts the promises of docs/reliability.md:
+// the documented exit code; each failure as one `error:` line that names the file (or
+// option) and stays short; the rest of a batch done; no temporary or partial file left in
+// the output. The tools' own tests check their messages in detail; this is the one place
+// that holds every tool to the same promises.
+#include <gtest/gtest.h>
+
+#include <functional>
+#include <sstream>
+#include <string>
+#include <vector>
+
+#include <opencv2/core.hpp>
+
+#include "integration/hostile_files.h"
+#include "integration/run_tool.h"
+#include "io/atomic_file.h"
+#include "io/image_io.h"
+#include "util/testing.h"
+
+namespace lunarnav {
+namespace {
+namespace fs = std::filesystem;
+using testing::ForgePngSize;
+using testing::ReadFileBytes;
+using testing::RunTool;
+using testing::WriteForgedTiff;
+using util::TestDataPath;
+
+// The longest error line a tool may print (util's bounded messages: 2000 bytes, plus the
+// prefix and the file's name).
+constexpr std::size_t kMaxErrorLine = 2600;
+
+void WriteText(const fs::path& path, const std::string& text) {
+  std::ofstream(path, std::ios::binary | std::ios::trunc) << text;
+}
+
+// Copies of the test data a case may damage: pairs/ (three 640 x 480 pairs), boxes/ (one
+// 320 x 240 raw pair twice, with its rig), telemetry/ and a vehicle file.
+struct Workspace {
+  fs::path root, pairs, boxes, out;
+  explicit Workspace(const fs::path& dir) : root(dir), pairs(dir / "pairs"), boxes(dir / "boxes"), out(dir / "out") {
+    for (const char* side : {"left", "right"}) {
+      fs::create_directories(pairs / side);
+      for (const char* stem : {"frame0000", "frame0001", "frame0002"}) {
+        const std::string name = std::string(stem) + ".png";
+        fs::copy_file(TestDataPath("stereo_pairs") / side / name, pairs / side / name);
+      }
+      fs::create_directories(boxes / side);
+      for (const char* stem : {"000000", "000001"}) {
+        fs::copy_file(TestDataPath("boxes") / side / "000000.png", boxes / side / (std::string(stem) + ".png"));
+      }
+    }
+    fs::copy_file(TestDataPath("boxes") / "rig.json", root / "rig.json");
+    fs::copy_file(TestDataPath("telemetry") / "turning.csv", root / "log.csv");
+    fs::copy_file(TestDataPath("telemetry") / "ratler_sensors.json", root / "sensors.json");
+    fs::copy_file(TestDataPath("vehicles") / "ratler.json", root / "vehicle.json");
+  }
+  std::string Pairs() const { return pairs.string(); }
+  std::string Out() const { return out.string(); }
+  std::string At(const std::string& relative) const { return (root / relative).string(); }
+};
+
+// Replaces the first occurrence of `from` in a text file.
+void Replace(const fs::path& path, const std::string& from, const std::string& to) {
+  std::string text = ReadFileBytes(path);
+  const std::size_t at = text.find(from);
+  ASSERT_NE(at, std::string::npos) << path << ": no " << from;
+  text.replace(at, from.size(), to);
+  WriteText(path, text);
+}
+
+struct Case {
+  const char* name;
+  const char* tool;
+  /// Damages the workspace and returns the tool's arguments.
+  std::function<std::vector<std::string>(const Workspace&)> setup;
+  int exit_code;
+  std::vector<std::string> error_words;  ///< each in the error lines (the file, the reason)
+  std::vector<std::string> done;         ///< outputs of the good items, relative to out/
+};
+
+std::vector<Case> Cases() {
+  const std::vector<std::string> kBatch = {"-q", "--preset", "paper"};
+  auto batch = [kBatch](const Workspace& w) {
+    std::vector<std::string> args = {w.Pairs(), "-o", w.Out()};
+    args.insert(args.end(), kBatch.begin(), kBatch.end());
+    return args;
+  };
+  return {
+      // Images whose headers claim what their data cannot hold: refused from the header, by
+      // name and size, before anything is allocated; the other pairs run.
+      {"png claiming 10^12 pixels", "stereo-batch",
+       [=](const Workspace& w) {
+         ForgePngSize(w.pairs / "left" / "frame0001.png", 1000000, 1000000);
+         return batch(w);
+       },
+       4, {"frame0001.png", "1000000 x 1000000"}, {"disparity/frame0000.pfm", "disparity/frame0002.pfm"}},
+      {"png claiming 10^10 pixels", "stereo-batch",
+       [=](const Workspace& w) {
+         ForgePngSize(w.pairs / "right" / "frame0000.png", 100000, 100000);
+         return batch(w);
+       },
+       4, {"frame0000.png", "100000 x 100000"}, {"disparity/frame0001.pfm", "disparity/frame0002.pfm"}},
+      {"png claiming 0 x 0 pixels", "stereo-batch",
+       [=](const Workspace& w) {
+         ForgePngSize(w.pairs / "right" / "frame0002.png", 0, 0);
+         return batch(w);
+       },
+       4, {"frame0002.png", "0 x 0"}, {"disparity/frame0000.pfm", "disparity/frame0001.pfm"}},
+      {"png cut short", "stereo-batch",
+       [=](const Workspace& w) {
+         const std::string bytes = ReadFileBytes(w.pairs / "left" / "frame0002.png");
+         WriteText(w.pairs / "left" / "frame0002.png", bytes.substr(0, bytes.size() / 3));
+         return batch(w);
+       },
+       4, {"frame0002"}, {"disparity/frame0000.pfm", "disparity/frame0001.pfm"}},
+      {"62-byte tiff claiming 10^10 pixels", "stereo-batch",
+       [=](const Workspace& w) {
+         WriteForgedTiff(w.pairs / "left" / "big.tif", 100000, 100000);
+         WriteForgedTiff(w.pairs / "right" / "big.tif", 100000, 100000);
+         return batch(w);
+       },
+       4, {"big.tif", "100000 x 100000"},
+       {"disparity/frame0000.pfm", "disparity/frame0001.pfm", "disparity/frame0002.pfm"}},
+      {"tiff whose strip is short", "stereo-batch",
+       [=](const Workspace& w) {
+         WriteForgedTiff(w.pairs / "left" / "short.tif", 640, 480);
+         WriteForgedTiff(w.pairs / "right" / "short.tif", 640, 480);
+         return batch(w);
+       },
+       4, {"short.tif"}, {"disparity/frame0000.pfm", "disparity/frame0001.pfm", "disparity/frame0002.pfm"}},
+      {"symbolic links pointing at each other", "stereo-batch",
+       [=](const Workspace& w) {
+         fs::create_symlink(w.pairs / "left" / "b.png", w.pairs / "left" / "a.png");
+         fs::create_symlink(w.pairs / "left" / "a.png", w.pairs / "left" / "b.png");
+         fs::copy_file(w.pairs / "right" / "frame0000.png", w.pairs / "right" / "a.png");
+         return batch(w);
+       },
+       4, {"a.png", "symbolic link"},
+       {"disparity/frame0000.pfm", "disparity/frame0001.pfm", "disparity/frame0002.pfm"}},
+      {"symbolic link to itself", "stereo-batch",
+       [=](const Workspace& w) {
+         fs::create_symlink(w.pairs / "right" / "c.png", w.pairs / "right" / "c.png");
+         fs::copy_file(w.pairs / "left" / "frame0000.png", w.pairs / "left" / "c.png");
+         return batch(w);
+       },
+       4, {"c.png"}, {"disparity/frame0000.pfm", "disparity/frame0001.pfm", "disparity/frame0002.pfm"}},
+      {"a pair without its partner and a stray file", "stereo-batch",
+       [=](const Workspace& w) {
+         fs::copy_file(w.pairs / "left" / "frame0000.png", w.pairs / "left" / "lonely.png");
+         WriteText(w.pairs / "left" / "notes.txt", "not an image");
+         return batch(w);
+       },
+       4, {"lonely", "missing"}, {"disparity/frame0000.pfm", "disparity/frame0002.pfm"}},
+      // Options that cannot mean anything: usage errors, before any work.
+      {"--rows outside the images", "stereo-batch",
+       [=](const Workspace& w) {
+         std::vector<std::string> args = batch(w);
+         args.insert(args.end(), {"--rows", "1000:2000"});
+         return args;
+       },
+       2, {"rows", "1000:2000"}, {}},
+      {"--window 0x0", "stereo-batch",
+       [=](const Workspace& w) {
+         std::vector<std::string> args = batch(w);
+         args.insert(args.end(), {"--window", "0x0"});
+         return args;
+       },
+       2, {"window", "0x0"}, {}},
+      {"an unknown option", "stereo-batch",
+       [=](const Workspace& w) {
+         std::vector<std::string> args = batch(w);
+         args.push_back("--frobnicate");
+         return args;
+       },
+       2, {"--frobnicate"}, {}},
+      {"no input directory", "stereo-batch", [](const Workspace& w) { return std::vector<std::string>{"-o", w.Out()}; },
+       2, {}, {}},
+      {"an input directory that does not exist", "stereo-batch",
+       [](const Workspace& w) { return std::vector<std::string>{w.At("nowhere"), "-o", w.Out(), "-q"}; }, 3,
+       {"nowhere"}, {}},
+      // Numbers beyond a double's range in JSON: bad input, naming the file.
+      {"1e999 in a rig file", "stereo-batch",
+       [=](const Workspace& w) {
+         Replace(w.root / "rig.json", "370.0", "1e999");
+         std::vector<std::string> args = batch(w);
+         args.insert(args.end(), {"--rig", w.At("rig.json")});
+         return args;
+       },
+       3, {"rig.json"}, {}},
+      // rectify: the same damage in its batch.
+      {"rectify: png claiming 10^12 pixels", "rectify",
+       [](const Workspace& w) {
+         ForgePngSize(w.boxes / "left" / "000001.png", 1000000, 1000000);
+         return std::vector<std::string>{w.boxes.string(), "-o", w.Out(), "--rig", w.At("rig.json"), "-q"};
+       },
+       4, {"000001.png", "1000000 x 1000000"}, {"left/000000.png", "right/000000.png"}},
+      {"rectify: symbolic links pointing at each other", "rectify",
+       [](const Workspace& w) {
+         fs::create_symlink(w.boxes / "left" / "y.png", w.boxes / "left" / "x.png");
+         fs::create_symlink(w.boxes / "left" / "x.png", w.boxes / "left" / "y.png");
+         fs::copy_file(w.boxes / "right" / "000000.png", w.boxes / "right" / "x.png");
+         return std::vector<std::string>{w.boxes.string(), "-o", w.Out(), "--rig", w.At("rig.json"), "-q"};
+       },
+       4, {"x.png"}, {"left/000000.png", "left/000001.png"}},
+      // posfilter's telemetry and sensor files.
+      {"posfilter: a log starting with a UTF-8 byte-order mark", "posfilter",
+       [](const Workspace& w) {
+         WriteText(w.root / "log.csv", "\xEF\xBB\xBF" + ReadFileBytes(w.root / "log.csv"));
+         return std::vector<std::string>{w.At("log.csv"), "--sensors", w.At("sensors.json"), "-o", w.Out(), "-q"};
+       },
+       0, {}, {"trajectory.csv", "trajectory.tum", "baseline.csv", "summary.json"}},
+      {"posfilter: a NUL byte in a cell", "posfilter",
+       [](const Workspace& w) {
+         std::string text = ReadFileBytes(w.root / "log.csv");
+         text.replace(text.find("\n0.1,") + 5, 1, std::string(1, '\0'));
+         WriteText(w.root / "log.csv", text);
+         return std::vector<std::string>{w.At("log.csv"), "--sensors", w.At("sensors.json"), "-o", w.Out(), "-q"};
+       },
+       3, {"log.csv:"}, {}},
+      {"posfilter: a column named twice", "posfilter",
+       [](const Workspace& w) {
+         Replace(w.root / "log.csv", "roll,gyro_z", "compass,gyro_z");
+         return std::vector<std::string>{w.At("log.csv"), "--sensors", w.At("sensors.json"), "-o", w.Out(), "-q"};
+       },
+       3, {"log.csv", "compass"}, {}},
+      {"posfilter: --bits 0", "posfilter",
+       [](const Workspace& w) {
+         return std::vector<std::string>{w.At("log.csv"), "--sensors", w.At("sensors.json"), "-o", w.Out(), "-q",
+                                         "--bits", "0"};
+       },
+       2, {"--bits"}, {}},
+      {"posfilter: 1e999 in the sensor file", "posfilter",
+       [](const Workspace& w) {
+         Replace(w.root / "sensors.json", "\"scale\": ", "\"scale\": 1e999, \"x\": ");
+         return std::vector<std::string>{w.At("log.csv"), "--sensors", w.At("sensors.json"), "-o", w.Out(), "-q"};
+       },
+       3, {"sensors.json"}, {}},
+      {"posfilter: an empty log", "posfilter",
+       [](const Workspace& w) {
+         WriteText(w.root / "log.csv", "");
+         return std::vector<std::string>{w.At("log.csv"), "--sensors", w.At("sensors.json"), "-o", w.Out(), "-q"};
+       },
+       3, {"log.csv"}, {}},
+      // rig-check's vehicle file.
+      {"rig-check: 1e999 in the vehicle file", "rig-check",
+       [](const Workspace& w) {
+         Replace(w.root / "vehicle.json", ": ", ": 1e999, \"x\": ");
+         return std::vector<std::string>{"--rig", w.At("rig.json"), "--vehicle", w.At("vehicle.json")};
+       },
+       3, {"vehicle.json"}, {}},
+      // evaluate: damaged disparity maps are those items' failures.
+      {"evaluate: a PFM with a negative size and one cut short", "evaluate",
+       [](const Workspace& w) {
+         const fs::path run = w.root / "run" / "disparity";
+         fs::create_directories(run);
+         io::WriteImageAtomic(run / "frame0000.pfm", cv::Mat(480, 640, CV_32FC1, cv::Scalar(30.0f)));
+         WriteText(run / "frame0001.pfm", "Pf\n-5 -5\n-1.0\n" + std::string(64, '\0'));
+         const std::string whole = ReadFileBytes(run / "frame0000.pfm");
+         WriteText(run / "frame0002.pfm", whole.substr(0, 3000));
+         return std::vector<std::string>{"disparity", (w.root / "run").string(), "--truth",
+                                         (TestDataPath("stereo_pairs") / "truth").string(), "-o", w.Out(), "-q"};
+       },
+       4, {"frame0001.pfm", "-5 x -5", "frame0002.pfm"}, {"disparity.csv"}},
+      {"evaluate: a PFM claiming 10^10 pixels", "evaluate",
+       [](const Workspace& w) {
+         const fs::path run = w.root / "run" / "disparity";
+         fs::create_directories(run);
+         io::WriteImageAtomic(run / "frame0000.pfm", cv::Mat(480, 640, CV_32FC1, cv::Scalar(30.0f)));
+         WriteText(run / "frame0001.pfm", "Pf\n99999 99999\n-1.0\n" + std::string(64, '\0'));
+         return std::vector<std::string>{"disparity", (w.root / "run").string(), "--truth",
+                                         (TestDataPath("stereo_pairs") / "truth").string(), "-o", w.Out(), "-q"};
+       },
+       4, {"frame0001.pfm", "99999 x 99999"}, {"disparity.csv"}},
+      {"evaluate: no subcommand", "evaluate", [](const Workspace&) { return std::vector<std::string>{}; }, 2, {}, {}},
+      {"rectify: no rig", "rectify", [](const Workspace& w) { return std::vector<std::string>{w.boxes.string(), "-o", w.Out()}; },
+       2, {"--rig"}, {}},
+      {"calibrate: an unknown option", "calibrate",
+       [](const Workspace& w) { return std::vector<std::string>{w.Pairs(), "-o", w.At("out/rig.json"), "--frobnicate"}; },
+       2, {"--frobnicate"}, {}},
+      {"simulate: an unknown preset", "simulate",
+       [](const Workspace& w) {
+         return std::vector<std::string>{"telemetry", "--preset", "mars", "-o", w.Out()};
+       },
+       2, {"mars"}, {}},
+  };
+}
+
+// Every file under `dir` (none when it does not exist).
+std::vector<fs::path> FilesUnder(const fs::path& dir) {
+  std::vector<fs::path> files;
+  if (!fs::exists(dir)) return files;
+  for (const auto& entry : fs::recursive_directory_iterator(dir)) {
+    if (!entry.is_directory()) files.push_back(entry.path());
+  }
+  return files;
+}
+
+TEST(HostileInputs, EveryToolKeepsItsPromises) {
+  for (const Case& c : Cases()) {
+    SCOPED_TRACE(c.name);
+    util::ScopedTempDir tmp;
+    const Workspace w(tmp.path() / "w");
+    const std::vector<std::string> args = c.setup(w);
+    const testing::ToolRun run = RunTool(c.tool, args, tmp.path());
+    EXPECT_EQ(run.exit_code, c.exit_code) << run.stderr_text;
+    // Failures: error lines, each short; nothing unbounded on stderr.
+    EXPECT_LT(run.stderr_text.size(), 16u * 1024u);
+    std::istringstream lines(run.stderr_text);
+    std::string errors;
+    for (std::string line; std::getline(lines, line);) {
+      if (line.rfind("error:", 0) != 0) continue;
+      EXPECT_LE(line.size(), kMaxErrorLine) << line.substr(0, 200);
+      errors += line + "\n";
+    }
+    if (c.exit_code != 0) {
+      EXPECT_GE(run.ErrorLines(), 1) << run.stderr_text;
+    } else {
+      EXPECT_EQ(run.ErrorLines(), 0) << run.stderr_text;
+    }
+    for (const std::string& word : c.error_words) {
+      EXPECT_NE(errors.find(word), std::string::npos) << "no '" << word << "' in:\n" << run.stderr_text;
+    }
+    // The good items are done; nothing temporary is left.
+    for (const std::string& file : c.done) EXPECT_TRUE(fs::exists(w.out / file)) << file << "\n" << run.stderr_text;
+    for (const fs::path& file : FilesUnder(w.out)) {
+      EXPECT_FALSE(io::IsTempFileName(file)) << "left behind: " << file;
+    }
+    // A run refused as a whole (usage or bad input) writes no outputs at all.
+    if (c.exit_code == 2 || c.exit_code == 3) {
+      for (const fs::path& file : FilesUnder(w.out)) ADD_FAILURE() << "written by a refused run: " << file;
+    }
+  }
+}
+
+}  // namespace
+}  // namespace lunarnav
