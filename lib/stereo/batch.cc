@@ -411,7 +411,8 @@ BatchSummary RunStereoBatch(const BatchOptions& options, const fs::path& input_d
   if (!options.requests.empty()) {
     int unknown = 0;
     std::string example;
-    for (const auto& [stem, w] : requested) {
+    for (const auto& entry : requested) {
+      const std::string& stem = entry.first;  // not a structured binding: clang 14 cannot capture one
       const bool listed = std::any_of(listing.begin(), listing.end(), [&](const PairFiles& p) { return p.stem == stem; });
       if (!listed && unknown++ == 0) example = stem;
     }

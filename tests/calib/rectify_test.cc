@@ -58,7 +58,7 @@ TEST(Rectifier, RefusesImagesOfAnotherSize) {
   rectifier.Rectify(a, a, &out_a, &out_b);
   EXPECT_EQ(out_a.size(), a.size());
   EXPECT_EQ(out_a.at<std::uint8_t>(240, 320), 9);  // the centre stays inside the raw image
-  EXPECT_THROW(Rectifier(testing::PaperRig()), std::invalid_argument);  // not rectified
+  EXPECT_THROW(Rectifier{testing::PaperRig()}, std::invalid_argument);  // not rectified
 }
 
 TEST(Rectifier, RectifyPointsInvertsTheRemapTablesEverywhere) {
