@@ -8,6 +8,7 @@
 #include <string>
 #include <vector>
 
+#include <nlohmann/json.hpp>
 #include <opencv2/core.hpp>
 
 #include "evaluation/table.h"
@@ -68,5 +69,23 @@ struct BoxRunResult {
 /// Figure 4's table: one row per distance, E_Y (and point counts) per run, and the predicted
 /// error of the rig for a one-pixel disparity error where given (distance -> metres).
 Table BoxesTable(const std::vector<BoxRunResult>& runs, const std::map<long, double>& predicted_m);
+
+/// The inputs and options of `evaluate boxes` (docs/evaluate.md).
+struct BoxesCommand {
+  std::vector<std::filesystem::path> runs;  ///< stereo-batch output directories run with --rig.
+  std::filesystem::path boxes;              ///< The box list.
+  std::filesystem::path rig;                ///< Rectified rig for the predicted error; empty for none.
+  std::filesystem::path output_dir;
+  double sigma_d_px = 1.0;                  ///< Disparity error of the predicted curve (px), > 0.
+  BoxesEvalOptions options;
+};
+
+/// `evaluate boxes`: every run's XYZ maps scored against the box list; writes the boxes
+/// table and figure and summary.json (`summary_head` plus inputs, options, counts, table,
+/// figures).
+/// @return kExitOk, or kExitBatchPartial when some maps could not be scored.
+/// @throws std::invalid_argument for bad options or a rig that is not rectified; InputError for
+///         an unreadable box list, rig or run.
+int RunBoxesCommand(const BoxesCommand& command, const nlohmann::json& summary_head);
 
 }  // namespace lunarnav::evaluation

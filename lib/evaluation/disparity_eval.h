@@ -8,6 +8,7 @@
 #include <string>
 #include <vector>
 
+#include <nlohmann/json.hpp>
 #include <opencv2/core.hpp>
 
 #include "evaluation/table.h"
@@ -96,5 +97,18 @@ std::vector<DisparityItem> EvaluateDisparityDirectories(const std::filesystem::p
 
 /// The per-pair table with a final "all" row pooling every scored pair.
 Table DisparityTable(const std::vector<DisparityItem>& items, const DisparityEvalOptions& options);
+
+/// The inputs and options of `evaluate disparity` (docs/evaluate.md).
+struct DisparityCommand {
+  std::filesystem::path results, truth, masks, output_dir;  ///< masks: empty for none.
+  std::vector<double> bad_thresholds_px;  ///< Empty: the defaults of `options`.
+  DisparityEvalOptions options;
+};
+
+/// `evaluate disparity`: scores every pair and writes the table (disparity.csv, .json, .md)
+/// and summary.json (`summary_head` plus inputs, options, counts, failed pairs, table).
+/// @return kExitOk, or kExitBatchPartial when some pairs could not be scored.
+/// @throws std::invalid_argument for bad options, InputError as EvaluateDisparityDirectories.
+int RunDisparityCommand(const DisparityCommand& command, const nlohmann::json& summary_head);
 
 }  // namespace lunarnav::evaluation

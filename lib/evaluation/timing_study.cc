@@ -4,10 +4,20 @@
 #include <cmath>
 #include <limits>
 #include <sstream>
+#include <tuple>
 
+#include "calib/stereo_rig_io.h"
 #include "evaluation/figure.h"
+#include "io/atomic_file.h"
+#include "io/image_io.h"
+#include "io/json_io.h"
+#include "io/stereo_pairs.h"
 #include "stereo/ncc_matcher.h"
 #include "util/check.h"
+#include "util/errors.h"
+#include "util/log.h"
+#include "util/parse.h"
+#include "util/progress.h"
 #include "util/timer.h"
 
 namespace lunarnav::evaluation {
@@ -242,6 +252,73 @@ std::string TimingFigureCommands(const TimingStudy& study, const std::string& cu
      << GnuplotString(curve_csv)
      << " using 1:4 skip 1 with linespoints pt 4 ps 1.0 dt 2 title \"predicted: rows x disparities\"\n";
   return gp.str();
+}
+
+int RunTimingCommand(const TimingCommand& command, const nlohmann::json& summary_head) {
+  util::Timer timer;
+  TimingStudyOptions options = command.options;
+  std::tie(options.matcher.half_window_x_px, options.matcher.half_window_y_px) =
+      util::ParseIntPair(command.window, 'x', "--window");
+  std::tie(options.matcher.step_x_px, options.matcher.step_y_px) = util::ParseIntPair(command.step, 'x', "--step");
+  std::tie(options.matcher.min_disparity_px, options.matcher.max_disparity_px) =
+      util::ParseIntPair(command.disparity, ':', "--disparity");
+  std::tie(options.z_min_m, options.z_max_m) = util::ParseDoublePair(command.z_range, ':', "--z-range");
+  options.matcher.reference = stereo::ReferenceImageFromString(command.reference);
+  LN_CHECK_ARG(command.max_pairs >= 0) << "--max-pairs: must be >= 0 (0 = all)";
+  const calib::StereoRig rig = calib::ReadStereoRig(command.rig);
+  const TimingStudy plan = PlanTimingStudy(rig, options);  // bad options: exit 2 before reading pairs
+
+  std::vector<io::PairFiles> listing = io::ListStereoPairs(command.pairs);
+  LN_CHECK_INPUT(!listing.empty()) << command.pairs.string() << ": no image pairs in left/ and right/";
+  if (command.max_pairs > 0 && listing.size() > static_cast<std::size_t>(command.max_pairs)) {
+    listing.resize(command.max_pairs);
+  }
+  std::vector<std::pair<cv::Mat, cv::Mat>> images;
+  nlohmann::json stems = nlohmann::json::array();
+  for (const io::PairFiles& pair : listing) {
+    LN_CHECK_INPUT(pair.problem.empty()) << "pair " << pair.stem << ": " << pair.problem;
+    images.emplace_back(io::ReadGreyImage(pair.left), io::ReadGreyImage(pair.right));
+    const cv::Mat& left = images.back().first;
+    LN_CHECK_INPUT(left.size() == images.back().second.size() && left.type() == images.back().second.type())
+        << pair.right.string() << ": size or bit depth differs from the left image's";
+    LN_CHECK_INPUT(left.cols == plan.width_px && left.rows == plan.height_px)
+        << pair.left.string() << ": size " << left.cols << "x" << left.rows << " differs from the rig's rectified size "
+        << plan.width_px << "x" << plan.height_px << " (" << command.rig.string() << ")";
+    stems.push_back(pair.stem);
+  }
+  io::CreateOutputDirectory(command.output_dir);
+  util::ProgressBar progress(options.repeat * (options.delta_y_m.size() + 1), "evaluate timing", command.progress);
+  const TimingStudy study = RunTimingStudy(rig, images, options, [&] { progress.Increment(); });
+
+  const Table table = TimingTable(study);
+  WriteTable(command.output_dir, "timing", table);
+  io::WriteFileAtomic(command.output_dir / "timing_curve.csv", TimingCurveCsv(study));
+  const FigureResult figure =
+      WriteFigure(command.output_dir, "timing", TimingFigureCommands(study, "timing_curve.csv"));
+  nlohmann::json summary = summary_head;
+  summary["inputs"] = {{"pairs", command.pairs.string()}, {"rig", command.rig.string()}, {"stems", stems}};
+  summary["rig_notes"] = rig.notes;  // what reading the rig changed (printed precision)
+  summary["options"] = options.ToJson();
+  summary["options"]["max_pairs"] = command.max_pairs;
+  summary["counts"] = {{"pairs", study.pairs}, {"windows", study.points.size() + 1}, {"repeat", options.repeat}};
+  summary["kernel"] = stereo::ActiveKernelName();
+  nlohmann::json windows = nlohmann::json::array();
+  auto add_window = [&](const TimingPoint& p) {
+    windows.push_back({{"delta_y_m", p.delta_y_m ? nlohmann::json(*p.delta_y_m) : nlohmann::json(nullptr)},
+                       {"window", p.window.ToJson()},
+                       {"repeat_s", p.repeat_seconds},
+                       {"evaluated_pixels", p.evaluated_pixels}});
+  };
+  for (const TimingPoint& p : study.points) add_window(p);
+  add_window(study.full);
+  summary["windows"] = windows;
+  summary["table"] = table.ToJson();
+  summary["figures"] = nlohmann::json::array({FigureSummary(figure, "timing_curve.csv")});
+  summary["timings_s"] = {{"total", timer.ElapsedSeconds()}};
+  io::WriteJsonAtomic(command.output_dir / "summary.json", summary);
+  LN_LOG(Info) << "evaluate timing: " << study.points.size() << " windows x " << study.pairs << " pairs x "
+               << options.repeat << " runs; " << (command.output_dir / "timing.md").string();
+  return kExitOk;
 }
 
 }  // namespace lunarnav::evaluation

@@ -3,6 +3,7 @@
 // to the largest, beside the share of the work (rows x disparities) window selection predicts.
 #pragma once
 
+#include <filesystem>
 #include <functional>
 #include <optional>
 #include <string>
@@ -92,5 +93,26 @@ Table TimingTable(const TimingStudy& study);
 std::string TimingCurveCsv(const TimingStudy& study);
 /// gnuplot commands: normalised time and predicted work against dY, reading `curve_csv`.
 std::string TimingFigureCommands(const TimingStudy& study, const std::string& curve_csv);
+
+/// The inputs and options of `evaluate timing` (docs/evaluate.md), the pairs as text as the
+/// command line gives them.
+struct TimingCommand {
+  std::filesystem::path pairs, rig, output_dir;  ///< pairs: a directory with left/ and right/.
+  std::string window = "25x17";     ///< Half-sizes WXxWY of the correlation window.
+  std::string step = "1x1";         ///< Partial subsampling steps DXxDY.
+  std::string disparity = "0:127";  ///< MIN:MAX, the whole-image search.
+  std::string z_range = "-0.5:1";   ///< ZMIN:ZMAX, heights of the objects (m).
+  std::string reference = "right";  ///< stereo::ReferenceImageFromString.
+  int max_pairs = 0;                ///< Time only the first N pairs; 0 = all.
+  bool progress = true;             ///< Show a progress bar on stderr.
+  TimingStudyOptions options;       ///< Window, steps, range, heights and reference set from the above.
+};
+
+/// `evaluate timing`: reads the pairs, runs the study and writes the timing table, timing_curve.csv,
+/// the figure and summary.json (`summary_head` plus inputs, options, counts, every repeat's
+/// time, table, figures).
+/// @return kExitOk. @throws std::invalid_argument for bad options (before any pair is read);
+///         InputError for unreadable pairs or pairs of another size than the rig's.
+int RunTimingCommand(const TimingCommand& command, const nlohmann::json& summary_head);
 
 }  // namespace lunarnav::evaluation
