@@ -154,8 +154,12 @@ Subcommand AddBoxes(CLI::App* app) {
   cmd->add_option("--sigma-d", c->sigma_d_px, "disparity error of the predicted curve (px)")->capture_default_str();
   cmd->add_option("--edge-margin", c->options.edge_margin_m, "face points this close to an edge are left out (m)")
       ->capture_default_str();
-  cmd->add_option("--y-gate", c->options.y_gate_fraction, "a point belongs to a face when |Y - true Y| <= this x true Y")
-      ->capture_default_str();
+  cmd->add_option("--truth", c->truth,
+                  "simulate's truth directory (labels/, xyz/): select each face's points by the truth");
+  cmd->add_option_function<double>(
+      "--y-gate", [c](double gate) { c->options.y_gate_fraction = gate; },
+      "drop a face's points whose |Y - true Y| > this x true Y, and count them (default: none with --truth, "
+      "0.1 without)");
   cmd->add_option("-o,--output", c->output_dir, "output directory (created)")->required();
   return Declare(cmd, c, &evaluation::RunBoxesCommand);
 }

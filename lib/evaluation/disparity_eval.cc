@@ -43,8 +43,9 @@ std::map<std::string, std::vector<fs::path>> FilesByStem(const fs::path& dir,
   return by_stem;
 }
 
-// The sample grid from stereo-batch's sidecar next to the estimate, or the identity grid.
-SampleGrid GridOf(const fs::path& estimate) {
+}  // namespace
+
+SampleGrid ReadSampleGrid(const fs::path& estimate) {
   fs::path sidecar = estimate;
   sidecar.replace_extension(".json");
   SampleGrid grid;
@@ -75,8 +76,6 @@ SampleGrid GridOf(const fs::path& estimate) {
       << sidecar.string() << ": impossible disparity.grid";
   return grid;
 }
-
-}  // namespace
 
 void DisparityEvalOptions::Validate() const {
   LN_CHECK_ARG(!bad_thresholds_px.empty()) << "bad thresholds: need at least one";
@@ -235,7 +234,7 @@ std::vector<DisparityItem> EvaluateDisparityDirectories(const fs::path& results,
               << item.mask.string() << ": an 8-bit mask of the truth's size expected";
         }
         try {
-          item.scores = ScoreDisparity(estimate, truth, mask, GridOf(item.estimate), options);
+          item.scores = ScoreDisparity(estimate, truth, mask, ReadSampleGrid(item.estimate), options);
         } catch (const InputError& e) {
           throw InputError(item.estimate.string() + ": " + e.what());
         }

@@ -25,6 +25,11 @@ struct SampleGrid {
   int min_row = 0, max_row = std::numeric_limits<int>::max();
 };
 
+/// The sample grid of a stereo-batch map from the sidecar next to `estimate` (<stem>.json
+/// beside disparity/<stem>.pfm), or the identity grid when there is no sidecar.
+/// @throws InputError naming the sidecar when it has no usable grid.
+SampleGrid ReadSampleGrid(const std::filesystem::path& estimate);
+
 struct DisparityEvalOptions {
   /// An estimate is bad at a pixel when |estimate - truth| > threshold.
   std::vector<double> bad_thresholds_px = {0.5, 1.0, 2.0, 4.0};
