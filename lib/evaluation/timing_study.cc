@@ -176,7 +176,12 @@ TimingStudy RunTimingStudy(const calib::StereoRig& rig, const std::vector<std::p
       if (progress) progress();
     }
   }
-  for (TimingPoint* p : all) p->seconds = Median(p->repeat_seconds);
+  for (TimingPoint* p : all) {
+    p->seconds = Median(p->repeat_seconds);
+    const auto [fastest, slowest] = std::minmax_element(p->repeat_seconds.begin(), p->repeat_seconds.end());
+    p->seconds_min = *fastest;
+    p->seconds_max = *slowest;
+  }
   NormaliseTimingStudy(&study);
   return study;
 }
@@ -197,7 +202,9 @@ Table TimingTable(const TimingStudy& study) {
                {"time", "ms", "time per pair (ms)", 2},
                {"time_normalised", "", "time / largest", 3},
                {"work_normalised", "", "work / largest", 3},
-               {"time_share", "pct", "time (% of image)", 1}};
+               {"time_share", "pct", "time (% of image)", 1},
+               {"time_min", "ms", "fastest run (ms)", 2},
+               {"time_max", "ms", "slowest run (ms)", 2}};
   auto add = [&](const TimingPoint& p) {
     const std::string whole = "whole image, no window selection";
     const Cell dy = p.delta_y_m ? Cell::Number(*p.delta_y_m) : Cell::NotAvailable(whole);
@@ -207,14 +214,17 @@ Table TimingTable(const TimingStudy& study) {
               Cell::Number(w.min_disparity_px), Cell::Number(w.max_disparity_px), Cell::Number(w.Disparities()),
               Cell::NumberOr(100 * p.work_share, "no work"), Cell::NumberOr(1e3 * p.seconds, "not timed"),
               Cell::NumberOr(p.time_normalised, "not timed"), Cell::NumberOr(p.work_normalised, "no work"),
-              Cell::NumberOr(100 * p.time_share, "not timed")});
+              Cell::NumberOr(100 * p.time_share, "not timed"),
+              Cell::NumberOr(p.repeat_seconds.empty() ? kNaN : 1e3 * p.seconds_min, "not timed"),
+              Cell::NumberOr(p.repeat_seconds.empty() ? kNaN : 1e3 * p.seconds_max, "not timed")});
   };
   for (const TimingPoint& p : study.points) add(p);
   add(study.full);
   std::ostringstream n1, n2;
   n1 << "Times are medians of " << study.options.repeat << " runs of the mean matching time over " << study.pairs
      << " pair(s) of " << study.width_px << "x" << study.height_px
-     << " px; they depend on the machine and its load: only the normalised shape compares with the paper's Figure 2.";
+     << " px, with the fastest and slowest run; they depend on the machine and its load: two widths' times differ "
+        "beyond that noise only when their fastest-slowest ranges do not overlap.";
   n2 << "Windows by window selection (sec. 3.3) for Z in [" << study.options.z_min_m << ", " << study.options.z_max_m
      << "] m; the last row searches every row and the disparities " << study.options.matcher.min_disparity_px << ":"
      << study.options.matcher.max_disparity_px
@@ -225,7 +235,8 @@ Table TimingTable(const TimingStudy& study) {
 
 std::string TimingCurveCsv(const TimingStudy& study) {
   std::ostringstream s;
-  s << "delta_y_m,y_max_m,time_normalised,work_normalised,time_ms,rows,disparities\n";
+  s << "delta_y_m,y_max_m,time_normalised,work_normalised,time_ms,rows,disparities,time_min_normalised,"
+       "time_max_normalised\n";
   s.precision(6);
   auto num = [](double v) {
     std::ostringstream o;
@@ -236,7 +247,8 @@ std::string TimingCurveCsv(const TimingStudy& study) {
   for (const TimingPoint& p : study.points) {
     s << num(*p.delta_y_m) << "," << num(study.options.y_min_m + *p.delta_y_m) << "," << num(p.time_normalised)
       << "," << num(p.work_normalised) << "," << num(1e3 * p.seconds) << "," << p.window.Rows() << ","
-      << p.window.Disparities() << "\n";
+      << p.window.Disparities() << "," << num(p.time_normalised * p.seconds_min / p.seconds) << ","
+      << num(p.time_normalised * p.seconds_max / p.seconds) << "\n";
   }
   return s.str();
 }
@@ -246,9 +258,11 @@ std::string TimingFigureCommands(const TimingStudy& study, const std::string& cu
   gp << "set title \"Stereo time against the width of the distance interval (Y_{min} = " << study.options.y_min_m
      << " m), normalised to the largest\"\n"
      << "set xlabel \"{/Symbol D}Y = Y_{max} - Y_{min} (m)\"\nset ylabel \"normalised\"\nset grid\n"
-     << "set key left top box opaque\nset yrange [0:1.05]\nset offsets graph 0.02, 0.02, 0, 0\n"
+     << "set key left top box opaque\nset yrange [0:*]\nset offsets graph 0.02, 0.02, 0, 0\n"
      << "plot " << GnuplotString(curve_csv)
-     << " using 1:3 skip 1 with linespoints pt 7 ps 1.2 lw 2 title \"measured time\", \\\n     "
+     << " using 1:3 skip 1 with linespoints pt 7 ps 1.2 lw 2 title \"measured time (median)\", \\\n     "
+     << GnuplotString(curve_csv)
+     << " using 1:3:8:9 skip 1 with yerrorbars pt 7 ps 0.1 lc 1 title \"fastest-slowest run\", \\\n     "
      << GnuplotString(curve_csv)
      << " using 1:4 skip 1 with linespoints pt 4 ps 1.0 dt 2 title \"predicted: rows x disparities\"\n";
   return gp.str();

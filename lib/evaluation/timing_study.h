@@ -46,6 +46,9 @@ struct TimingPoint {
   /// Per repeat, the mean matching time of one pair, seconds.
   std::vector<double> repeat_seconds;
   double seconds = 0;               ///< Median of repeat_seconds.
+  /// Fastest and slowest of repeat_seconds: the spread of the machine's timing. Two windows'
+  /// times differ beyond that noise only when their [fastest, slowest] ranges do not overlap.
+  double seconds_min = 0, seconds_max = 0;
   long long evaluated_pixels = 0;   ///< Over all pairs (of one run).
   /// seconds and work_share divided by their largest value over the dY points; seconds over
   /// the whole image's.
@@ -86,12 +89,15 @@ TimingStudy RunTimingStudy(const calib::StereoRig& rig, const std::vector<std::p
                            const TimingStudyOptions& options, const std::function<void()>& progress = {});
 
 /// One row per dY and a last row for the whole image: window, rows, disparities, work share,
-/// time per pair, normalised time and work, time as a share of the whole image's.
+/// time per pair, normalised time and work, time as a share of the whole image's, and the
+/// fastest and slowest of the repeated runs.
 Table TimingTable(const TimingStudy& study);
 /// The data of the figure: delta_y_m, y_max_m, time_normalised, work_normalised, time_ms,
-/// rows, disparities (one line per dY).
+/// rows, disparities, time_min_normalised, time_max_normalised (the fastest and slowest run on
+/// the median's scale; one line per dY).
 std::string TimingCurveCsv(const TimingStudy& study);
-/// gnuplot commands: normalised time and predicted work against dY, reading `curve_csv`.
+/// gnuplot commands: normalised time (with the fastest-slowest range) and predicted work
+/// against dY, reading `curve_csv`.
 std::string TimingFigureCommands(const TimingStudy& study, const std::string& curve_csv);
 
 /// The inputs and options of `evaluate timing` (docs/evaluate.md), the pairs as text as the
