@@ -83,6 +83,15 @@ double Median(std::vector<double> values) {
   return n % 2 == 1 ? values[n / 2] : 0.5 * (values[n / 2 - 1] + values[n / 2]);
 }
 
+double Quantile(std::vector<double> values, double p) {
+  if (values.empty()) return kNaN;
+  std::sort(values.begin(), values.end());
+  const double h = (static_cast<double>(values.size()) - 1) * std::clamp(p, 0.0, 1.0);
+  const std::size_t below = static_cast<std::size_t>(std::floor(h));
+  if (below + 1 >= values.size()) return values.back();
+  return values[below] + (h - static_cast<double>(below)) * (values[below + 1] - values[below]);
+}
+
 TimingStudy PlanTimingStudy(const calib::StereoRig& rig, const TimingStudyOptions& options) {
   options.Validate();
   LN_CHECK_ARG(rig.rectified.has_value())
@@ -178,9 +187,8 @@ TimingStudy RunTimingStudy(const calib::StereoRig& rig, const std::vector<std::p
   }
   for (TimingPoint* p : all) {
     p->seconds = Median(p->repeat_seconds);
-    const auto [fastest, slowest] = std::minmax_element(p->repeat_seconds.begin(), p->repeat_seconds.end());
-    p->seconds_min = *fastest;
-    p->seconds_max = *slowest;
+    p->seconds_q1 = Quantile(p->repeat_seconds, 0.25);
+    p->seconds_q3 = Quantile(p->repeat_seconds, 0.75);
   }
   NormaliseTimingStudy(&study);
   return study;
@@ -203,8 +211,8 @@ Table TimingTable(const TimingStudy& study) {
                {"time_normalised", "", "time / largest", 3},
                {"work_normalised", "", "work / largest", 3},
                {"time_share", "pct", "time (% of image)", 1},
-               {"time_min", "ms", "fastest run (ms)", 2},
-               {"time_max", "ms", "slowest run (ms)", 2}};
+               {"time_q1", "ms", "time, 1st quartile (ms)", 2},
+               {"time_q3", "ms", "time, 3rd quartile (ms)", 2}};
   auto add = [&](const TimingPoint& p) {
     const std::string whole = "whole image, no window selection";
     const Cell dy = p.delta_y_m ? Cell::Number(*p.delta_y_m) : Cell::NotAvailable(whole);
@@ -215,16 +223,16 @@ Table TimingTable(const TimingStudy& study) {
               Cell::NumberOr(100 * p.work_share, "no work"), Cell::NumberOr(1e3 * p.seconds, "not timed"),
               Cell::NumberOr(p.time_normalised, "not timed"), Cell::NumberOr(p.work_normalised, "no work"),
               Cell::NumberOr(100 * p.time_share, "not timed"),
-              Cell::NumberOr(p.repeat_seconds.empty() ? kNaN : 1e3 * p.seconds_min, "not timed"),
-              Cell::NumberOr(p.repeat_seconds.empty() ? kNaN : 1e3 * p.seconds_max, "not timed")});
+              Cell::NumberOr(p.repeat_seconds.empty() ? kNaN : 1e3 * p.seconds_q1, "not timed"),
+              Cell::NumberOr(p.repeat_seconds.empty() ? kNaN : 1e3 * p.seconds_q3, "not timed")});
   };
   for (const TimingPoint& p : study.points) add(p);
   add(study.full);
   std::ostringstream n1, n2;
   n1 << "Times are medians of " << study.options.repeat << " runs of the mean matching time over " << study.pairs
      << " pair(s) of " << study.width_px << "x" << study.height_px
-     << " px, with the fastest and slowest run; they depend on the machine and its load: two widths' times differ "
-        "beyond that noise only when their fastest-slowest ranges do not overlap.";
+     << " px, with their quartiles; they depend on the machine and its load: two widths' times differ beyond that "
+        "noise only when their interquartile ranges do not overlap.";
   n2 << "Windows by window selection (sec. 3.3) for Z in [" << study.options.z_min_m << ", " << study.options.z_max_m
      << "] m; the last row searches every row and the disparities " << study.options.matcher.min_disparity_px << ":"
      << study.options.matcher.max_disparity_px
@@ -235,8 +243,8 @@ Table TimingTable(const TimingStudy& study) {
 
 std::string TimingCurveCsv(const TimingStudy& study) {
   std::ostringstream s;
-  s << "delta_y_m,y_max_m,time_normalised,work_normalised,time_ms,rows,disparities,time_min_normalised,"
-       "time_max_normalised\n";
+  s << "delta_y_m,y_max_m,time_normalised,work_normalised,time_ms,rows,disparities,time_q1_normalised,"
+       "time_q3_normalised\n";
   s.precision(6);
   auto num = [](double v) {
     std::ostringstream o;
@@ -247,8 +255,8 @@ std::string TimingCurveCsv(const TimingStudy& study) {
   for (const TimingPoint& p : study.points) {
     s << num(*p.delta_y_m) << "," << num(study.options.y_min_m + *p.delta_y_m) << "," << num(p.time_normalised)
       << "," << num(p.work_normalised) << "," << num(1e3 * p.seconds) << "," << p.window.Rows() << ","
-      << p.window.Disparities() << "," << num(p.time_normalised * p.seconds_min / p.seconds) << ","
-      << num(p.time_normalised * p.seconds_max / p.seconds) << "\n";
+      << p.window.Disparities() << "," << num(p.time_normalised * p.seconds_q1 / p.seconds) << ","
+      << num(p.time_normalised * p.seconds_q3 / p.seconds) << "\n";
   }
   return s.str();
 }
@@ -262,7 +270,7 @@ std::string TimingFigureCommands(const TimingStudy& study, const std::string& cu
      << "plot " << GnuplotString(curve_csv)
      << " using 1:3 skip 1 with linespoints pt 7 ps 1.2 lw 2 title \"measured time (median)\", \\\n     "
      << GnuplotString(curve_csv)
-     << " using 1:3:8:9 skip 1 with yerrorbars pt 7 ps 0.1 lc 1 title \"fastest-slowest run\", \\\n     "
+     << " using 1:3:8:9 skip 1 with yerrorbars pt 7 ps 0.1 lc 1 title \"interquartile range of the runs\", \\\n     "
      << GnuplotString(curve_csv)
      << " using 1:4 skip 1 with linespoints pt 4 ps 1.0 dt 2 title \"predicted: rows x disparities\"\n";
   return gp.str();

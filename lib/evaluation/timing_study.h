@@ -46,9 +46,10 @@ struct TimingPoint {
   /// Per repeat, the mean matching time of one pair, seconds.
   std::vector<double> repeat_seconds;
   double seconds = 0;               ///< Median of repeat_seconds.
-  /// Fastest and slowest of repeat_seconds: the spread of the machine's timing. Two windows'
-  /// times differ beyond that noise only when their [fastest, slowest] ranges do not overlap.
-  double seconds_min = 0, seconds_max = 0;
+  /// First and third quartiles of repeat_seconds (Quantile): the spread of the machine's
+  /// timing. Two windows' times differ beyond that noise only when their interquartile
+  /// ranges do not overlap.
+  double seconds_q1 = 0, seconds_q3 = 0;
   long long evaluated_pixels = 0;   ///< Over all pairs (of one run).
   /// seconds and work_share divided by their largest value over the dY points; seconds over
   /// the whole image's.
@@ -69,6 +70,10 @@ std::vector<double> NormaliseToLargest(const std::vector<double>& values);
 
 /// Median (the mean of the two middle values for an even count); NaN for none.
 double Median(std::vector<double> values);
+/// The p-quantile (p in [0, 1]) interpolated linearly between the sorted values: with
+/// h = (n - 1) p, x[floor h] + (h - floor h) (x[floor h + 1] - x[floor h]) (R's type 7, numpy's
+/// default; p = 0.5 is the median). NaN for none.
+double Quantile(std::vector<double> values, double p);
 
 /// The windows of the study for a rectified rig (no timing): every dY's window by
 /// calib::SelectWindow and the whole image's, with their work shares.
@@ -90,13 +95,13 @@ TimingStudy RunTimingStudy(const calib::StereoRig& rig, const std::vector<std::p
 
 /// One row per dY and a last row for the whole image: window, rows, disparities, work share,
 /// time per pair, normalised time and work, time as a share of the whole image's, and the
-/// fastest and slowest of the repeated runs.
+/// first and third quartiles of the repeated runs.
 Table TimingTable(const TimingStudy& study);
 /// The data of the figure: delta_y_m, y_max_m, time_normalised, work_normalised, time_ms,
-/// rows, disparities, time_min_normalised, time_max_normalised (the fastest and slowest run on
-/// the median's scale; one line per dY).
+/// rows, disparities, time_q1_normalised, time_q3_normalised (the runs' quartiles on the
+/// median's scale; one line per dY).
 std::string TimingCurveCsv(const TimingStudy& study);
-/// gnuplot commands: normalised time (with the fastest-slowest range) and predicted work
+/// gnuplot commands: normalised time (with the interquartile range) and predicted work
 /// against dY, reading `curve_csv`.
 std::string TimingFigureCommands(const TimingStudy& study, const std::string& curve_csv);
 
