@@ -32,15 +32,14 @@ struct Subcommand {
 
 // Declares the options of a subcommand bound to a Command struct and returns it with its runner.
 template <typename Command>
-Subcommand Declare(CLI::App* cli, std::shared_ptr<Command> command,
-                   int (*run)(const Command&, const json&)) {
+Subcommand Declare(CLI::App* cli, std::shared_ptr<Command> command, int (*run)(const Command&, const json&)) {
   return {cli, [command, run](const json& head) { return run(*command, head); }};
 }
 
 Subcommand AddDisparity(CLI::App* app) {
   auto c = std::make_shared<evaluation::DisparityCommand>();
-  CLI::App* cmd = app->add_subcommand(
-      "disparity", "disparity maps vs ground-truth disparity: density, bad-N %, mean and RMS error");
+  CLI::App* cmd = app->add_subcommand("disparity",
+                                      "disparity maps vs ground-truth disparity: density, bad-N %, mean and RMS error");
   cmd->add_option("RESULTS", c->results,
                   "stereo-batch output directory (disparity/<stem>.pfm) or a directory of .pfm files")
       ->required();
@@ -82,8 +81,8 @@ Subcommand AddTrials(CLI::App* app) {
 
 Subcommand AddCorrelation(CLI::App* app) {
   auto c = std::make_shared<evaluation::CorrelationCommand>();
-  CLI::App* cmd = app->add_subcommand(
-      "correlation", "correlation curve C(d) at one pixel for several subsamplings (Figure 5)");
+  CLI::App* cmd =
+      app->add_subcommand("correlation", "correlation curve C(d) at one pixel for several subsamplings (Figure 5)");
   cmd->add_option("LEFT", c->left, "rectified left image")->required();
   cmd->add_option("RIGHT", c->right, "rectified right image")->required();
   cmd->add_option("--pixel", c->pixel, "X,Y: the pixel, in the reference image")
@@ -105,8 +104,8 @@ Subcommand AddCorrelation(CLI::App* app) {
 
 Subcommand AddTiming(CLI::App* app, const bool* quiet) {
   auto c = std::make_shared<evaluation::TimingCommand>();
-  CLI::App* cmd = app->add_subcommand(
-      "timing", "stereo time against the width dY of the requested distance interval (Figure 2)");
+  CLI::App* cmd =
+      app->add_subcommand("timing", "stereo time against the width dY of the requested distance interval (Figure 2)");
   cmd->add_option("PAIRS", c->pairs, "directory of rectified pairs (left/, right/)")->required();
   cmd->add_option("--rig", c->rig, "rectified rig file (rectify's rig.json)")->required();
   cmd->add_option("--y-min", c->options.y_min_m, "Y_min of every interval (m)")->capture_default_str();
@@ -137,7 +136,8 @@ Subcommand AddRequests(CLI::App* app) {
       "requests", "mean and range of the requested rows, disparities and distances over a run (Figure 3)");
   cmd->add_option("RUN", c->run, "stereo-batch output directory of a run with --rig and --requests or --range-y")
       ->required();
-  cmd->add_option("--tolerance", c->tolerance, "a pair is steady when its bounds are within this fraction of their means")
+  cmd->add_option("--tolerance", c->tolerance,
+                  "a pair is steady when its bounds are within this fraction of their means")
       ->capture_default_str();
   cmd->add_option("-o,--output", c->output_dir, "output directory (created)")->required();
   return Declare(cmd, c, &evaluation::RunRequestsCommand);
@@ -145,10 +145,9 @@ Subcommand AddRequests(CLI::App* app) {
 
 Subcommand AddBoxes(CLI::App* app) {
   auto c = std::make_shared<evaluation::BoxesCommand>();
-  CLI::App* cmd = app->add_subcommand(
-      "boxes", "box experiment: E_Y of box faces against distance per subsampling (Figure 4)");
-  cmd->add_option("RUN_DIR", c->runs, "stereo-batch output directories run with --rig (one per (dx, dy))")
-      ->required();
+  CLI::App* cmd =
+      app->add_subcommand("boxes", "box experiment: E_Y of box faces against distance per subsampling (Figure 4)");
+  cmd->add_option("RUN_DIR", c->runs, "stereo-batch output directories run with --rig (one per (dx, dy))")->required();
   cmd->add_option("--boxes", c->boxes, "box list (lunarnav.boxes/1), e.g. simulate's truth/boxes.json")->required();
   cmd->add_option("--rig", c->rig, "rectified rig file: adds the predicted error of --sigma-d px");
   cmd->add_option("--sigma-d", c->sigma_d_px, "disparity error of the predicted curve (px)")->capture_default_str();
@@ -195,8 +194,8 @@ int main(int argc, char** argv) {
   util::AddCommonFlags(&app, &quiet);
 
   const std::vector<Subcommand> subcommands = {
-      AddDisparity(&app), AddTrials(&app),  AddCorrelation(&app), AddTiming(&app, &quiet),
-      AddRequests(&app),  AddBoxes(&app),   AddTrajectory(&app),
+      AddDisparity(&app), AddTrials(&app), AddCorrelation(&app), AddTiming(&app, &quiet),
+      AddRequests(&app),  AddBoxes(&app),  AddTrajectory(&app),
   };
 
   if (const auto exit_code = util::ParseCommandLine(&app, argc, argv, quiet)) return *exit_code;

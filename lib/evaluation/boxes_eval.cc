@@ -118,9 +118,8 @@ std::vector<FaceErrors> EvaluateBoxFaces(const cv::Mat& xyz, const std::vector<B
     const int samples_x = (truth->labels.cols - grid.origin_x + grid.step_x - 1) / grid.step_x;
     const int samples_y = (truth->labels.rows - grid.origin_y + grid.step_y - 1) / grid.step_y;
     LN_CHECK_INPUT(full || (xyz.cols == samples_x && xyz.rows == samples_y))
-        << "the XYZ map's " << xyz.cols << "x" << xyz.rows << " pixels are neither the truth's "
-        << truth->labels.cols << "x" << truth->labels.rows << " nor its " << samples_x << "x" << samples_y
-        << " sample points";
+        << "the XYZ map's " << xyz.cols << "x" << xyz.rows << " pixels are neither the truth's " << truth->labels.cols
+        << "x" << truth->labels.rows << " nor its " << samples_x << "x" << samples_y << " sample points";
   }
   const bool full = truth == nullptr || xyz.size() == truth->labels.size();
   const std::optional<double> gate = options.EffectiveYGate(truth != nullptr);
@@ -268,7 +267,8 @@ BoxRunResult ScoreBoxRun(const fs::path& run, const BoxList& boxes, const BoxesE
       LN_LOG(Error) << "pair " << stem << ": " << e.what();
     }
   }
-  *run_json = {{"dir", run.string()}, {"name", result.name}, {"maps", maps}, {"step_px", {result.step_x, result.step_y}}};
+  *run_json = {
+      {"dir", run.string()}, {"name", result.name}, {"maps", maps}, {"step_px", {result.step_x, result.step_y}}};
   return result;
 }
 

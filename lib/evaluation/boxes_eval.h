@@ -64,7 +64,7 @@ struct BoxTruth {
 struct FaceErrors {
   long points = 0;
   double sum_error = 0, sum_sq_error = 0;  ///< Of (measured Y - true Y), metres.
-  long gated_out = 0;  ///< Points of the face the Y gate dropped (not in `points`).
+  long gated_out = 0;                      ///< Points of the face the Y gate dropped (not in `points`).
   void Add(const FaceErrors& other);
   double Rms() const;   ///< E_Y; NaN without points.
   double Mean() const;  ///< The bias; NaN without points.
@@ -107,7 +107,7 @@ struct BoxesCommand {
   /// points by the truth; empty for none (tape-measured boxes: the Y gate separates surfaces).
   std::filesystem::path truth;
   std::filesystem::path output_dir;
-  double sigma_d_px = 1.0;                  ///< Disparity error of the predicted curve (px), > 0.
+  double sigma_d_px = 1.0;  ///< Disparity error of the predicted curve (px), > 0.
   BoxesEvalOptions options;
 };
 

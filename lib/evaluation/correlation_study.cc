@@ -143,8 +143,7 @@ int RunCorrelationCommand(const CorrelationCommand& command, const nlohmann::jso
   LN_CHECK_INPUT(left.size() == right.size() && left.type() == right.type())
       << command.left.string() << ", " << command.right.string() << ": the images differ in size or bit depth";
   LN_CHECK_INPUT(options.x >= 0 && options.x < left.cols && options.y >= 0 && options.y < left.rows)
-      << "--pixel " << options.x << "," << options.y << ": outside the " << left.cols << " x " << left.rows
-      << " image";
+      << "--pixel " << options.x << "," << options.y << ": outside the " << left.cols << " x " << left.rows << " image";
   const CorrelationStudy study = RunCorrelationStudy(left, right, options);
   io::CreateOutputDirectory(command.output_dir);
   io::WriteFileAtomic(command.output_dir / "correlation_curves.csv", CorrelationCurvesCsv(study));

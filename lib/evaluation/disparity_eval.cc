@@ -324,11 +324,9 @@ int RunDisparityCommand(const DisparityCommand& command, const nlohmann::json& s
   const Table table = DisparityTable(items, options);
   WriteTable(command.output_dir, "disparity", table);
   nlohmann::json summary = summary_head;
-  summary["inputs"] = {{"results", command.results.string()},
-                       {"truth", command.truth.string()},
-                       {"masks", command.masks.string()}};
-  summary["options"] = {{"bad_thresholds_px", options.bad_thresholds_px},
-                        {"png_truth_scale", options.png_truth_scale}};
+  summary["inputs"] = {
+      {"results", command.results.string()}, {"truth", command.truth.string()}, {"masks", command.masks.string()}};
+  summary["options"] = {{"bad_thresholds_px", options.bad_thresholds_px}, {"png_truth_scale", options.png_truth_scale}};
   const long scored = static_cast<long>(items.size()) - failed;
   summary["counts"] = {{"stems", items.size()}, {"scored", scored}, {"failed", failed}};
   summary["failed"] = failed_json;

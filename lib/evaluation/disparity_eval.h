@@ -106,7 +106,7 @@ Table DisparityTable(const std::vector<DisparityItem>& items, const DisparityEva
 /// The inputs and options of `evaluate disparity` (docs/evaluate.md).
 struct DisparityCommand {
   std::filesystem::path results, truth, masks, output_dir;  ///< masks: empty for none.
-  std::vector<double> bad_thresholds_px;  ///< Empty: the defaults of `options`.
+  std::vector<double> bad_thresholds_px;                    ///< Empty: the defaults of `options`.
   DisparityEvalOptions options;
 };
 

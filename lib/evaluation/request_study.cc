@@ -231,8 +231,8 @@ int RunRequestsCommand(const RequestsCommand& command, const nlohmann::json& sum
   const Table table = RequestsTable(study);
   WriteTable(command.output_dir, "requests", table);
   WriteTable(command.output_dir, "request_pairs", RequestPairsTable(study));
-  const FigureResult figure = WriteFigure(command.output_dir, "requests",
-                                          RequestsFigureCommands(study, "request_pairs.csv"), 900, 900);
+  const FigureResult figure =
+      WriteFigure(command.output_dir, "requests", RequestsFigureCommands(study, "request_pairs.csv"), 900, 900);
   if (without_window > 0) {
     LN_LOG(Warning) << command.run.string() << ": " << without_window
                     << " pair(s) matched without window selection are left out";

@@ -253,8 +253,8 @@ std::string TimingCurveCsv(const TimingStudy& study) {
     return o.str();
   };
   for (const TimingPoint& p : study.points) {
-    s << num(*p.delta_y_m) << "," << num(study.options.y_min_m + *p.delta_y_m) << "," << num(p.time_normalised)
-      << "," << num(p.work_normalised) << "," << num(1e3 * p.seconds) << "," << p.window.Rows() << ","
+    s << num(*p.delta_y_m) << "," << num(study.options.y_min_m + *p.delta_y_m) << "," << num(p.time_normalised) << ","
+      << num(p.work_normalised) << "," << num(1e3 * p.seconds) << "," << p.window.Rows() << ","
       << p.window.Disparities() << "," << num(p.time_normalised * p.seconds_q1 / p.seconds) << ","
       << num(p.time_normalised * p.seconds_q3 / p.seconds) << "\n";
   }

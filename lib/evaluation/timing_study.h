@@ -109,14 +109,14 @@ std::string TimingFigureCommands(const TimingStudy& study, const std::string& cu
 /// command line gives them.
 struct TimingCommand {
   std::filesystem::path pairs, rig, output_dir;  ///< pairs: a directory with left/ and right/.
-  std::string window = "25x17";     ///< Half-sizes WXxWY of the correlation window.
-  std::string step = "1x1";         ///< Partial subsampling steps DXxDY.
-  std::string disparity = "0:127";  ///< MIN:MAX, the whole-image search.
-  std::string z_range = "-0.5:1";   ///< ZMIN:ZMAX, heights of the objects (m).
-  std::string reference = "right";  ///< stereo::ReferenceImageFromString.
-  int max_pairs = 0;                ///< Time only the first N pairs; 0 = all.
-  bool progress = true;             ///< Show a progress bar on stderr.
-  TimingStudyOptions options;       ///< Window, steps, range, heights and reference set from the above.
+  std::string window = "25x17";                  ///< Half-sizes WXxWY of the correlation window.
+  std::string step = "1x1";                      ///< Partial subsampling steps DXxDY.
+  std::string disparity = "0:127";               ///< MIN:MAX, the whole-image search.
+  std::string z_range = "-0.5:1";                ///< ZMIN:ZMAX, heights of the objects (m).
+  std::string reference = "right";               ///< stereo::ReferenceImageFromString.
+  int max_pairs = 0;                             ///< Time only the first N pairs; 0 = all.
+  bool progress = true;                          ///< Show a progress bar on stderr.
+  TimingStudyOptions options;                    ///< Window, steps, range, heights and reference set from the above.
 };
 
 /// `evaluate timing`: reads the pairs, runs the study and writes the timing table, timing_curve.csv,

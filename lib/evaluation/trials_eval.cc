@@ -322,7 +322,8 @@ int RunTrialsCommand(const TrialsCommand& command, const nlohmann::json& summary
     nlohmann::json input = {
         {"name", spec.name}, {"trajectory", spec.trajectory.string()}, {"trials", spec.trials.string()}};
     if (!spec.truth.empty()) {
-      trajectory_errors.emplace_back(spec.name, EvaluateTrajectory(estimate, ReadPoses(spec.truth), trajectory_options));
+      trajectory_errors.emplace_back(spec.name,
+                                     EvaluateTrajectory(estimate, ReadPoses(spec.truth), trajectory_options));
       input["truth"] = spec.truth.string();
     }
     inputs.push_back(input);
@@ -346,7 +347,8 @@ int RunTrialsCommand(const TrialsCommand& command, const nlohmann::json& summary
     WriteTable(command.output_dir, "trajectory_errors", errors_table);
     summary["trajectory_errors"] = errors_table.ToJson();
   }
-  summary["figures"] = nlohmann::json::array({FigureSummary(TrialsFigure(command.output_dir, specs), "trial_details.csv")});
+  summary["figures"] =
+      nlohmann::json::array({FigureSummary(TrialsFigure(command.output_dir, specs), "trial_details.csv")});
   summary["timings_s"] = {{"total", timer.ElapsedSeconds()}};
   io::WriteJsonAtomic(command.output_dir / "summary.json", summary);
   LN_LOG(Info) << "evaluate trials: " << trial_count << " trials in " << specs.size() << " sets; "

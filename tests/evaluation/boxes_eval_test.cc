@@ -175,7 +175,7 @@ TEST(BoxesTable, OneRowPerDistanceAndColumnsPerRun) {
   ASSERT_EQ(t.columns.size(), 2u + 2 * 4);  // Y, predicted; per run E_Y, bias, points, dropped
   EXPECT_DOUBLE_EQ(t.rows[0][0].number(), 2.0);
   EXPECT_NEAR(t.rows[0][2].number(), 0.01, 1e-12);  // E_Y dx1_dy1 at 2 m
-  EXPECT_TRUE(t.rows[0][6].IsNotAvailable());        // dx5_dy4 has no box at 2 m
+  EXPECT_TRUE(t.rows[0][6].IsNotAvailable());       // dx5_dy4 has no box at 2 m
   EXPECT_NEAR(t.rows[1][6].number(), 0.2, 1e-12);
   EXPECT_NEAR(t.rows[1][3].number(), 0.1, 1e-12);   // bias
   EXPECT_NEAR(t.rows[1][5].number(), 20.0, 1e-12);  // 1 of 5 points dropped at 8 m: 20 %

@@ -65,8 +65,10 @@ TEST(EvaluateDisparity, ScoresStereoBatchOutputAgainstTheTestdataTruth) {
     io::WriteImageAtomic(perturbed / (std::string(stem) + ".pfm"), truth);
   }
   ASSERT_GT(estimated, pixels / 2);
-  const auto known = RunTool("evaluate", {"disparity", run.string(), "--truth", perturbed.string(), "-o",
-                                          (tmp.path() / "known").string(), "-q"}, tmp.path());
+  const auto known =
+      RunTool("evaluate",
+              {"disparity", run.string(), "--truth", perturbed.string(), "-o", (tmp.path() / "known").string(), "-q"},
+              tmp.path());
   ASSERT_EQ(known.exit_code, 0) << known.stderr_text;
   const nlohmann::json known_all = io::ReadJson(tmp.path() / "known" / "summary.json")["table"]["rows"][3];
   EXPECT_EQ(known_all["truth_pixels"].get<long>(), pixels);
@@ -119,10 +121,9 @@ TEST(EvaluateTrials, ScoresAPosfilterTrajectoryAgainstTapeMeasuredTrials) {
     p.y_m -= 0.4;
   }
   positioning::WriteTrajectoryCsv(tmp.path() / "truth.csv", truth);
-  const std::string set = "A=" + (pos / "trajectory.csv").string() + "," + (tmp.path() / "trials.json").string() +
-                          "," + (tmp.path() / "truth.csv").string();
-  const auto result = RunTool("evaluate", {"trials", "--set", set, "--align", "none", "-o", eval.string()},
-                              tmp.path());
+  const std::string set = "A=" + (pos / "trajectory.csv").string() + "," + (tmp.path() / "trials.json").string() + "," +
+                          (tmp.path() / "truth.csv").string();
+  const auto result = RunTool("evaluate", {"trials", "--set", set, "--align", "none", "-o", eval.string()}, tmp.path());
   ASSERT_EQ(result.exit_code, 0) << result.stderr_text;
   for (const char* name : {"trials", "trial_details", "trajectory_errors"}) {
     for (const char* ext : {".csv", ".json", ".md"}) EXPECT_TRUE(fs::exists(eval / (std::string(name) + ext)));
@@ -199,11 +200,11 @@ TEST(EvaluateTrajectory, GivesEachEstimatesErrorAndItsRatioToTheReference) {
     baseline_sum += std::sqrt(std::pow(b.x_m - t.x_m, 2) + std::pow(b.y_m - t.y_m, 2) + std::pow(b.z_m - t.z_m, 2));
   }
   positioning::WriteTrajectoryCsv(tmp.path() / "shifted.csv", trajectory);
-  const auto none = RunTool("evaluate", {"trajectory", "filtered=" + (pos / "trajectory.csv").string(),
-                                         "baseline=" + (pos / "baseline.csv").string(), "--truth",
-                                         (tmp.path() / "shifted.csv").string(), "--align", "none", "-o",
-                                         (tmp.path() / "none").string(), "-q"},
-                            tmp.path());
+  const auto none = RunTool(
+      "evaluate",
+      {"trajectory", "filtered=" + (pos / "trajectory.csv").string(), "baseline=" + (pos / "baseline.csv").string(),
+       "--truth", (tmp.path() / "shifted.csv").string(), "--align", "none", "-o", (tmp.path() / "none").string(), "-q"},
+      tmp.path());
   ASSERT_EQ(none.exit_code, 0) << none.stderr_text;
   const nlohmann::json estimates = io::ReadJson(tmp.path() / "none" / "summary.json")["estimates"];
   const double baseline_mean = baseline_sum / baseline.size();

@@ -144,11 +144,11 @@ TEST(EvaluateRequests, AveragesTheWindowsStereoBatchUsedForTheRequests) {
 TEST(EvaluateTiming, TimesTheMatcherOverTheWindowsOfEachDeltaY) {
   Fixture fx;
   const fs::path out = fx.tmp.path() / "timing";
-  const auto result = RunTool("evaluate",
-                              {"timing", fx.pairs.string(), "--rig", fx.rig_file.string(), "--delta-y", "1,2,4",
-                               "--repeat", "3", "--max-pairs", "2", "--window", "5x3", "--disparity", "0:60", "-o",
-                               out.string(), "-q"},
-                              fx.tmp.path());
+  const auto result =
+      RunTool("evaluate",
+              {"timing", fx.pairs.string(), "--rig", fx.rig_file.string(), "--delta-y", "1,2,4", "--repeat", "3",
+               "--max-pairs", "2", "--window", "5x3", "--disparity", "0:60", "-o", out.string(), "-q"},
+              fx.tmp.path());
   ASSERT_EQ(result.exit_code, 0) << result.stderr_text;
   const nlohmann::json summary = io::ReadJson(out / "summary.json");
   EXPECT_EQ(summary["subcommand"], "timing");

@@ -429,8 +429,8 @@ TEST(StereoBatch, LeftReferenceAndSubsamplingRun) {
   const bool full = d.cols == 640 && d.rows == 480;  // else the grid's samples, row by row
   // The truth is on the right image's grid (x_left = x_right + d): a left pixel x with
   // disparity d sees the right pixel x - d, whose true disparity is d.
-  const cv::Mat truth_png = cv::imread((TestDataPath("stereo_pairs") / "truth" / "disparity" / "frame0000.png").string(),
-                                       cv::IMREAD_UNCHANGED);
+  const cv::Mat truth_png = cv::imread(
+      (TestDataPath("stereo_pairs") / "truth" / "disparity" / "frame0000.png").string(), cv::IMREAD_UNCHANGED);
   ASSERT_EQ(truth_png.type(), CV_16UC1);
   long estimates = 0, within_1px = 0, off_band_or_grid = 0;
   for (int r = 0; r < d.rows; ++r) {
