@@ -74,8 +74,9 @@ struct FaceErrors {
 /// The errors of each face (same order as `faces`) in one XYZ map (CV_32FC3, vehicle frame,
 /// NaN where there is no point; the full image or the samples of `grid`, as disparity maps).
 /// With `truth`, a face's points are the pixels whose label is the face's box and whose true
-/// point lies on the front face (true Y within 1 mm of front_y_m) inside its X-Z extent less
-/// the edge margin; without, the points whose measured X and Z lie inside that extent. Either
+/// point lies on the front face (true Y within 1 mm of front_y_m: exact for a level vehicle
+/// heading north, as the boxes preset; a tilted face has few such pixels) inside its X-Z
+/// extent less the edge margin; without, the points whose measured X and Z lie inside that extent. Either
 /// way the Y gate in force (BoxesEvalOptions::EffectiveYGate) then drops and counts points.
 /// @throws std::invalid_argument for bad options, maps of the wrong type, or a truth whose
 ///         size is not the grid's image.
