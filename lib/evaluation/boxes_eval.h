@@ -5,11 +5,14 @@
 
 #include <filesystem>
 #include <map>
+#include <optional>
 #include <string>
 #include <vector>
 
+#include <nlohmann/json.hpp>
 #include <opencv2/core.hpp>
 
+#include "evaluation/disparity_eval.h"
 #include "evaluation/table.h"
 
 namespace lunarnav::evaluation {
@@ -32,30 +35,54 @@ struct BoxList {
 /// @throws InputError naming the file and the entry.
 BoxList ReadBoxList(const std::filesystem::path& path);
 
+/// The Y gate of a box evaluation without per-pixel truth: what lies beyond or in front of a
+/// face inside its X-Z extent is another surface; 10 % is half the spacing of the paper's
+/// boxes at 5 m, and 8 px of disparity error at 8 m.
+constexpr double kDefaultYGateFraction = 0.10;
+
 struct BoxesEvalOptions {
   /// Points within this margin (m) of a face's X or Z edges are not used: the edge pixels mix
   /// the face with what lies beside, above or below it.
   double edge_margin_m = 0.05;
-  /// A point in the face's X-Z extent belongs to the face when its Y is within this much of
-  /// the true Y, as a fraction of the true Y (what lies beyond or in front is another surface;
-  /// 10 % is half the spacing of the paper's boxes at 5 m, and 8 px of disparity error at 8 m).
-  double y_gate_fraction = 0.10;
+  /// When set, a face's point is dropped (and counted in FaceErrors::gated_out) when its
+  /// measured Y is more than this fraction of the true Y from the true Y; in (0, 1). Unset:
+  /// no gate with per-pixel truth, kDefaultYGateFraction without (EffectiveYGate).
+  std::optional<double> y_gate_fraction;
   void Validate() const;
+  /// The gate in force: y_gate_fraction, or without per-pixel truth kDefaultYGateFraction.
+  std::optional<double> EffectiveYGate(bool with_truth) const;
+};
+
+/// What a simulated frame's pixels truly see, on the rectified right image's full grid
+/// (simulate stereo's truth/labels and truth/xyz).
+struct BoxTruth {
+  cv::Mat labels;  ///< CV_16UC1: 0 sky, 1 terrain, 2 + k box k (BoxFace::index k).
+  cv::Mat xyz;     ///< CV_32FC3: the true point in the vehicle frame, metres.
 };
 
 /// Sums over the points of one face in one or more maps.
 struct FaceErrors {
   long points = 0;
   double sum_error = 0, sum_sq_error = 0;  ///< Of (measured Y - true Y), metres.
+  long gated_out = 0;                      ///< Points of the face the Y gate dropped (not in `points`).
   void Add(const FaceErrors& other);
   double Rms() const;   ///< E_Y; NaN without points.
   double Mean() const;  ///< The bias; NaN without points.
+  double GatedOutShare() const;  ///< gated_out / (points + gated_out); NaN when both are 0.
 };
 
 /// The errors of each face (same order as `faces`) in one XYZ map (CV_32FC3, vehicle frame,
-/// NaN where there is no point).
+/// NaN where there is no point; the full image or the samples of `grid`, as disparity maps).
+/// With `truth`, a face's points are the pixels whose label is the face's box and whose true
+/// point lies on the front face (true Y within 1 mm of front_y_m: exact for a level vehicle
+/// heading north, as the boxes preset; a tilted face has few such pixels) inside its X-Z
+/// extent less the edge margin; without, the points whose measured X and Z lie inside that extent. Either
+/// way the Y gate in force (BoxesEvalOptions::EffectiveYGate) then drops and counts points.
+/// @throws std::invalid_argument for bad options, maps of the wrong type, or a truth whose
+///         size is not the grid's image.
 std::vector<FaceErrors> EvaluateBoxFaces(const cv::Mat& xyz, const std::vector<BoxFace>& faces,
-                                         const BoxesEvalOptions& options);
+                                         const BoxesEvalOptions& options, const BoxTruth* truth = nullptr,
+                                         const SampleGrid& grid = {});
 
 /// One run of stereo-batch (one subsampling) scored over all its frames: per box distance
 /// (the true Y rounded to the centimetre), the pooled errors.
@@ -65,8 +92,32 @@ struct BoxRunResult {
   std::map<long, FaceErrors> by_distance_cm;
 };
 
-/// Figure 4's table: one row per distance, E_Y (and point counts) per run, and the predicted
-/// error of the rig for a one-pixel disparity error where given (distance -> metres).
-Table BoxesTable(const std::vector<BoxRunResult>& runs, const std::map<long, double>& predicted_m);
+/// Figure 4's table: one row per distance, E_Y, bias, points and the share of points the Y
+/// gate dropped per run, and the predicted error of the rig for a one-pixel disparity error
+/// where given (distance -> metres). The notes say how points were selected (`with_truth`)
+/// and which gate was in force.
+Table BoxesTable(const std::vector<BoxRunResult>& runs, const std::map<long, double>& predicted_m,
+                 const BoxesEvalOptions& options = {}, bool with_truth = false);
+
+/// The inputs and options of `evaluate boxes` (docs/evaluate.md).
+struct BoxesCommand {
+  std::vector<std::filesystem::path> runs;  ///< stereo-batch output directories run with --rig.
+  std::filesystem::path boxes;              ///< The box list.
+  std::filesystem::path rig;                ///< Rectified rig for the predicted error; empty for none.
+  /// simulate stereo's truth directory (labels/<stem>.png, xyz/<stem>.exr): select each face's
+  /// points by the truth; empty for none (tape-measured boxes: the Y gate separates surfaces).
+  std::filesystem::path truth;
+  std::filesystem::path output_dir;
+  double sigma_d_px = 1.0;  ///< Disparity error of the predicted curve (px), > 0.
+  BoxesEvalOptions options;
+};
+
+/// `evaluate boxes`: every run's XYZ maps scored against the box list; writes the boxes
+/// table and figure and summary.json (`summary_head` plus inputs, options, counts, table,
+/// figures).
+/// @return kExitOk, or kExitBatchPartial when some maps could not be scored.
+/// @throws std::invalid_argument for bad options or a rig that is not rectified; InputError for
+///         an unreadable box list, rig or run.
+int RunBoxesCommand(const BoxesCommand& command, const nlohmann::json& summary_head);
 
 }  // namespace lunarnav::evaluation

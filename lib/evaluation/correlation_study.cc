@@ -4,7 +4,13 @@
 #include <sstream>
 
 #include "evaluation/figure.h"
+#include "io/atomic_file.h"
+#include "io/image_io.h"
+#include "io/json_io.h"
 #include "util/check.h"
+#include "util/errors.h"
+#include "util/log.h"
+#include "util/timer.h"
 
 namespace lunarnav::evaluation {
 
@@ -122,6 +128,45 @@ std::string CorrelationFigureCommands(const CorrelationStudy& study, const std::
   plot("around the maximum");
   gp << "unset multiplot\n";
   return gp.str();
+}
+
+int RunCorrelationCommand(const CorrelationCommand& command, const nlohmann::json& summary_head) {
+  util::Timer timer;
+  CorrelationStudyOptions options = command.options;
+  LN_CHECK_ARG(command.pixel.size() == 2) << "--pixel: expected X,Y";
+  options.x = command.pixel[0];
+  options.y = command.pixel[1];
+  options.matcher.reference = stereo::ReferenceImageFromString(command.reference);
+  options.Validate();
+  const cv::Mat left = io::ReadGreyImage(command.left);
+  const cv::Mat right = io::ReadGreyImage(command.right);
+  LN_CHECK_INPUT(left.size() == right.size() && left.type() == right.type())
+      << command.left.string() << ", " << command.right.string() << ": the images differ in size or bit depth";
+  LN_CHECK_INPUT(options.x >= 0 && options.x < left.cols && options.y >= 0 && options.y < left.rows)
+      << "--pixel " << options.x << "," << options.y << ": outside the " << left.cols << " x " << left.rows << " image";
+  const CorrelationStudy study = RunCorrelationStudy(left, right, options);
+  io::CreateOutputDirectory(command.output_dir);
+  io::WriteFileAtomic(command.output_dir / "correlation_curves.csv", CorrelationCurvesCsv(study));
+  const Table table = CorrelationPeaksTable(study);
+  WriteTable(command.output_dir, "correlation", table);
+  const FigureResult figure = WriteFigure(command.output_dir, "correlation",
+                                          CorrelationFigureCommands(study, "correlation_curves.csv"), 1200, 550);
+  nlohmann::json summary = summary_head;
+  summary["inputs"] = {{"left", command.left.string()}, {"right", command.right.string()}};
+  summary["options"] = {{"pixel", {options.x, options.y}},
+                        {"steps_x", options.steps_x},
+                        {"steps_y", options.steps_y},
+                        {"zoom_px", options.zoom_px},
+                        {"matcher", options.matcher.ToJson()}};
+  summary["counts"] = {{"curves", study.entries.size()},
+                       {"disparities", options.matcher.max_disparity_px - options.matcher.min_disparity_px + 1}};
+  summary["table"] = table.ToJson();
+  summary["figures"] = nlohmann::json::array({FigureSummary(figure, "correlation_curves.csv")});
+  summary["timings_s"] = {{"total", timer.ElapsedSeconds()}};
+  io::WriteJsonAtomic(command.output_dir / "summary.json", summary);
+  LN_LOG(Info) << "evaluate correlation: " << study.entries.size() << " curves; "
+               << (command.output_dir / "correlation.md").string();
+  return kExitOk;
 }
 
 }  // namespace lunarnav::evaluation

@@ -2,9 +2,11 @@
 // partial-subsampling steps (dx, dy), beside the peak that conventional subsampling finds.
 #pragma once
 
+#include <filesystem>
 #include <string>
 #include <vector>
 
+#include <nlohmann/json.hpp>
 #include <opencv2/core.hpp>
 
 #include "evaluation/table.h"
@@ -42,5 +44,20 @@ Table CorrelationPeaksTable(const CorrelationStudy& study);
 /// gnuplot commands for the figure: the complete curves (left) and a magnified window of
 /// +-zoom_px around the full-resolution peak (right), reading `curves_csv`.
 std::string CorrelationFigureCommands(const CorrelationStudy& study, const std::string& curves_csv);
+
+/// The inputs and options of `evaluate correlation` (docs/evaluate.md).
+struct CorrelationCommand {
+  std::filesystem::path left, right, output_dir;  ///< Rectified images.
+  std::vector<int> pixel;                         ///< X, Y: the pixel, in the reference image.
+  std::string reference = "right";                ///< stereo::ReferenceImageFromString.
+  CorrelationStudyOptions options;                ///< Its pixel and reference are set from the above.
+};
+
+/// `evaluate correlation`: the curves at the pixel; writes correlation_curves.csv, the
+/// correlation table and figure, and summary.json (`summary_head` plus inputs, options,
+/// counts, table, figures).
+/// @return kExitOk. @throws std::invalid_argument for bad options; InputError for unreadable
+///         images, images of different sizes, or a pixel outside them.
+int RunCorrelationCommand(const CorrelationCommand& command, const nlohmann::json& summary_head);
 
 }  // namespace lunarnav::evaluation

@@ -7,9 +7,13 @@
 
 #include <opencv2/imgcodecs.hpp>
 
+#include "io/atomic_file.h"
 #include "io/image_io.h"
 #include "io/json_io.h"
 #include "util/check.h"
+#include "util/errors.h"
+#include "util/log.h"
+#include "util/timer.h"
 
 namespace lunarnav::evaluation {
 namespace fs = std::filesystem;
@@ -39,8 +43,9 @@ std::map<std::string, std::vector<fs::path>> FilesByStem(const fs::path& dir,
   return by_stem;
 }
 
-// The sample grid from stereo-batch's sidecar next to the estimate, or the identity grid.
-SampleGrid GridOf(const fs::path& estimate) {
+}  // namespace
+
+SampleGrid ReadSampleGrid(const fs::path& estimate) {
   fs::path sidecar = estimate;
   sidecar.replace_extension(".json");
   SampleGrid grid;
@@ -71,8 +76,6 @@ SampleGrid GridOf(const fs::path& estimate) {
       << sidecar.string() << ": impossible disparity.grid";
   return grid;
 }
-
-}  // namespace
 
 void DisparityEvalOptions::Validate() const {
   LN_CHECK_ARG(!bad_thresholds_px.empty()) << "bad thresholds: need at least one";
@@ -231,7 +234,7 @@ std::vector<DisparityItem> EvaluateDisparityDirectories(const fs::path& results,
               << item.mask.string() << ": an 8-bit mask of the truth's size expected";
         }
         try {
-          item.scores = ScoreDisparity(estimate, truth, mask, GridOf(item.estimate), options);
+          item.scores = ScoreDisparity(estimate, truth, mask, ReadSampleGrid(item.estimate), options);
         } catch (const InputError& e) {
           throw InputError(item.estimate.string() + ": " + e.what());
         }
@@ -301,6 +304,38 @@ Table DisparityTable(const std::vector<DisparityItem>& items, const DisparityEva
       "truth pixels; D1 or missing: also counting truth pixels without an estimate.",
       "Errors are measured at the estimate's sample points (partial subsampling grid)."};
   return table;
+}
+
+int RunDisparityCommand(const DisparityCommand& command, const nlohmann::json& summary_head) {
+  util::Timer timer;
+  DisparityEvalOptions options = command.options;
+  if (!command.bad_thresholds_px.empty()) options.bad_thresholds_px = command.bad_thresholds_px;
+  options.Validate();
+  io::CreateOutputDirectory(command.output_dir);
+  const auto items = EvaluateDisparityDirectories(command.results, command.truth, command.masks, options);
+  long failed = 0;
+  nlohmann::json failed_json = nlohmann::json::array();
+  for (const auto& item : items) {
+    if (item.problem.empty()) continue;
+    ++failed;
+    LN_LOG(Error) << "pair " << item.stem << ": " << item.problem;
+    failed_json.push_back({{"stem", item.stem}, {"error", item.problem}});
+  }
+  const Table table = DisparityTable(items, options);
+  WriteTable(command.output_dir, "disparity", table);
+  nlohmann::json summary = summary_head;
+  summary["inputs"] = {
+      {"results", command.results.string()}, {"truth", command.truth.string()}, {"masks", command.masks.string()}};
+  summary["options"] = {{"bad_thresholds_px", options.bad_thresholds_px}, {"png_truth_scale", options.png_truth_scale}};
+  const long scored = static_cast<long>(items.size()) - failed;
+  summary["counts"] = {{"stems", items.size()}, {"scored", scored}, {"failed", failed}};
+  summary["failed"] = failed_json;
+  summary["table"] = table.ToJson();
+  summary["timings_s"] = {{"total", timer.ElapsedSeconds()}};
+  io::WriteJsonAtomic(command.output_dir / "summary.json", summary);
+  LN_LOG(Info) << "evaluate disparity: " << scored << " of " << items.size() << " pairs scored; "
+               << (command.output_dir / "disparity.md").string();
+  return failed > 0 ? kExitBatchPartial : kExitOk;
 }
 
 }  // namespace lunarnav::evaluation

@@ -8,6 +8,7 @@
 #include <string>
 #include <vector>
 
+#include <nlohmann/json.hpp>
 #include <opencv2/core.hpp>
 
 #include "evaluation/table.h"
@@ -23,6 +24,11 @@ struct SampleGrid {
   /// The band of rows the matcher processed (window selection); rows outside are not scored.
   int min_row = 0, max_row = std::numeric_limits<int>::max();
 };
+
+/// The sample grid of a stereo-batch map from the sidecar next to `estimate` (<stem>.json
+/// beside disparity/<stem>.pfm), or the identity grid when there is no sidecar.
+/// @throws InputError naming the sidecar when it has no usable grid.
+SampleGrid ReadSampleGrid(const std::filesystem::path& estimate);
 
 struct DisparityEvalOptions {
   /// An estimate is bad at a pixel when |estimate - truth| > threshold.
@@ -96,5 +102,18 @@ std::vector<DisparityItem> EvaluateDisparityDirectories(const std::filesystem::p
 
 /// The per-pair table with a final "all" row pooling every scored pair.
 Table DisparityTable(const std::vector<DisparityItem>& items, const DisparityEvalOptions& options);
+
+/// The inputs and options of `evaluate disparity` (docs/evaluate.md).
+struct DisparityCommand {
+  std::filesystem::path results, truth, masks, output_dir;  ///< masks: empty for none.
+  std::vector<double> bad_thresholds_px;                    ///< Empty: the defaults of `options`.
+  DisparityEvalOptions options;
+};
+
+/// `evaluate disparity`: scores every pair and writes the table (disparity.csv, .json, .md)
+/// and summary.json (`summary_head` plus inputs, options, counts, failed pairs, table).
+/// @return kExitOk, or kExitBatchPartial when some pairs could not be scored.
+/// @throws std::invalid_argument for bad options, InputError as EvaluateDisparityDirectories.
+int RunDisparityCommand(const DisparityCommand& command, const nlohmann::json& summary_head);
 
 }  // namespace lunarnav::evaluation

@@ -1,11 +1,12 @@
 #include "evaluation/figure.h"
 
-#include <sys/wait.h>
-
 #include <cstdlib>
 #include <sstream>
 
+#include <sys/wait.h>
+
 #include "io/atomic_file.h"
+#include "util/log.h"
 
 namespace lunarnav::evaluation {
 namespace fs = std::filesystem;
@@ -57,6 +58,16 @@ FigureResult WriteFigure(const fs::path& dir, const std::string& name, const std
   io::CommitTempFile(temp_png, result.png);
   result.rendered = true;
   return result;
+}
+
+nlohmann::json FigureSummary(const FigureResult& figure, const std::string& data_csv) {
+  if (!figure.rendered) {
+    LN_LOG(Warning) << figure.png.string() << ": not drawn: " << figure.problem;
+  }
+  return {{"png", figure.png.filename().string()},
+          {"data", data_csv},
+          {"rendered", figure.rendered},
+          {"problem", figure.problem}};
 }
 
 }  // namespace lunarnav::evaluation

@@ -9,6 +9,8 @@
 #include <filesystem>
 #include <string>
 
+#include <nlohmann/json.hpp>
+
 namespace lunarnav::evaluation {
 
 struct FigureResult {
@@ -23,6 +25,10 @@ struct FigureResult {
 /// gnuplot: the result says what happened.
 FigureResult WriteFigure(const std::filesystem::path& dir, const std::string& name, const std::string& commands,
                          int width = 900, int height = 600);
+
+/// The entry of a figure in a summary.json: {png, data, rendered, problem}, `data` the CSV
+/// it plots. Logs a warning when the PNG was not rendered.
+nlohmann::json FigureSummary(const FigureResult& figure, const std::string& data_csv);
 
 /// Quotes `text` for a gnuplot string literal (double quotes, backslashes escaped).
 std::string GnuplotString(const std::string& text);

@@ -9,9 +9,12 @@
 #include <nlohmann/json.hpp>
 
 #include "evaluation/figure.h"
+#include "io/atomic_file.h"
 #include "io/json_io.h"
 #include "util/check.h"
 #include "util/errors.h"
+#include "util/log.h"
+#include "util/timer.h"
 
 namespace lunarnav::evaluation {
 namespace fs = std::filesystem;
@@ -216,6 +219,38 @@ std::string RequestsFigureCommands(const RequestStudy& study, const std::string&
   }
   gp << "unset multiplot\n";
   return gp.str();
+}
+
+int RunRequestsCommand(const RequestsCommand& command, const nlohmann::json& summary_head) {
+  util::Timer timer;
+  LN_CHECK_ARG(std::isfinite(command.tolerance) && command.tolerance >= 0 && command.tolerance <= 1)
+      << "--tolerance: must be in [0, 1] (0.1 = 10 %), got " << command.tolerance;
+  int without_window = 0;
+  const RequestStudy study = SummarizeRequests(ReadRequestWindows(command.run, &without_window), command.tolerance);
+  io::CreateOutputDirectory(command.output_dir);
+  const Table table = RequestsTable(study);
+  WriteTable(command.output_dir, "requests", table);
+  WriteTable(command.output_dir, "request_pairs", RequestPairsTable(study));
+  const FigureResult figure =
+      WriteFigure(command.output_dir, "requests", RequestsFigureCommands(study, "request_pairs.csv"), 900, 900);
+  if (without_window > 0) {
+    LN_LOG(Warning) << command.run.string() << ": " << without_window
+                    << " pair(s) matched without window selection are left out";
+  }
+  nlohmann::json summary = summary_head;
+  summary["inputs"] = {{"run", command.run.string()}};
+  summary["options"] = {{"tolerance", command.tolerance}};
+  summary["counts"] = {{"pairs", study.windows.size()},
+                       {"without_window", without_window},
+                       {"within", study.within_count},
+                       {"steady_from", study.steady_from}};
+  summary["table"] = table.ToJson();
+  summary["figures"] = nlohmann::json::array({FigureSummary(figure, "request_pairs.csv")});
+  summary["timings_s"] = {{"total", timer.ElapsedSeconds()}};
+  io::WriteJsonAtomic(command.output_dir / "summary.json", summary);
+  LN_LOG(Info) << "evaluate requests: " << study.windows.size() << " pairs, " << study.within_count << " within "
+               << 100 * command.tolerance << " %; " << (command.output_dir / "requests.md").string();
+  return kExitOk;
 }
 
 }  // namespace lunarnav::evaluation

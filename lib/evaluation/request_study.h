@@ -7,6 +7,8 @@
 #include <string>
 #include <vector>
 
+#include <nlohmann/json.hpp>
+
 #include "evaluation/table.h"
 
 namespace lunarnav::evaluation {
@@ -68,5 +70,17 @@ Table RequestPairsTable(const RequestStudy& study);
 /// gnuplot commands: three panels (rows, disparities, distances), each pair's bounds against
 /// its index with the means and the tolerance band, reading `pairs_csv` (RequestPairsTable's CSV).
 std::string RequestsFigureCommands(const RequestStudy& study, const std::string& pairs_csv);
+
+/// The inputs and options of `evaluate requests` (docs/evaluate.md).
+struct RequestsCommand {
+  std::filesystem::path run, output_dir;  ///< run: a stereo-batch output directory.
+  double tolerance = 0.10;                ///< As SummarizeRequests.
+};
+
+/// `evaluate requests`: writes the requests and request_pairs tables, the figure and
+/// summary.json (`summary_head` plus inputs, options, counts, table, figures).
+/// @return kExitOk. @throws std::invalid_argument for a tolerance outside [0, 1];
+///         InputError as ReadRequestWindows.
+int RunRequestsCommand(const RequestsCommand& command, const nlohmann::json& summary_head);
 
 }  // namespace lunarnav::evaluation

@@ -4,10 +4,20 @@
 #include <cmath>
 #include <limits>
 #include <sstream>
+#include <tuple>
 
+#include "calib/stereo_rig_io.h"
 #include "evaluation/figure.h"
+#include "io/atomic_file.h"
+#include "io/image_io.h"
+#include "io/json_io.h"
+#include "io/stereo_pairs.h"
 #include "stereo/ncc_matcher.h"
 #include "util/check.h"
+#include "util/errors.h"
+#include "util/log.h"
+#include "util/parse.h"
+#include "util/progress.h"
 #include "util/timer.h"
 
 namespace lunarnav::evaluation {
@@ -71,6 +81,15 @@ double Median(std::vector<double> values) {
   std::sort(values.begin(), values.end());
   const std::size_t n = values.size();
   return n % 2 == 1 ? values[n / 2] : 0.5 * (values[n / 2 - 1] + values[n / 2]);
+}
+
+double Quantile(std::vector<double> values, double p) {
+  if (values.empty()) return kNaN;
+  std::sort(values.begin(), values.end());
+  const double h = (static_cast<double>(values.size()) - 1) * std::clamp(p, 0.0, 1.0);
+  const std::size_t below = static_cast<std::size_t>(std::floor(h));
+  if (below + 1 >= values.size()) return values.back();
+  return values[below] + (h - static_cast<double>(below)) * (values[below + 1] - values[below]);
 }
 
 TimingStudy PlanTimingStudy(const calib::StereoRig& rig, const TimingStudyOptions& options) {
@@ -166,7 +185,11 @@ TimingStudy RunTimingStudy(const calib::StereoRig& rig, const std::vector<std::p
       if (progress) progress();
     }
   }
-  for (TimingPoint* p : all) p->seconds = Median(p->repeat_seconds);
+  for (TimingPoint* p : all) {
+    p->seconds = Median(p->repeat_seconds);
+    p->seconds_q1 = Quantile(p->repeat_seconds, 0.25);
+    p->seconds_q3 = Quantile(p->repeat_seconds, 0.75);
+  }
   NormaliseTimingStudy(&study);
   return study;
 }
@@ -187,7 +210,9 @@ Table TimingTable(const TimingStudy& study) {
                {"time", "ms", "time per pair (ms)", 2},
                {"time_normalised", "", "time / largest", 3},
                {"work_normalised", "", "work / largest", 3},
-               {"time_share", "pct", "time (% of image)", 1}};
+               {"time_share", "pct", "time (% of image)", 1},
+               {"time_q1", "ms", "time, 1st quartile (ms)", 2},
+               {"time_q3", "ms", "time, 3rd quartile (ms)", 2}};
   auto add = [&](const TimingPoint& p) {
     const std::string whole = "whole image, no window selection";
     const Cell dy = p.delta_y_m ? Cell::Number(*p.delta_y_m) : Cell::NotAvailable(whole);
@@ -197,14 +222,17 @@ Table TimingTable(const TimingStudy& study) {
               Cell::Number(w.min_disparity_px), Cell::Number(w.max_disparity_px), Cell::Number(w.Disparities()),
               Cell::NumberOr(100 * p.work_share, "no work"), Cell::NumberOr(1e3 * p.seconds, "not timed"),
               Cell::NumberOr(p.time_normalised, "not timed"), Cell::NumberOr(p.work_normalised, "no work"),
-              Cell::NumberOr(100 * p.time_share, "not timed")});
+              Cell::NumberOr(100 * p.time_share, "not timed"),
+              Cell::NumberOr(p.repeat_seconds.empty() ? kNaN : 1e3 * p.seconds_q1, "not timed"),
+              Cell::NumberOr(p.repeat_seconds.empty() ? kNaN : 1e3 * p.seconds_q3, "not timed")});
   };
   for (const TimingPoint& p : study.points) add(p);
   add(study.full);
   std::ostringstream n1, n2;
   n1 << "Times are medians of " << study.options.repeat << " runs of the mean matching time over " << study.pairs
      << " pair(s) of " << study.width_px << "x" << study.height_px
-     << " px; they depend on the machine and its load: only the normalised shape compares with the paper's Figure 2.";
+     << " px, with their quartiles; they depend on the machine and its load: two widths' times differ beyond that "
+        "noise only when their interquartile ranges do not overlap.";
   n2 << "Windows by window selection (sec. 3.3) for Z in [" << study.options.z_min_m << ", " << study.options.z_max_m
      << "] m; the last row searches every row and the disparities " << study.options.matcher.min_disparity_px << ":"
      << study.options.matcher.max_disparity_px
@@ -215,7 +243,8 @@ Table TimingTable(const TimingStudy& study) {
 
 std::string TimingCurveCsv(const TimingStudy& study) {
   std::ostringstream s;
-  s << "delta_y_m,y_max_m,time_normalised,work_normalised,time_ms,rows,disparities\n";
+  s << "delta_y_m,y_max_m,time_normalised,work_normalised,time_ms,rows,disparities,time_q1_normalised,"
+       "time_q3_normalised\n";
   s.precision(6);
   auto num = [](double v) {
     std::ostringstream o;
@@ -224,9 +253,10 @@ std::string TimingCurveCsv(const TimingStudy& study) {
     return o.str();
   };
   for (const TimingPoint& p : study.points) {
-    s << num(*p.delta_y_m) << "," << num(study.options.y_min_m + *p.delta_y_m) << "," << num(p.time_normalised)
-      << "," << num(p.work_normalised) << "," << num(1e3 * p.seconds) << "," << p.window.Rows() << ","
-      << p.window.Disparities() << "\n";
+    s << num(*p.delta_y_m) << "," << num(study.options.y_min_m + *p.delta_y_m) << "," << num(p.time_normalised) << ","
+      << num(p.work_normalised) << "," << num(1e3 * p.seconds) << "," << p.window.Rows() << ","
+      << p.window.Disparities() << "," << num(p.time_normalised * p.seconds_q1 / p.seconds) << ","
+      << num(p.time_normalised * p.seconds_q3 / p.seconds) << "\n";
   }
   return s.str();
 }
@@ -236,12 +266,81 @@ std::string TimingFigureCommands(const TimingStudy& study, const std::string& cu
   gp << "set title \"Stereo time against the width of the distance interval (Y_{min} = " << study.options.y_min_m
      << " m), normalised to the largest\"\n"
      << "set xlabel \"{/Symbol D}Y = Y_{max} - Y_{min} (m)\"\nset ylabel \"normalised\"\nset grid\n"
-     << "set key left top box opaque\nset yrange [0:1.05]\nset offsets graph 0.02, 0.02, 0, 0\n"
+     << "set key left top box opaque\nset yrange [0:*]\nset offsets graph 0.02, 0.02, 0, 0\n"
      << "plot " << GnuplotString(curve_csv)
-     << " using 1:3 skip 1 with linespoints pt 7 ps 1.2 lw 2 title \"measured time\", \\\n     "
+     << " using 1:3 skip 1 with linespoints pt 7 ps 1.2 lw 2 title \"measured time (median)\", \\\n     "
+     << GnuplotString(curve_csv)
+     << " using 1:3:8:9 skip 1 with yerrorbars pt 7 ps 0.1 lc 1 title \"interquartile range of the runs\", \\\n     "
      << GnuplotString(curve_csv)
      << " using 1:4 skip 1 with linespoints pt 4 ps 1.0 dt 2 title \"predicted: rows x disparities\"\n";
   return gp.str();
+}
+
+int RunTimingCommand(const TimingCommand& command, const nlohmann::json& summary_head) {
+  util::Timer timer;
+  TimingStudyOptions options = command.options;
+  std::tie(options.matcher.half_window_x_px, options.matcher.half_window_y_px) =
+      util::ParseIntPair(command.window, 'x', "--window");
+  std::tie(options.matcher.step_x_px, options.matcher.step_y_px) = util::ParseIntPair(command.step, 'x', "--step");
+  std::tie(options.matcher.min_disparity_px, options.matcher.max_disparity_px) =
+      util::ParseIntPair(command.disparity, ':', "--disparity");
+  std::tie(options.z_min_m, options.z_max_m) = util::ParseDoublePair(command.z_range, ':', "--z-range");
+  options.matcher.reference = stereo::ReferenceImageFromString(command.reference);
+  LN_CHECK_ARG(command.max_pairs >= 0) << "--max-pairs: must be >= 0 (0 = all)";
+  const calib::StereoRig rig = calib::ReadStereoRig(command.rig);
+  const TimingStudy plan = PlanTimingStudy(rig, options);  // bad options: exit 2 before reading pairs
+
+  std::vector<io::PairFiles> listing = io::ListStereoPairs(command.pairs);
+  LN_CHECK_INPUT(!listing.empty()) << command.pairs.string() << ": no image pairs in left/ and right/";
+  if (command.max_pairs > 0 && listing.size() > static_cast<std::size_t>(command.max_pairs)) {
+    listing.resize(command.max_pairs);
+  }
+  std::vector<std::pair<cv::Mat, cv::Mat>> images;
+  nlohmann::json stems = nlohmann::json::array();
+  for (const io::PairFiles& pair : listing) {
+    LN_CHECK_INPUT(pair.problem.empty()) << "pair " << pair.stem << ": " << pair.problem;
+    images.emplace_back(io::ReadGreyImage(pair.left), io::ReadGreyImage(pair.right));
+    const cv::Mat& left = images.back().first;
+    LN_CHECK_INPUT(left.size() == images.back().second.size() && left.type() == images.back().second.type())
+        << pair.right.string() << ": size or bit depth differs from the left image's";
+    LN_CHECK_INPUT(left.cols == plan.width_px && left.rows == plan.height_px)
+        << pair.left.string() << ": size " << left.cols << "x" << left.rows << " differs from the rig's rectified size "
+        << plan.width_px << "x" << plan.height_px << " (" << command.rig.string() << ")";
+    stems.push_back(pair.stem);
+  }
+  io::CreateOutputDirectory(command.output_dir);
+  util::ProgressBar progress(options.repeat * (options.delta_y_m.size() + 1), "evaluate timing", command.progress);
+  const TimingStudy study = RunTimingStudy(rig, images, options, [&] { progress.Increment(); });
+
+  const Table table = TimingTable(study);
+  WriteTable(command.output_dir, "timing", table);
+  io::WriteFileAtomic(command.output_dir / "timing_curve.csv", TimingCurveCsv(study));
+  const FigureResult figure =
+      WriteFigure(command.output_dir, "timing", TimingFigureCommands(study, "timing_curve.csv"));
+  nlohmann::json summary = summary_head;
+  summary["inputs"] = {{"pairs", command.pairs.string()}, {"rig", command.rig.string()}, {"stems", stems}};
+  summary["rig_notes"] = rig.notes;  // what reading the rig changed (printed precision)
+  summary["options"] = options.ToJson();
+  summary["options"]["max_pairs"] = command.max_pairs;
+  summary["counts"] = {{"pairs", study.pairs}, {"windows", study.points.size() + 1}, {"repeat", options.repeat}};
+  summary["kernel"] = stereo::ActiveKernelName();
+  nlohmann::json windows = nlohmann::json::array();
+  auto add_window = [&](const TimingPoint& p) {
+    windows.push_back({{"delta_y_m", p.delta_y_m ? nlohmann::json(*p.delta_y_m) : nlohmann::json(nullptr)},
+                       {"window", p.window.ToJson()},
+                       {"repeat_s", p.repeat_seconds},
+                       {"evaluated_pixels", p.evaluated_pixels}});
+  };
+  for (const TimingPoint& p : study.points) add_window(p);
+  add_window(study.full);
+  summary["windows"] = windows;
+  summary["table"] = table.ToJson();
+  summary["figures"] = nlohmann::json::array({FigureSummary(figure, "timing_curve.csv")});
+  summary["timings_s"] = {{"total", timer.ElapsedSeconds()}};
+  io::WriteJsonAtomic(command.output_dir / "summary.json", summary);
+  LN_LOG(Info) << "evaluate timing: " << study.points.size() << " windows x " << study.pairs << " pairs x "
+               << options.repeat << " runs; " << (command.output_dir / "timing.md").string();
+  return kExitOk;
 }
 
 }  // namespace lunarnav::evaluation

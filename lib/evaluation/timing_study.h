@@ -3,6 +3,7 @@
 // to the largest, beside the share of the work (rows x disparities) window selection predicts.
 #pragma once
 
+#include <filesystem>
 #include <functional>
 #include <optional>
 #include <string>
@@ -45,6 +46,10 @@ struct TimingPoint {
   /// Per repeat, the mean matching time of one pair, seconds.
   std::vector<double> repeat_seconds;
   double seconds = 0;               ///< Median of repeat_seconds.
+  /// First and third quartiles of repeat_seconds (Quantile): the spread of the machine's
+  /// timing. Two windows' times differ beyond that noise only when their interquartile
+  /// ranges do not overlap.
+  double seconds_q1 = 0, seconds_q3 = 0;
   long long evaluated_pixels = 0;   ///< Over all pairs (of one run).
   /// seconds and work_share divided by their largest value over the dY points; seconds over
   /// the whole image's.
@@ -65,6 +70,10 @@ std::vector<double> NormaliseToLargest(const std::vector<double>& values);
 
 /// Median (the mean of the two middle values for an even count); NaN for none.
 double Median(std::vector<double> values);
+/// The p-quantile (p in [0, 1]) interpolated linearly between the sorted values: with
+/// h = (n - 1) p, x[floor h] + (h - floor h) (x[floor h + 1] - x[floor h]) (R's type 7, numpy's
+/// default; p = 0.5 is the median). NaN for none.
+double Quantile(std::vector<double> values, double p);
 
 /// The windows of the study for a rectified rig (no timing): every dY's window by
 /// calib::SelectWindow and the whole image's, with their work shares.
@@ -85,12 +94,36 @@ TimingStudy RunTimingStudy(const calib::StereoRig& rig, const std::vector<std::p
                            const TimingStudyOptions& options, const std::function<void()>& progress = {});
 
 /// One row per dY and a last row for the whole image: window, rows, disparities, work share,
-/// time per pair, normalised time and work, time as a share of the whole image's.
+/// time per pair, normalised time and work, time as a share of the whole image's, and the
+/// first and third quartiles of the repeated runs.
 Table TimingTable(const TimingStudy& study);
 /// The data of the figure: delta_y_m, y_max_m, time_normalised, work_normalised, time_ms,
-/// rows, disparities (one line per dY).
+/// rows, disparities, time_q1_normalised, time_q3_normalised (the runs' quartiles on the
+/// median's scale; one line per dY).
 std::string TimingCurveCsv(const TimingStudy& study);
-/// gnuplot commands: normalised time and predicted work against dY, reading `curve_csv`.
+/// gnuplot commands: normalised time (with the interquartile range) and predicted work
+/// against dY, reading `curve_csv`.
 std::string TimingFigureCommands(const TimingStudy& study, const std::string& curve_csv);
+
+/// The inputs and options of `evaluate timing` (docs/evaluate.md), the pairs as text as the
+/// command line gives them.
+struct TimingCommand {
+  std::filesystem::path pairs, rig, output_dir;  ///< pairs: a directory with left/ and right/.
+  std::string window = "25x17";                  ///< Half-sizes WXxWY of the correlation window.
+  std::string step = "1x1";                      ///< Partial subsampling steps DXxDY.
+  std::string disparity = "0:127";               ///< MIN:MAX, the whole-image search.
+  std::string z_range = "-0.5:1";                ///< ZMIN:ZMAX, heights of the objects (m).
+  std::string reference = "right";               ///< stereo::ReferenceImageFromString.
+  int max_pairs = 0;                             ///< Time only the first N pairs; 0 = all.
+  bool progress = true;                          ///< Show a progress bar on stderr.
+  TimingStudyOptions options;                    ///< Window, steps, range, heights and reference set from the above.
+};
+
+/// `evaluate timing`: reads the pairs, runs the study and writes the timing table, timing_curve.csv,
+/// the figure and summary.json (`summary_head` plus inputs, options, counts, every repeat's
+/// time, table, figures).
+/// @return kExitOk. @throws std::invalid_argument for bad options (before any pair is read);
+///         InputError for unreadable pairs or pairs of another size than the rig's.
+int RunTimingCommand(const TimingCommand& command, const nlohmann::json& summary_head);
 
 }  // namespace lunarnav::evaluation

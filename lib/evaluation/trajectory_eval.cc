@@ -6,12 +6,19 @@
 #include <fstream>
 #include <sstream>
 
-#include <Eigen/SVD>
 #include <Eigen/Geometry>
+#include <Eigen/SVD>
 
+#include "evaluation/table.h"
+#include "evaluation/trials_eval.h"
+#include "io/atomic_file.h"
+#include "io/json_io.h"
 #include "positioning/attitude.h"
 #include "positioning/trajectory_io.h"
 #include "util/check.h"
+#include "util/errors.h"
+#include "util/log.h"
+#include "util/timer.h"
 
 namespace lunarnav::evaluation {
 namespace fs = std::filesystem;
@@ -254,6 +261,66 @@ TrajectoryErrors EvaluateTrajectory(const std::vector<StampedPose>& estimate,
     errors.drift_rotation_deg_per_m = sum_r / errors.drift_segments;
   }
   return errors;
+}
+
+int RunTrajectoryCommand(const TrajectoryCommand& command, const nlohmann::json& summary_head) {
+  util::Timer timer;
+  TrajectoryEvalOptions options = command.options;
+  options.alignment = AlignmentFromString(command.alignment);
+  options.Validate();
+  std::vector<std::pair<std::string, std::filesystem::path>> specs;
+  for (const std::string& text : command.estimates) {
+    const auto eq = text.find('=');
+    if (eq == std::string::npos || eq == 0 || eq + 1 == text.size()) {
+      throw std::invalid_argument("ESTIMATE: expected NAME=TRAJECTORY, got '" + text + "'");
+    }
+    specs.emplace_back(text.substr(0, eq), text.substr(eq + 1));
+  }
+  io::CreateOutputDirectory(command.output_dir);
+  const auto truth = ReadPoses(command.truth);
+  std::vector<std::pair<std::string, TrajectoryErrors>> errors;
+  nlohmann::json inputs = nlohmann::json::array();
+  for (const auto& [name, path] : specs) {
+    errors.emplace_back(name, EvaluateTrajectory(ReadPoses(path), truth, options));
+    inputs.push_back({{"name", name}, {"trajectory", path.string()}});
+  }
+  const Table table = TrajectoryErrorsTable(errors, options);
+  WriteTable(command.output_dir, "trajectory_errors", table);
+  nlohmann::json summary = summary_head;
+  summary["inputs"] = {{"truth", command.truth.string()}, {"estimates", inputs}};
+  summary["options"] = {{"alignment", command.alignment},
+                        {"reference", command.reference},
+                        {"rpe_delta_m", options.rpe_delta_m},
+                        {"drift_segments_m", options.drift_segments_m}};
+  summary["table"] = table.ToJson();
+  const TrajectoryErrors* reference = nullptr;
+  for (const auto& [name, e] : errors) {
+    if (name == command.reference) reference = &e;
+  }
+  nlohmann::json per = nlohmann::json::object();
+  for (const auto& [name, e] : errors) {
+    per[name] = {{"ape_mean_m", e.ape_translation_m.mean},
+                 {"ape_rmse_m", e.ape_translation_m.rmse},
+                 {"ape_max_m", e.ape_translation_m.max},
+                 {"poses_matched", e.poses_matched}};
+    if (reference != nullptr) {
+      per[name]["ape_mean_ratio"] = e.ape_translation_m.mean / reference->ape_translation_m.mean;
+    }
+  }
+  summary["estimates"] = per;
+  summary["timings_s"] = {{"total", timer.ElapsedSeconds()}};
+  io::WriteJsonAtomic(command.output_dir / "summary.json", summary);
+  for (const auto& [name, e] : errors) {
+    std::ostringstream line;
+    line << "evaluate trajectory: " << name << ": mean position error " << e.ape_translation_m.mean << " m ("
+         << command.alignment << " alignment)";
+    if (reference != nullptr && name != command.reference) {
+      line << ", " << e.ape_translation_m.mean / reference->ape_translation_m.mean << " x " << command.reference
+           << "'s";
+    }
+    LN_LOG(Info) << line.str();
+  }
+  return kExitOk;
 }
 
 }  // namespace lunarnav::evaluation

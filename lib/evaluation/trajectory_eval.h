@@ -7,6 +7,7 @@
 #include <vector>
 
 #include <Eigen/Geometry>
+#include <nlohmann/json.hpp>
 
 namespace lunarnav::evaluation {
 
@@ -71,5 +72,21 @@ TrajectoryErrors EvaluateTrajectory(const std::vector<StampedPose>& estimate,
 
 /// The truth's pose at time t (t inside its span), interpolated.
 Eigen::Isometry3d InterpolatePose(const std::vector<StampedPose>& truth, double t_s);
+
+/// The inputs and options of `evaluate trajectory` (docs/evaluate.md).
+struct TrajectoryCommand {
+  std::vector<std::string> estimates;  ///< NAME=TRAJECTORY (.csv: lunarnav; else TUM).
+  std::filesystem::path truth, output_dir;
+  std::string alignment = "rigid-2d";  ///< AlignmentFromString.
+  std::string reference = "baseline";  ///< The estimate the others' mean errors are divided by.
+  TrajectoryEvalOptions options;       ///< Its alignment is set from `alignment`.
+};
+
+/// `evaluate trajectory`: every estimate against the truth; writes the trajectory_errors
+/// table and summary.json (`summary_head` plus inputs, options, table, and per estimate its
+/// APE mean, RMSE and maximum and, when the reference is among them, ape_mean_ratio).
+/// @return kExitOk. @throws std::invalid_argument for a malformed ESTIMATE or bad options;
+///         InputError for unreadable inputs.
+int RunTrajectoryCommand(const TrajectoryCommand& command, const nlohmann::json& summary_head);
 
 }  // namespace lunarnav::evaluation

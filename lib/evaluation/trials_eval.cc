@@ -1,10 +1,16 @@
 #include "evaluation/trials_eval.h"
 
+#include <algorithm>
 #include <cmath>
 #include <sstream>
 
+#include "evaluation/figure.h"
+#include "io/atomic_file.h"
 #include "io/json_io.h"
 #include "util/check.h"
+#include "util/errors.h"
+#include "util/log.h"
+#include "util/timer.h"
 
 namespace lunarnav::evaluation {
 namespace fs = std::filesystem;
@@ -244,6 +250,110 @@ Table TrajectoryErrorsTable(const std::vector<std::pair<std::string, TrajectoryE
                  "Drift as the KITTI odometry benchmark defines it, averaged over segments of " + segments.str() +
                      " m starting every " + std::to_string(options.drift_step) + " poses."};
   return table;
+}
+
+namespace {
+
+// One trial set of `evaluate trials`: NAME=TRAJECTORY,TRIALS[,TRUTH].
+struct TrialSetSpec {
+  std::string name;
+  std::filesystem::path trajectory, trials, truth;
+};
+
+TrialSetSpec ParseTrialSet(const std::string& text) {
+  const auto eq = text.find('=');
+  std::vector<std::string> paths;
+  if (eq != std::string::npos) {
+    const std::string rest = text.substr(eq + 1);
+    for (std::size_t from = 0;;) {
+      const auto comma = rest.find(',', from);
+      paths.push_back(rest.substr(from, comma - from));
+      if (comma == std::string::npos) break;
+      from = comma + 1;
+    }
+  }
+  const bool ok = eq != std::string::npos && eq > 0 && (paths.size() == 2 || paths.size() == 3) &&
+                  std::none_of(paths.begin(), paths.end(), [](const std::string& p) { return p.empty(); });
+  if (!ok) {
+    throw std::invalid_argument("--set: expected NAME=TRAJECTORY,TRIALS[,TRUTH], got '" + text + "'");
+  }
+  TrialSetSpec spec{text.substr(0, eq), paths[0], paths[1], {}};
+  if (paths.size() == 3) spec.truth = paths[2];
+  return spec;
+}
+
+// The figure of `evaluate trials`: each trial's distance error against its length, per set.
+FigureResult TrialsFigure(const std::filesystem::path& dir, const std::vector<TrialSetSpec>& specs) {
+  std::ostringstream gp;
+  gp << "set title \"Distance error of each commanded motion (Figure 7's trials)\"\n"
+     << "set xlabel \"true distance (m)\"\nset ylabel \"distance error (%)\"\nset grid\n"
+     << "set key outside right top\nset offsets graph 0.05, 0.05, 0.1, 0.1\nset xzeroaxis\n"
+     << "plot ";
+  for (std::size_t i = 0; i < specs.size(); ++i) {
+    // trial_details.csv: column 1 the set, 6 the true distance, 8 the distance error.
+    gp << (i ? ", \\\n     " : "") << "\"trial_details.csv\" using ((strcol(1) eq " << GnuplotString(specs[i].name)
+       << ") ? $6 : 1/0):8 with points pt 7 ps 1.2 title " << GnuplotString(specs[i].name);
+  }
+  gp << "\n";
+  return WriteFigure(dir, "trials", gp.str());
+}
+
+}  // namespace
+
+int RunTrialsCommand(const TrialsCommand& command, const nlohmann::json& summary_head) {
+  util::Timer timer;
+  std::vector<TrialSetSpec> specs;
+  for (const std::string& text : command.sets) specs.push_back(ParseTrialSet(text));
+  TrajectoryEvalOptions trajectory_options = command.trajectory_options;
+  trajectory_options.alignment = AlignmentFromString(command.alignment);
+  trajectory_options.Validate();
+  command.options.Validate();
+  io::CreateOutputDirectory(command.output_dir);
+
+  std::vector<TrialSetSummary> summaries;
+  std::vector<std::pair<std::string, std::vector<TrialResult>>> details;
+  std::vector<std::pair<std::string, TrajectoryErrors>> trajectory_errors;
+  nlohmann::json inputs = nlohmann::json::array();
+  for (const TrialSetSpec& spec : specs) {
+    const auto estimate = ReadPoses(spec.trajectory);
+    auto results = EvaluateTrials(estimate, ReadTrials(spec.trials), command.options);
+    summaries.push_back(SummarizeTrials(spec.name, results));
+    details.emplace_back(spec.name, std::move(results));
+    nlohmann::json input = {
+        {"name", spec.name}, {"trajectory", spec.trajectory.string()}, {"trials", spec.trials.string()}};
+    if (!spec.truth.empty()) {
+      trajectory_errors.emplace_back(spec.name,
+                                     EvaluateTrajectory(estimate, ReadPoses(spec.truth), trajectory_options));
+      input["truth"] = spec.truth.string();
+    }
+    inputs.push_back(input);
+  }
+  const Table table = TrialsTable(summaries);
+  WriteTable(command.output_dir, "trials", table);
+  WriteTable(command.output_dir, "trial_details", TrialDetailsTable(details));
+  nlohmann::json summary = summary_head;
+  summary["inputs"] = inputs;
+  summary["options"] = {{"min_distance_m", command.options.min_distance_m},
+                        {"alignment", command.alignment},
+                        {"rpe_delta_m", trajectory_options.rpe_delta_m},
+                        {"drift_segments_m", trajectory_options.drift_segments_m},
+                        {"drift_step", trajectory_options.drift_step}};
+  long trial_count = 0;
+  for (const auto& s : summaries) trial_count += s.trials;
+  summary["counts"] = {{"sets", specs.size()}, {"trials", trial_count}};
+  summary["table"] = table.ToJson();
+  if (!trajectory_errors.empty()) {
+    const Table errors_table = TrajectoryErrorsTable(trajectory_errors, trajectory_options);
+    WriteTable(command.output_dir, "trajectory_errors", errors_table);
+    summary["trajectory_errors"] = errors_table.ToJson();
+  }
+  summary["figures"] =
+      nlohmann::json::array({FigureSummary(TrialsFigure(command.output_dir, specs), "trial_details.csv")});
+  summary["timings_s"] = {{"total", timer.ElapsedSeconds()}};
+  io::WriteJsonAtomic(command.output_dir / "summary.json", summary);
+  LN_LOG(Info) << "evaluate trials: " << trial_count << " trials in " << specs.size() << " sets; "
+               << (command.output_dir / "trials.md").string();
+  return kExitOk;
 }
 
 }  // namespace lunarnav::evaluation

@@ -9,6 +9,8 @@
 #include <string>
 #include <vector>
 
+#include <nlohmann/json.hpp>
+
 #include "evaluation/table.h"
 #include "evaluation/trajectory_eval.h"
 
@@ -78,5 +80,23 @@ Table TrajectoryErrorsTable(const std::vector<std::pair<std::string, TrajectoryE
 
 /// The heading (clockwise from north, degrees in [0, 360)) of a pose's forward axis.
 double HeadingDeg(const Eigen::Isometry3d& world_from_body);
+
+/// The inputs and options of `evaluate trials` (docs/evaluate.md).
+struct TrialsCommand {
+  /// Trial sets as NAME=TRAJECTORY,TRIALS[,TRUTH]: a posfilter trajectory (.csv or TUM), a
+  /// trials file, and optionally the ground-truth trajectory (adds APE/RPE/drift).
+  std::vector<std::string> sets;
+  std::filesystem::path output_dir;
+  std::string alignment = "start";  ///< APE alignment of the truth comparison (AlignmentFromString).
+  TrialsEvalOptions options;
+  TrajectoryEvalOptions trajectory_options;  ///< Its alignment is set from `alignment`.
+};
+
+/// `evaluate trials`: scores every set and writes trials, trial_details and (with truths)
+/// trajectory_errors tables, the trials figure and summary.json (`summary_head` plus inputs,
+/// options, counts, tables, figures).
+/// @return kExitOk. @throws std::invalid_argument for a malformed set or bad options;
+///         InputError for unreadable inputs.
+int RunTrialsCommand(const TrialsCommand& command, const nlohmann::json& summary_head);
 
 }  // namespace lunarnav::evaluation

@@ -67,7 +67,7 @@ using RowSink = void (*)(void* context, int row, const PeakRecord* records);
 using KernelFn = void (*)(const KernelInput& in, int row_begin, int row_end, void* workspace,
                           RowSink sink, void* sink_context);
 
-/// The fastest kernel this CPU runs, and its name ("avx2" or "baseline").
+/// The fastest kernel this CPU runs, and its name ("avx512", "avx2" or "baseline").
 KernelFn SelectKernel(const char** name = nullptr);
 /// The portable kernel (for tests that compare both).
 KernelFn BaselineKernel();

@@ -35,7 +35,8 @@ void MatchStereoPair(const NccOptions& options, const cv::Mat& left, const cv::M
 /// (at most the image type's), else 8 for CV_8U and 16 for CV_16U images.
 int EffectiveBitDepth(const NccOptions& options, const cv::Mat& image);
 
-/// Name of the SIMD kernel this CPU uses ("avx2" or "baseline").
+/// Name of the SIMD kernel this CPU uses: "avx512", "avx2" or "baseline" (the first the CPU
+/// supports, unless the LUNARNAV_SIMD environment variable caps it).
 std::string ActiveKernelName();
 
 }  // namespace lunarnav::stereo

@@ -235,7 +235,7 @@ TEST(SelectWindow, ShrinksWithTheIntervalAndReportsTheShareOfTheSearchKept) {
   // The paper's Figure 2 argument: for Y_min = 5 m the subimage and the disparity range grow
   // with Delta Y, and a small Delta Y keeps a small share of the work of a full search. The
   // full search is the paper's Figure 1 configuration: every row, disparities of 2 m to 14 m.
-  // The table goes to the test log; docs/stereo-batch.md quotes it.
+  // The table goes to the test log.
   const StereoRig rig = testing::IdealRectifiedRig();
   const RegionOfInterest full_region{2.0, 14.0, -0.5, 1.0};
   const ImageWindow full = SelectWindow(rig, full_region, ReferenceImage::kRight);

@@ -4,6 +4,8 @@
 
 #include <cmath>
 #include <fstream>
+#include <iterator>
+#include <string>
 
 #include "io/json_io.h"
 #include "util/testing.h"
@@ -33,13 +35,27 @@ TEST(Table, WritesTheSameCellsAsCsvMarkdownAndJson) {
   EXPECT_THROW(Example().AddRow({Cell::Text("too short")}), std::logic_error);
 }
 
+// The text of a file, or "" when it cannot be read.
+std::string FileText(const std::filesystem::path& path) {
+  std::ifstream in(path, std::ios::binary);
+  return std::string(std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>());
+}
+
 TEST(Table, WriteTableWritesThreeFiles) {
   util::ScopedTempDir tmp;
   WriteTable(tmp.path(), "example", Example());
-  for (const char* ext : {".csv", ".md", ".json"}) {
-    EXPECT_TRUE(std::filesystem::exists(tmp.path() / (std::string("example") + ext))) << ext;
-  }
-  EXPECT_EQ(io::ReadJson(tmp.path() / "example.json")["title"], "Example");
+  // The files hold the texts above, byte for byte (the JSON pretty-printed, a final newline).
+  EXPECT_EQ(FileText(tmp.path() / "example.csv"), "trial,error_pct\n\"A, straight\",17.0\nB,n/a (no trajectory)\n");
+  EXPECT_EQ(FileText(tmp.path() / "example.md"),
+            "### Example\n\n| Trial | Error (%) |\n|---|---:|\n| A, straight | 17.0 |\n"
+            "| B | n/a (no trajectory) |\n\na note\n");
+  const nlohmann::json j = io::ReadJson(tmp.path() / "example.json");
+  EXPECT_EQ(j["title"], "Example");
+  EXPECT_EQ(j["rows"][0]["trial"], "A, straight");
+  EXPECT_EQ(j["rows"][0]["error"], 17.04);  // the JSON keeps every digit; CSV and Markdown round
+  EXPECT_EQ(j["rows"][1]["error"]["n/a"], "no trajectory");
+  EXPECT_EQ(j["notes"][0], "a note");
+  EXPECT_EQ(FileText(tmp.path() / "example.json").back(), '\n');
 }
 
 }  // namespace

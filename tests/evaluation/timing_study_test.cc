@@ -87,6 +87,17 @@ TEST(PlanTimingStudy, WindowsAreWindowSelectionsAndTheirWorkGrowsWithDeltaY) {
   EXPECT_THROW(PlanTimingStudy(raw, options), std::invalid_argument);
 }
 
+TEST(Quantile, InterpolatesBetweenTheSortedValues) {
+  // Sorted: 1, 2, 4, 8. h = 3 p: p = 0.25 -> 0.75 of the way from 1 to 2; 0.75 -> h = 2.25,
+  // a quarter of the way from 4 to 8.
+  EXPECT_DOUBLE_EQ(Quantile({8, 1, 4, 2}, 0.25), 1.75);
+  EXPECT_DOUBLE_EQ(Quantile({8, 1, 4, 2}, 0.75), 5.0);
+  EXPECT_DOUBLE_EQ(Quantile({8, 1, 4, 2}, 0.5), Median({8, 1, 4, 2}));
+  EXPECT_DOUBLE_EQ(Quantile({8, 1, 4, 2}, 1.0), 8.0);
+  EXPECT_DOUBLE_EQ(Quantile({3}, 0.25), 3.0);
+  EXPECT_TRUE(std::isnan(Quantile({}, 0.5)));
+}
+
 TEST(NormaliseTimingStudy, TimesOverTheLargestAndOverTheWholeImage) {
   TimingStudyOptions options;
   options.delta_y_m = {1, 2, 3};
@@ -144,8 +155,20 @@ TEST(RunTimingStudy, TimesTheMatcherOnEveryWindow) {
     // The matcher evaluated exactly the window's rows (every column, step 1), on both pairs.
     EXPECT_EQ(p->evaluated_pixels, 2LL * 160 * p->window.Rows());
   }
-  for (const TimingPoint& p : study.points) largest = std::max(largest, p.time_normalised);
-  EXPECT_DOUBLE_EQ(largest, 1.0);
+  // Each window keeps the median of its five runs and their quartiles (with five runs, type 7
+  // puts them on the 2nd and 4th smallest); the normalised time
+  // divides by the slowest window's median, computed here from the recorded runs.
+  for (const TimingPoint* p : {&study.points[0], &study.points[1], &study.full}) {
+    std::vector<double> runs = p->repeat_seconds;
+    std::sort(runs.begin(), runs.end());
+    EXPECT_EQ(p->seconds, runs[2]);
+    EXPECT_EQ(p->seconds_q1, runs[1]);
+    EXPECT_EQ(p->seconds_q3, runs[3]);
+  }
+  largest = std::max(study.points[0].seconds, study.points[1].seconds);
+  for (const TimingPoint& p : study.points) EXPECT_DOUBLE_EQ(p.time_normalised, p.seconds / largest);
+  EXPECT_DOUBLE_EQ(study.full.time_share, 1.0);
+  EXPECT_DOUBLE_EQ(study.points[0].time_share, study.points[0].seconds / study.full.seconds);
   // The narrowest window does a small part of the whole image's work, and takes less time
   // (a wide margin: timing on a loaded machine is noisy).
   ASSERT_LT(study.points[0].work_share, 0.25);

@@ -2,6 +2,7 @@
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <fstream>
 
@@ -44,20 +45,50 @@ std::vector<StampedPose> Poses(const std::vector<positioning::TrajectorySample>&
   return ReadPoses(tmp.path() / "t.tum");
 }
 
-TEST(EvaluateTrajectory, ATrajectoryAgainstItselfHasNoError) {
+// The truth moved as a whole: turned 0.2 rad about the vertical through the origin, then 1 m
+// east and 2 m north. Its absolute error without alignment is each pose's displacement,
+// computed here by hand; aligning the first poses (origin) or all poses (rigid) removes it;
+// the relative errors never see it.
+TEST(EvaluateTrajectory, ARigidlyMovedCopyHasItsDisplacementAsErrorUntilAligned) {
   util::ScopedTempDir tmp;
-  const auto poses = Poses(Drive(), tmp);
-  for (Alignment a : {Alignment::kNone, Alignment::kStart, Alignment::kOrigin, Alignment::kRigid}) {
-    TrajectoryEvalOptions options;
+  const auto truth = Poses(Drive(), tmp);
+  const Eigen::Isometry3d move = Eigen::Translation3d(1, 2, 0) * Eigen::AngleAxisd(0.2, Eigen::Vector3d::UnitZ());
+  auto moved = truth;
+  double sum_sq = 0, largest = 0;
+  for (std::size_t i = 0; i < moved.size(); ++i) {
+    moved[i].world_from_body = move * truth[i].world_from_body;
+    const double d = (moved[i].world_from_body.translation() - truth[i].world_from_body.translation()).norm();
+    sum_sq += d * d;
+    largest = std::max(largest, d);
+  }
+  TrajectoryEvalOptions options;
+  options.alignment = Alignment::kNone;
+  TrajectoryErrors e = EvaluateTrajectory(moved, truth, options);
+  EXPECT_EQ(e.poses_matched, static_cast<long>(truth.size()));
+  EXPECT_NEAR(e.ape_translation_m.rmse, std::sqrt(sum_sq / truth.size()), 1e-6);
+  EXPECT_NEAR(e.ape_translation_m.max, largest, 1e-6);
+  EXPECT_NEAR(e.ape_rotation_deg.max, 0.2 * 180 / M_PI, 1e-4);  // every heading off by 0.2 rad
+  EXPECT_NEAR(e.rpe_translation_m.max, 0, 1e-6);
+  EXPECT_NEAR(e.rpe_rotation_deg.max, 0, 1e-4);
+  EXPECT_NEAR(e.drift_translation_pct, 0, 1e-6);
+  EXPECT_NEAR(e.path_length_m, 20 + M_PI / 2 * 10, 0.01);  // the straight line and the quarter circle
+  for (Alignment a : {Alignment::kOrigin, Alignment::kRigid}) {
     options.alignment = a;
-    const TrajectoryErrors e = EvaluateTrajectory(poses, poses, options);
-    EXPECT_EQ(e.poses_matched, static_cast<long>(poses.size()));
+    e = EvaluateTrajectory(moved, truth, options);
     EXPECT_NEAR(e.ape_translation_m.max, 0, 1e-6) << ToString(a);
     EXPECT_NEAR(e.ape_rotation_deg.max, 0, 1e-4) << ToString(a);
-    EXPECT_NEAR(e.rpe_translation_m.max, 0, 1e-6);
-    EXPECT_NEAR(e.drift_translation_pct, 0, 1e-6);
-    EXPECT_NEAR(e.path_length_m, 20 + M_PI / 2 * 10, 0.01);
   }
+  // Translating the first position onto the truth's leaves the turn: each pose is off by
+  // |R p - p| for its position p relative to the start, R the 0.2 rad turn.
+  options.alignment = Alignment::kStart;
+  e = EvaluateTrajectory(moved, truth, options);
+  const Eigen::Vector3d start = truth.front().world_from_body.translation();
+  double start_largest = 0;
+  for (const StampedPose& p : truth) {
+    const Eigen::Vector3d rel = p.world_from_body.translation() - start;
+    start_largest = std::max(start_largest, (move.linear() * rel - rel).norm());
+  }
+  EXPECT_NEAR(e.ape_translation_m.max, start_largest, 1e-6);
 }
 
 TEST(EvaluateTrajectory, AShiftedCopyHasTheShiftAsAbsoluteErrorAndNoRelativeError) {

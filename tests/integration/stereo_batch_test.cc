@@ -411,9 +411,35 @@ TEST(StereoBatch, LeftReferenceAndSubsamplingRun) {
                                             "--disparity", "20:90"}, tmp.path());
   ASSERT_EQ(run.exit_code, 0) << run.stderr_text;
   const cv::Mat d = io::ReadPfm(out / "disparity" / "frame0000.pfm");
-  // Only rows 130..233 on the 4-row grid hold disparities.
-  EXPECT_FALSE(std::isfinite(d.at<float>(100, 300)));
   EXPECT_EQ(io::ReadJson(out / "summary.json")["options"]["step_px"], nlohmann::json({5, 4}));
+  const nlohmann::json grid = io::ReadJson(out / "disparity" / "frame0000.json")["disparity"]["grid"];
+  ASSERT_EQ(grid["step_px"], nlohmann::json({5, 4}));
+  const int ox = grid["origin_px"][0], oy = grid["origin_px"][1];
+  const bool full = d.cols == 640 && d.rows == 480;  // else the grid's samples, row by row
+  // The truth is on the right image's grid (x_left = x_right + d): a left pixel x with
+  // disparity d sees the right pixel x - d, whose true disparity is d.
+  const cv::Mat truth_png = cv::imread(
+      (TestDataPath("stereo_pairs") / "truth" / "disparity" / "frame0000.png").string(), cv::IMREAD_UNCHANGED);
+  ASSERT_EQ(truth_png.type(), CV_16UC1);
+  long estimates = 0, within_1px = 0, off_band_or_grid = 0;
+  for (int r = 0; r < d.rows; ++r) {
+    for (int c = 0; c < d.cols; ++c) {
+      const float e = d.at<float>(r, c);
+      if (!std::isfinite(e)) continue;
+      const int y = full ? r : oy + 4 * r, x = full ? c : ox + 5 * c;
+      // Only rows 130..233 on the 4-row grid and columns on the 5-column grid hold disparities.
+      if (y < 130 || y > 233 || (y - oy) % 4 != 0 || (x - ox) % 5 != 0) ++off_band_or_grid;
+      ++estimates;
+      const int xr = static_cast<int>(std::lround(x - e));
+      if (xr < 0 || xr >= truth_png.cols) continue;
+      const double t = truth_png.at<std::uint16_t>(y, xr) / 256.0;  // KITTI's 16-bit scale
+      within_1px += t > 0 && std::abs(e - t) <= 1.0;
+    }
+  }
+  EXPECT_EQ(off_band_or_grid, 0);
+  // 104 rows / 4 x 640 columns / 5 = 3328 grid points in the band; most have an estimate.
+  EXPECT_GT(estimates, 3328 / 2);
+  EXPECT_GT(within_1px, 0.9 * estimates) << within_1px << " of " << estimates;
 }
 
 }  // namespace

@@ -65,7 +65,7 @@ TEST(FilterHeading, BeatsThePlainLowPassOnATurningLogWithCompassTransients) {
       FilterCausal(DesignLowPass(LowPassType::kButterworth, 2, 0.25, 10.0), unwrapped);
   const double kalman_rms = RmsErrorDeg(kalman.heading_rad, log.truth_rad);
   const double lowpass_rms = RmsErrorDeg(lowpass, log.truth_rad);
-  // Measured when written: 0.38 deg against 6.35 deg.
+  // Measured (this revision): 0.51 deg against 6.35 deg.
   EXPECT_LT(kalman_rms, 0.25 * lowpass_rms) << kalman_rms << " vs " << lowpass_rms;
   EXPECT_LT(kalman_rms, 1.0);
   EXPECT_NEAR(kalman.gyro_bias_radps / kDeg, 1.5, 0.2);
