@@ -1,5 +1,6 @@
 #include "positioning/trajectory_io.h"
 
+#include <algorithm>
 #include <charconv>
 #include <cmath>
 #include <cstdint>
@@ -434,6 +435,41 @@ std::vector<TrajectorySample> ReadTrajectoryCsv(const std::filesystem::path& pat
     out.push_back(p);
   }
   LN_CHECK_INPUT(header) << path.string() << ": no header";
+  return out;
+}
+
+std::vector<TrajectorySample> ReadTrajectoryTum(const std::filesystem::path& path) {
+  std::ifstream in(path);
+  LN_CHECK_INPUT(in.good()) << path.string() << ": cannot open";
+  std::vector<TrajectorySample> out;
+  std::string line;
+  for (long number = 1; std::getline(in, line); ++number) {
+    const auto first = line.find_first_not_of(" \t\r");
+    if (first == std::string::npos || line[first] == '#') continue;
+    std::istringstream fields(line);
+    fields.imbue(std::locale::classic());
+    double v[8];
+    for (double& x : v) {
+      fields >> x;
+      LN_CHECK_INPUT(static_cast<bool>(fields))
+          << path.string() << ":" << number << ": expected 8 numbers (t x y z qx qy qz qw)";
+    }
+    const Eigen::Quaterniond q(v[7], v[4], v[5], v[6]);
+    LN_CHECK_INPUT(std::abs(q.norm() - 1.0) < 1e-3)
+        << path.string() << ":" << number << ": quaternion of norm " << q.norm() << " (expected 1)";
+    // EnuFromBody = Rz(90 deg - heading) Ry(-pitch) Rx(-roll): a Z-Y-X rotation.
+    const Eigen::Matrix3d r = q.normalized().toRotationMatrix();
+    TrajectorySample p;
+    p.t_s = v[0];
+    p.x_m = v[1];
+    p.y_m = v[2];
+    p.z_m = v[3];
+    p.heading_rad = M_PI / 2 - std::atan2(r(1, 0), r(0, 0));
+    p.heading_rad = std::fmod(p.heading_rad + 2 * M_PI, 2 * M_PI);
+    p.pitch_rad = std::asin(std::clamp(r(2, 0), -1.0, 1.0));
+    p.roll_rad = -std::atan2(r(2, 1), r(2, 2));
+    out.push_back(p);
+  }
   return out;
 }
 

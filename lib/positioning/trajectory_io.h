@@ -45,4 +45,10 @@ class TrajectoryWriter {
 /// Reads a file written by WriteTrajectoryCsv. @throws InputError with file:line.
 std::vector<TrajectorySample> ReadTrajectoryCsv(const std::filesystem::path& path);
 
+/// Reads a TUM trajectory ("t x y z qx qy qz qw" per line, '#' lines skipped; the quaternion
+/// takes the body frame, x forward, y left, z up, to the world frame) into samples: heading,
+/// pitch and roll are the angles of EnuFromBody (valid for |pitch| < 90 deg); speed 0.
+/// @throws InputError with file:line for a malformed line or a quaternion of norm far from 1.
+std::vector<TrajectorySample> ReadTrajectoryTum(const std::filesystem::path& path);
+
 }  // namespace lunarnav::positioning
