@@ -14,6 +14,7 @@
 #include "evaluation/correlation_study.h"
 #include "evaluation/disparity_eval.h"
 #include "evaluation/figure.h"
+#include "evaluation/map_eval.h"
 #include "evaluation/request_study.h"
 #include "evaluation/timing_study.h"
 #include "evaluation/trials_eval.h"
@@ -724,8 +725,36 @@ int main(int argc, char** argv) {
       ->capture_default_str();
   trajectory_cmd->add_option("-o,--output", trajectory.output_dir, "output directory (created)")->required();
 
+  // evaluate map: its work is evaluation::RunMapEvaluation (lib/evaluation/map_eval.h).
+  struct {
+    fs::path map, truth, output_dir;
+    evaluation::MapEvalOptions options;
+    int threads = 0;
+  } map_args;
+  CLI::App* map_cmd = app.add_subcommand(
+      "map", "a terrain-map output against a simulated run's true terrain: elevation RMSE and bias, coverage of\n"
+             "the ground seen, obstacle precision and recall, rocks above the obstacle height found");
+  map_cmd->add_option("MAP_DIR", map_args.map, "terrain-map output directory")->required();
+  map_cmd->add_option("--truth", map_args.truth, "simulate stereo output directory (truth/terrain.tif, rocks.csv)")
+      ->required();
+  map_cmd->add_option("--min-points", map_args.options.min_points, "cells with fewer points are not scored")
+      ->capture_default_str();
+  map_cmd->add_option("--rock-height", map_args.options.rock_height_m, "rocks taller than this are counted, m")
+      ->capture_default_str();
+  map_cmd->add_option("--tolerance", map_args.options.tolerance_cells, "detections this many cells away count")
+      ->capture_default_str();
+  map_cmd->add_option("-j,--threads", map_args.threads, "threads (0 = all cores)")->capture_default_str();
+  map_cmd->add_option("-o,--output", map_args.output_dir, "output directory (created)")->required();
+
   if (const auto exit_code = util::ParseCommandLine(&app, argc, argv, quiet)) return *exit_code;
   return util::RunMain([&]() -> int {
+    if (map_cmd->parsed()) {
+      const evaluation::MapEvalResult r = evaluation::RunMapEvaluation(
+          map_args.map, map_args.truth, map_args.options, map_args.output_dir, map_args.threads,
+          util::CommandLineJson(argc, argv));
+      LN_LOG(Info) << "evaluate map: " << r.BriefReport() << "; " << (map_args.output_dir / "map.md").string();
+      return kExitOk;
+    }
     io::SetMaxImagePixels(max_pixels);
     if (trajectory_cmd->parsed()) return RunTrajectory(trajectory, argc, argv);
     if (disparity_cmd->parsed()) return RunDisparity(disparity, argc, argv);

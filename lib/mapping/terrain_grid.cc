@@ -372,20 +372,26 @@ cv::Mat DetectObstacles(const cv::Mat& elevation, const cv::Mat& min_m, const cv
   for (int r = 0; r < h; ++r) {
     for (int c = 0; c < w; ++c) {
       if (!judged(r, c)) continue;
-      float lowest = min_m.at<float>(r, c);
-      for (int dr = -1; dr <= 1; ++dr) {
-        for (int dc = -1; dc <= 1; ++dc) {
-          if (judged(r + dr, c + dc)) lowest = std::min(lowest, min_m.at<float>(r + dr, c + dc));
-        }
-      }
-      int kind = max_m.at<float>(r, c) - lowest > o.step_height_m ? 1 : 0;
       const double e = elevation.at<float>(r, c);
       auto slope = [&](int r0, int c0, int r1, int c1) {  // minmod of the two one-sided slopes
         if (!judged(r0, c0) || !judged(r1, c1)) return 0.0;
         return MinMod((e - elevation.at<float>(r0, c0)) / cell_m, (elevation.at<float>(r1, c1) - e) / cell_m);
       };
+      // dz/dx east and dz/dy north (rows run north to south).
       const double gx = slope(r, c - 1, r, c + 1), gy = slope(r + 1, c, r - 1, c);
-      if (std::hypot(gx, gy) > tan_limit) kind |= 2;
+      int kind = std::hypot(gx, gy) > tan_limit ? 2 : 0;
+      // Step: the cell's highest point above the lowest point around it, each neighbour's
+      // lowest point carried to this cell along the local ground slope (so that an even
+      // slope is no step; at a step the minmod slope is 0).
+      double lowest = min_m.at<float>(r, c);
+      for (int dr = -1; dr <= 1; ++dr) {
+        for (int dc = -1; dc <= 1; ++dc) {
+          if ((dr != 0 || dc != 0) && judged(r + dr, c + dc)) {
+            lowest = std::min(lowest, min_m.at<float>(r + dr, c + dc) - gx * dc * cell_m + gy * dr * cell_m);
+          }
+        }
+      }
+      if (max_m.at<float>(r, c) - lowest > o.step_height_m) kind |= 1;
       out.at<float>(r, c) = static_cast<float>(kind);
     }
   }

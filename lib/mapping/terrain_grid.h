@@ -35,7 +35,8 @@ namespace lunarnav::mapping {
 /// The vehicle's limits that make a cell an obstacle (sec. 3.1: "an obstacle 20 cm tall").
 struct ObstacleOptions {
   /// A cell whose highest point is this much above the lowest point of its 3 x 3
-  /// neighbourhood is a step obstacle, metres, > 0 (the vehicle file's
+  /// neighbourhood (each neighbour's carried to the cell along the local ground slope, so an
+  /// even slope is no step) is a step obstacle, metres, > 0 (the vehicle file's
   /// requirements.obstacle_height_m; the paper's 20 cm).
   double step_height_m = 0.2;
   /// A cell whose ground slope (from the neighbours' elevations, the smaller one-sided

@@ -13,6 +13,8 @@
 #include "calib/rectify.h"
 #include "calib/stereo_rig_io.h"
 #include "io/float_array_io.h"
+#include "io/geotiff_io.h"
+#include "sim/terrain_truth.h"
 #include "io/atomic_file.h"
 #include "io/image_io.h"
 #include "io/json_io.h"
@@ -155,6 +157,7 @@ void StereoSimOptions::Validate() const {
   LN_CHECK_ARG(relief_amplitude_m == -1 || (relief_amplitude_m >= 0 && relief_amplitude_m <= 10))
       << "relief: must be in [0, 10] m";
   LN_CHECK_ARG(num_threads >= 0) << "threads: must be >= 0";
+  LN_CHECK_ARG(truth_cell_m >= 0.05 && truth_cell_m <= 5) << "truth cell: must be in [0.05, 5] m";
 }
 
 json StereoSimOptions::ToJson() const {
@@ -182,6 +185,7 @@ json StereoSimOptions::ToJson() const {
           {"terrain_cell_m", terrain_cell_m},
           {"rock_density_per_m2", rock_density_per_m2 >= 0 ? rock_density_per_m2 : d.rock_density},
           {"relief_amplitude_m", relief_amplitude_m >= 0 ? relief_amplitude_m : d.relief},
+          {"truth_cell_m", truth_cell_m},
           {"seed", seed}};
 }
 
@@ -336,6 +340,15 @@ StereoSimSummary RunStereoSimulation(const StereoSimOptions& options, const fs::
                << " vertices, " << scene->boxes().size() << " boxes (" << summary.scene_seconds << " s)";
 
   calib::WriteStereoRig(output_dir / "rig.json", rig);
+  // The true terrain on terrain-map's grid, its obstacles and rocks (evaluate map).
+  util::Timer truth_timer;
+  arena.execute([&] {
+    io::WriteGeoTiffAtomic(output_dir / "truth" / "terrain.tif",
+                           TerrainTruthRaster(scene->terrain(), options.truth_cell_m, mapping::ObstacleOptions()));
+  });
+  io::WriteFileAtomic(output_dir / "truth" / "rocks.csv", RocksCsv(scene->terrain()));
+  LN_LOG(Info) << "truth: terrain.tif (" << options.truth_cell_m << " m cells) and rocks.csv ("
+               << truth_timer.ElapsedSeconds() << " s)";
 
   const std::string image_ext = options.quantize ? ".png" : ".tif";
   std::vector<StereoFrameStats> stats(options.frames);

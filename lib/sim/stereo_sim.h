@@ -70,6 +70,9 @@ struct StereoSimOptions {
   double rock_density_per_m2 = -1;  ///< -1: the preset's (terrain 0.4, boxes 0).
   double relief_amplitude_m = -1;   ///< -1: the preset's (terrain 0.3, boxes 0).
 
+  /// Cell of the true DEM truth/terrain.tif, metres, in [0.05, 5] (terrain-map's default).
+  double truth_cell_m = 0.25;
+
   std::uint64_t seed = 1;  ///< Scene, texture and noise; the same seed gives the same bytes.
   int num_threads = 0;     ///< 0 = all cores.
   bool show_progress = true;
@@ -104,7 +107,8 @@ struct StereoSimSummary {
 
 /// Renders the run and writes OUT_DIR/left/<stem>.png, right/<stem>.png (stems 000000,
 /// 000001, ...), truth/disparity/<stem>.pfm, truth/xyz/<stem>.exr, truth/poses.csv,
-/// truth/boxes.json, rig.json and summary.json, every file atomically.
+/// truth/boxes.json, truth/terrain.tif (the true DEM, sim/terrain_truth.h), truth/rocks.csv,
+/// rig.json and summary.json, every file atomically.
 /// @throws std::invalid_argument for bad options or an unusable output directory.
 StereoSimSummary RunStereoSimulation(const StereoSimOptions& options, const std::filesystem::path& output_dir,
                                      const nlohmann::json& invocation = nullptr);
