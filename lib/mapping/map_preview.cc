@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
+#include <limits>
 
 #include <opencv2/imgproc.hpp>
 
@@ -25,9 +26,28 @@ double NiceLength(double target) {
   return p;
 }
 
+// The layers grown (NaN cells) to hold every point of the path with a margin of `margin_m`.
+MapLayers PadToPath(const MapLayers& l, const std::vector<Eigen::Vector2d>& path, double margin_m) {
+  int left = 0, right = 0, top = 0, bottom = 0;
+  for (const Eigen::Vector2d& p : path) {
+    left = std::max(left, static_cast<int>(std::ceil((l.x_west_m - (p.x() - margin_m)) / l.cell_m)));
+    right = std::max(right, static_cast<int>(std::ceil((p.x() + margin_m - l.x_west_m) / l.cell_m)) - l.elevation_m.cols);
+    top = std::max(top, static_cast<int>(std::ceil((p.y() + margin_m - l.y_north_m) / l.cell_m)));
+    bottom = std::max(bottom, static_cast<int>(std::ceil((l.y_north_m - (p.y() - margin_m)) / l.cell_m)) - l.elevation_m.rows);
+  }
+  MapLayers out = l;
+  const cv::Scalar nan(std::numeric_limits<double>::quiet_NaN());
+  cv::copyMakeBorder(l.elevation_m, out.elevation_m, top, bottom, left, right, cv::BORDER_CONSTANT, nan);
+  cv::copyMakeBorder(l.obstacle, out.obstacle, top, bottom, left, right, cv::BORDER_CONSTANT, nan);
+  out.x_west_m -= left * l.cell_m;
+  out.y_north_m += top * l.cell_m;
+  return out;
+}
+
 }  // namespace
 
-cv::Mat RenderMapPreview(const MapLayers& l, const std::vector<Eigen::Vector2d>& path, int target_px) {
+cv::Mat RenderMapPreview(const MapLayers& unpadded, const std::vector<Eigen::Vector2d>& path, int target_px) {
+  const MapLayers l = unpadded.elevation_m.empty() ? unpadded : PadToPath(unpadded, path, 1.0);
   if (l.elevation_m.empty()) {
     cv::Mat empty(120, 400, CV_8UC3, cv::Scalar(235, 235, 235));
     cv::putText(empty, "empty map: no point fused", {20, 65}, cv::FONT_HERSHEY_SIMPLEX, 0.6, {0, 0, 0}, 1, cv::LINE_AA);

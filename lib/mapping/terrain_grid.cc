@@ -297,7 +297,7 @@ std::optional<std::array<std::int64_t, 4>> TerrainGrid::MappedBounds() const {
 io::GeoRaster TerrainGrid::ToStateRaster() const {
   io::GeoRaster r;
   r.cell_m = cell_m_;
-  r.metadata["lunarnav:content"] = "terrain-map state";
+  r.metadata["lunarnav_content"] = "terrain-map state";
   const auto b = MappedBounds();
   const int w = b ? static_cast<int>((*b)[2] - (*b)[0] + 1) : 1, h = b ? static_cast<int>((*b)[3] - (*b)[1] + 1) : 1;
   const std::int64_t i0 = b ? (*b)[0] : 0, j1 = b ? (*b)[3] : 0;
@@ -432,8 +432,8 @@ io::GeoRaster LayersToRaster(const MapLayers& l) {
   r.x_west_m = l.x_west_m;
   r.y_north_m = l.y_north_m;
   r.cell_m = l.cell_m;
-  r.metadata["lunarnav:frame"] = "world: x east, y north, z up; metres";
-  r.metadata["lunarnav:nodata"] = "NaN in every band where the cell has no point";
+  r.metadata["lunarnav_frame"] = "world: x east, y north, z up; metres";
+  r.metadata["lunarnav_nodata"] = "NaN in every band where the cell has no point";
   const std::array<std::tuple<const cv::Mat*, const char*, const char*>, 8> bands = {{
       {&l.elevation_m, "elevation_m", "inverse-variance weighted mean elevation of the cell's points, m"},
       {&l.min_m, "min_m", "lowest accepted point, m"},

@@ -228,7 +228,7 @@ TerrainMapRunSummary RunTerrainMap(const TerrainMapRunOptions& options, const fs
   }
   if (summary.mapped_cells > 0) {
     io::GeoRaster raster = LayersToRaster(layers);
-    raster.metadata["lunarnav:tool"] = "terrain-map";
+    raster.metadata["lunarnav_tool"] = "terrain-map";
     io::WriteGeoTiffAtomic(out / "elevation.tif", raster);
   }
   io::WriteGeoTiffAtomic(out / "state.tif", grid.ToStateRaster());

@@ -44,8 +44,8 @@ io::GeoRaster TerrainTruthRaster(const Terrain& terrain, double cell_m, const ma
   r.x_west_m = static_cast<double>(i0) * cell_m;
   r.y_north_m = static_cast<double>(j1 + 1) * cell_m;
   r.cell_m = cell_m;
-  r.metadata["lunarnav:frame"] = "world: x east, y north, z up; metres";
-  r.metadata["lunarnav:content"] = "simulate stereo: the true terrain";
+  r.metadata["lunarnav_frame"] = "world: x east, y north, z up; metres";
+  r.metadata["lunarnav_content"] = "simulate stereo: the true terrain";
   const cv::Mat obstacle = mapping::DetectObstacles(mean, lo, hi, cv::Mat(), cell_m, obstacles);
   const std::array<std::pair<cv::Mat, const char*>, 4> bands = {{{mean, "elevation_m"}, {lo, "min_m"}, {hi, "max_m"},
                                                                   {obstacle, "obstacle"}}};
@@ -59,7 +59,7 @@ io::GeoRaster TerrainTruthRaster(const Terrain& terrain, double cell_m, const ma
   r.bands[1].metadata["meaning"] = "lowest point of the true surface in the cell, m";
   r.bands[2].metadata["meaning"] = "highest point of the true surface in the cell, m";
   r.bands[3].metadata["meaning"] = "terrain-map's obstacle rule on the true surface: 0 free, 1 step, 2 slope, 3 both";
-  r.metadata["lunarnav:obstacles"] = mapping::ObstacleOptions(obstacles).ToJson().dump();
+  r.metadata["lunarnav_obstacles"] = mapping::ObstacleOptions(obstacles).ToJson().dump();
   return r;
 }
 

@@ -65,7 +65,9 @@ TEST(TerrainGrid, FlatPlaneMapsToItsHeightWhereverSeen) {
   EXPECT_NEAR(l.elevation_m.at<float>(row, col), kHeight, 1e-5);
   // Outside the seen area nothing is mapped (vehicle Y = 1 is in front of the nearest point).
   const Eigen::Vector3d behind = pose.WorldFromVehicle() * Eigen::Vector3d(0, 1.0, 0);
-  if (l.CellOf(behind.x(), behind.y(), &col, &row)) EXPECT_FALSE(std::isfinite(l.elevation_m.at<float>(row, col)));
+  if (l.CellOf(behind.x(), behind.y(), &col, &row)) {
+    EXPECT_FALSE(std::isfinite(l.elevation_m.at<float>(row, col)));
+  }
 }
 
 TEST(TerrainGrid, BoxOfKnownSizeIsAnObstacleOfThatSizeAndNowhereElse) {
@@ -101,7 +103,9 @@ TEST(TerrainGrid, SteepRampIsASlopeObstacleAndAGentleOneIsNot) {
     int col = 0, row = 0;
     ASSERT_TRUE(l.CellOf(0.1, 6.1, &col, &row));
     EXPECT_EQ((static_cast<int>(l.obstacle.at<float>(row, col)) & 2) != 0, expect_obstacle) << slope_deg;
-    if (!expect_obstacle) EXPECT_EQ(l.obstacle.at<float>(row, col), 0.0f) << "an even slope is no step";
+    if (!expect_obstacle) {
+      EXPECT_EQ(l.obstacle.at<float>(row, col), 0.0f) << "an even slope is no step";
+    }
   }
 }
 
@@ -185,7 +189,9 @@ TEST(TerrainGrid, PoseErrorOfKnownSizeShiftsTheMapByThatAmount) {
     for (int c = 0; c < la.elevation_m.cols; ++c) {
       const float ea = la.elevation_m.at<float>(r, c), eb = lb.elevation_m.at<float>(r, c);
       ASSERT_EQ(std::isfinite(ea), std::isfinite(eb));
-      if (std::isfinite(ea)) EXPECT_NEAR(eb - ea, 0.1, 1e-5);
+      if (std::isfinite(ea)) {
+        EXPECT_NEAR(eb - ea, 0.1, 1e-5);
+      }
     }
   }
   // The box's obstacle cells moved by (+2, +3) cells.
