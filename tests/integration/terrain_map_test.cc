@@ -86,7 +86,9 @@ TEST(TerrainMapTool, WritesAGeoTiffOfThePlaneWithTheBoxAsTheOnlyObstacle) {
       const bool in_box = x > 1.0 && x < 1.5 && y > 6.0 && y < 6.5;
       EXPECT_NEAR(e, in_box ? kGround + 0.3 : kGround, 1e-4) << x << ", " << y;
       obstacles += obstacle.at<float>(r, c) > 0;
-      if (obstacle.at<float>(r, c) > 0) EXPECT_TRUE(in_box) << x << ", " << y;
+      if (obstacle.at<float>(r, c) > 0) {
+        EXPECT_TRUE(in_box) << x << ", " << y;
+      }
     }
   }
   EXPECT_EQ(obstacles, 4);  // 0.5 m x 0.5 m = 2 x 2 cells
