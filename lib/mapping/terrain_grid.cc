@@ -92,7 +92,7 @@ double CellStats::Sigma() const {
 }
 
 FrameContribution BinFrame(const cv::Mat& xyz, const cv::Mat& sigma, const Eigen::Isometry3d& world_from_vehicle,
-                           double t_s, const TerrainMapOptions& o) {
+                           double t_s, const TerrainMapOptions& o, const ElevationErrorModel* error_model) {
   LN_CHECK(xyz.type() == CV_32FC3) << "xyz must be CV_32FC3";
   LN_CHECK(sigma.empty() || (sigma.type() == CV_32FC3 && sigma.size() == xyz.size())) << "sigma: CV_32FC3 of xyz's size";
   FrameContribution out;
@@ -102,9 +102,23 @@ FrameContribution BinFrame(const cv::Mat& xyz, const cv::Mat& sigma, const Eigen
   const double max_range2 = o.max_range_m * o.max_range_m;
   const double default_w = 1.0 / (o.default_sigma_m * o.default_sigma_m);
 
+  // Buffers kept per thread from frame to frame (a frame's worth of points each).
+  struct Buffers {
+    std::vector<std::int32_t> ci, cj;
+    std::vector<float> zs, ws, sz, sw, scratch;
+    std::vector<std::uint32_t> start, local, fill;
+  };
+  static thread_local Buffers buf;
+  std::vector<std::int32_t>& ci = buf.ci;
+  std::vector<std::int32_t>& cj = buf.cj;
+  std::vector<float>& zs = buf.zs;
+  std::vector<float>& ws = buf.ws;
+  ci.clear();
+  cj.clear();
+  zs.clear();
+  ws.clear();
+
   // Pass 1: points to world cells.
-  std::vector<std::int32_t> ci, cj;
-  std::vector<float> zs, ws;
   const std::size_t capacity = xyz.total();
   ci.reserve(capacity);
   cj.reserve(capacity);
@@ -130,6 +144,9 @@ FrameContribution BinFrame(const cv::Mat& xyz, const cv::Mat& sigma, const Eigen
       if (s != nullptr) {
         const float sz = s[3 * col + 2];
         if (std::isfinite(sz) && sz > 0) w = 1.0 / (static_cast<double>(sz) * sz);
+      } else if (error_model != nullptr) {
+        const double sz = error_model->SigmaZ(x, y, z);
+        if (std::isfinite(sz) && sz > 0) w = 1.0 / (sz * sz);
       }
       const auto i = static_cast<std::int32_t>(std::floor(wx * inv_cell));
       const auto j = static_cast<std::int32_t>(std::floor(wy * inv_cell));
@@ -149,15 +166,21 @@ FrameContribution BinFrame(const cv::Mat& xyz, const cv::Mat& sigma, const Eigen
   const std::int64_t nx = static_cast<std::int64_t>(i1) - i0 + 1, ny = static_cast<std::int64_t>(j1) - j0 + 1;
   LN_CHECK_INPUT(nx * ny <= 50'000'000) << "a frame's points span " << nx << " x " << ny
                                         << " cells (points far away: set a maximum range)";
-  std::vector<std::uint32_t> start(static_cast<std::size_t>(nx * ny) + 1, 0);
-  std::vector<std::uint32_t> local(zs.size());
+  std::vector<std::uint32_t>& start = buf.start;
+  std::vector<std::uint32_t>& local = buf.local;
+  std::vector<std::uint32_t>& fill = buf.fill;
+  start.assign(static_cast<std::size_t>(nx * ny) + 1, 0);
+  local.resize(zs.size());
   for (std::size_t k = 0; k < zs.size(); ++k) {
     local[k] = static_cast<std::uint32_t>((cj[k] - j0) * nx + (ci[k] - i0));
     ++start[local[k] + 1];
   }
   for (std::size_t c = 1; c < start.size(); ++c) start[c] += start[c - 1];
-  std::vector<std::uint32_t> fill(start.begin(), start.end() - 1);
-  std::vector<float> sz(zs.size()), sw(zs.size());
+  fill.assign(start.begin(), start.end() - 1);
+  std::vector<float>& sz = buf.sz;
+  std::vector<float>& sw = buf.sw;
+  sz.resize(zs.size());
+  sw.resize(zs.size());
   for (std::size_t k = 0; k < zs.size(); ++k) {
     const std::uint32_t at = fill[local[k]]++;
     sz[at] = zs[k];
@@ -165,7 +188,7 @@ FrameContribution BinFrame(const cv::Mat& xyz, const cv::Mat& sigma, const Eigen
   }
 
   // Pass 3: per cell, gate against the frame's median and sum.
-  std::vector<float> scratch;
+  std::vector<float>& scratch = buf.scratch;
   const double floor2 = o.gate_floor_m * o.gate_floor_m, k2 = o.gate_k * o.gate_k;
   for (std::int64_t c = 0; c + 1 < static_cast<std::int64_t>(start.size()); ++c) {
     const std::uint32_t b = start[c], e = start[c + 1];

@@ -29,6 +29,7 @@
 #include <opencv2/core.hpp>
 
 #include "io/geotiff_io.h"
+#include "mapping/elevation_error.h"
 
 namespace lunarnav::mapping {
 
@@ -105,11 +106,13 @@ struct FrameContribution {
 /// Bins one frame's points into cells and gates them (the fusion described above).
 /// @param xyz_vehicle  CV_32FC3, the vehicle-frame points (NaN = none), stereo-batch's xyz map.
 /// @param sigma_vehicle  CV_32FC3 of the same size (the predicted error per axis; channel 2,
-///        the Z error, weights the point) or empty (options.default_sigma_m for all).
+///        the Z error, weights the point) or empty: then `error_model`'s sigma_Z of each point,
+///        or without a model options.default_sigma_m for all.
 /// @param world_from_vehicle  the vehicle's pose.
 /// @param t_s  the frame's time (recorded as the cells' last time).
 FrameContribution BinFrame(const cv::Mat& xyz_vehicle, const cv::Mat& sigma_vehicle,
-                           const Eigen::Isometry3d& world_from_vehicle, double t_s, const TerrainMapOptions& options);
+                           const Eigen::Isometry3d& world_from_vehicle, double t_s, const TerrainMapOptions& options,
+                           const ElevationErrorModel* error_model = nullptr);
 
 /// The map: cells in tiles allocated on demand.
 class TerrainGrid {

@@ -3,9 +3,12 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
+#include <ctime>
+#include <optional>
 #include <set>
 #include <sstream>
 
+#include "calib/stereo_rig_io.h"
 #include "io/atomic_file.h"
 #include "io/float_array_io.h"
 #include "io/geotiff_io.h"
@@ -132,7 +135,11 @@ TerrainMapRunSummary RunTerrainMap(const TerrainMapRunOptions& options, const fs
     }
     std::stable_sort(listed.begin(), listed.end(), [](const FramePose& a, const FramePose& b) { return a.t_s < b.t_s; });
     todo = std::move(listed);
-    has_sigma = fs::is_directory(options.stereo_dir / "xyz_sigma");
+    has_sigma = options.rig.empty() && fs::is_directory(options.stereo_dir / "xyz_sigma");
+  }
+  std::optional<ElevationErrorModel> error_model;
+  if (!options.rig.empty()) {
+    error_model.emplace(calib::ReadStereoRig(options.rig), options.reference, options.sigma_d_px);
   }
   summary.frames_total = static_cast<long>(todo.size());
 
@@ -160,8 +167,11 @@ TerrainMapRunSummary RunTerrainMap(const TerrainMapRunOptions& options, const fs
   todo.erase(std::remove_if(todo.begin(), todo.end(), [&](const FramePose& p) { return known.count(p.stem) > 0; }),
              todo.end());
 
-  // Frames are read and binned in parallel, a block at a time, and added in time order.
+  // Frames are read and binned in parallel, a block at a time, and added in time order. (The
+  // EXR reader's libraries are loaded first: a start-up cost, not reading.)
+  if (!todo.empty()) io::PreloadExrReader();
   util::Timer fuse_timer;
+  const std::clock_t fuse_cpu_start = std::clock();  // the process's CPU time: the figure on a shared machine
   util::ProgressBar progress(todo.size(), "terrain-map frames", options.show_progress);
   const int threads = util::EffectiveThreadCount(options.num_threads);
   const std::size_t block = static_cast<std::size_t>(2 * threads);
@@ -188,7 +198,8 @@ TerrainMapRunSummary RunTerrainMap(const TerrainMapRunOptions& options, const fs
             << xyz.pixels.rows << " with 3";
       }
       sizes[k] = xyz.pixels.size();
-      parts[k] = BinFrame(xyz.pixels, sigma, pose.WorldFromVehicle(), pose.t_s, mo);
+      parts[k] = BinFrame(xyz.pixels, sigma, pose.WorldFromVehicle(), pose.t_s, mo,
+                          error_model ? &*error_model : nullptr);
       progress.Increment();
     });
     for (std::size_t k = 0; k < n; ++k) {
@@ -213,6 +224,7 @@ TerrainMapRunSummary RunTerrainMap(const TerrainMapRunOptions& options, const fs
     }
   }
   summary.fuse_seconds = fuse_timer.ElapsedSeconds();
+  summary.fuse_cpu_seconds = static_cast<double>(std::clock() - fuse_cpu_start) / CLOCKS_PER_SEC;
   std::stable_sort(fused.begin(), fused.end(),
                    [](const FusedFrame& a, const FusedFrame& b) { return a.pose.t_s < b.pose.t_s; });
   if (mo.window_m && !fused.empty()) grid.KeepWindow(fused.back().pose.x_m, fused.back().pose.y_m, *mo.window_m);
@@ -248,6 +260,10 @@ TerrainMapRunSummary RunTerrainMap(const TerrainMapRunOptions& options, const fs
                  {"trajectory", options.trajectory.string()},
                  {"frame_times", options.frame_times.string()},
                  {"xyz_sigma", has_sigma},
+                 {"rig", options.rig.string()},
+                 {"errors", has_sigma            ? "xyz_sigma arrays"
+                            : error_model        ? "the rig's error model, sigma_d " + std::to_string(options.sigma_d_px) + " px"
+                                                 : "default sigma " + std::to_string(mo.default_sigma_m) + " m"},
                  {"merge", json::array()},
                  {"resume", options.resume}};
   for (const fs::path& p : options.merge_maps) j["inputs"]["merge"].push_back(p.string());
@@ -264,8 +280,14 @@ TerrainMapRunSummary RunTerrainMap(const TerrainMapRunOptions& options, const fs
                  {"points_in", summary.points_in},           {"points_fused", summary.points_fused},
                  {"points_rejected", summary.points_rejected}, {"points_out_of_range", summary.points_out_of_range},
                  {"mapped_cells", summary.mapped_cells},     {"obstacle_cells", summary.obstacle_cells}};
-  j["timings_s"] = {{"total", summary.seconds}, {"read_and_fuse", summary.fuse_seconds}, {"write", summary.write_seconds}};
+  j["timings_s"] = {{"total", summary.seconds},
+                    {"read_and_fuse", summary.fuse_seconds},
+                    {"read_and_fuse_cpu", summary.fuse_cpu_seconds},
+                    {"write", summary.write_seconds}};
+  // Points (valid XYZ) read and fused per second of wall time, and per second of CPU time
+  // (with -j 1, one core's rate even when other processes share the machine).
   j["points_per_second"] = summary.fuse_seconds > 0 ? summary.points_in / summary.fuse_seconds : 0.0;
+  j["points_per_cpu_second"] = summary.fuse_cpu_seconds > 0 ? summary.points_in / summary.fuse_cpu_seconds : 0.0;
   j["peak_memory_mib"] = summary.peak_memory_mib;
   io::WriteJsonAtomic(out / "summary.json", j);
   return summary;

@@ -8,6 +8,7 @@
 
 #include <nlohmann/json.hpp>
 
+#include "calib/triangulation.h"
 #include "mapping/terrain_grid.h"
 
 namespace lunarnav::mapping {
@@ -19,6 +20,12 @@ struct TerrainMapRunOptions {
   std::filesystem::path stereo_dir;
   /// Poses: the simulator's truth/poses.csv, or a trajectory with a frame-times file.
   std::filesystem::path poses_csv, trajectory, frame_times;
+  /// Rectified rig of the run (rectify's rig.json): the points' predicted errors from its
+  /// geometry (ElevationErrorModel, sigma_d_px) instead of reading xyz_sigma/; empty: read
+  /// xyz_sigma/<stem>.exr when present, else TerrainMapOptions::default_sigma_m.
+  std::filesystem::path rig;
+  double sigma_d_px = 1.0;  ///< Disparity error for the rig's error model, px, > 0.
+  calib::ReferenceImage reference = calib::ReferenceImage::kRight;  ///< The disparity maps' reference.
   /// Output directories of earlier runs on disjoint sets of frames, merged into this map.
   std::vector<std::filesystem::path> merge_maps;
   bool resume = false;       ///< Continue the map in the output directory, skipping fused frames.
@@ -32,7 +39,7 @@ struct TerrainMapRunSummary {
   long frames_total = 0, frames_fused = 0, frames_resumed = 0, frames_merged = 0;
   long points_in = 0, points_fused = 0, points_rejected = 0, points_out_of_range = 0;
   long mapped_cells = 0, obstacle_cells = 0;
-  double seconds = 0, fuse_seconds = 0, write_seconds = 0;
+  double seconds = 0, fuse_seconds = 0, fuse_cpu_seconds = 0, write_seconds = 0;
   double peak_memory_mib = 0;
   std::string BriefReport() const;  ///< e.g. "40 frames, 9.1 M points fused; 12,345 cells, 17 obstacle cells; 3.2 s".
 };
