@@ -41,6 +41,19 @@ struct DatasetCloser {
 };
 using DatasetPtr = std::unique_ptr<GDALDataset, DatasetCloser>;
 
+// A GDAL object's default-domain metadata as a map.
+std::map<std::string, std::string> MetadataOf(GDALMajorObject* object) {
+  std::map<std::string, std::string> out;
+  char** md = object->GetMetadata();
+  for (int i = 0; md != nullptr && md[i] != nullptr; ++i) {
+    char* key = nullptr;
+    const char* value = CPLParseNameValue(md[i], &key);
+    if (key != nullptr && value != nullptr) out[key] = value;
+    CPLFree(key);
+  }
+  return out;
+}
+
 }  // namespace
 
 int GeoRaster::BandIndex(const std::string& description) const {
@@ -115,14 +128,7 @@ GeoRaster ReadGeoTiff(const fs::path& path) {
   r.x_west_m = t[0];
   r.y_north_m = t[3];
   r.cell_m = t[1];
-  if (char** md = ds->GetMetadata(); md != nullptr) {
-    for (int i = 0; md[i] != nullptr; ++i) {
-      char* key = nullptr;
-      const char* value = CPLParseNameValue(md[i], &key);
-      if (key != nullptr && value != nullptr) r.metadata[key] = value;
-      CPLFree(key);
-    }
-  }
+  r.metadata = MetadataOf(ds.get());
   const int w = ds->GetRasterXSize(), h = ds->GetRasterYSize();
   for (int i = 1; i <= ds->GetRasterCount(); ++i) {
     GDALRasterBand* band = ds->GetRasterBand(i);
@@ -131,14 +137,7 @@ GeoRaster ReadGeoTiff(const fs::path& path) {
     int has_nodata = 0;
     const double nodata = band->GetNoDataValue(&has_nodata);
     if (has_nodata) b.nodata = nodata;
-    if (char** md = band->GetMetadata(); md != nullptr) {
-      for (int k = 0; md[k] != nullptr; ++k) {
-        char* key = nullptr;
-        const char* value = CPLParseNameValue(md[k], &key);
-        if (key != nullptr && value != nullptr) b.metadata[key] = value;
-        CPLFree(key);
-      }
-    }
+    b.metadata = MetadataOf(band);
     const bool f64 = band->GetRasterDataType() == GDT_Float64;
     b.pixels.create(h, w, f64 ? CV_64FC1 : CV_32FC1);
     const CPLErr err = band->RasterIO(GF_Read, 0, 0, w, h, b.pixels.data, w, h, f64 ? GDT_Float64 : GDT_Float32, 0, 0);

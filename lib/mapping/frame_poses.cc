@@ -78,7 +78,8 @@ double WrapPi(double a) { return std::remainder(a, 2 * M_PI); }
 
 }  // namespace
 
-Eigen::Isometry3d FramePose::WorldFromVehicle() const {
+Eigen::Isometry3d WorldFromVehicle(double x_m, double y_m, double z_m, double heading_rad, double pitch_rad,
+                                   double roll_rad) {
   Eigen::Isometry3d t = Eigen::Isometry3d::Identity();
   t.linear() = (Eigen::AngleAxisd(-heading_rad, Eigen::Vector3d::UnitZ()) *
                 Eigen::AngleAxisd(pitch_rad, Eigen::Vector3d::UnitX()) *
@@ -86,6 +87,10 @@ Eigen::Isometry3d FramePose::WorldFromVehicle() const {
                    .toRotationMatrix();
   t.translation() = Eigen::Vector3d(x_m, y_m, z_m);
   return t;
+}
+
+Eigen::Isometry3d FramePose::WorldFromVehicle() const {
+  return mapping::WorldFromVehicle(x_m, y_m, z_m, heading_rad, pitch_rad, roll_rad);
 }
 
 bool FramePose::IsFinite() const {

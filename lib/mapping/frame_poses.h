@@ -12,6 +12,12 @@
 
 namespace lunarnav::mapping {
 
+/// The pose of the vehicle frame of sec. 3.2 (X right, Y forward, Z up) in the world frame
+/// (x east, y north, z up) for a position (m) and heading (clockwise from north), pitch (nose
+/// up), roll (right side down), radians: T(x, y, z) Rz(-heading) Rx(pitch) Ry(roll).
+Eigen::Isometry3d WorldFromVehicle(double x_m, double y_m, double z_m, double heading_rad, double pitch_rad,
+                                   double roll_rad);
+
 /// A vehicle pose in the world frame (x east, y north, z up, metres) with the conventions of
 /// the positioning module: heading clockwise from north, pitch nose up, roll right side down
 /// (radians). It places the vehicle frame of sec. 3.2 (X right, Y forward, Z up, origin at the
