@@ -340,15 +340,18 @@ StereoSimSummary RunStereoSimulation(const StereoSimOptions& options, const fs::
                << " vertices, " << scene->boxes().size() << " boxes (" << summary.scene_seconds << " s)";
 
   calib::WriteStereoRig(output_dir / "rig.json", rig);
-  // The true terrain on terrain-map's grid, its obstacles and rocks (evaluate map).
-  util::Timer truth_timer;
-  arena.execute([&] {
-    io::WriteGeoTiffAtomic(output_dir / "truth" / "terrain.tif",
-                           TerrainTruthRaster(scene->terrain(), options.truth_cell_m, mapping::ObstacleOptions()));
-  });
-  io::WriteFileAtomic(output_dir / "truth" / "rocks.csv", RocksCsv(scene->terrain()));
-  LN_LOG(Info) << "truth: terrain.tif (" << options.truth_cell_m << " m cells) and rocks.csv ("
-               << truth_timer.ElapsedSeconds() << " s)";
+  // The true terrain on terrain-map's grid, its obstacles and rocks (evaluate map); the terrain
+  // preset only (the boxes are not part of the height field, so its DEM would miss them).
+  if (options.preset == "terrain") {
+    util::Timer truth_timer;
+    arena.execute([&] {
+      io::WriteGeoTiffAtomic(output_dir / "truth" / "terrain.tif",
+                             TerrainTruthRaster(scene->terrain(), options.truth_cell_m, mapping::ObstacleOptions()));
+    });
+    io::WriteFileAtomic(output_dir / "truth" / "rocks.csv", RocksCsv(scene->terrain()));
+    LN_LOG(Info) << "truth: terrain.tif (" << options.truth_cell_m << " m cells) and rocks.csv ("
+                 << truth_timer.ElapsedSeconds() << " s)";
+  }
 
   const std::string image_ext = options.quantize ? ".png" : ".tif";
   std::vector<StereoFrameStats> stats(options.frames);

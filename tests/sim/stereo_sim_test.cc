@@ -189,7 +189,7 @@ TEST(RunStereoSimulation, SameSeedGivesTheSameBytesWhateverTheThreads) {
     EXPECT_TRUE(ReadBytes(entry.path()) == ReadBytes(b.path() / rel)) << rel;
     ++files;
   }
-  EXPECT_EQ(files, 3 + 2 * 5);  // rig, poses, boxes; per frame 2 images and 3 truth maps
+  EXPECT_EQ(files, 5 + 2 * 5);  // rig, poses, boxes, terrain DEM, rocks; per frame 2 images and 3 truth maps
   o.seed = 2;
   RunStereoSimulation(o, c.path());
   EXPECT_TRUE(ReadBytes(a.path() / "left" / "000000.png") != ReadBytes(c.path() / "left" / "000000.png"));
