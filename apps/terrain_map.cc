@@ -36,6 +36,8 @@ int main(int argc, char** argv) {
   app.add_option("--rig", opt.rig, "rectified rig file: each point's predicted error from the rig's geometry "
                                    "(as xyz_sigma/ holds it) without reading xyz_sigma/");
   app.add_option("--sigma-d", opt.sigma_d_px, "disparity error for --rig's error model, px")->capture_default_str();
+  app.add_option("--requests", opt.requests, "the requests the pairs were matched with (stereo-batch --requests): "
+                                             "points outside a pair's Y interval are left out");
   app.add_option("--cell", opt.map.cell_m, "cell size, m")->capture_default_str();
   app.add_option("--gate", opt.map.gate_k, "gate: reject points farther than this many combined sigmas from the "
                                            "cell's median in their frame (inf: off)")->capture_default_str();

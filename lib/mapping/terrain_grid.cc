@@ -92,7 +92,8 @@ double CellStats::Sigma() const {
 }
 
 FrameContribution BinFrame(const cv::Mat& xyz, const cv::Mat& sigma, const Eigen::Isometry3d& world_from_vehicle,
-                           double t_s, const TerrainMapOptions& o, const ElevationErrorModel* error_model) {
+                           double t_s, const TerrainMapOptions& o, const ElevationErrorModel* error_model,
+                           double y_min_m, double y_max_m) {
   LN_CHECK(xyz.type() == CV_32FC3) << "xyz must be CV_32FC3";
   LN_CHECK(sigma.empty() || (sigma.type() == CV_32FC3 && sigma.size() == xyz.size())) << "sigma: CV_32FC3 of xyz's size";
   FrameContribution out;
@@ -133,7 +134,7 @@ FrameContribution BinFrame(const cv::Mat& xyz, const cv::Mat& sigma, const Eigen
       const float x = p[0], y = p[1], z = p[2];
       if (!(std::isfinite(x) && std::isfinite(y) && std::isfinite(z))) continue;
       ++out.points_in;
-      if (static_cast<double>(x) * x + static_cast<double>(y) * y > max_range2) {
+      if (static_cast<double>(x) * x + static_cast<double>(y) * y > max_range2 || !(y >= y_min_m && y <= y_max_m)) {
         ++out.points_out_of_range;
         continue;
       }

@@ -110,9 +110,14 @@ struct FrameContribution {
 ///        or without a model options.default_sigma_m for all.
 /// @param world_from_vehicle  the vehicle's pose.
 /// @param t_s  the frame's time (recorded as the cells' last time).
+/// @param y_min_m, y_max_m  points with vehicle Y outside this interval are left out (counted
+///        out of range): the distance interval I_Y the pair was requested for (sec. 3.3), whose
+///        disparity range makes matches outside it unreliable.
 FrameContribution BinFrame(const cv::Mat& xyz_vehicle, const cv::Mat& sigma_vehicle,
                            const Eigen::Isometry3d& world_from_vehicle, double t_s, const TerrainMapOptions& options,
-                           const ElevationErrorModel* error_model = nullptr);
+                           const ElevationErrorModel* error_model = nullptr,
+                           double y_min_m = -std::numeric_limits<double>::infinity(),
+                           double y_max_m = std::numeric_limits<double>::infinity());
 
 /// The map: cells in tiles allocated on demand.
 class TerrainGrid {

@@ -3,6 +3,8 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
+#include <limits>
+#include <map>
 #include <ctime>
 #include <optional>
 #include <set>
@@ -16,6 +18,7 @@
 #include "io/json_io.h"
 #include "mapping/frame_poses.h"
 #include "mapping/map_preview.h"
+#include "stereo/window_requests.h"
 #include "util/check.h"
 #include "util/errors.h"
 #include "util/log.h"
@@ -137,6 +140,12 @@ TerrainMapRunSummary RunTerrainMap(const TerrainMapRunOptions& options, const fs
     todo = std::move(listed);
     has_sigma = options.rig.empty() && fs::is_directory(options.stereo_dir / "xyz_sigma");
   }
+  std::map<std::string, std::pair<double, double>> y_interval;  // per stem, from --requests
+  if (!options.requests.empty()) {
+    for (const stereo::WindowRequest& r : stereo::ReadWindowRequests(options.requests)) {
+      y_interval[r.stem] = {r.y_min_m, r.y_max_m};
+    }
+  }
   std::optional<ElevationErrorModel> error_model;
   if (!options.rig.empty()) {
     error_model.emplace(calib::ReadStereoRig(options.rig), options.reference, options.sigma_d_px);
@@ -198,8 +207,11 @@ TerrainMapRunSummary RunTerrainMap(const TerrainMapRunOptions& options, const fs
             << xyz.pixels.rows << " with 3";
       }
       sizes[k] = xyz.pixels.size();
-      parts[k] = BinFrame(xyz.pixels, sigma, pose.WorldFromVehicle(), pose.t_s, mo,
-                          error_model ? &*error_model : nullptr);
+      const auto interval = y_interval.find(pose.stem);
+      constexpr double kInf = std::numeric_limits<double>::infinity();
+      parts[k] = BinFrame(xyz.pixels, sigma, pose.WorldFromVehicle(), pose.t_s, mo, error_model ? &*error_model : nullptr,
+                          interval != y_interval.end() ? interval->second.first : -kInf,
+                          interval != y_interval.end() ? interval->second.second : kInf);
       progress.Increment();
     });
     for (std::size_t k = 0; k < n; ++k) {
@@ -261,6 +273,7 @@ TerrainMapRunSummary RunTerrainMap(const TerrainMapRunOptions& options, const fs
                  {"frame_times", options.frame_times.string()},
                  {"xyz_sigma", has_sigma},
                  {"rig", options.rig.string()},
+                 {"requests", options.requests.string()},
                  {"errors", has_sigma            ? "xyz_sigma arrays"
                             : error_model        ? "the rig's error model, sigma_d " + std::to_string(options.sigma_d_px) + " px"
                                                  : "default sigma " + std::to_string(mo.default_sigma_m) + " m"},

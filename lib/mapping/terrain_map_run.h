@@ -26,6 +26,9 @@ struct TerrainMapRunOptions {
   std::filesystem::path rig;
   double sigma_d_px = 1.0;  ///< Disparity error for the rig's error model, px, > 0.
   calib::ReferenceImage reference = calib::ReferenceImage::kRight;  ///< The disparity maps' reference.
+  /// The requests the pairs were matched with (`stereo-batch --requests`, plan-windows'
+  /// requests.csv): a listed pair's points outside its Y interval are left out. Empty: none.
+  std::filesystem::path requests;
   /// Output directories of earlier runs on disjoint sets of frames, merged into this map.
   std::vector<std::filesystem::path> merge_maps;
   bool resume = false;       ///< Continue the map in the output directory, skipping fused frames.

@@ -14,6 +14,7 @@
 #include "io/geotiff_io.h"
 #include "io/json_io.h"
 #include "mapping/synthetic_frames.h"
+#include "positioning/trajectory_io.h"
 #include "util/testing.h"
 
 namespace lunarnav {
@@ -185,6 +186,44 @@ TEST(TerrainMapTool, ResumeAndMergeOfDisjointFramesEqualFusingAtOnce) {
                              tmp.path());
   EXPECT_EQ(twice.exit_code, 3);
   EXPECT_NE(twice.stderr_text.find("fused twice"), std::string::npos) << twice.stderr_text;
+}
+
+TEST(TerrainMapTool, ATrajectoryInterpolatedAtTheFrameTimesGivesTheMapOfThePoses) {
+  util::ScopedTempDir tmp;
+  WriteStereoDir(tmp.path() / "stereo", 0, 4);
+  const std::string poses = (tmp.path() / "poses.csv").string();
+  WritePoses(poses, 4);
+  // posfilter's trajectory.csv at 10 Hz along the same straight line, and the frame times.
+  std::vector<positioning::TrajectorySample> samples;
+  for (int k = 0; k <= 100; ++k) {
+    positioning::TrajectorySample s;
+    s.t_s = 0.1 * k;
+    s.y_m = 0.15 * s.t_s;
+    s.z_m = kGround;
+    samples.push_back(s);
+  }
+  positioning::WriteTrajectoryCsv(tmp.path() / "trajectory.csv", samples);
+  std::string times = "stem,t_s\n";
+  for (int k = 0; k < 4; ++k) times += PoseOf(k).stem + "," + std::to_string(PoseOf(k).t_s) + "\n";
+  io::WriteFileAtomic(tmp.path() / "times.csv", times);
+  const auto a = RunTool("terrain-map", {(tmp.path() / "stereo").string(), "--poses", poses, "-o",
+                                         (tmp.path() / "by_poses").string(), "-q", "--no-preview"},
+                         tmp.path());
+  const auto b = RunTool("terrain-map", {(tmp.path() / "stereo").string(), "--trajectory",
+                                         (tmp.path() / "trajectory.csv").string(), "--frame-times",
+                                         (tmp.path() / "times.csv").string(), "-o", (tmp.path() / "by_trajectory").string(),
+                                         "-q", "--no-preview"},
+                         tmp.path());
+  ASSERT_EQ(a.exit_code, 0) << a.stderr_text;
+  ASSERT_EQ(b.exit_code, 0) << b.stderr_text;
+  const cv::Mat ea = Band(io::ReadGeoTiff(tmp.path() / "by_poses" / "elevation.tif"), "elevation_m");
+  const cv::Mat eb = Band(io::ReadGeoTiff(tmp.path() / "by_trajectory" / "elevation.tif"), "elevation_m");
+  ASSERT_EQ(ea.size(), eb.size());
+  cv::Mat diff;
+  cv::absdiff(ea, eb, diff);
+  double worst = 0;
+  cv::minMaxLoc(diff, nullptr, &worst, nullptr, nullptr, ea == ea);
+  EXPECT_LT(worst, 1e-4);  // the trajectory file's 0.1 mm positions
 }
 
 TEST(PlanWindowsTool, WritesRequestsThatStereoBatchReads) {
