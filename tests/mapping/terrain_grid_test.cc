@@ -133,6 +133,21 @@ TEST(TerrainGrid, GateRejectsOutliersAndKeepsTheHeight) {
   EXPECT_EQ(BinFrame(xyz, cv::Mat(), pose.WorldFromVehicle(), 0, off).points_rejected, 0);
 }
 
+TEST(TerrainGrid, PointsOutsideTheRequestedIntervalAreLeftOut) {
+  const TerrainMapOptions o;
+  const FramePose pose = Pose(0, 0, 0);
+  const cv::Mat xyz = SurfaceXyz([](double, double) { return 0.0; }, pose);  // Y from 2 to 10 m
+  const FrameContribution all = BinFrame(xyz, cv::Mat(), pose.WorldFromVehicle(), 0, o);
+  const FrameContribution band = BinFrame(xyz, cv::Mat(), pose.WorldFromVehicle(), 0, o, nullptr, 4.0, 6.0);
+  EXPECT_EQ(band.points_in, all.points_in);
+  EXPECT_EQ(band.points_fused + band.points_out_of_range, all.points_fused);
+  EXPECT_NEAR(static_cast<double>(band.points_fused) / all.points_fused, 2.0 / 8.0, 0.01);  // 2 m of 8
+  for (const auto& [cell, stats] : band.cells) {
+    EXPECT_GE(cell.j, 16);  // y >= 4 m
+    EXPECT_LT(cell.j, 24);  // y < 6 m
+  }
+}
+
 TEST(TerrainGrid, FusingInTwoHalvesAndMergingEqualsFusingAtOnce) {
   const TerrainMapOptions o;
   const auto surface = [](double x, double y) {
