@@ -7,14 +7,20 @@
 namespace lunarnav::sim {
 namespace {
 
-TEST(TerrainTruthRaster, APlaneGivesItsHeightAtCellCentresAndItsExtremesAtTheEdges) {
+// A terrain without relief over x in [-half_width, half_width], y in [0, length].
+TerrainOptions FlatTerrain(double half_width_m, double length_m, double rocks_per_m2) {
   TerrainOptions o;
-  o.min_x_m = -3;
-  o.max_x_m = 3;
+  o.min_x_m = -half_width_m;
+  o.max_x_m = half_width_m;
   o.min_y_m = 0;
-  o.max_y_m = 5;
+  o.max_y_m = length_m;
   o.relief_amplitude_m = 0;
-  o.rock_density_per_m2 = 0;
+  o.rock_density_per_m2 = rocks_per_m2;
+  return o;
+}
+
+TEST(TerrainTruthRaster, APlaneGivesItsHeightAtCellCentresAndItsExtremesAtTheEdges) {
+  TerrainOptions o = FlatTerrain(3, 5, 0);
   o.slope_x = 0.1;  // 10 cm per metre east
   const Terrain terrain(o);
   const io::GeoRaster r = TerrainTruthRaster(terrain, 0.25, mapping::ObstacleOptions());
@@ -38,13 +44,7 @@ TEST(TerrainTruthRaster, APlaneGivesItsHeightAtCellCentresAndItsExtremesAtTheEdg
 }
 
 TEST(TerrainTruthRaster, RocksTallerThanTheLimitAreObstaclesWhereTheyStand) {
-  TerrainOptions o;
-  o.min_x_m = -6;
-  o.max_x_m = 6;
-  o.min_y_m = 0;
-  o.max_y_m = 12;
-  o.relief_amplitude_m = 0;
-  o.rock_density_per_m2 = 0.5;
+  TerrainOptions o = FlatTerrain(6, 12, 0.5);
   o.seed = 7;
   const Terrain terrain(o);
   const io::GeoRaster r = TerrainTruthRaster(terrain, 0.25, mapping::ObstacleOptions());
