@@ -1,6 +1,7 @@
 // evaluate: results against ground truth -> the paper's tables and figures.
 // docs/evaluate.md describes every subcommand, option and output. Each subcommand's work is a
 // lib/evaluation call (Run<Name>Command); this file only declares the command lines.
+#include <filesystem>
 #include <functional>
 #include <memory>
 #include <string>
@@ -9,6 +10,7 @@
 #include "evaluation/boxes_eval.h"
 #include "evaluation/correlation_study.h"
 #include "evaluation/disparity_eval.h"
+#include "evaluation/map_eval.h"
 #include "evaluation/request_study.h"
 #include "evaluation/timing_study.h"
 #include "evaluation/trajectory_eval.h"
@@ -16,6 +18,7 @@
 #include "io/image_io.h"
 #include "util/cli.h"
 #include "util/errors.h"
+#include "util/log.h"
 #include "util/run_main.h"
 #include "util/summary.h"
 
@@ -178,6 +181,34 @@ Subcommand AddTrajectory(CLI::App* app) {
   return Declare(cmd, c, &evaluation::RunTrajectoryCommand);
 }
 
+Subcommand AddMap(CLI::App* app) {
+  struct MapArgs {
+    std::filesystem::path map, truth, output_dir;
+    evaluation::MapEvalOptions options;
+    int threads = 0;
+  };
+  auto c = std::make_shared<MapArgs>();
+  CLI::App* cmd = app->add_subcommand(
+      "map", "a terrain-map output against a simulated run's true terrain: elevation RMSE and bias, coverage of\n"
+             "the ground seen, obstacle precision and recall, rocks above the obstacle height found");
+  cmd->add_option("MAP_DIR", c->map, "terrain-map output directory")->required();
+  cmd->add_option("--truth", c->truth, "simulate stereo output directory (truth/terrain.tif, rocks.csv)")->required();
+  cmd->add_option("--min-points", c->options.min_points, "cells with fewer points are not scored")
+      ->capture_default_str();
+  cmd->add_option("--rock-height", c->options.rock_height_m, "rocks taller than this are counted, m")
+      ->capture_default_str();
+  cmd->add_option("--tolerance", c->options.tolerance_cells, "detections this many cells away count")
+      ->capture_default_str();
+  cmd->add_option("-j,--threads", c->threads, "threads (0 = all cores)")->capture_default_str();
+  cmd->add_option("-o,--output", c->output_dir, "output directory (created)")->required();
+  return {cmd, [c](const json& head) {
+            const evaluation::MapEvalResult r = evaluation::RunMapEvaluation(
+                c->map, c->truth, c->options, c->output_dir, c->threads, head.at("invocation"));
+            LN_LOG(Info) << "evaluate map: " << r.BriefReport() << "; " << (c->output_dir / "map.md").string();
+            return static_cast<int>(kExitOk);
+          }};
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
@@ -195,7 +226,7 @@ int main(int argc, char** argv) {
 
   const std::vector<Subcommand> subcommands = {
       AddDisparity(&app), AddTrials(&app), AddCorrelation(&app), AddTiming(&app, &quiet),
-      AddRequests(&app),  AddBoxes(&app),  AddTrajectory(&app),
+      AddRequests(&app),  AddBoxes(&app),  AddTrajectory(&app),          AddMap(&app),
   };
 
   if (const auto exit_code = util::ParseCommandLine(&app, argc, argv, quiet)) return *exit_code;

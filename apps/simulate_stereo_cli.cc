@@ -50,6 +50,7 @@ std::function<int(const nlohmann::json&, bool)> RegisterStereoCommand(CLI::App& 
   cmd->add_flag("--no-quantize", state->no_quantize, "float32 TIFF images instead of 8-bit PNG");
   cmd->add_option("--rays", o.rays_per_pixel, "rays per pixel (a square: 1, 4, 9, ...)")->capture_default_str();
   cmd->add_option("--terrain-cell", o.terrain_cell_m, "height-field grid spacing, m")->capture_default_str();
+  cmd->add_option("--truth-cell", o.truth_cell_m, "cell of the true DEM truth/terrain.tif, m (terrain-map's)")->capture_default_str();
   cmd->add_option("--rock-density", o.rock_density_per_m2, "rocks per m^2 (default: the preset's)");
   cmd->add_option("--relief", o.relief_amplitude_m, "relief amplitude, m (default: the preset's)");
   cmd->add_option("--seed", o.seed, "scene, texture and noise seed (same seed, same bytes)")->capture_default_str();
@@ -63,7 +64,7 @@ std::function<int(const nlohmann::json&, bool)> RegisterStereoCommand(CLI::App& 
       opt.exposure_difference = !state->no_exposure;
       opt.quantize = !state->no_quantize;
       opt.show_progress = !quiet;
-      for (const std::string& f : state->faults) opt.faults.push_back(sim::ParseFaultSpec(f));
+      for (const std::string& f : state->faults) opt.faults.push_back(sim::ParseFrameFaultSpec(f));
       const sim::StereoSimSummary summary = sim::RunStereoSimulation(opt, state->output_dir, invocation);
       LN_LOG(Info) << "simulate stereo: " << summary.BriefReport();
       LN_LOG(Info) << "outputs in " << state->output_dir.string() << "/{left,right,truth}, rig "

@@ -38,6 +38,8 @@ void VehicleSpec::Validate(const std::string& source) const {
   CheckPositive(width_m, source + ".width_m");
   CheckPositive(wheel_diameter_m, source + ".wheel_diameter_m");
   LN_CHECK_INPUT(std::isfinite(front_axle_y_m)) << source << ".front_axle_y_m: not finite";
+  LN_CHECK_INPUT(std::isfinite(max_slope_deg) && max_slope_deg > 0 && max_slope_deg < 90)
+      << source << ".max_slope_deg: must be in (0, 90), got " << max_slope_deg;
   const std::string r = source + ".requirements";
   CheckPositive(requirements.fov_vehicle_widths, r + ".fov_vehicle_widths");
   CheckPositive(requirements.obstacle_height_m, r + ".obstacle_height_m");
@@ -54,6 +56,7 @@ nlohmann::json VehicleSpecToJson(const VehicleSpec& v) {
           {"width_m", v.width_m},
           {"wheel_diameter_m", v.wheel_diameter_m},
           {"front_axle_y_m", v.front_axle_y_m},
+          {"max_slope_deg", v.max_slope_deg},
           {"requirements", {{"fov_vehicle_widths", v.requirements.fov_vehicle_widths},
                             {"obstacle_height_m", v.requirements.obstacle_height_m},
                             {"obstacle_min_px", v.requirements.obstacle_min_px},
@@ -63,7 +66,7 @@ nlohmann::json VehicleSpecToJson(const VehicleSpec& v) {
 VehicleSpec VehicleSpecFromJson(const nlohmann::json& j, const std::string& source) {
   OnlyKeys(j,
            {"format", "name", "description", "sources", "max_speed_m_s", "sliding_friction", "stop_time_s", "width_m",
-            "wheel_diameter_m", "front_axle_y_m", "requirements"},
+            "wheel_diameter_m", "front_axle_y_m", "max_slope_deg", "requirements"},
            source);
   LN_CHECK_INPUT(j.contains("format") && j["format"] == kFormat)
       << source << ".format: expected \"" << kFormat << "\"";
@@ -78,6 +81,7 @@ VehicleSpec VehicleSpecFromJson(const nlohmann::json& j, const std::string& sour
   v.width_m = Number(j, "width_m", source);
   v.wheel_diameter_m = Number(j, "wheel_diameter_m", source);
   v.front_axle_y_m = Number(j, "front_axle_y_m", source);
+  if (j.contains("max_slope_deg")) v.max_slope_deg = Number(j, "max_slope_deg", source);
   if (j.contains("requirements")) {
     const std::string r = source + ".requirements";
     const nlohmann::json& rj = j["requirements"];

@@ -34,6 +34,9 @@ struct VehicleSpec {
   double width_m = 4.0 / 3.0;          ///< Vehicle width, m, > 0.
   double wheel_diameter_m = 0.5;       ///< Front wheel diameter, m, > 0.
   double front_axle_y_m = 0.5;         ///< Y of the front axle (from the mast base), m.
+  /// Steepest ground slope the vehicle may drive, degrees, in (0, 90); optional in the file
+  /// (the paper gives none; 30 deg by default). terrain-map marks steeper cells as obstacles.
+  double max_slope_deg = 30.0;
   ImagingRequirements requirements;
 
   /// Y of the front of the front wheels (front axle + wheel radius), m.

@@ -32,31 +32,12 @@ double AngleDeg(const Eigen::Matrix3d& r) {
 }
 
 std::vector<StampedPose> ReadTum(const fs::path& path) {
-  std::ifstream in(path);
-  LN_CHECK_INPUT(in.good()) << path.string() << ": cannot open";
   std::vector<StampedPose> poses;
-  std::string line;
-  for (int number = 1; std::getline(in, line); ++number) {
-    const auto first = line.find_first_not_of(" \t\r");
-    if (first == std::string::npos || line[first] == '#') continue;
-    std::istringstream fields(line);
-    double v[8];
-    for (double& x : v) {
-      fields >> x;
-      LN_CHECK_INPUT(static_cast<bool>(fields)) << path.string() << ":" << number
-                                                << ": expected 8 numbers (t x y z qx qy qz qw)";
-    }
-    std::string rest;
-    LN_CHECK_INPUT(!(fields >> rest)) << path.string() << ":" << number << ": more than 8 fields";
-    Eigen::Quaterniond q(v[7], v[4], v[5], v[6]);
-    LN_CHECK_INPUT(std::abs(q.norm() - 1.0) < 1e-3)
-        << path.string() << ":" << number << ": quaternion of norm " << q.norm() << " (expected 1)";
+  for (const positioning::TumPose& tum : positioning::ReadTumPoses(path)) {
     StampedPose p;
-    p.t_s = v[0];
-    p.world_from_body.linear() = q.normalized().toRotationMatrix();
-    p.world_from_body.translation() = Eigen::Vector3d(v[1], v[2], v[3]);
-    LN_CHECK_INPUT(poses.empty() || p.t_s > poses.back().t_s)
-        << path.string() << ":" << number << ": time stamps must increase";
+    p.t_s = tum.t_s;
+    p.world_from_body.linear() = tum.world_from_body.toRotationMatrix();
+    p.world_from_body.translation() = tum.position_m;
     poses.push_back(p);
   }
   return poses;

@@ -39,6 +39,8 @@ void WriteExrAtomic(const fs::path& path, const cv::Mat& image, const std::vecto
   CommitTempFile(temp, path);
 }
 
+void PreloadExrReader() { internal::Oiio(); }
+
 ExrImage ReadExr(const fs::path& path) {
   std::error_code ec;
   LN_CHECK_INPUT(fs::is_regular_file(path, ec)) << path.string() << ": no such file";

@@ -1,5 +1,6 @@
 #include "positioning/trajectory_io.h"
 
+#include <algorithm>
 #include <charconv>
 #include <cmath>
 #include <cstdint>
@@ -434,6 +435,52 @@ std::vector<TrajectorySample> ReadTrajectoryCsv(const std::filesystem::path& pat
     out.push_back(p);
   }
   LN_CHECK_INPUT(header) << path.string() << ": no header";
+  return out;
+}
+
+std::vector<TumPose> ReadTumPoses(const std::filesystem::path& path) {
+  std::ifstream in(path);
+  LN_CHECK_INPUT(in.good()) << path.string() << ": cannot open";
+  std::vector<TumPose> poses;
+  std::string line;
+  for (long number = 1; std::getline(in, line); ++number) {
+    const auto first = line.find_first_not_of(" \t\r");
+    if (first == std::string::npos || line[first] == '#') continue;
+    std::istringstream fields(line);
+    fields.imbue(std::locale::classic());
+    double v[8];
+    for (double& x : v) {
+      fields >> x;
+      LN_CHECK_INPUT(static_cast<bool>(fields))
+          << path.string() << ":" << number << ": expected 8 numbers (t x y z qx qy qz qw)";
+    }
+    std::string rest;
+    LN_CHECK_INPUT(!(fields >> rest)) << path.string() << ":" << number << ": more than 8 fields";
+    const Eigen::Quaterniond q(v[7], v[4], v[5], v[6]);
+    LN_CHECK_INPUT(std::abs(q.norm() - 1.0) < 1e-3)
+        << path.string() << ":" << number << ": quaternion of norm " << q.norm() << " (expected 1)";
+    LN_CHECK_INPUT(poses.empty() || v[0] > poses.back().t_s)
+        << path.string() << ":" << number << ": time stamps must increase";
+    poses.push_back({v[0], Eigen::Vector3d(v[1], v[2], v[3]), q.normalized()});
+  }
+  return poses;
+}
+
+std::vector<TrajectorySample> ReadTrajectoryTum(const std::filesystem::path& path) {
+  std::vector<TrajectorySample> out;
+  for (const TumPose& tum : ReadTumPoses(path)) {
+    // EnuFromBody = Rz(90 deg - heading) Ry(-pitch) Rx(-roll): a Z-Y-X rotation.
+    const Eigen::Matrix3d r = tum.world_from_body.toRotationMatrix();
+    TrajectorySample p;
+    p.t_s = tum.t_s;
+    p.x_m = tum.position_m.x();
+    p.y_m = tum.position_m.y();
+    p.z_m = tum.position_m.z();
+    p.heading_rad = std::fmod(M_PI / 2 - std::atan2(r(1, 0), r(0, 0)) + 2 * M_PI, 2 * M_PI);
+    p.pitch_rad = std::asin(std::clamp(r(2, 0), -1.0, 1.0));
+    p.roll_rad = -std::atan2(r(2, 1), r(2, 2));
+    out.push_back(p);
+  }
   return out;
 }
 

@@ -45,4 +45,22 @@ class TrajectoryWriter {
 /// Reads a file written by WriteTrajectoryCsv. @throws InputError with file:line.
 std::vector<TrajectorySample> ReadTrajectoryCsv(const std::filesystem::path& path);
 
+/// One line of a TUM file: time, position, and the rotation taking the body frame to the world.
+struct TumPose {
+  double t_s = 0;
+  Eigen::Vector3d position_m = Eigen::Vector3d::Zero();
+  Eigen::Quaterniond world_from_body = Eigen::Quaterniond::Identity();  ///< Normalised.
+};
+
+/// Reads a TUM file ("t x y z qx qy qz qw" per line, '#' and blank lines skipped).
+/// @throws InputError with file:line: not 8 numbers, more than 8 fields, a quaternion of norm
+///         far from 1, time stamps that do not increase.
+std::vector<TumPose> ReadTumPoses(const std::filesystem::path& path);
+
+/// Reads a TUM trajectory ("t x y z qx qy qz qw" per line, '#' lines skipped; the quaternion
+/// takes the body frame, x forward, y left, z up, to the world frame) into samples: heading,
+/// pitch and roll are the angles of EnuFromBody (valid for |pitch| < 90 deg); speed 0.
+/// @throws InputError with file:line for a malformed line or a quaternion of norm far from 1.
+std::vector<TrajectorySample> ReadTrajectoryTum(const std::filesystem::path& path);
+
 }  // namespace lunarnav::positioning

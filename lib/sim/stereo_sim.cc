@@ -13,6 +13,8 @@
 #include "calib/rectify.h"
 #include "calib/stereo_rig_io.h"
 #include "io/float_array_io.h"
+#include "io/geotiff_io.h"
+#include "sim/terrain_truth.h"
 #include "io/atomic_file.h"
 #include "io/image_io.h"
 #include "io/json_io.h"
@@ -112,10 +114,10 @@ FrameFault FrameFaultFromString(const std::string& name) {
   return FrameFault::kNone;
 }
 
-FaultSpec ParseFaultSpec(const std::string& text, const std::string& what) {
+FrameFaultSpec ParseFrameFaultSpec(const std::string& text, const std::string& what) {
   const std::size_t colon = text.find(':');
   LN_CHECK_ARG(colon != std::string::npos) << what << ": expected FRAME:KIND (e.g. 3:blank), got '" << text << "'";
-  FaultSpec spec;
+  FrameFaultSpec spec;
   spec.frame = util::ParseInt(text.substr(0, colon), what + " frame");
   spec.fault = FrameFaultFromString(text.substr(colon + 1));
   return spec;
@@ -145,7 +147,7 @@ void StereoSimOptions::Validate() const {
   LN_CHECK_ARG(std::isfinite(interval_s) && interval_s > 0) << "interval: must be > 0 s";
   LN_CHECK_ARG(std::isfinite(turn_radius_m) && (turn_radius_m == 0 || std::abs(turn_radius_m) >= 1))
       << "turn radius: 0 (straight) or at least 1 m";
-  for (const FaultSpec& f : faults) {
+  for (const FrameFaultSpec& f : faults) {
     LN_CHECK_ARG(f.frame >= 0 && f.frame < frames)
         << "fault: frame " << f.frame << " is not one of the " << frames << " frames";
   }
@@ -155,11 +157,12 @@ void StereoSimOptions::Validate() const {
   LN_CHECK_ARG(relief_amplitude_m == -1 || (relief_amplitude_m >= 0 && relief_amplitude_m <= 10))
       << "relief: must be in [0, 10] m";
   LN_CHECK_ARG(num_threads >= 0) << "threads: must be >= 0";
+  LN_CHECK_ARG(truth_cell_m >= 0.05 && truth_cell_m <= 5) << "truth cell: must be in [0.05, 5] m";
 }
 
 json StereoSimOptions::ToJson() const {
   json faults_json = json::array();
-  for (const FaultSpec& f : faults) faults_json.push_back({{"frame", f.frame}, {"fault", ToString(f.fault)}});
+  for (const FrameFaultSpec& f : faults) faults_json.push_back({{"frame", f.frame}, {"fault", ToString(f.fault)}});
   const PresetDefaults d = Defaults(preset);
   return {{"preset", preset},
           {"size_px", {width_px, height_px}},
@@ -182,6 +185,7 @@ json StereoSimOptions::ToJson() const {
           {"terrain_cell_m", terrain_cell_m},
           {"rock_density_per_m2", rock_density_per_m2 >= 0 ? rock_density_per_m2 : d.rock_density},
           {"relief_amplitude_m", relief_amplitude_m >= 0 ? relief_amplitude_m : d.relief},
+          {"truth_cell_m", truth_cell_m},
           {"seed", seed}};
 }
 
@@ -324,7 +328,7 @@ StereoSimSummary RunStereoSimulation(const StereoSimOptions& options, const fs::
 
   tbb::task_arena arena(util::EffectiveThreadCount(options.num_threads));
   std::vector<FrameFault> faults(options.frames, FrameFault::kNone);
-  for (const FaultSpec& f : options.faults) faults[f.frame] = f.fault;
+  for (const FrameFaultSpec& f : options.faults) faults[f.frame] = f.fault;
 
   util::Timer scene_timer;
   std::unique_ptr<Scene> scene;
@@ -336,6 +340,18 @@ StereoSimSummary RunStereoSimulation(const StereoSimOptions& options, const fs::
                << " vertices, " << scene->boxes().size() << " boxes (" << summary.scene_seconds << " s)";
 
   calib::WriteStereoRig(output_dir / "rig.json", rig);
+  // The true terrain on terrain-map's grid, its obstacles and rocks (evaluate map); the terrain
+  // preset only (the boxes are not part of the height field, so its DEM would miss them).
+  if (options.preset == "terrain") {
+    util::Timer truth_timer;
+    arena.execute([&] {
+      io::WriteGeoTiffAtomic(output_dir / "truth" / "terrain.tif",
+                             TerrainTruthRaster(scene->terrain(), options.truth_cell_m, mapping::ObstacleOptions()));
+    });
+    io::WriteFileAtomic(output_dir / "truth" / "rocks.csv", RocksCsv(scene->terrain()));
+    LN_LOG(Info) << "truth: terrain.tif (" << options.truth_cell_m << " m cells) and rocks.csv ("
+                 << truth_timer.ElapsedSeconds() << " s)";
+  }
 
   const std::string image_ext = options.quantize ? ".png" : ".tif";
   std::vector<StereoFrameStats> stats(options.frames);

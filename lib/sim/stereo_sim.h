@@ -29,12 +29,12 @@ std::string ToString(FrameFault fault);
 /// "blank", "saturated" or "truncated"; std::invalid_argument otherwise.
 FrameFault FrameFaultFromString(const std::string& name);
 
-struct FaultSpec {
+struct FrameFaultSpec {
   int frame = 0;
   FrameFault fault = FrameFault::kBlank;
 };
 /// "K:KIND", e.g. "3:blank"; std::invalid_argument naming `what` otherwise.
-FaultSpec ParseFaultSpec(const std::string& text, const std::string& what = "--fault");
+FrameFaultSpec ParseFrameFaultSpec(const std::string& text, const std::string& what = "--fault");
 
 /// Options of a simulated stereo run; the defaults are the paper's.
 struct StereoSimOptions {
@@ -63,12 +63,15 @@ struct StereoSimOptions {
   double speed_mps = 0.15;        ///< Vehicle speed.
   double interval_s = 3.2;        ///< Time between frames (0.48 m at 0.15 m/s).
   double turn_radius_m = 0.0;     ///< 0: straight; > 0 a right-hand arc, < 0 a left-hand one.
-  std::vector<FaultSpec> faults;  ///< Frames to spoil.
+  std::vector<FrameFaultSpec> faults;  ///< Frames to spoil.
 
   // Scene.
   double terrain_cell_m = 0.02;   ///< Height-field grid spacing.
   double rock_density_per_m2 = -1;  ///< -1: the preset's (terrain 0.4, boxes 0).
   double relief_amplitude_m = -1;   ///< -1: the preset's (terrain 0.3, boxes 0).
+
+  /// Cell of the true DEM truth/terrain.tif, metres, in [0.05, 5] (terrain-map's default).
+  double truth_cell_m = 0.25;
 
   std::uint64_t seed = 1;  ///< Scene, texture and noise; the same seed gives the same bytes.
   int num_threads = 0;     ///< 0 = all cores.
@@ -104,7 +107,8 @@ struct StereoSimSummary {
 
 /// Renders the run and writes OUT_DIR/left/<stem>.png, right/<stem>.png (stems 000000,
 /// 000001, ...), truth/disparity/<stem>.pfm, truth/xyz/<stem>.exr, truth/poses.csv,
-/// truth/boxes.json, rig.json and summary.json, every file atomically.
+/// truth/boxes.json, truth/terrain.tif (the true DEM, sim/terrain_truth.h), truth/rocks.csv,
+/// rig.json and summary.json, every file atomically.
 /// @throws std::invalid_argument for bad options or an unusable output directory.
 StereoSimSummary RunStereoSimulation(const StereoSimOptions& options, const std::filesystem::path& output_dir,
                                      const nlohmann::json& invocation = nullptr);

@@ -199,6 +199,26 @@ Terrain::Terrain(const TerrainOptions& options) : options_(options) {
   max_height_ = *hi;
 }
 
+std::vector<TerrainRock> Terrain::Rocks() const {
+  const TerrainOptions& o = options_;
+  std::vector<TerrainRock> out;
+  if (o.rock_density_per_m2 <= 0) return out;
+  const double x1 = o.min_x_m + (nx_ - 1) * o.cell_m, y1 = o.min_y_m + (ny_ - 1) * o.cell_m;
+  std::vector<Rock> tile;
+  for (auto ty = static_cast<std::int64_t>(std::floor(o.min_y_m)); ty <= static_cast<std::int64_t>(std::floor(y1)); ++ty) {
+    for (auto tx = static_cast<std::int64_t>(std::floor(o.min_x_m)); tx <= static_cast<std::int64_t>(std::floor(x1));
+         ++tx) {
+      tile.clear();
+      TileRocks(o, tx, ty, &tile);
+      for (const Rock& r : tile) {
+        if (r.x < o.min_x_m || r.x > x1 || r.y < o.min_y_m || r.y > y1) continue;
+        out.push_back({r.x, r.y, r.height, r.r1, r.r2, std::atan2(r.sin_t, r.cos_t)});
+      }
+    }
+  }
+  return out;
+}
+
 double Terrain::HeightAt(double x_m, double y_m) const {
   const double c = options_.cell_m;
   const double gx = (x_m - options_.min_x_m) / c, gy = (y_m - options_.min_y_m) / c;

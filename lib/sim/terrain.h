@@ -49,6 +49,14 @@ struct TerrainOptions {
   nlohmann::json ToJson() const;
 };
 
+/// One rock of the terrain: an elliptical bump h (1 - q)^2 on the relief, q the squared
+/// elliptical radius ((u / a)^2 + (v / b)^2 in axes turned by angle_rad from x towards y).
+struct TerrainRock {
+  double x_m = 0, y_m = 0;   ///< Centre, world frame.
+  double height_m = 0;       ///< Above the relief at its centre.
+  double semi_major_m = 0, semi_minor_m = 0, angle_rad = 0;
+};
+
 /// The height field with a max-mip hierarchy for ray casting.
 class Terrain {
  public:
@@ -69,6 +77,9 @@ class Terrain {
   /// t_min. Parts of the ray outside the grid never hit.
   std::optional<double> Intersect(const Eigen::Vector3d& origin, const Eigen::Vector3d& direction,
                                   double t_min, double t_max) const;
+
+  /// The rocks whose centres lie on the grid, in a fixed order (by 1 m tile, then within it).
+  std::vector<TerrainRock> Rocks() const;
 
   const TerrainOptions& options() const { return options_; }
   int GridWidth() const { return nx_; }   ///< Vertices along x.

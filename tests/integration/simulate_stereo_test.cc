@@ -38,7 +38,8 @@ TEST(SimulateStereo, WritesASequenceThatRectifyReadsAsItIs) {
   const auto run = RunTool(kTool, args, tmp.path());
   ASSERT_EQ(run.exit_code, 0) << run.stderr_text;
   for (const char* f : {"left/000000.png", "right/000001.png", "truth/disparity/000001.pfm", "truth/xyz/000000.exr",
-                        "truth/labels/000000.png", "truth/poses.csv", "truth/boxes.json", "rig.json"}) {
+                        "truth/labels/000000.png", "truth/poses.csv", "truth/boxes.json", "truth/terrain.tif",
+                        "truth/rocks.csv", "rig.json"}) {
     EXPECT_TRUE(fs::is_regular_file(sim / f)) << f;
   }
   const nlohmann::json summary = io::ReadJson(sim / "summary.json");

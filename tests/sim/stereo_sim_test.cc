@@ -189,7 +189,7 @@ TEST(RunStereoSimulation, SameSeedGivesTheSameBytesWhateverTheThreads) {
     EXPECT_TRUE(ReadBytes(entry.path()) == ReadBytes(b.path() / rel)) << rel;
     ++files;
   }
-  EXPECT_EQ(files, 3 + 2 * 5);  // rig, poses, boxes; per frame 2 images and 3 truth maps
+  EXPECT_EQ(files, 5 + 2 * 5);  // rig, poses, boxes, terrain DEM, rocks; per frame 2 images and 3 truth maps
   o.seed = 2;
   RunStereoSimulation(o, c.path());
   EXPECT_TRUE(ReadBytes(a.path() / "left" / "000000.png") != ReadBytes(c.path() / "left" / "000000.png"));
@@ -232,7 +232,7 @@ TEST(RunStereoSimulation, FaultsAppearExactlyWhereRequested) {
   util::ScopedTempDir dir;
   StereoSimOptions o = SmallRun();
   o.frames = 4;
-  o.faults = {ParseFaultSpec("1:blank"), ParseFaultSpec("2:saturated"), ParseFaultSpec("3:truncated")};
+  o.faults = {ParseFrameFaultSpec("1:blank"), ParseFrameFaultSpec("2:saturated"), ParseFrameFaultSpec("3:truncated")};
   RunStereoSimulation(o, dir.path());
   auto image = [&](const char* side, int k) { return io::ReadGreyImage(dir.path() / side / (FrameStem(k) + ".png")); };
   for (const char* side : {"left", "right"}) {
@@ -250,8 +250,8 @@ TEST(RunStereoSimulation, FaultsAppearExactlyWhereRequested) {
   EXPECT_NE(poses.find(",blank\n"), std::string::npos);
   EXPECT_NE(poses.find("000002,6.400,0.000000,0.960000,"), std::string::npos);  // 0.15 m/s x 3.2 s x 2
   EXPECT_NE(poses.find(",saturated\n000003"), std::string::npos);
-  EXPECT_THROW(ParseFaultSpec("2:smoke"), std::invalid_argument);
-  o.faults = {ParseFaultSpec("4:blank")};
+  EXPECT_THROW(ParseFrameFaultSpec("2:smoke"), std::invalid_argument);
+  o.faults = {ParseFrameFaultSpec("4:blank")};
   EXPECT_THROW(RunStereoSimulation(o, dir.path()), std::invalid_argument);
 }
 

@@ -1,0 +1,296 @@
+#include "evaluation/map_eval.h"
+
+#include <algorithm>
+#include <cmath>
+#include <fstream>
+#include <mutex>
+#include <sstream>
+
+#include "io/atomic_file.h"
+#include "io/float_array_io.h"
+#include "io/json_io.h"
+#include "mapping/frame_poses.h"
+#include "mapping/terrain_grid.h"
+#include "util/check.h"
+#include "util/errors.h"
+#include "util/parallel.h"
+#include "util/summary.h"
+#include "util/timer.h"
+
+namespace lunarnav::evaluation {
+namespace fs = std::filesystem;
+using nlohmann::json;
+
+namespace {
+
+constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
+
+// Offset of raster b's cells in raster a's: b(col, row) = a(col + dc, row + dr).
+void LatticeOffset(const io::GeoRaster& a, const io::GeoRaster& b, const std::string& what, int* dc, int* dr) {
+  LN_CHECK_INPUT(std::abs(a.cell_m - b.cell_m) <= 1e-9 * a.cell_m)
+      << what << ": cell " << b.cell_m << " m, the map's is " << a.cell_m << " m";
+  const double fc = (b.x_west_m - a.x_west_m) / a.cell_m, fr = (a.y_north_m - b.y_north_m) / a.cell_m;
+  LN_CHECK_INPUT(std::abs(fc - std::round(fc)) < 1e-6 && std::abs(fr - std::round(fr)) < 1e-6)
+      << what << ": not on the map's cell lattice";
+  *dc = static_cast<int>(std::lround(fc));
+  *dr = static_cast<int>(std::lround(fr));
+}
+
+const cv::Mat& Band(const io::GeoRaster& r, const std::string& name, const std::string& what) {
+  const int i = r.BandIndex(name);
+  LN_CHECK_INPUT(i >= 0) << what << ": no band '" << name << "'";
+  LN_CHECK_INPUT(r.bands[i].pixels.type() == CV_32FC1) << what << ": band '" << name << "' is not Float32";
+  return r.bands[i].pixels;
+}
+
+// Value of `m` at (col, row) of another raster offset by (dc, dr), NaN outside.
+float At(const cv::Mat& m, int col, int row) {
+  if (col < 0 || row < 0 || col >= m.cols || row >= m.rows) return std::numeric_limits<float>::quiet_NaN();
+  return m.at<float>(row, col);
+}
+
+double Ratio(long a, long b) { return b > 0 ? static_cast<double>(a) / static_cast<double>(b) : kNaN; }
+
+json Number(double v) { return std::isfinite(v) ? json(v) : json(nullptr); }
+
+}  // namespace
+
+void MapEvalOptions::Validate() const {
+  LN_CHECK_ARG(min_points >= 1) << "min points: must be >= 1";
+  LN_CHECK_ARG(std::isfinite(rock_height_m) && rock_height_m >= 0) << "rock height: must be >= 0 m";
+  LN_CHECK_ARG(tolerance_cells >= 0 && tolerance_cells <= 10) << "tolerance: must be in 0..10 cells";
+}
+
+json MapEvalOptions::ToJson() const {
+  return {{"min_points", min_points}, {"rock_height_m", rock_height_m}, {"tolerance_cells", tolerance_cells}};
+}
+
+std::vector<TrueRock> ReadRocksCsv(const fs::path& path) {
+  std::ifstream in(path);
+  LN_CHECK_INPUT(in.good()) << path.string() << ": cannot open";
+  std::vector<TrueRock> rocks;
+  std::string line;
+  bool header = false;
+  for (long number = 1; std::getline(in, line); ++number) {
+    if (line.empty() || line[0] == '#') continue;
+    if (!header) {
+      LN_CHECK_INPUT(line.rfind("x_m,y_m,height_m,semi_major_m", 0) == 0)
+          << path.string() << ":" << number << ": expected the header x_m,y_m,height_m,semi_major_m,...";
+      header = true;
+      continue;
+    }
+    std::istringstream row(line);
+    row.imbue(std::locale::classic());
+    TrueRock r;
+    char c1, c2, c3;
+    row >> r.x_m >> c1 >> r.y_m >> c2 >> r.height_m >> c3 >> r.semi_major_m;
+    LN_CHECK_INPUT(!row.fail() && c1 == ',' && c2 == ',' && c3 == ',') << path.string() << ":" << number
+                                                                      << ": malformed row";
+    rocks.push_back(r);
+  }
+  LN_CHECK_INPUT(header) << path.string() << ": no header";
+  return rocks;
+}
+
+MapEvalResult EvaluateMap(const io::GeoRaster& map, const io::GeoRaster& truth, const io::GeoRaster& seen,
+                          const std::vector<TrueRock>& rocks, const MapEvalOptions& o) {
+  o.Validate();
+  const cv::Mat& elevation = Band(map, "elevation_m", "map");
+  const cv::Mat& count = Band(map, "count", "map");
+  const cv::Mat& obstacle = Band(map, "obstacle", "map");
+  const cv::Mat& true_elevation = Band(truth, "elevation_m", "truth");
+  const cv::Mat& true_obstacle = Band(truth, "obstacle", "truth");
+  const cv::Mat& rays = Band(seen, "count", "seen cells");
+  int tc = 0, tr = 0, sc = 0, sr = 0;
+  LatticeOffset(map, truth, "truth", &tc, &tr);
+  LatticeOffset(map, seen, "seen cells", &sc, &sr);
+  // Map cell (col, row) is truth cell (col - tc, row - tr), seen cell (col - sc, row - sr).
+  MapEvalResult r;
+  const int tol = o.tolerance_cells;
+  auto compared = [&](int col, int row) {
+    return col >= 0 && row >= 0 && col < elevation.cols && row < elevation.rows &&
+           count.at<float>(row, col) >= o.min_points && std::isfinite(At(true_elevation, col - tc, row - tr));
+  };
+  auto any_near = [&](int col, int row, int radius, auto pred) {
+    for (int dr = -radius; dr <= radius; ++dr) {
+      for (int dc = -radius; dc <= radius; ++dc) {
+        if (pred(col + dc, row + dr)) return true;
+      }
+    }
+    return false;
+  };
+  auto map_obstacle = [&](int col, int row) {
+    return compared(col, row) && obstacle.at<float>(row, col) > 0;
+  };
+  auto true_obstacle_at = [&](int col, int row) { return At(true_obstacle, col - tc, row - tr) > 0; };
+  std::vector<double> errors;
+  for (int row = 0; row < elevation.rows; ++row) {
+    for (int col = 0; col < elevation.cols; ++col) {
+      if (!compared(col, row)) continue;
+      errors.push_back(elevation.at<float>(row, col) - At(true_elevation, col - tc, row - tr));
+      const bool is_map = obstacle.at<float>(row, col) > 0, is_true = true_obstacle_at(col, row);
+      r.obstacle_map += is_map;
+      r.obstacle_true += is_true;
+      if (is_map) (any_near(col, row, tol, true_obstacle_at) ? r.obstacle_tp : r.obstacle_fp)++;
+      if (is_true && any_near(col, row, tol, map_obstacle)) ++r.obstacle_found;
+    }
+  }
+  r.cells_compared = static_cast<long>(errors.size());
+  if (!errors.empty()) {
+    double sum = 0, sum2 = 0;
+    std::vector<double> abs_err;
+    for (double e : errors) {
+      sum += e;
+      sum2 += e * e;
+      abs_err.push_back(std::abs(e));
+    }
+    const double n = static_cast<double>(errors.size());
+    r.bias_m = sum / n;
+    r.rmse_m = std::sqrt(sum2 / n);
+    std::sort(abs_err.begin(), abs_err.end());
+    double s = 0;
+    for (double a : abs_err) s += a;
+    r.mean_abs_m = s / n;
+    r.p90_abs_m = abs_err[static_cast<std::size_t>(0.9 * (n - 1))];
+    r.max_abs_m = abs_err.back();
+  } else {
+    r.bias_m = r.rmse_m = r.mean_abs_m = r.p90_abs_m = r.max_abs_m = kNaN;
+  }
+  r.precision = Ratio(r.obstacle_tp, r.obstacle_map);
+  r.recall = Ratio(r.obstacle_found, r.obstacle_true);
+
+  // Coverage of the ground seen.
+  for (int row = 0; row < rays.rows; ++row) {
+    for (int col = 0; col < rays.cols; ++col) {
+      if (!(rays.at<float>(row, col) >= o.min_points)) continue;
+      ++r.cells_seen;
+      r.cells_seen_mapped += At(count, col + sc, row + sr) >= 1;
+    }
+  }
+  r.coverage = Ratio(r.cells_seen_mapped, r.cells_seen);
+
+  // Rocks above the limit whose centre cell was compared.
+  for (const TrueRock& rock : rocks) {
+    if (rock.height_m <= o.rock_height_m) continue;
+    const int col = static_cast<int>(std::floor((rock.x_m - map.x_west_m) / map.cell_m));
+    const int row = static_cast<int>(std::floor((map.y_north_m - rock.y_m) / map.cell_m));
+    if (!compared(col, row)) continue;
+    ++r.rocks;
+    const int radius = static_cast<int>(std::ceil(rock.semi_major_m / map.cell_m)) + tol;
+    r.rocks_found += any_near(col, row, radius, map_obstacle);
+  }
+  r.rock_recall = Ratio(r.rocks_found, r.rocks);
+  return r;
+}
+
+io::GeoRaster TrueRayCounts(const fs::path& sim_dir, const std::vector<std::string>& stems, double cell_m,
+                            int num_threads) {
+  const fs::path poses_path = sim_dir / "truth" / "poses.csv";
+  const auto poses = mapping::IndexByStem(mapping::ReadPosesCsv(poses_path));
+  mapping::TerrainMapOptions o;
+  o.cell_m = cell_m;
+  o.gate_k = std::numeric_limits<double>::infinity();
+  mapping::TerrainGrid grid(cell_m);
+  std::mutex mutex;
+  for (const std::string& stem : stems) {
+    LN_CHECK_INPUT(poses.count(stem) > 0) << "stem " << stem << ": no pose in " << poses_path.string();
+  }
+  util::ParallelForEachItem(stems.size(), num_threads, [&](std::size_t k) {
+    const mapping::FramePose& pose = poses.at(stems[k]);
+    const io::ExrImage xyz = io::ReadExr(sim_dir / "truth" / "xyz" / (stems[k] + ".exr"));
+    LN_CHECK_INPUT(xyz.pixels.type() == CV_32FC3) << "stem " << stems[k] << ": truth XYZ is not 3 channels";
+    const mapping::FrameContribution part = mapping::BinFrame(xyz.pixels, cv::Mat(), pose.WorldFromVehicle(), pose.t_s, o);
+    const std::lock_guard<std::mutex> lock(mutex);
+    grid.Add(part);
+  });
+  const mapping::MapLayers layers = mapping::ComputeLayers(grid, mapping::ObstacleOptions());
+  io::GeoRaster r;
+  r.x_west_m = layers.x_west_m;
+  r.y_north_m = layers.y_north_m;
+  r.cell_m = cell_m;
+  io::RasterBand band;
+  band.description = "count";
+  band.pixels = layers.count.empty() ? cv::Mat(1, 1, CV_32FC1, cv::Scalar(0)) : layers.count;
+  r.bands.push_back(std::move(band));
+  return r;
+}
+
+json MapEvalResult::ToJson() const {
+  return {{"cells_compared", cells_compared},
+          {"elevation_rmse_m", Number(rmse_m)},
+          {"elevation_bias_m", Number(bias_m)},
+          {"elevation_mean_abs_m", Number(mean_abs_m)},
+          {"elevation_p90_abs_m", Number(p90_abs_m)},
+          {"elevation_max_abs_m", Number(max_abs_m)},
+          {"cells_seen", cells_seen},
+          {"cells_seen_mapped", cells_seen_mapped},
+          {"coverage", Number(coverage)},
+          {"obstacle_cells_map", obstacle_map},
+          {"obstacle_cells_true", obstacle_true},
+          {"obstacle_true_positive", obstacle_tp},
+          {"obstacle_false_positive", obstacle_fp},
+          {"obstacle_true_found", obstacle_found},
+          {"obstacle_precision", Number(precision)},
+          {"obstacle_recall", Number(recall)},
+          {"rocks", rocks},
+          {"rocks_found", rocks_found},
+          {"rock_recall", Number(rock_recall)}};
+}
+
+Table MapEvalResult::ToTable() const {
+  Table t;
+  t.title = "Terrain map against the true terrain";
+  t.columns = {{"cells", "", "cells compared", 0},
+               {"rmse", "cm", "elevation RMSE (cm)", 2},
+               {"bias", "cm", "bias (cm)", 2},
+               {"p90", "cm", "P90 abs. error (cm)", 2},
+               {"coverage", "pct", "coverage of the ground seen (%)", 1},
+               {"precision", "pct", "obstacle precision (%)", 1},
+               {"recall", "pct", "obstacle recall (%)", 1},
+               {"rocks", "", "rocks > limit", 0},
+               {"rock_recall", "pct", "rock recall (%)", 1}};
+  auto pct = [](double v, const std::string& why) { return Cell::NumberOr(100 * v, why); };
+  t.AddRow({Cell::Number(static_cast<double>(cells_compared)), Cell::NumberOr(100 * rmse_m, "no cell"),
+            Cell::NumberOr(100 * bias_m, "no cell"), Cell::NumberOr(100 * p90_abs_m, "no cell"),
+            pct(coverage, "nothing seen"), pct(precision, "no obstacle mapped"), pct(recall, "no true obstacle"),
+            Cell::Number(static_cast<double>(rocks)), pct(rock_recall, "no rock")});
+  return t;
+}
+
+std::string MapEvalResult::BriefReport() const {
+  std::ostringstream s;
+  s.setf(std::ios::fixed);
+  s.precision(1);
+  s << "elevation RMSE " << 100 * rmse_m << " cm (bias " << 100 * bias_m << " cm) over " << cells_compared
+    << " cells; coverage " << 100 * coverage << " %; obstacles precision " << 100 * precision << " %, recall "
+    << 100 * recall << " %; rocks " << rocks_found << "/" << rocks;
+  return s.str();
+}
+
+MapEvalResult RunMapEvaluation(const fs::path& map_dir, const fs::path& sim_dir, const MapEvalOptions& options,
+                               const fs::path& output_dir, int num_threads, const json& invocation) {
+  options.Validate();
+  util::Timer timer;
+  const io::GeoRaster map = io::ReadGeoTiff(map_dir / "elevation.tif");
+  const io::GeoRaster truth = io::ReadGeoTiff(sim_dir / "truth" / "terrain.tif");
+  const std::vector<TrueRock> rocks = ReadRocksCsv(sim_dir / "truth" / "rocks.csv");
+  std::vector<std::string> stems;
+  for (const mapping::FramePose& p : mapping::ReadPosesCsv(map_dir / "frames.csv")) stems.push_back(p.stem);
+  const io::GeoRaster seen = TrueRayCounts(sim_dir, stems, map.cell_m, num_threads);
+  const MapEvalResult result = EvaluateMap(map, truth, seen, rocks, options);
+
+  io::CreateOutputDirectory(output_dir);
+  const Table table = result.ToTable();
+  WriteTable(output_dir, "map", table);
+  json j = util::SummaryHead("evaluate", invocation);
+  j["subcommand"] = "map";
+  j["inputs"] = {{"map", map_dir.string()}, {"truth", sim_dir.string()}, {"frames", stems.size()}};
+  j["options"] = options.ToJson();
+  j["result"] = result.ToJson();
+  j["table"] = table.ToJson();
+  j["timings_s"] = {{"total", timer.ElapsedSeconds()}};
+  io::WriteJsonAtomic(output_dir / "summary.json", j);
+  return result;
+}
+
+}  // namespace lunarnav::evaluation

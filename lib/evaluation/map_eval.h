@@ -1,0 +1,70 @@
+// A terrain map (terrain-map's elevation.tif) against the true terrain of a simulated run
+// (simulate stereo's truth/terrain.tif, truth/rocks.csv, truth/xyz, truth/poses.csv):
+// elevation error, coverage of the ground the cameras saw, obstacle detection.
+#pragma once
+
+#include <filesystem>
+#include <string>
+#include <vector>
+
+#include <nlohmann/json.hpp>
+
+#include "evaluation/table.h"
+#include "io/geotiff_io.h"
+
+namespace lunarnav::evaluation {
+
+struct MapEvalOptions {
+  /// Cells with at least this many points enter the elevation error and the obstacle
+  /// scores, and a cell counts as seen when at least this many true rays reach it, >= 1.
+  int min_points = 3;
+  /// Rocks taller than this (above the relief) make the rock recall, metres (sec. 3.1: 20 cm).
+  double rock_height_m = 0.2;
+  /// A detection within this many cells of a true obstacle cell (or a rock's footprint) counts, >= 0.
+  int tolerance_cells = 1;
+  void Validate() const;
+  nlohmann::json ToJson() const;
+};
+
+/// A rock of the simulated terrain (truth/rocks.csv).
+struct TrueRock {
+  double x_m = 0, y_m = 0, height_m = 0, semi_major_m = 0;
+};
+/// Reads truth/rocks.csv. @throws InputError naming file and line.
+std::vector<TrueRock> ReadRocksCsv(const std::filesystem::path& path);
+
+struct MapEvalResult {
+  long cells_compared = 0;  ///< Mapped with >= min_points and inside the truth.
+  double rmse_m = 0, bias_m = 0, mean_abs_m = 0, p90_abs_m = 0, max_abs_m = 0;
+  long cells_seen = 0, cells_seen_mapped = 0;
+  double coverage = 0;  ///< cells_seen_mapped / cells_seen.
+  long obstacle_map = 0, obstacle_true = 0;  ///< Obstacle cells among the compared cells.
+  long obstacle_tp = 0, obstacle_fp = 0, obstacle_found = 0;
+  double precision = 0, recall = 0;  ///< NaN when undefined.
+  long rocks = 0, rocks_found = 0;   ///< Rocks above rock_height_m whose centre cell is compared.
+  double rock_recall = 0;
+  nlohmann::json ToJson() const;
+  Table ToTable() const;
+  std::string BriefReport() const;
+};
+
+/// Scores `map` (terrain-map's layers) against `truth` (truth/terrain.tif: elevation_m and
+/// obstacle on the same lattice), `seen` (a count raster of the true rays per cell, the
+/// same lattice: TrueRayCounts) and the rocks.
+/// @throws InputError when the lattices differ (cell size or origin off each other's lattice).
+MapEvalResult EvaluateMap(const io::GeoRaster& map, const io::GeoRaster& truth, const io::GeoRaster& seen,
+                          const std::vector<TrueRock>& rocks, const MapEvalOptions& options);
+
+/// The cells the cameras saw: the true surface points of the listed frames
+/// (sim_dir/truth/xyz/<stem>.exr placed by sim_dir/truth/poses.csv) counted per cell of
+/// `cell_m`, as a one-band raster ("count").
+io::GeoRaster TrueRayCounts(const std::filesystem::path& sim_dir, const std::vector<std::string>& stems,
+                            double cell_m, int num_threads);
+
+/// `evaluate map`: reads MAP_DIR/elevation.tif and frames.csv and the simulated run's truth,
+/// writes OUT_DIR/map.{csv,json,md} and summary.json. Returns the result.
+MapEvalResult RunMapEvaluation(const std::filesystem::path& map_dir, const std::filesystem::path& sim_dir,
+                               const MapEvalOptions& options, const std::filesystem::path& output_dir,
+                               int num_threads, const nlohmann::json& invocation);
+
+}  // namespace lunarnav::evaluation

@@ -1,0 +1,36 @@
+// The predicted elevation error of a stereo point from the rig's geometry (Krotkov & Hebert
+// sec. 3.2; docs/frames.md, "Error model"): what stereo-batch --xyz-sigma writes in the Z
+// channel of xyz_sigma/<stem>.exr, computed from the point itself so that terrain-map need not
+// read a second array per pair.
+#pragma once
+
+#include <Eigen/Core>
+
+#include "calib/stereo_rig.h"
+#include "calib/triangulation.h"
+
+namespace lunarnav::mapping {
+
+class ElevationErrorModel {
+ public:
+  /// @param rig  a rectified rig (its `rectified` block present).
+  /// @param reference  the image the disparity maps are referenced to.
+  /// @param sigma_d_px  the disparity error, pixels, > 0.
+  /// @throws std::invalid_argument for an unrectified rig or a bad sigma.
+  ElevationErrorModel(const calib::StereoRig& rig, calib::ReferenceImage reference, double sigma_d_px);
+
+  /// |dZ/dd| sigma_d for the vehicle-frame point p: sigma_d depth / (f B) |Z - Z_ref|, depth
+  /// along the rectified optical axis; equals calib::PredictPointSigma(...).z(). NaN behind
+  /// the cameras.
+  double SigmaZ(double x, double y, double z) const {
+    const double depth = axis_.x() * (x - left_.x()) + axis_.y() * (y - left_.y()) + axis_.z() * (z - left_.z());
+    if (!(depth > 0)) return std::numeric_limits<double>::quiet_NaN();
+    return scale_ * depth * std::abs(z - ref_z_);
+  }
+
+ private:
+  Eigen::Vector3d left_, axis_;
+  double ref_z_ = 0, scale_ = 0;  // scale_ = sigma_d / (f B)
+};
+
+}  // namespace lunarnav::mapping

@@ -1,0 +1,59 @@
+// The vehicle's pose for each stereo pair, for accumulating the pairs' vehicle-frame points
+// into a world map (Krotkov & Hebert sec. 3): from the simulator's truth/poses.csv, or from a
+// trajectory (posfilter's trajectory.csv or TUM) interpolated at each pair's time.
+#pragma once
+
+#include <filesystem>
+#include <map>
+#include <string>
+#include <vector>
+
+#include <Eigen/Geometry>
+
+namespace lunarnav::mapping {
+
+/// The pose of the vehicle frame of sec. 3.2 (X right, Y forward, Z up) in the world frame
+/// (x east, y north, z up) for a position (m) and heading (clockwise from north), pitch (nose
+/// up), roll (right side down), radians: T(x, y, z) Rz(-heading) Rx(pitch) Ry(roll).
+Eigen::Isometry3d WorldFromVehicle(double x_m, double y_m, double z_m, double heading_rad, double pitch_rad,
+                                   double roll_rad);
+
+/// A vehicle pose in the world frame (x east, y north, z up, metres) with the conventions of
+/// the positioning module: heading clockwise from north, pitch nose up, roll right side down
+/// (radians). It places the vehicle frame of sec. 3.2 (X right, Y forward, Z up, origin at the
+/// mast base): X_world = T(x, y, z) Rz(-heading) Rx(pitch) Ry(roll) X_vehicle.
+struct FramePose {
+  std::string stem;
+  double t_s = 0;
+  double x_m = 0, y_m = 0, z_m = 0;
+  double heading_rad = 0, pitch_rad = 0, roll_rad = 0;
+
+  /// The rigid transform taking vehicle coordinates to world coordinates.
+  Eigen::Isometry3d WorldFromVehicle() const;
+  /// True when all six values and the time are finite.
+  bool IsFinite() const;
+};
+
+/// Reads the simulator's poses file (docs/formats.md, "Simulated poses"): '#' lines, a header
+/// starting `stem,t_s,x_m,y_m,z_m,heading_deg,pitch_deg,roll_deg` (more columns allowed), one
+/// row per pair. Values may be non-finite ("nan"): such a pose is reported when it is used.
+/// @throws InputError naming the file and line: unreadable, wrong header, a malformed row, a
+///         stem listed twice.
+std::vector<FramePose> ReadPosesCsv(const std::filesystem::path& path);
+
+/// Reads a frame-times file: a header `stem,t_s` ('#' lines and extra columns allowed), one
+/// row per pair. @throws InputError naming the file and line.
+std::vector<FramePose> ReadFrameTimes(const std::filesystem::path& path);
+
+/// The poses of the pairs listed in `frame_times` from a trajectory (`.csv`: posfilter's
+/// trajectory.csv; any other extension: TUM "t x y z qx qy qz qw", body x forward, y left,
+/// z up), interpolated linearly in time (angles along the shorter arc).
+/// @throws InputError naming the stem when its time lies outside the trajectory, and naming
+///         the file for an unreadable trajectory.
+std::vector<FramePose> InterpolateTrajectory(const std::filesystem::path& trajectory,
+                                             const std::vector<FramePose>& frame_times);
+
+/// Poses by stem.
+std::map<std::string, FramePose> IndexByStem(const std::vector<FramePose>& poses);
+
+}  // namespace lunarnav::mapping

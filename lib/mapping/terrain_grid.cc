@@ -1,0 +1,481 @@
+#include "mapping/terrain_grid.h"
+
+#include <algorithm>
+#include <array>
+#include <cmath>
+#include <tuple>
+
+#include "util/check.h"
+#include "util/errors.h"
+
+namespace lunarnav::mapping {
+
+namespace {
+
+constexpr int kTileShift = 6;  // tiles of 64 x 64 cells
+constexpr int kTileSize = 1 << kTileShift;
+constexpr double kMadToSigma = 1.4826;  // MAD of a normal distribution -> its standard deviation
+constexpr float kNaN = std::numeric_limits<float>::quiet_NaN();
+
+// The state raster's bands, in order.
+const std::array<const char*, 8> kStateBands = {"sum_w", "sum_wz", "sum_wzz", "z_min",
+                                                 "z_max", "count", "rejected", "last_t_s"};
+
+std::uint64_t TileKey(std::int64_t ti, std::int64_t tj) {
+  return (static_cast<std::uint64_t>(static_cast<std::uint32_t>(ti)) << 32) |
+         static_cast<std::uint32_t>(tj);
+}
+
+std::int64_t FloorDiv(std::int64_t a, int shift) { return a >> shift; }  // arithmetic shift floors
+
+// The smaller of two one-sided differences when they agree in sign, else 0 (minmod).
+double MinMod(double a, double b) {
+  if (a * b <= 0) return 0.0;
+  return std::abs(a) < std::abs(b) ? a : b;
+}
+
+}  // namespace
+
+void ObstacleOptions::Validate() const {
+  LN_CHECK_ARG(std::isfinite(step_height_m) && step_height_m > 0) << "obstacle height: must be > 0 m";
+  LN_CHECK_ARG(max_slope_deg > 0 && max_slope_deg < 90) << "slope limit: must be in (0, 90) deg";
+  LN_CHECK_ARG(min_points >= 1) << "obstacle min points: must be >= 1";
+}
+
+nlohmann::json ObstacleOptions::ToJson() const {
+  return {{"step_height_m", step_height_m}, {"max_slope_deg", max_slope_deg}, {"min_points", min_points}};
+}
+
+void TerrainMapOptions::Validate() const {
+  LN_CHECK_ARG(cell_m >= 0.01 && cell_m <= 10) << "cell: must be in [0.01, 10] m, got " << cell_m;
+  LN_CHECK_ARG(gate_k > 0) << "gate: must be > 0 (inf: off)";
+  LN_CHECK_ARG(std::isfinite(gate_floor_m) && gate_floor_m >= 0) << "gate floor: must be >= 0 m";
+  LN_CHECK_ARG(gate_min_points >= 1) << "gate min points: must be >= 1";
+  LN_CHECK_ARG(std::isfinite(default_sigma_m) && default_sigma_m > 0) << "default sigma: must be > 0 m";
+  LN_CHECK_ARG(max_range_m > 0) << "max range: must be > 0 m";
+  LN_CHECK_ARG(!window_m || (std::isfinite(*window_m) && *window_m >= 4 * cell_m))
+      << "window: must be at least 4 cells";
+  obstacles.Validate();
+}
+
+nlohmann::json TerrainMapOptions::ToJson() const {
+  auto number = [](double v) { return std::isfinite(v) ? nlohmann::json(v) : nlohmann::json("inf"); };
+  return {{"cell_m", cell_m},
+          {"gate_k", number(gate_k)},
+          {"gate_floor_m", gate_floor_m},
+          {"gate_min_points", gate_min_points},
+          {"default_sigma_m", default_sigma_m},
+          {"max_range_m", number(max_range_m)},
+          {"window_m", window_m ? nlohmann::json(*window_m) : nlohmann::json(nullptr)},
+          {"obstacles", obstacles.ToJson()}};
+}
+
+void CellStats::Merge(const CellStats& o) {
+  sum_w += o.sum_w;
+  sum_wz += o.sum_wz;
+  sum_wzz += o.sum_wzz;
+  z_min = std::min(z_min, o.z_min);
+  z_max = std::max(z_max, o.z_max);
+  count += o.count;
+  rejected += o.rejected;
+  last_t_s = std::max(last_t_s, o.last_t_s);
+}
+
+double CellStats::StdDev() const {
+  if (count == 0) return std::numeric_limits<double>::quiet_NaN();
+  const double m = Mean();
+  return std::sqrt(std::max(0.0, sum_wzz / sum_w - m * m));
+}
+
+double CellStats::Sigma() const {
+  return count == 0 ? std::numeric_limits<double>::quiet_NaN() : 1.0 / std::sqrt(sum_w);
+}
+
+FrameContribution BinFrame(const cv::Mat& xyz, const cv::Mat& sigma, const Eigen::Isometry3d& world_from_vehicle,
+                           double t_s, const TerrainMapOptions& o, const ElevationErrorModel* error_model,
+                           double y_min_m, double y_max_m) {
+  LN_CHECK(xyz.type() == CV_32FC3) << "xyz must be CV_32FC3";
+  LN_CHECK(sigma.empty() || (sigma.type() == CV_32FC3 && sigma.size() == xyz.size())) << "sigma: CV_32FC3 of xyz's size";
+  FrameContribution out;
+  const Eigen::Matrix3d r = world_from_vehicle.linear();
+  const Eigen::Vector3d t = world_from_vehicle.translation();
+  const double inv_cell = 1.0 / o.cell_m;
+  const double max_range2 = o.max_range_m * o.max_range_m;
+  const double default_w = 1.0 / (o.default_sigma_m * o.default_sigma_m);
+
+  // Buffers kept per thread from frame to frame (a frame's worth of points each).
+  struct Buffers {
+    std::vector<std::int32_t> ci, cj;
+    std::vector<float> zs, ws, sz, sw, scratch;
+    std::vector<std::uint32_t> start, local, fill;
+  };
+  static thread_local Buffers buf;
+  std::vector<std::int32_t>& ci = buf.ci;
+  std::vector<std::int32_t>& cj = buf.cj;
+  std::vector<float>& zs = buf.zs;
+  std::vector<float>& ws = buf.ws;
+  ci.clear();
+  cj.clear();
+  zs.clear();
+  ws.clear();
+
+  // Pass 1: points to world cells.
+  const std::size_t capacity = xyz.total();
+  ci.reserve(capacity);
+  cj.reserve(capacity);
+  zs.reserve(capacity);
+  ws.reserve(capacity);
+  std::int32_t i0 = std::numeric_limits<std::int32_t>::max(), j0 = i0, i1 = std::numeric_limits<std::int32_t>::min(),
+               j1 = i1;
+  for (int row = 0; row < xyz.rows; ++row) {
+    const float* p = xyz.ptr<float>(row);
+    const float* s = sigma.empty() ? nullptr : sigma.ptr<float>(row);
+    for (int col = 0; col < xyz.cols; ++col, p += 3) {
+      const float x = p[0], y = p[1], z = p[2];
+      if (!(std::isfinite(x) && std::isfinite(y) && std::isfinite(z))) continue;
+      ++out.points_in;
+      if (static_cast<double>(x) * x + static_cast<double>(y) * y > max_range2 || !(y >= y_min_m && y <= y_max_m)) {
+        ++out.points_out_of_range;
+        continue;
+      }
+      const double wx = r(0, 0) * x + r(0, 1) * y + r(0, 2) * z + t.x();
+      const double wy = r(1, 0) * x + r(1, 1) * y + r(1, 2) * z + t.y();
+      const double wz = r(2, 0) * x + r(2, 1) * y + r(2, 2) * z + t.z();
+      double w = default_w;
+      if (s != nullptr) {
+        const float sz = s[3 * col + 2];
+        if (std::isfinite(sz) && sz > 0) w = 1.0 / (static_cast<double>(sz) * sz);
+      } else if (error_model != nullptr) {
+        const double sz = error_model->SigmaZ(x, y, z);
+        if (std::isfinite(sz) && sz > 0) w = 1.0 / (sz * sz);
+      }
+      const auto i = static_cast<std::int32_t>(std::floor(wx * inv_cell));
+      const auto j = static_cast<std::int32_t>(std::floor(wy * inv_cell));
+      i0 = std::min(i0, i);
+      i1 = std::max(i1, i);
+      j0 = std::min(j0, j);
+      j1 = std::max(j1, j);
+      ci.push_back(i);
+      cj.push_back(j);
+      zs.push_back(static_cast<float>(wz));
+      ws.push_back(static_cast<float>(w));
+    }
+  }
+  if (zs.empty()) return out;
+
+  // Pass 2: counting sort by cell of the frame's bounding box.
+  const std::int64_t nx = static_cast<std::int64_t>(i1) - i0 + 1, ny = static_cast<std::int64_t>(j1) - j0 + 1;
+  LN_CHECK_INPUT(nx * ny <= 50'000'000) << "a frame's points span " << nx << " x " << ny
+                                        << " cells (points far away: set a maximum range)";
+  std::vector<std::uint32_t>& start = buf.start;
+  std::vector<std::uint32_t>& local = buf.local;
+  std::vector<std::uint32_t>& fill = buf.fill;
+  start.assign(static_cast<std::size_t>(nx * ny) + 1, 0);
+  local.resize(zs.size());
+  for (std::size_t k = 0; k < zs.size(); ++k) {
+    local[k] = static_cast<std::uint32_t>((cj[k] - j0) * nx + (ci[k] - i0));
+    ++start[local[k] + 1];
+  }
+  for (std::size_t c = 1; c < start.size(); ++c) start[c] += start[c - 1];
+  fill.assign(start.begin(), start.end() - 1);
+  std::vector<float>& sz = buf.sz;
+  std::vector<float>& sw = buf.sw;
+  sz.resize(zs.size());
+  sw.resize(zs.size());
+  for (std::size_t k = 0; k < zs.size(); ++k) {
+    const std::uint32_t at = fill[local[k]]++;
+    sz[at] = zs[k];
+    sw[at] = ws[k];
+  }
+
+  // Pass 3: per cell, gate against the frame's median and sum.
+  std::vector<float>& scratch = buf.scratch;
+  const double floor2 = o.gate_floor_m * o.gate_floor_m, k2 = o.gate_k * o.gate_k;
+  for (std::int64_t c = 0; c + 1 < static_cast<std::int64_t>(start.size()); ++c) {
+    const std::uint32_t b = start[c], e = start[c + 1];
+    if (b == e) continue;
+    const std::uint32_t n = e - b;
+    double median = 0, spread2 = 0;
+    const bool gated = std::isfinite(o.gate_k) && static_cast<int>(n) >= o.gate_min_points;
+    if (gated) {
+      scratch.assign(sz.begin() + b, sz.begin() + e);
+      auto mid = scratch.begin() + n / 2;
+      std::nth_element(scratch.begin(), mid, scratch.end());
+      median = *mid;
+      for (float& v : scratch) v = std::abs(v - static_cast<float>(median));
+      std::nth_element(scratch.begin(), mid, scratch.end());
+      const double spread = kMadToSigma * *mid;
+      spread2 = spread * spread;
+    }
+    CellStats cell;
+    for (std::uint32_t k = b; k < e; ++k) {
+      const double z = sz[k], w = sw[k];
+      if (gated) {
+        const double d = z - median;
+        if (d * d > k2 * (1.0 / w + spread2 + floor2)) {
+          ++cell.rejected;
+          continue;
+        }
+      }
+      cell.sum_w += w;
+      cell.sum_wz += w * z;
+      cell.sum_wzz += w * z * z;
+      cell.z_min = std::min(cell.z_min, static_cast<float>(z));
+      cell.z_max = std::max(cell.z_max, static_cast<float>(z));
+      ++cell.count;
+    }
+    if (cell.count > 0) cell.last_t_s = t_s;
+    out.points_fused += cell.count;
+    out.points_rejected += cell.rejected;
+    out.cells.push_back({CellIndex{i0 + c % nx, j0 + c / nx}, cell});
+  }
+  return out;
+}
+
+struct TerrainGrid::Tile {
+  std::int64_t ti = 0, tj = 0;
+  std::array<CellStats, kTileSize * kTileSize> cells;
+};
+
+TerrainGrid::TerrainGrid(double cell_m) : cell_m_(cell_m) {
+  LN_CHECK_ARG(std::isfinite(cell_m) && cell_m > 0) << "cell: must be > 0 m";
+}
+TerrainGrid::TerrainGrid(TerrainGrid&&) noexcept = default;
+TerrainGrid& TerrainGrid::operator=(TerrainGrid&&) noexcept = default;
+TerrainGrid::~TerrainGrid() = default;
+
+CellStats* TerrainGrid::Cell(CellIndex c) {
+  const std::int64_t ti = FloorDiv(c.i, kTileShift), tj = FloorDiv(c.j, kTileShift);
+  std::unique_ptr<Tile>& tile = tiles_[TileKey(ti, tj)];
+  if (!tile) {
+    tile = std::make_unique<Tile>();
+    tile->ti = ti;
+    tile->tj = tj;
+  }
+  return &tile->cells[static_cast<std::size_t>((c.j - (tj << kTileShift)) * kTileSize + (c.i - (ti << kTileShift)))];
+}
+
+const CellStats* TerrainGrid::Find(CellIndex c) const {
+  const std::int64_t ti = FloorDiv(c.i, kTileShift), tj = FloorDiv(c.j, kTileShift);
+  const auto it = tiles_.find(TileKey(ti, tj));
+  if (it == tiles_.end()) return nullptr;
+  const CellStats& s =
+      it->second->cells[static_cast<std::size_t>((c.j - (tj << kTileShift)) * kTileSize + (c.i - (ti << kTileShift)))];
+  return s.count > 0 || s.rejected > 0 ? &s : nullptr;
+}
+
+void TerrainGrid::Add(const FrameContribution& frame) {
+  for (const auto& [index, stats] : frame.cells) Cell(index)->Merge(stats);
+}
+
+void TerrainGrid::Merge(const TerrainGrid& other) {
+  LN_CHECK_ARG(std::abs(other.cell_m_ - cell_m_) <= 1e-9 * cell_m_)
+      << "cannot merge maps of different cell sizes (" << cell_m_ << " and " << other.cell_m_ << " m)";
+  for (const auto& [key, tile] : other.tiles_) {
+    for (int k = 0; k < kTileSize * kTileSize; ++k) {
+      const CellStats& s = tile->cells[k];
+      if (s.count == 0 && s.rejected == 0) continue;
+      Cell({(tile->ti << kTileShift) + k % kTileSize, (tile->tj << kTileShift) + k / kTileSize})->Merge(s);
+    }
+  }
+}
+
+void TerrainGrid::KeepWindow(double x_m, double y_m, double side_m) {
+  const double tile_m = cell_m_ * kTileSize, half = 0.5 * side_m;
+  for (auto it = tiles_.begin(); it != tiles_.end();) {
+    const double tx0 = it->second->ti * tile_m, ty0 = it->second->tj * tile_m;
+    const bool outside = tx0 > x_m + half || tx0 + tile_m < x_m - half || ty0 > y_m + half || ty0 + tile_m < y_m - half;
+    it = outside ? tiles_.erase(it) : std::next(it);
+  }
+}
+
+std::size_t TerrainGrid::TileCount() const { return tiles_.size(); }
+
+std::size_t TerrainGrid::MappedCells() const {
+  std::size_t n = 0;
+  for (const auto& [key, tile] : tiles_) {
+    for (const CellStats& s : tile->cells) n += s.count > 0;
+  }
+  return n;
+}
+
+std::optional<std::array<std::int64_t, 4>> TerrainGrid::MappedBounds() const {
+  std::optional<std::array<std::int64_t, 4>> b;
+  for (const auto& [key, tile] : tiles_) {
+    for (int k = 0; k < kTileSize * kTileSize; ++k) {
+      if (tile->cells[k].count == 0) continue;
+      const std::int64_t i = (tile->ti << kTileShift) + k % kTileSize, j = (tile->tj << kTileShift) + k / kTileSize;
+      if (!b) {
+        b = std::array<std::int64_t, 4>{i, j, i, j};
+      } else {
+        (*b)[0] = std::min((*b)[0], i);
+        (*b)[1] = std::min((*b)[1], j);
+        (*b)[2] = std::max((*b)[2], i);
+        (*b)[3] = std::max((*b)[3], j);
+      }
+    }
+  }
+  return b;
+}
+
+io::GeoRaster TerrainGrid::ToStateRaster() const {
+  io::GeoRaster r;
+  r.cell_m = cell_m_;
+  r.metadata["lunarnav_content"] = "terrain-map state";
+  const auto b = MappedBounds();
+  const int w = b ? static_cast<int>((*b)[2] - (*b)[0] + 1) : 1, h = b ? static_cast<int>((*b)[3] - (*b)[1] + 1) : 1;
+  const std::int64_t i0 = b ? (*b)[0] : 0, j1 = b ? (*b)[3] : 0;
+  r.x_west_m = static_cast<double>(i0) * cell_m_;
+  r.y_north_m = static_cast<double>(j1 + 1) * cell_m_;
+  for (const char* name : kStateBands) {
+    io::RasterBand band;
+    band.description = name;
+    band.pixels = cv::Mat(h, w, CV_64FC1, cv::Scalar(0));
+    r.bands.push_back(std::move(band));
+  }
+  for (int row = 0; row < h; ++row) {
+    for (int col = 0; col < w; ++col) {
+      const CellStats* s = b ? Find({i0 + col, j1 - row}) : nullptr;
+      if (s == nullptr) continue;
+      const double v[8] = {s->sum_w, s->sum_wz, s->sum_wzz, s->z_min, s->z_max,
+                           static_cast<double>(s->count), static_cast<double>(s->rejected), s->last_t_s};
+      for (int k = 0; k < 8; ++k) r.bands[k].pixels.at<double>(row, col) = v[k];
+    }
+  }
+  return r;
+}
+
+TerrainGrid TerrainGrid::FromStateRaster(const io::GeoRaster& r, const std::string& source) {
+  LN_CHECK_INPUT(r.bands.size() == kStateBands.size()) << source << ": not a terrain-map state file";
+  for (std::size_t k = 0; k < kStateBands.size(); ++k) {
+    LN_CHECK_INPUT(r.bands[k].description == kStateBands[k] && r.bands[k].pixels.type() == CV_64FC1)
+        << source << ": band " << k + 1 << " is not the state band '" << kStateBands[k] << "'";
+  }
+  TerrainGrid grid(r.cell_m);
+  const double fi = r.x_west_m / r.cell_m, fj = r.y_north_m / r.cell_m;
+  LN_CHECK_INPUT(std::abs(fi - std::round(fi)) < 1e-6 && std::abs(fj - std::round(fj)) < 1e-6)
+      << source << ": origin is not on the cell lattice";
+  const auto i0 = static_cast<std::int64_t>(std::llround(fi)), j1 = static_cast<std::int64_t>(std::llround(fj)) - 1;
+  for (int row = 0; row < r.Height(); ++row) {
+    for (int col = 0; col < r.Width(); ++col) {
+      double v[8];
+      for (int k = 0; k < 8; ++k) v[k] = r.bands[k].pixels.at<double>(row, col);
+      if (v[5] <= 0 && v[6] <= 0) continue;
+      CellStats* s = grid.Cell({i0 + col, j1 - row});
+      s->sum_w = v[0];
+      s->sum_wz = v[1];
+      s->sum_wzz = v[2];
+      s->z_min = static_cast<float>(v[3]);
+      s->z_max = static_cast<float>(v[4]);
+      s->count = static_cast<std::uint32_t>(v[5]);
+      s->rejected = static_cast<std::uint32_t>(v[6]);
+      s->last_t_s = v[7];
+    }
+  }
+  return grid;
+}
+
+bool MapLayers::CellOf(double x_m, double y_m, int* col, int* row) const {
+  const double c = std::floor((x_m - x_west_m) / cell_m), r = std::floor((y_north_m - y_m) / cell_m);
+  if (c < 0 || r < 0 || c >= elevation_m.cols || r >= elevation_m.rows) return false;
+  *col = static_cast<int>(c);
+  *row = static_cast<int>(r);
+  return true;
+}
+
+cv::Mat DetectObstacles(const cv::Mat& elevation, const cv::Mat& min_m, const cv::Mat& max_m, const cv::Mat& count,
+                        double cell_m, const ObstacleOptions& o) {
+  o.Validate();
+  const int h = elevation.rows, w = elevation.cols;
+  cv::Mat out(h, w, CV_32FC1, cv::Scalar(kNaN));
+  auto judged = [&](int r, int c) {
+    return r >= 0 && c >= 0 && r < h && c < w && std::isfinite(elevation.at<float>(r, c)) &&
+           (count.empty() || count.at<float>(r, c) >= o.min_points);
+  };
+  const double tan_limit = std::tan(o.max_slope_deg * M_PI / 180.0);
+  for (int r = 0; r < h; ++r) {
+    for (int c = 0; c < w; ++c) {
+      if (!judged(r, c)) continue;
+      const double e = elevation.at<float>(r, c);
+      auto slope = [&](int r0, int c0, int r1, int c1) {  // minmod of the two one-sided slopes
+        if (!judged(r0, c0) || !judged(r1, c1)) return 0.0;
+        return MinMod((e - elevation.at<float>(r0, c0)) / cell_m, (elevation.at<float>(r1, c1) - e) / cell_m);
+      };
+      // dz/dx east and dz/dy north (rows run north to south).
+      const double gx = slope(r, c - 1, r, c + 1), gy = slope(r + 1, c, r - 1, c);
+      int kind = std::hypot(gx, gy) > tan_limit ? 2 : 0;
+      // Step: the cell's highest point above the lowest point around it, each neighbour's
+      // lowest point carried to this cell along the local ground slope (so that an even
+      // slope is no step; at a step the minmod slope is 0).
+      double lowest = min_m.at<float>(r, c);
+      for (int dr = -1; dr <= 1; ++dr) {
+        for (int dc = -1; dc <= 1; ++dc) {
+          if ((dr != 0 || dc != 0) && judged(r + dr, c + dc)) {
+            lowest = std::min(lowest, min_m.at<float>(r + dr, c + dc) - gx * dc * cell_m + gy * dr * cell_m);
+          }
+        }
+      }
+      if (max_m.at<float>(r, c) - lowest > o.step_height_m) kind |= 1;
+      out.at<float>(r, c) = static_cast<float>(kind);
+    }
+  }
+  return out;
+}
+
+MapLayers ComputeLayers(const TerrainGrid& grid, const ObstacleOptions& obstacles) {
+  MapLayers l;
+  l.cell_m = grid.cell_m();
+  const auto b = grid.MappedBounds();
+  if (!b) return l;
+  const int w = static_cast<int>((*b)[2] - (*b)[0] + 1), h = static_cast<int>((*b)[3] - (*b)[1] + 1);
+  const std::int64_t i0 = (*b)[0], j1 = (*b)[3];
+  l.x_west_m = static_cast<double>(i0) * l.cell_m;
+  l.y_north_m = static_cast<double>(j1 + 1) * l.cell_m;
+  for (cv::Mat* m : {&l.elevation_m, &l.min_m, &l.max_m, &l.count, &l.roughness_m, &l.sigma_m, &l.last_t_s}) {
+    *m = cv::Mat(h, w, CV_32FC1, cv::Scalar(kNaN));
+  }
+  for (int row = 0; row < h; ++row) {
+    for (int col = 0; col < w; ++col) {
+      const CellStats* s = grid.Find({i0 + col, j1 - row});
+      if (s == nullptr || s->count == 0) continue;
+      l.elevation_m.at<float>(row, col) = static_cast<float>(s->Mean());
+      l.min_m.at<float>(row, col) = s->z_min;
+      l.max_m.at<float>(row, col) = s->z_max;
+      l.count.at<float>(row, col) = static_cast<float>(s->count);
+      l.roughness_m.at<float>(row, col) = static_cast<float>(s->StdDev());
+      l.sigma_m.at<float>(row, col) = static_cast<float>(s->Sigma());
+      l.last_t_s.at<float>(row, col) = static_cast<float>(s->last_t_s);
+    }
+  }
+  l.obstacle = DetectObstacles(l.elevation_m, l.min_m, l.max_m, l.count, l.cell_m, obstacles);
+  return l;
+}
+
+io::GeoRaster LayersToRaster(const MapLayers& l) {
+  io::GeoRaster r;
+  r.x_west_m = l.x_west_m;
+  r.y_north_m = l.y_north_m;
+  r.cell_m = l.cell_m;
+  r.metadata["lunarnav_frame"] = "world: x east, y north, z up; metres";
+  r.metadata["lunarnav_nodata"] = "NaN in every band where the cell has no point";
+  const std::array<std::tuple<const cv::Mat*, const char*, const char*>, 8> bands = {{
+      {&l.elevation_m, "elevation_m", "inverse-variance weighted mean elevation of the cell's points, m"},
+      {&l.min_m, "min_m", "lowest accepted point, m"},
+      {&l.max_m, "max_m", "highest accepted point, m"},
+      {&l.count, "count", "accepted points"},
+      {&l.roughness_m, "roughness_m", "weighted standard deviation of the points about the mean, m"},
+      {&l.sigma_m, "sigma_m", "predicted error of the mean elevation (1 / sqrt of the summed weights), m"},
+      {&l.last_t_s, "last_t_s", "time of the last frame that added points, s"},
+      {&l.obstacle, "obstacle", "0 free, 1 step, 2 slope, 3 step and slope; NaN not judged"},
+  }};
+  for (const auto& [mat, name, meaning] : bands) {
+    io::RasterBand band;
+    band.pixels = *mat;
+    band.description = name;
+    band.metadata["meaning"] = meaning;
+    r.bands.push_back(std::move(band));
+  }
+  return r;
+}
+
+}  // namespace lunarnav::mapping

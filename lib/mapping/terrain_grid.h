@@ -1,0 +1,179 @@
+// The terrain map of Krotkov & Hebert sec. 3 and 3.4: "the sets of points measured by stereo
+// are accumulated over time into a terrain map centered at the vehicle", on a grid of about
+// 25 cm ("a 25cm grid is typically sufficient for evaluating navigability").
+//
+// The grid is a lattice of square cells anchored at the world origin (cell (i, j) spans
+// x in [i c, (i + 1) c), y in [j c, (j + 1) c); world frame x east, y north, z up, metres), so
+// that maps built from different frames share their cells. Cells live in tiles of 64 x 64
+// allocated as points arrive: memory follows the mapped area, not the number of frames.
+//
+// Fusion (docs/terrain-map.md): each frame's points are binned by cell; within a frame, a
+// point is rejected when it is inconsistent with that frame's estimate of the cell (farther
+// from the cell's median than gate_k times the combination of its predicted error, the
+// cell's robust spread and a floor); the accepted points are added to the cell's sums with
+// inverse-variance weights 1 / sigma_z^2. The cell's elevation is the weighted mean; the map is
+// a sum of per-frame terms, so fusing frames in any order, or in parts that are then merged,
+// gives the same map.
+#pragma once
+
+#include <cstdint>
+#include <limits>
+#include <memory>
+#include <optional>
+#include <string>
+#include <unordered_map>
+#include <vector>
+
+#include <Eigen/Geometry>
+#include <nlohmann/json.hpp>
+#include <opencv2/core.hpp>
+
+#include "io/geotiff_io.h"
+#include "mapping/elevation_error.h"
+
+namespace lunarnav::mapping {
+
+/// The vehicle's limits that make a cell an obstacle (sec. 3.1: "an obstacle 20 cm tall").
+struct ObstacleOptions {
+  /// A cell whose highest point is this much above the lowest point of its 3 x 3
+  /// neighbourhood (each neighbour's carried to the cell along the local ground slope, so an
+  /// even slope is no step) is a step obstacle, metres, > 0 (the vehicle file's
+  /// requirements.obstacle_height_m; the paper's 20 cm).
+  double step_height_m = 0.2;
+  /// A cell whose ground slope (from the neighbours' elevations, the smaller one-sided
+  /// difference along each axis, so that a step does not make its flat neighbours steep) is
+  /// above this is a slope obstacle, degrees, in (0, 90) (the vehicle file's max_slope_deg).
+  double max_slope_deg = 30.0;
+  /// Cells with fewer points are not judged (no-data in the obstacle layer), >= 1.
+  int min_points = 3;
+  void Validate() const;
+  nlohmann::json ToJson() const;
+};
+
+struct TerrainMapOptions {
+  double cell_m = 0.25;  ///< Cell size, metres, in [0.01, 10] (sec. 3.4: "a 25cm grid").
+  /// Gate: a point is rejected when |z - median| > gate_k sqrt(sigma_z^2 + spread^2 +
+  /// gate_floor_m^2), median and spread (1.4826 x the median absolute deviation) over the
+  /// frame's points in the cell. > 0; infinity turns the gate off.
+  double gate_k = 3.0;
+  double gate_floor_m = 0.02;  ///< Metres, >= 0.
+  int gate_min_points = 3;     ///< Cells with fewer of the frame's points are not gated, >= 1.
+  /// Predicted elevation error of points without an xyz_sigma map, metres, > 0.
+  double default_sigma_m = 0.05;
+  /// Points farther than this from the mast base (horizontally, vehicle frame) are ignored,
+  /// metres, > 0; infinity keeps them all.
+  double max_range_m = std::numeric_limits<double>::infinity();
+  /// Side of the square window centred at the vehicle that the map keeps (the navigation
+  /// map of sec. 3), metres; nothing = the whole traverse.
+  std::optional<double> window_m;
+  ObstacleOptions obstacles;
+  void Validate() const;  ///< std::invalid_argument naming the field.
+  nlohmann::json ToJson() const;
+};
+
+/// What one cell has accumulated: weighted sums of the accepted points' elevations (weights
+/// 1 / sigma^2), their extremes, counts and the time of the last frame that saw it.
+struct CellStats {
+  double sum_w = 0, sum_wz = 0, sum_wzz = 0;
+  float z_min = std::numeric_limits<float>::infinity();
+  float z_max = -std::numeric_limits<float>::infinity();
+  std::uint32_t count = 0;     ///< Accepted points.
+  std::uint32_t rejected = 0;  ///< Points the gate rejected.
+  double last_t_s = -std::numeric_limits<double>::infinity();  ///< Time of the last frame that added points.
+
+  void Merge(const CellStats& other);
+  double Mean() const { return sum_wz / sum_w; }
+  /// Weighted standard deviation of the accepted points about the mean (roughness).
+  double StdDev() const;
+  /// Predicted error of the mean, 1 / sqrt(sum of weights).
+  double Sigma() const;
+};
+
+/// A cell index of the world-anchored lattice.
+struct CellIndex {
+  std::int64_t i = 0, j = 0;
+};
+
+/// One frame's contribution: the cells it touched with what it adds to each.
+struct FrameContribution {
+  std::vector<std::pair<CellIndex, CellStats>> cells;
+  long points_in = 0;        ///< Valid points (finite XYZ) in the frame.
+  long points_fused = 0;     ///< Accepted.
+  long points_rejected = 0;  ///< Rejected by the gate.
+  long points_out_of_range = 0;
+};
+
+/// Bins one frame's points into cells and gates them (the fusion described above).
+/// @param xyz_vehicle  CV_32FC3, the vehicle-frame points (NaN = none), stereo-batch's xyz map.
+/// @param sigma_vehicle  CV_32FC3 of the same size (the predicted error per axis; channel 2,
+///        the Z error, weights the point) or empty: then `error_model`'s sigma_Z of each point,
+///        or without a model options.default_sigma_m for all.
+/// @param world_from_vehicle  the vehicle's pose.
+/// @param t_s  the frame's time (recorded as the cells' last time).
+/// @param y_min_m, y_max_m  points with vehicle Y outside this interval are left out (counted
+///        out of range): the distance interval I_Y the pair was requested for (sec. 3.3), whose
+///        disparity range makes matches outside it unreliable.
+FrameContribution BinFrame(const cv::Mat& xyz_vehicle, const cv::Mat& sigma_vehicle,
+                           const Eigen::Isometry3d& world_from_vehicle, double t_s, const TerrainMapOptions& options,
+                           const ElevationErrorModel* error_model = nullptr,
+                           double y_min_m = -std::numeric_limits<double>::infinity(),
+                           double y_max_m = std::numeric_limits<double>::infinity());
+
+/// The map: cells in tiles allocated on demand.
+class TerrainGrid {
+ public:
+  explicit TerrainGrid(double cell_m);
+  TerrainGrid(TerrainGrid&&) noexcept;
+  TerrainGrid& operator=(TerrainGrid&&) noexcept;
+  ~TerrainGrid();
+
+  double cell_m() const { return cell_m_; }
+  void Add(const FrameContribution& frame);
+  /// Adds another map's cells (same cell size; std::invalid_argument otherwise).
+  void Merge(const TerrainGrid& other);
+  /// Drops every tile that lies wholly outside the square of side `side_m` centred at
+  /// (x, y): the vehicle-centred window.
+  void KeepWindow(double x_m, double y_m, double side_m);
+  /// The cell, or nullptr when it has never been touched.
+  const CellStats* Find(CellIndex c) const;
+  std::size_t TileCount() const;
+  std::size_t MappedCells() const;  ///< Cells with at least one accepted point.
+  /// Smallest cell box containing every mapped cell: {i0, j0, i1, j1} inclusive, or nothing.
+  std::optional<std::array<std::int64_t, 4>> MappedBounds() const;
+
+  /// The exact accumulators as a Float64 raster (bands sum_w, sum_wz, sum_wzz, z_min, z_max,
+  /// count, rejected, last_t_s) over MappedBounds(), for --resume and merging.
+  io::GeoRaster ToStateRaster() const;
+  /// The inverse of ToStateRaster. @throws InputError naming `source` for a raster that is
+  /// not a state raster or whose origin is off the lattice.
+  static TerrainGrid FromStateRaster(const io::GeoRaster& raster, const std::string& source);
+
+ private:
+  struct Tile;
+  CellStats* Cell(CellIndex c);
+  double cell_m_;
+  std::unordered_map<std::uint64_t, std::unique_ptr<Tile>> tiles_;
+};
+
+/// Dense layers over a cell box, north row first (GeoTIFF order).
+struct MapLayers {
+  double x_west_m = 0, y_north_m = 0, cell_m = 0.25;
+  cv::Mat elevation_m, min_m, max_m, count, roughness_m, sigma_m, last_t_s;  ///< CV_32F, NaN = unmapped.
+  cv::Mat obstacle;  ///< CV_32F: 0 free, 1 step, 2 slope, 3 both; NaN = not judged.
+  /// Cell (col, row) of world (x, y), or false when outside.
+  bool CellOf(double x_m, double y_m, int* col, int* row) const;
+};
+
+/// The layers of `grid` over its mapped bounds (empty Mats when nothing is mapped).
+MapLayers ComputeLayers(const TerrainGrid& grid, const ObstacleOptions& obstacles);
+
+/// The obstacle layer (see MapLayers::obstacle) from elevation, min, max and count layers of
+/// one size (CV_32F, NaN = unmapped; `count` may be empty: every mapped cell is judged).
+cv::Mat DetectObstacles(const cv::Mat& elevation_m, const cv::Mat& min_m, const cv::Mat& max_m, const cv::Mat& count,
+                        double cell_m, const ObstacleOptions& options);
+
+/// The layers as the GeoTIFF `elevation.tif` writes them (bands in MapLayers' order, each
+/// with its description and units; docs/terrain-map.md).
+io::GeoRaster LayersToRaster(const MapLayers& layers);
+
+}  // namespace lunarnav::mapping

@@ -1,0 +1,309 @@
+#include "mapping/terrain_map_run.h"
+
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <limits>
+#include <map>
+#include <ctime>
+#include <optional>
+#include <set>
+#include <sstream>
+
+#include "calib/stereo_rig_io.h"
+#include "io/atomic_file.h"
+#include "io/float_array_io.h"
+#include "io/geotiff_io.h"
+#include "io/image_io.h"
+#include "io/json_io.h"
+#include "mapping/frame_poses.h"
+#include "mapping/map_preview.h"
+#include "stereo/window_requests.h"
+#include "util/check.h"
+#include "util/errors.h"
+#include "util/log.h"
+#include "util/parallel.h"
+#include "util/progress.h"
+#include "util/resources.h"
+#include "util/summary.h"
+#include "util/timer.h"
+
+namespace lunarnav::mapping {
+namespace fs = std::filesystem;
+using nlohmann::json;
+
+namespace {
+
+constexpr double kDeg = 180.0 / M_PI;
+
+struct FusedFrame {
+  FramePose pose;
+  long points_fused = 0, points_rejected = 0;
+};
+
+std::string FramesCsv(const std::vector<FusedFrame>& frames) {
+  std::string s =
+      "# lunarnav terrain-map: the frames fused into this map and the vehicle pose used for each (world x east,\n"
+      "# y north, z up, m; heading clockwise from north, pitch nose up, roll right side down, deg)\n"
+      "stem,t_s,x_m,y_m,z_m,heading_deg,pitch_deg,roll_deg,points_fused,points_rejected\n";
+  char buf[320];
+  for (const FusedFrame& f : frames) {
+    const FramePose& p = f.pose;
+    std::snprintf(buf, sizeof buf, ",%.6f,%.6f,%.6f,%.6f,%.6f,%.6f,%.6f,%ld,%ld\n", p.t_s, p.x_m, p.y_m, p.z_m,
+                  p.heading_rad * kDeg, p.pitch_rad * kDeg, p.roll_rad * kDeg, f.points_fused, f.points_rejected);
+    s += p.stem + buf;
+  }
+  return s;
+}
+
+// A map directory written by an earlier run: its grid and frames.
+struct StoredMap {
+  TerrainGrid grid{1.0};
+  std::vector<FusedFrame> frames;
+};
+
+StoredMap ReadStoredMap(const fs::path& dir, double cell_m) {
+  const fs::path state = dir / "state.tif", frames_csv = dir / "frames.csv";
+  LN_CHECK_INPUT(fs::is_regular_file(state) && fs::is_regular_file(frames_csv))
+      << dir.string() << ": not a terrain-map output (state.tif and frames.csv needed)";
+  StoredMap m{TerrainGrid::FromStateRaster(io::ReadGeoTiff(state), state.string()), {}};
+  LN_CHECK_INPUT(std::abs(m.grid.cell_m() - cell_m) <= 1e-9 * cell_m)
+      << state.string() << ": cell " << m.grid.cell_m() << " m, this run's is " << cell_m << " m";
+  for (const FramePose& p : ReadPosesCsv(frames_csv)) m.frames.push_back({p, 0, 0});
+  return m;
+}
+
+std::vector<std::string> ListStems(const fs::path& xyz_dir) {
+  LN_CHECK_INPUT(fs::is_directory(xyz_dir))
+      << xyz_dir.string() << ": no such directory (run stereo-batch with --rig to write vehicle-frame XYZ)";
+  std::vector<std::string> stems;
+  for (const auto& e : fs::directory_iterator(xyz_dir)) {
+    if (e.path().extension() == ".exr" && !io::IsTempFileName(e.path())) stems.push_back(e.path().stem().string());
+  }
+  std::sort(stems.begin(), stems.end());
+  return stems;
+}
+
+}  // namespace
+
+void TerrainMapRunOptions::Validate() const {
+  map.Validate();
+  LN_CHECK_ARG(!stereo_dir.empty() || !merge_maps.empty()) << "nothing to map: give a stereo directory or --merge";
+  if (!stereo_dir.empty()) {
+    const bool by_poses = !poses_csv.empty(), by_trajectory = !trajectory.empty();
+    LN_CHECK_ARG(by_poses != by_trajectory) << "give either --poses or --trajectory (with --frame-times)";
+    LN_CHECK_ARG(!by_trajectory || !frame_times.empty()) << "--trajectory needs --frame-times";
+  }
+  LN_CHECK_ARG(num_threads >= 0) << "threads: must be >= 0";
+}
+
+std::string TerrainMapRunSummary::BriefReport() const {
+  std::ostringstream s;
+  s.setf(std::ios::fixed);
+  s.precision(2);
+  s << frames_fused << " frames fused";
+  if (frames_resumed > 0) s << " (+" << frames_resumed << " resumed)";
+  if (frames_merged > 0) s << " (+" << frames_merged << " merged)";
+  s << ", " << points_fused / 1e6 << " M points (" << points_rejected << " rejected by the gate); " << mapped_cells
+    << " cells, " << obstacle_cells << " obstacle cells; " << seconds << " s";
+  return s.str();
+}
+
+TerrainMapRunSummary RunTerrainMap(const TerrainMapRunOptions& options, const fs::path& out, const json& invocation) {
+  options.Validate();
+  util::Timer total;
+  TerrainMapRunSummary summary;
+  const TerrainMapOptions& mo = options.map;
+
+  // Everything is checked before anything is written.
+  std::vector<FramePose> todo;
+  bool has_sigma = false;
+  if (!options.stereo_dir.empty()) {
+    const std::vector<std::string> stems = ListStems(options.stereo_dir / "xyz");
+    LN_CHECK_INPUT(!stems.empty()) << (options.stereo_dir / "xyz").string() << ": no <stem>.exr arrays";
+    const fs::path& pose_file = options.poses_csv.empty() ? options.frame_times : options.poses_csv;
+    std::vector<FramePose> listed = options.poses_csv.empty() ? ReadFrameTimes(options.frame_times)
+                                                              : ReadPosesCsv(options.poses_csv);
+    const std::set<std::string> wanted(stems.begin(), stems.end());
+    const auto by_stem = IndexByStem(listed);
+    for (const std::string& stem : stems) {
+      LN_CHECK_INPUT(by_stem.count(stem) > 0) << "stem " << stem << ": no pose in " << pose_file.string();
+    }
+    listed.erase(std::remove_if(listed.begin(), listed.end(),
+                                [&](const FramePose& p) { return wanted.count(p.stem) == 0; }),
+                 listed.end());
+    if (!options.trajectory.empty()) listed = InterpolateTrajectory(options.trajectory, listed);
+    for (const FramePose& p : listed) {
+      LN_CHECK_INPUT(p.IsFinite()) << "stem " << p.stem << ": the pose is not finite (" << pose_file.string() << ")";
+    }
+    std::stable_sort(listed.begin(), listed.end(), [](const FramePose& a, const FramePose& b) { return a.t_s < b.t_s; });
+    todo = std::move(listed);
+    has_sigma = options.rig.empty() && fs::is_directory(options.stereo_dir / "xyz_sigma");
+  }
+  std::map<std::string, std::pair<double, double>> y_interval;  // per stem, from --requests
+  if (!options.requests.empty()) {
+    for (const stereo::WindowRequest& r : stereo::ReadWindowRequests(options.requests)) {
+      y_interval[r.stem] = {r.y_min_m, r.y_max_m};
+    }
+  }
+  std::optional<ElevationErrorModel> error_model;
+  if (!options.rig.empty()) {
+    error_model.emplace(calib::ReadStereoRig(options.rig), options.reference, options.sigma_d_px);
+  }
+  summary.frames_total = static_cast<long>(todo.size());
+
+  TerrainGrid grid(mo.cell_m);
+  std::vector<FusedFrame> fused;
+  std::set<std::string> known;
+  auto absorb = [&](StoredMap&& m, const std::string& what) {
+    for (const FusedFrame& f : m.frames) {
+      LN_CHECK_INPUT(known.insert(f.pose.stem).second)
+          << "stem " << f.pose.stem << ": fused twice (" << what << " and another map); merged maps must hold disjoint frames";
+      fused.push_back(f);
+    }
+    grid.Merge(m.grid);
+  };
+  if (options.resume && fs::is_regular_file(out / "state.tif")) {
+    StoredMap m = ReadStoredMap(out, mo.cell_m);
+    summary.frames_resumed = static_cast<long>(m.frames.size());
+    absorb(std::move(m), (out / "state.tif").string());
+  }
+  for (const fs::path& dir : options.merge_maps) {
+    StoredMap m = ReadStoredMap(dir, mo.cell_m);
+    summary.frames_merged += static_cast<long>(m.frames.size());
+    absorb(std::move(m), dir.string());
+  }
+  todo.erase(std::remove_if(todo.begin(), todo.end(), [&](const FramePose& p) { return known.count(p.stem) > 0; }),
+             todo.end());
+
+  // Frames are read and binned in parallel, a block at a time, and added in time order. (The
+  // EXR reader's libraries are loaded first: a start-up cost, not reading.)
+  if (!todo.empty()) io::PreloadExrReader();
+  util::Timer fuse_timer;
+  const std::clock_t fuse_cpu_start = std::clock();  // the process's CPU time: the figure on a shared machine
+  util::ProgressBar progress(todo.size(), "terrain-map frames", options.show_progress);
+  const int threads = util::EffectiveThreadCount(options.num_threads);
+  const std::size_t block = static_cast<std::size_t>(2 * threads);
+  cv::Size first_size;
+  std::string first_stem;
+  for (std::size_t b0 = 0; b0 < todo.size(); b0 += block) {
+    const std::size_t n = std::min(block, todo.size() - b0);
+    std::vector<FrameContribution> parts(n);
+    std::vector<cv::Size> sizes(n);
+    util::ParallelForEachItem(n, threads, [&](std::size_t k) {
+      const FramePose& pose = todo[b0 + k];
+      const fs::path xyz_path = options.stereo_dir / "xyz" / (pose.stem + ".exr");
+      const io::ExrImage xyz = io::ReadExr(xyz_path);
+      LN_CHECK_INPUT(xyz.pixels.type() == CV_32FC3)
+          << "stem " << pose.stem << ": " << xyz_path.string() << " has " << xyz.pixels.channels()
+          << " channels, expected 3 (X, Y, Z)";
+      cv::Mat sigma;
+      const fs::path sigma_path = options.stereo_dir / "xyz_sigma" / (pose.stem + ".exr");
+      if (has_sigma && fs::is_regular_file(sigma_path)) {
+        sigma = io::ReadExr(sigma_path).pixels;
+        LN_CHECK_INPUT(sigma.type() == CV_32FC3 && sigma.size() == xyz.pixels.size())
+            << "stem " << pose.stem << ": " << sigma_path.string() << " is " << sigma.cols << "x" << sigma.rows
+            << " with " << sigma.channels() << " channels, the XYZ array " << xyz.pixels.cols << "x"
+            << xyz.pixels.rows << " with 3";
+      }
+      sizes[k] = xyz.pixels.size();
+      const auto interval = y_interval.find(pose.stem);
+      constexpr double kInf = std::numeric_limits<double>::infinity();
+      parts[k] = BinFrame(xyz.pixels, sigma, pose.WorldFromVehicle(), pose.t_s, mo, error_model ? &*error_model : nullptr,
+                          interval != y_interval.end() ? interval->second.first : -kInf,
+                          interval != y_interval.end() ? interval->second.second : kInf);
+      progress.Increment();
+    });
+    for (std::size_t k = 0; k < n; ++k) {
+      const FramePose& pose = todo[b0 + k];
+      if (first_stem.empty()) {
+        first_stem = pose.stem;
+        first_size = sizes[k];
+      }
+      LN_CHECK_INPUT(sizes[k] == first_size)
+          << "stem " << pose.stem << ": XYZ array " << sizes[k].width << "x" << sizes[k].height << ", but "
+          << first_stem << "'s is " << first_size.width << "x" << first_size.height
+          << " (one rig: every pair the same size)";
+      const FrameContribution& c = parts[k];
+      grid.Add(c);
+      if (mo.window_m) grid.KeepWindow(pose.x_m, pose.y_m, *mo.window_m);
+      summary.points_in += c.points_in;
+      summary.points_fused += c.points_fused;
+      summary.points_rejected += c.points_rejected;
+      summary.points_out_of_range += c.points_out_of_range;
+      fused.push_back({pose, c.points_fused, c.points_rejected});
+      ++summary.frames_fused;
+    }
+  }
+  summary.fuse_seconds = fuse_timer.ElapsedSeconds();
+  summary.fuse_cpu_seconds = static_cast<double>(std::clock() - fuse_cpu_start) / CLOCKS_PER_SEC;
+  std::stable_sort(fused.begin(), fused.end(),
+                   [](const FusedFrame& a, const FusedFrame& b) { return a.pose.t_s < b.pose.t_s; });
+  if (mo.window_m && !fused.empty()) grid.KeepWindow(fused.back().pose.x_m, fused.back().pose.y_m, *mo.window_m);
+
+  // Outputs.
+  util::Timer write_timer;
+  io::CreateOutputDirectory(out);
+  io::RemoveStaleTempFiles(out);
+  const MapLayers layers = ComputeLayers(grid, mo.obstacles);
+  summary.mapped_cells = static_cast<long>(grid.MappedCells());
+  if (!layers.obstacle.empty()) {
+    summary.obstacle_cells = cv::countNonZero(layers.obstacle > 0);
+  }
+  if (summary.mapped_cells > 0) {
+    io::GeoRaster raster = LayersToRaster(layers);
+    raster.metadata["lunarnav_tool"] = "terrain-map";
+    io::WriteGeoTiffAtomic(out / "elevation.tif", raster);
+  }
+  io::WriteGeoTiffAtomic(out / "state.tif", grid.ToStateRaster());
+  io::WriteFileAtomic(out / "frames.csv", FramesCsv(fused));
+  if (options.write_preview) {
+    std::vector<Eigen::Vector2d> path;
+    for (const FusedFrame& f : fused) path.emplace_back(f.pose.x_m, f.pose.y_m);
+    io::WriteImageAtomic(out / "preview.png", RenderMapPreview(layers, path));
+  }
+  summary.write_seconds = write_timer.ElapsedSeconds();
+  summary.seconds = total.ElapsedSeconds();
+  summary.peak_memory_mib = util::PeakResidentMemoryMiB();
+
+  json j = util::SummaryHead("terrain-map", invocation);
+  j["inputs"] = {{"stereo_dir", options.stereo_dir.string()},
+                 {"poses", options.poses_csv.string()},
+                 {"trajectory", options.trajectory.string()},
+                 {"frame_times", options.frame_times.string()},
+                 {"xyz_sigma", has_sigma},
+                 {"rig", options.rig.string()},
+                 {"requests", options.requests.string()},
+                 {"errors", has_sigma            ? "xyz_sigma arrays"
+                            : error_model        ? "the rig's error model, sigma_d " + std::to_string(options.sigma_d_px) + " px"
+                                                 : "default sigma " + std::to_string(mo.default_sigma_m) + " m"},
+                 {"merge", json::array()},
+                 {"resume", options.resume}};
+  for (const fs::path& p : options.merge_maps) j["inputs"]["merge"].push_back(p.string());
+  j["options"] = mo.ToJson();
+  j["threads"] = threads;
+  j["grid"] = {{"cell_m", layers.cell_m},
+               {"x_west_m", layers.x_west_m},
+               {"y_north_m", layers.y_north_m},
+               {"width", layers.elevation_m.cols},
+               {"height", layers.elevation_m.rows},
+               {"tiles", grid.TileCount()}};
+  j["counts"] = {{"frames_total", summary.frames_total},   {"frames_fused", summary.frames_fused},
+                 {"frames_resumed", summary.frames_resumed}, {"frames_merged", summary.frames_merged},
+                 {"points_in", summary.points_in},           {"points_fused", summary.points_fused},
+                 {"points_rejected", summary.points_rejected}, {"points_out_of_range", summary.points_out_of_range},
+                 {"mapped_cells", summary.mapped_cells},     {"obstacle_cells", summary.obstacle_cells}};
+  j["timings_s"] = {{"total", summary.seconds},
+                    {"read_and_fuse", summary.fuse_seconds},
+                    {"read_and_fuse_cpu", summary.fuse_cpu_seconds},
+                    {"write", summary.write_seconds}};
+  // Points (valid XYZ) read and fused per second of wall time, and per second of CPU time
+  // (with -j 1, one core's rate even when other processes share the machine).
+  j["points_per_second"] = summary.fuse_seconds > 0 ? summary.points_in / summary.fuse_seconds : 0.0;
+  j["points_per_cpu_second"] = summary.fuse_cpu_seconds > 0 ? summary.points_in / summary.fuse_cpu_seconds : 0.0;
+  j["peak_memory_mib"] = summary.peak_memory_mib;
+  io::WriteJsonAtomic(out / "summary.json", j);
+  return summary;
+}
+
+}  // namespace lunarnav::mapping

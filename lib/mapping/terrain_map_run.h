@@ -1,0 +1,58 @@
+// The `terrain-map` run: a stereo-batch output directory and the vehicle's poses in, the
+// terrain map (GeoTIFF layers, obstacles, preview) out. docs/terrain-map.md.
+#pragma once
+
+#include <filesystem>
+#include <string>
+#include <vector>
+
+#include <nlohmann/json.hpp>
+
+#include "calib/triangulation.h"
+#include "mapping/terrain_grid.h"
+
+namespace lunarnav::mapping {
+
+struct TerrainMapRunOptions {
+  TerrainMapOptions map;
+  /// stereo-batch's output directory (xyz/<stem>.exr, xyz_sigma/<stem>.exr when present);
+  /// empty: no new frames (only --merge).
+  std::filesystem::path stereo_dir;
+  /// Poses: the simulator's truth/poses.csv, or a trajectory with a frame-times file.
+  std::filesystem::path poses_csv, trajectory, frame_times;
+  /// Rectified rig of the run (rectify's rig.json): the points' predicted errors from its
+  /// geometry (ElevationErrorModel, sigma_d_px) instead of reading xyz_sigma/; empty: read
+  /// xyz_sigma/<stem>.exr when present, else TerrainMapOptions::default_sigma_m.
+  std::filesystem::path rig;
+  double sigma_d_px = 1.0;  ///< Disparity error for the rig's error model, px, > 0.
+  calib::ReferenceImage reference = calib::ReferenceImage::kRight;  ///< The disparity maps' reference.
+  /// The requests the pairs were matched with (`stereo-batch --requests`, plan-windows'
+  /// requests.csv): a listed pair's points outside its Y interval are left out. Empty: none.
+  std::filesystem::path requests;
+  /// Output directories of earlier runs on disjoint sets of frames, merged into this map.
+  std::vector<std::filesystem::path> merge_maps;
+  bool resume = false;       ///< Continue the map in the output directory, skipping fused frames.
+  bool write_preview = true;  ///< preview.png.
+  int num_threads = 0;        ///< Frames read in parallel; 0 = all cores.
+  bool show_progress = true;
+  void Validate() const;  ///< std::invalid_argument for missing or conflicting inputs.
+};
+
+struct TerrainMapRunSummary {
+  long frames_total = 0, frames_fused = 0, frames_resumed = 0, frames_merged = 0;
+  long points_in = 0, points_fused = 0, points_rejected = 0, points_out_of_range = 0;
+  long mapped_cells = 0, obstacle_cells = 0;
+  double seconds = 0, fuse_seconds = 0, fuse_cpu_seconds = 0, write_seconds = 0;
+  double peak_memory_mib = 0;
+  std::string BriefReport() const;  ///< e.g. "40 frames, 9.1 M points fused; 12,345 cells, 17 obstacle cells; 3.2 s".
+};
+
+/// Runs terrain-map: checks every input (a pair without a pose, a non-finite pose, an XYZ
+/// map of another size than the run's first or than its xyz_sigma map are InputErrors naming
+/// the stem) before writing anything, fuses the frames in time order, and writes OUT_DIR/
+/// elevation.tif, state.tif, frames.csv, preview.png and summary.json, each atomically and
+/// only when every frame was fused.
+TerrainMapRunSummary RunTerrainMap(const TerrainMapRunOptions& options, const std::filesystem::path& output_dir,
+                                   const nlohmann::json& invocation = nullptr);
+
+}  // namespace lunarnav::mapping

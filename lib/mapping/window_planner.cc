@@ -1,0 +1,94 @@
+#include "mapping/window_planner.h"
+
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+
+#include "util/check.h"
+#include "util/errors.h"
+
+namespace lunarnav::mapping {
+
+void WindowPlannerOptions::Validate() const {
+  LN_CHECK_ARG(std::isfinite(stereo_delay_s) && stereo_delay_s >= 0) << "stereo delay: must be >= 0 s";
+  LN_CHECK_ARG(std::isfinite(horizon_m) && horizon_m > 0) << "horizon: must be > 0 m";
+  LN_CHECK_ARG(std::isfinite(overlap_m) && overlap_m >= 0) << "overlap: must be >= 0 m";
+}
+
+nlohmann::json WindowPlannerOptions::ToJson() const {
+  return {{"stereo_delay_s", stereo_delay_s},
+          {"horizon_m", horizon_m},
+          {"overlap_m", overlap_m},
+          {"gravity", calib::ToString(gravity)}};
+}
+
+std::vector<PlannedWindow> PlanWindows(const std::vector<FramePose>& poses, const calib::VehicleSpec& vehicle,
+                                       const WindowPlannerOptions& o) {
+  o.Validate();
+  LN_CHECK_INPUT(!poses.empty()) << "no pairs to plan";
+  for (std::size_t k = 0; k < poses.size(); ++k) {
+    LN_CHECK_INPUT(poses[k].IsFinite()) << "stem " << poses[k].stem << ": the pose is not finite";
+    LN_CHECK_INPUT(k == 0 || poses[k].t_s > poses[k - 1].t_s)
+        << "stem " << poses[k].stem << ": time " << poses[k].t_s << " s does not follow " << poses[k - 1].stem
+        << "'s " << poses[k - 1].t_s << " s";
+  }
+  const double g = calib::GravityMps2(o.gravity);
+  auto distance = [&](std::size_t a, std::size_t b) {
+    return std::hypot(std::hypot(poses[b].x_m - poses[a].x_m, poses[b].y_m - poses[a].y_m), poses[b].z_m - poses[a].z_m);
+  };
+  std::vector<PlannedWindow> plan;
+  const std::size_t n = poses.size();
+  for (std::size_t k = 0; k < n; ++k) {
+    const FramePose& p = poses[k];
+    PlannedWindow w;
+    w.stem = p.stem;
+    w.t_s = p.t_s;
+    if (n > 1) {
+      const std::size_t a = k == 0 ? 0 : k - 1, b = k + 1 < n ? k + 1 : k;
+      w.speed_mps = distance(a, b) / (poses[b].t_s - poses[a].t_s);
+    }
+    const double cycle_s = n > 1 ? (k + 1 < n ? poses[k + 1].t_s - p.t_s : p.t_s - poses[k - 1].t_s) : 0.0;
+    w.d_stop_m = calib::StoppingDistanceM(vehicle.stop_time_s, w.speed_mps, vehicle.sliding_friction, g);
+    w.y_need_m = vehicle.FrontOfWheelsY() + w.d_stop_m + w.speed_mps * o.stereo_delay_s;
+    w.y_max_m = w.y_need_m + o.horizon_m + w.speed_mps * cycle_s;
+    if (k == 0) {
+      w.covered_to_m = std::numeric_limits<double>::quiet_NaN();
+      w.y_min_m = w.y_need_m;
+    } else {
+      // The previous far edge in this pair's vehicle frame: less the distance driven along
+      // this pair's forward axis.
+      const FramePose& q = poses[k - 1];
+      const double forward = (p.x_m - q.x_m) * std::sin(p.heading_rad) + (p.y_m - q.y_m) * std::cos(p.heading_rad);
+      w.covered_to_m = plan.back().y_max_m - forward;
+      w.y_min_m = std::clamp(w.covered_to_m - o.overlap_m, w.y_need_m, std::max(w.y_need_m, w.y_max_m - o.overlap_m));
+    }
+    plan.push_back(w);
+  }
+  return plan;
+}
+
+std::string RequestsCsv(const std::vector<PlannedWindow>& plan) {
+  std::string s = "stem,y_min_m,y_max_m\n";
+  char buf[96];
+  for (const PlannedWindow& w : plan) {
+    std::snprintf(buf, sizeof buf, ",%.4f,%.4f\n", w.y_min_m, w.y_max_m);
+    s += w.stem + buf;
+  }
+  return s;
+}
+
+std::string PlanCsv(const std::vector<PlannedWindow>& plan) {
+  std::string s =
+      "# lunarnav plan-windows: per pair, speed (m/s), stopping distance, nearest distance needed, far edge\n"
+      "# of the previous request in this pair's vehicle frame (nan for the first), and the request (m)\n"
+      "stem,t_s,speed_mps,d_stop_m,y_need_m,covered_to_m,y_min_m,y_max_m\n";
+  char buf[256];
+  for (const PlannedWindow& w : plan) {
+    std::snprintf(buf, sizeof buf, ",%.3f,%.5f,%.4f,%.4f,%.4f,%.4f,%.4f\n", w.t_s, w.speed_mps, w.d_stop_m, w.y_need_m,
+                  w.covered_to_m, w.y_min_m, w.y_max_m);
+    s += w.stem + buf;
+  }
+  return s;
+}
+
+}  // namespace lunarnav::mapping

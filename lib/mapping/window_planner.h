@@ -1,0 +1,60 @@
+// The planner's side of window selection (Krotkov & Hebert sec. 3.3): for each stereo pair,
+// the interval of forward distances I_Y = [Y_min, Y_max] in which the navigation map needs
+// new data, "computed from the speed of the vehicle and from the anticipated delay in
+// getting the result from stereo", and the part of the map already covered.
+#pragma once
+
+#include <string>
+#include <vector>
+
+#include <nlohmann/json.hpp>
+
+#include "calib/rig_check.h"
+#include "calib/vehicle.h"
+#include "mapping/frame_poses.h"
+
+namespace lunarnav::mapping {
+
+struct WindowPlannerOptions {
+  /// Time from taking a pair to its points being in the map, s, >= 0 (the paper: 0.7 s of
+  /// matching per pair with the Figure 3 windows, sec. 3.4).
+  double stereo_delay_s = 0.7;
+  /// Depth of map the planner keeps beyond the nearest distance it needs, metres, > 0 (room
+  /// to choose a path around an obstacle once it is seen).
+  double horizon_m = 5.0;
+  /// Each request reaches back this far into the ground the previous one covered, metres,
+  /// >= 0 (tolerates errors in the speed and the pose).
+  double overlap_m = 1.0;
+  calib::Gravity gravity = calib::Gravity::kEarth;
+  void Validate() const;
+  nlohmann::json ToJson() const;
+};
+
+/// One pair's request and how it came about (vehicle frame at the pair's time, metres).
+struct PlannedWindow {
+  std::string stem;
+  double t_s = 0;
+  double speed_mps = 0;      ///< From the poses (central difference of positions over time).
+  double d_stop_m = 0;       ///< Stopping distance at that speed (sec. 3.1).
+  double y_need_m = 0;       ///< Front of the wheels + d_stop + speed x stereo delay.
+  double covered_to_m = 0;   ///< Far edge of the previous request, moved into this frame; NaN for the first.
+  double y_min_m = 0, y_max_m = 0;  ///< The request I_Y.
+};
+
+/// Plans the requests of `poses` (in time order, at least one):
+///   y_need = front of the wheels + d_stop(v) + v stereo_delay,
+///   y_max  = y_need + horizon + v T (T: time to the next pair, the last interval for the last),
+///   y_min  = clamp(covered_to - overlap, y_need, y_max - overlap), covered_to = the previous
+///            y_max less the distance driven since (forward component), or y_need for the first.
+/// In steady state at speed v the request is [y_need + horizon - overlap, y_need + horizon + v T]:
+/// the ground driven over in one cycle plus the overlap; it moves out with v as d_stop does.
+/// @throws InputError naming the stem for a non-finite pose or time stamps that do not increase.
+std::vector<PlannedWindow> PlanWindows(const std::vector<FramePose>& poses, const calib::VehicleSpec& vehicle,
+                                       const WindowPlannerOptions& options);
+
+/// The requests as `stereo-batch --requests` reads them (docs/formats.md, "Window requests").
+std::string RequestsCsv(const std::vector<PlannedWindow>& plan);
+/// Every field of the plan, one row per pair (header stem,t_s,speed_mps,d_stop_m,...).
+std::string PlanCsv(const std::vector<PlannedWindow>& plan);
+
+}  // namespace lunarnav::mapping

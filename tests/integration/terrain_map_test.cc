@@ -1,0 +1,241 @@
+// terrain-map and plan-windows end to end on synthetic stereo-batch outputs (a plane with a box,
+// seen from known poses).
+#include <algorithm>
+#include <cmath>
+#include <cstdlib>
+#include <fstream>
+
+#include <gtest/gtest.h>
+#include <nlohmann/json.hpp>
+
+#include "integration/run_tool.h"
+#include "io/atomic_file.h"
+#include "io/float_array_io.h"
+#include "io/geotiff_io.h"
+#include "io/json_io.h"
+#include "mapping/synthetic_frames.h"
+#include "positioning/trajectory_io.h"
+#include "util/testing.h"
+
+namespace lunarnav {
+namespace {
+namespace fs = std::filesystem;
+using testing::RunTool;
+
+constexpr double kGround = 0.3;  // m, arbitrary
+
+// Frame k of a run north at 0.48 m per frame (the paper's 0.15 m/s every 3.2 s).
+mapping::FramePose PoseOf(int k) {
+  mapping::FramePose p;
+  char stem[16];
+  std::snprintf(stem, sizeof stem, "%06d", k);
+  p.stem = stem;
+  p.t_s = 3.2 * k;
+  p.y_m = 0.48 * k;
+  p.z_m = kGround;
+  return p;
+}
+
+// A stereo-batch-like directory with frames [first, last): xyz/ and xyz_sigma/.
+void WriteStereoDir(const fs::path& dir, int first, int last) {
+  const auto surface = mapping::testing::BoxOnPlane(kGround, 1.0, 1.5, 6.0, 6.5, 0.3);
+  for (int k = first; k < last; ++k) {
+    const mapping::FramePose p = PoseOf(k);
+    const cv::Mat xyz = mapping::testing::SurfaceXyz(surface, p, 240, 160);
+    io::WriteExrAtomic(dir / "xyz" / (p.stem + ".exr"), xyz);
+    io::WriteExrAtomic(dir / "xyz_sigma" / (p.stem + ".exr"), cv::Mat(xyz.size(), CV_32FC3, cv::Scalar::all(0.02)));
+  }
+}
+
+void WritePoses(const fs::path& path, int n, int nan_at = -1, int missing = -1) {
+  std::string s = "stem,t_s,x_m,y_m,z_m,heading_deg,pitch_deg,roll_deg,fault\n";
+  for (int k = 0; k < n; ++k) {
+    if (k == missing) continue;
+    const mapping::FramePose p = PoseOf(k);
+    s += p.stem + "," + std::to_string(p.t_s) + ",0," + (k == nan_at ? std::string("nan") : std::to_string(p.y_m)) +
+         "," + std::to_string(p.z_m) + ",0,0,0,none\n";
+  }
+  io::WriteFileAtomic(path, s);
+}
+
+cv::Mat Band(const io::GeoRaster& r, const std::string& name) {
+  const int i = r.BandIndex(name);
+  EXPECT_GE(i, 0) << name;
+  return i >= 0 ? r.bands[i].pixels : cv::Mat();
+}
+
+TEST(TerrainMapTool, WritesAGeoTiffOfThePlaneWithTheBoxAsTheOnlyObstacle) {
+  util::ScopedTempDir tmp;
+  WriteStereoDir(tmp.path() / "stereo", 0, 4);
+  WritePoses(tmp.path() / "poses.csv", 4);
+  const fs::path out = tmp.path() / "map";
+  const auto run = RunTool("terrain-map", {(tmp.path() / "stereo").string(), "--poses",
+                                           (tmp.path() / "poses.csv").string(), "-o", out.string(), "-q"},
+                           tmp.path());
+  ASSERT_EQ(run.exit_code, 0) << run.stderr_text;
+  const io::GeoRaster map = io::ReadGeoTiff(out / "elevation.tif");
+  EXPECT_DOUBLE_EQ(map.cell_m, 0.25);
+  ASSERT_EQ(map.bands.size(), 8u);
+  const cv::Mat elevation = Band(map, "elevation_m"), obstacle = Band(map, "obstacle");
+  int mapped = 0, obstacles = 0;
+  for (int r = 0; r < elevation.rows; ++r) {
+    for (int c = 0; c < elevation.cols; ++c) {
+      const float e = elevation.at<float>(r, c);
+      if (!std::isfinite(e)) continue;
+      ++mapped;
+      const double x = map.CellCentreX(c), y = map.CellCentreY(r);
+      const bool in_box = x > 1.0 && x < 1.5 && y > 6.0 && y < 6.5;
+      EXPECT_NEAR(e, in_box ? kGround + 0.3 : kGround, 1e-4) << x << ", " << y;
+      obstacles += obstacle.at<float>(r, c) > 0;
+      if (obstacle.at<float>(r, c) > 0) {
+        EXPECT_TRUE(in_box) << x << ", " << y;
+      }
+    }
+  }
+  EXPECT_EQ(obstacles, 4);  // 0.5 m x 0.5 m = 2 x 2 cells
+  // 6 m wide, from 2 m ahead of the first pose to 10 m ahead of the last (1.44 m further).
+  EXPECT_EQ(mapped, 24 * static_cast<int>(std::lround((8 + 1.44) / 0.25)));
+  EXPECT_TRUE(fs::is_regular_file(out / "preview.png"));
+  const nlohmann::json summary = io::ReadJson(out / "summary.json");
+  EXPECT_EQ(summary["tool"], "terrain-map");
+  EXPECT_EQ(summary["counts"]["frames_fused"], 4);
+  EXPECT_EQ(summary["counts"]["obstacle_cells"], 4);
+  if (std::system("gdalinfo --version >/dev/null 2>&1") == 0) {
+    const std::string cmd = "gdalinfo " + testing::ShellQuote((out / "elevation.tif").string()) + " > " +
+                            testing::ShellQuote((tmp.path() / "gdalinfo.txt").string());
+    ASSERT_EQ(std::system(cmd.c_str()), 0);
+    const std::string info = testing::ReadFileBytes(tmp.path() / "gdalinfo.txt");
+    EXPECT_NE(info.find("Description = elevation_m"), std::string::npos) << info;
+    EXPECT_NE(info.find("Pixel Size = (0.250000000000000,-0.250000000000000)"), std::string::npos) << info;
+    EXPECT_NE(info.find("NoData Value=nan"), std::string::npos) << info;
+  }
+}
+
+struct BadCase {
+  std::string name;
+  int nan_at = -1, missing = -1;
+  bool wrong_sigma = false;
+  std::string stem;
+};
+
+TEST(TerrainMapTool, BadInputsNameTheStemExitThreeAndWriteNothing) {
+  for (const BadCase& c : {BadCase{"missing pose", -1, 2, false, "000002"}, BadCase{"NaN pose", 1, -1, false, "000001"},
+                           BadCase{"wrong-size sigma", -1, -1, true, "000003"}}) {
+    util::ScopedTempDir tmp;
+    WriteStereoDir(tmp.path() / "stereo", 0, 4);
+    WritePoses(tmp.path() / "poses.csv", 4, c.nan_at, c.missing);
+    if (c.wrong_sigma) {
+      io::WriteExrAtomic(tmp.path() / "stereo" / "xyz_sigma" / "000003.exr", cv::Mat(10, 10, CV_32FC3, cv::Scalar::all(0.02)));
+    }
+    const fs::path out = tmp.path() / "map";
+    const auto run = RunTool("terrain-map", {(tmp.path() / "stereo").string(), "--poses",
+                                             (tmp.path() / "poses.csv").string(), "-o", out.string(), "-q"},
+                             tmp.path());
+    EXPECT_EQ(run.exit_code, 3) << c.name << ": " << run.stderr_text;
+    EXPECT_EQ(run.ErrorLines(), 1) << c.name << ": " << run.stderr_text;
+    EXPECT_NE(run.stderr_text.find("stem " + c.stem), std::string::npos) << c.name << ": " << run.stderr_text;
+    EXPECT_FALSE(fs::exists(out)) << c.name;
+  }
+}
+
+// The state band by band: equal within rounding of the sums.
+void ExpectSameState(const fs::path& a, const fs::path& b) {
+  const io::GeoRaster ra = io::ReadGeoTiff(a / "state.tif"), rb = io::ReadGeoTiff(b / "state.tif");
+  ASSERT_EQ(ra.Width(), rb.Width());
+  ASSERT_EQ(ra.Height(), rb.Height());
+  EXPECT_DOUBLE_EQ(ra.x_west_m, rb.x_west_m);
+  EXPECT_DOUBLE_EQ(ra.y_north_m, rb.y_north_m);
+  for (std::size_t k = 0; k < ra.bands.size(); ++k) {
+    cv::Mat diff;
+    cv::absdiff(ra.bands[k].pixels, rb.bands[k].pixels, diff);
+    double worst = 0, scale = 0;
+    cv::minMaxLoc(diff, nullptr, &worst);
+    cv::minMaxLoc(cv::abs(ra.bands[k].pixels), nullptr, &scale);
+    EXPECT_LE(worst, 1e-12 * std::max(1.0, scale)) << ra.bands[k].description;
+  }
+}
+
+TEST(TerrainMapTool, ResumeAndMergeOfDisjointFramesEqualFusingAtOnce) {
+  util::ScopedTempDir tmp;
+  const fs::path all = tmp.path() / "all", first = tmp.path() / "first", second = tmp.path() / "second";
+  WriteStereoDir(all, 0, 6);
+  WriteStereoDir(first, 0, 3);
+  WriteStereoDir(second, 3, 6);
+  const std::string poses = (tmp.path() / "poses.csv").string();
+  WritePoses(poses, 6);
+  auto map = [&](const std::vector<std::string>& args) {
+    std::vector<std::string> a = args;
+    a.insert(a.end(), {"--poses", poses, "-q", "--no-preview"});
+    const auto run = RunTool("terrain-map", a, tmp.path());
+    EXPECT_EQ(run.exit_code, 0) << run.stderr_text;
+  };
+  map({all.string(), "-o", (tmp.path() / "m_all").string()});
+  map({first.string(), "-o", (tmp.path() / "m_first").string()});
+  map({second.string(), "-o", (tmp.path() / "m_second").string()});
+  map({"--merge", (tmp.path() / "m_first").string(), "--merge", (tmp.path() / "m_second").string(), "-o",
+       (tmp.path() / "m_merged").string()});
+  ExpectSameState(tmp.path() / "m_all", tmp.path() / "m_merged");
+  // Resume: the first half's map continued over all frames.
+  fs::copy(tmp.path() / "m_first", tmp.path() / "m_resumed");
+  map({all.string(), "--resume", "-o", (tmp.path() / "m_resumed").string()});
+  ExpectSameState(tmp.path() / "m_all", tmp.path() / "m_resumed");
+  EXPECT_EQ(io::ReadJson(tmp.path() / "m_resumed" / "summary.json")["counts"]["frames_resumed"], 3);
+  // Merging a map with itself fuses frames twice: refused.
+  const auto twice = RunTool("terrain-map", {"--merge", (tmp.path() / "m_first").string(), "--merge",
+                                             (tmp.path() / "m_first").string(), "-o", (tmp.path() / "m_bad").string()},
+                             tmp.path());
+  EXPECT_EQ(twice.exit_code, 3);
+  EXPECT_NE(twice.stderr_text.find("fused twice"), std::string::npos) << twice.stderr_text;
+}
+
+TEST(TerrainMapTool, ATrajectoryInterpolatedAtTheFrameTimesGivesTheMapOfThePoses) {
+  util::ScopedTempDir tmp;
+  WriteStereoDir(tmp.path() / "stereo", 0, 4);
+  const std::string poses = (tmp.path() / "poses.csv").string();
+  WritePoses(poses, 4);
+  // posfilter's trajectory.csv at 10 Hz along the same straight line, and the frame times.
+  std::vector<positioning::TrajectorySample> samples;
+  for (int k = 0; k <= 100; ++k) {
+    positioning::TrajectorySample s;
+    s.t_s = 0.1 * k;
+    s.y_m = 0.15 * s.t_s;
+    s.z_m = kGround;
+    samples.push_back(s);
+  }
+  positioning::WriteTrajectoryCsv(tmp.path() / "trajectory.csv", samples);
+  std::string times = "stem,t_s\n";
+  for (int k = 0; k < 4; ++k) times += PoseOf(k).stem + "," + std::to_string(PoseOf(k).t_s) + "\n";
+  io::WriteFileAtomic(tmp.path() / "times.csv", times);
+  const auto a = RunTool("terrain-map", {(tmp.path() / "stereo").string(), "--poses", poses, "-o",
+                                         (tmp.path() / "by_poses").string(), "-q", "--no-preview"},
+                         tmp.path());
+  const auto b = RunTool("terrain-map", {(tmp.path() / "stereo").string(), "--trajectory",
+                                         (tmp.path() / "trajectory.csv").string(), "--frame-times",
+                                         (tmp.path() / "times.csv").string(), "-o", (tmp.path() / "by_trajectory").string(),
+                                         "-q", "--no-preview"},
+                         tmp.path());
+  ASSERT_EQ(a.exit_code, 0) << a.stderr_text;
+  ASSERT_EQ(b.exit_code, 0) << b.stderr_text;
+  const cv::Mat ea = Band(io::ReadGeoTiff(tmp.path() / "by_poses" / "elevation.tif"), "elevation_m");
+  const cv::Mat eb = Band(io::ReadGeoTiff(tmp.path() / "by_trajectory" / "elevation.tif"), "elevation_m");
+  ASSERT_EQ(ea.size(), eb.size());
+  cv::Mat diff;
+  cv::absdiff(ea, eb, diff);
+  double worst = 0;
+  cv::minMaxLoc(diff, nullptr, &worst, nullptr, nullptr, ea == ea);
+  EXPECT_LT(worst, 1e-4);  // the trajectory file's 0.1 mm positions
+}
+
+TEST(PlanWindowsTool, WritesRequestsThatStereoBatchReads) {
+  util::ScopedTempDir tmp;
+  const std::string poses = (tmp.path() / "poses.csv").string();
+  WritePoses(poses, 10);
+  const auto run = RunTool("plan-windows", {"--poses", poses, "-o", (tmp.path() / "plan").string(), "-q"}, tmp.path());
+  ASSERT_EQ(run.exit_code, 0) << run.stderr_text;
+  const std::string csv = testing::ReadFileBytes(tmp.path() / "plan" / "requests.csv");
+  EXPECT_EQ(csv.rfind("stem,y_min_m,y_max_m\n000000,", 0), 0u) << csv;
+  EXPECT_EQ(std::count(csv.begin(), csv.end(), '\n'), 11);
+}
+
+}  // namespace
+}  // namespace lunarnav

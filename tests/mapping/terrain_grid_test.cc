@@ -1,0 +1,257 @@
+#include "mapping/terrain_grid.h"
+
+#include <cmath>
+
+#include <gtest/gtest.h>
+
+#include "mapping/synthetic_frames.h"
+
+namespace lunarnav::mapping {
+namespace {
+
+using testing::BoxOnPlane;
+using testing::SurfaceXyz;
+
+FramePose Pose(double x, double y, double heading_deg, double t_s = 0) {
+  FramePose p;
+  p.x_m = x;
+  p.y_m = y;
+  p.heading_rad = heading_deg * M_PI / 180;
+  p.t_s = t_s;
+  return p;
+}
+
+TerrainGrid Fuse(const std::vector<std::pair<cv::Mat, FramePose>>& frames, const TerrainMapOptions& o) {
+  TerrainGrid grid(o.cell_m);
+  for (const auto& [xyz, pose] : frames) grid.Add(BinFrame(xyz, cv::Mat(), pose.WorldFromVehicle(), pose.t_s, o));
+  return grid;
+}
+
+// Count of cells of a layer that hold a value (not NaN) and satisfy `pred`.
+template <typename Pred>
+int CountCells(const cv::Mat& layer, Pred pred) {
+  int n = 0;
+  for (int r = 0; r < layer.rows; ++r) {
+    for (int c = 0; c < layer.cols; ++c) n += std::isfinite(layer.at<float>(r, c)) && pred(r, c);
+  }
+  return n;
+}
+
+TEST(TerrainGrid, FlatPlaneMapsToItsHeightWhereverSeen) {
+  constexpr double kHeight = 1.37;  // arbitrary
+  const TerrainMapOptions o;
+  const FramePose pose = Pose(2.0, -1.0, 30.0);
+  const TerrainGrid grid = Fuse({{SurfaceXyz([](double, double) { return kHeight; }, pose), pose}}, o);
+  const MapLayers l = ComputeLayers(grid, o.obstacles);
+  ASSERT_FALSE(l.elevation_m.empty());
+  int mapped = 0;
+  for (int r = 0; r < l.elevation_m.rows; ++r) {
+    for (int c = 0; c < l.elevation_m.cols; ++c) {
+      const float e = l.elevation_m.at<float>(r, c);
+      if (!std::isfinite(e)) continue;
+      ++mapped;
+      EXPECT_NEAR(e, kHeight, 1e-5);
+      EXPECT_NEAR(l.roughness_m.at<float>(r, c), 0.0, 1e-3);
+      EXPECT_EQ(l.obstacle.at<float>(r, c) > 0, false);
+    }
+  }
+  // The seen area is 6 m x 8 m = 768 cells of 25 cm; cells cut by its rotated edge add some.
+  EXPECT_GT(mapped, 768);
+  EXPECT_LT(mapped, 768 + 2 * (24 + 32) * 2);
+  // A point of the seen area far from its edges (vehicle X = 0, Y = 6) is mapped.
+  const Eigen::Vector3d inside = pose.WorldFromVehicle() * Eigen::Vector3d(0, 6, 0);
+  int col = 0, row = 0;
+  ASSERT_TRUE(l.CellOf(inside.x(), inside.y(), &col, &row));
+  EXPECT_NEAR(l.elevation_m.at<float>(row, col), kHeight, 1e-5);
+  // Outside the seen area nothing is mapped (vehicle Y = 1 is in front of the nearest point).
+  const Eigen::Vector3d behind = pose.WorldFromVehicle() * Eigen::Vector3d(0, 1.0, 0);
+  if (l.CellOf(behind.x(), behind.y(), &col, &row)) {
+    EXPECT_FALSE(std::isfinite(l.elevation_m.at<float>(row, col)));
+  }
+}
+
+TEST(TerrainGrid, BoxOfKnownSizeIsAnObstacleOfThatSizeAndNowhereElse) {
+  // A 0.5 m x 0.75 m box, 0.3 m tall (above the 0.2 m limit), on cell boundaries: 2 x 3 cells.
+  const TerrainMapOptions o;
+  const FramePose pose = Pose(0, 0, 0);
+  const auto surface = BoxOnPlane(0.0, 1.0, 1.5, 5.0, 5.75, 0.3);
+  const TerrainGrid grid = Fuse({{SurfaceXyz(surface, pose, 480, 640), pose}}, o);
+  const MapLayers l = ComputeLayers(grid, o.obstacles);
+  const int obstacles = CountCells(l.obstacle, [&](int r, int c) { return l.obstacle.at<float>(r, c) > 0; });
+  EXPECT_EQ(obstacles, 6);
+  for (double x : {1.1, 1.4}) {
+    for (double y : {5.1, 5.4, 5.6}) {
+      int col = 0, row = 0;
+      ASSERT_TRUE(l.CellOf(x, y, &col, &row));
+      EXPECT_EQ(l.obstacle.at<float>(row, col), 1.0f) << x << ", " << y;  // a step, not a slope
+      EXPECT_NEAR(l.max_m.at<float>(row, col), 0.3, 1e-6);
+    }
+  }
+  // A box lower than the limit is no obstacle.
+  const TerrainGrid low = Fuse({{SurfaceXyz(BoxOnPlane(0.0, 1.0, 1.5, 5.0, 5.75, 0.15), pose, 480, 640), pose}}, o);
+  const MapLayers ll = ComputeLayers(low, o.obstacles);
+  EXPECT_EQ(CountCells(ll.obstacle, [&](int r, int c) { return ll.obstacle.at<float>(r, c) > 0; }), 0);
+}
+
+TEST(TerrainGrid, SteepRampIsASlopeObstacleAndAGentleOneIsNot) {
+  const TerrainMapOptions o;  // 30 deg limit
+  const FramePose pose = Pose(0, 0, 0);
+  for (const auto& [slope_deg, expect_obstacle] : {std::pair{20.0, false}, std::pair{40.0, true}}) {
+    const double g = std::tan(slope_deg * M_PI / 180);
+    const TerrainGrid grid = Fuse({{SurfaceXyz([g](double, double y) { return g * y; }, pose), pose}}, o);
+    const MapLayers l = ComputeLayers(grid, o.obstacles);
+    int col = 0, row = 0;
+    ASSERT_TRUE(l.CellOf(0.1, 6.1, &col, &row));
+    EXPECT_EQ((static_cast<int>(l.obstacle.at<float>(row, col)) & 2) != 0, expect_obstacle) << slope_deg;
+    if (!expect_obstacle) {
+      EXPECT_EQ(l.obstacle.at<float>(row, col), 0.0f) << "an even slope is no step";
+    }
+  }
+}
+
+TEST(TerrainGrid, GateRejectsOutliersAndKeepsTheHeight) {
+  const TerrainMapOptions o;
+  const FramePose pose = Pose(0, 0, 0);
+  cv::Mat xyz = SurfaceXyz([](double, double) { return 0.5; }, pose);
+  int outliers = 0;
+  for (int r = 3; r < xyz.rows; r += 7) {
+    for (int c = 5; c < xyz.cols; c += 11) {
+      xyz.at<cv::Vec3f>(r, c)[2] += 1.0f;  // a false match 1 m high
+      ++outliers;
+    }
+  }
+  const FrameContribution part = BinFrame(xyz, cv::Mat(), pose.WorldFromVehicle(), 0, o);
+  EXPECT_EQ(part.points_rejected, outliers);
+  TerrainGrid grid(o.cell_m);
+  grid.Add(part);
+  const MapLayers l = ComputeLayers(grid, o.obstacles);
+  EXPECT_EQ(CountCells(l.max_m, [&](int r, int c) { return l.max_m.at<float>(r, c) > 0.51f; }), 0);
+  EXPECT_EQ(CountCells(l.obstacle, [&](int r, int c) { return l.obstacle.at<float>(r, c) > 0; }), 0);
+  // With the gate off they stay, and make obstacles.
+  TerrainMapOptions off = o;
+  off.gate_k = std::numeric_limits<double>::infinity();
+  EXPECT_EQ(BinFrame(xyz, cv::Mat(), pose.WorldFromVehicle(), 0, off).points_rejected, 0);
+}
+
+TEST(TerrainGrid, PointsOutsideTheRequestedIntervalAreLeftOut) {
+  const TerrainMapOptions o;
+  const FramePose pose = Pose(0, 0, 0);
+  const cv::Mat xyz = SurfaceXyz([](double, double) { return 0.0; }, pose);  // Y from 2 to 10 m
+  const FrameContribution all = BinFrame(xyz, cv::Mat(), pose.WorldFromVehicle(), 0, o);
+  const FrameContribution band = BinFrame(xyz, cv::Mat(), pose.WorldFromVehicle(), 0, o, nullptr, 4.0, 6.0);
+  EXPECT_EQ(band.points_in, all.points_in);
+  EXPECT_EQ(band.points_fused + band.points_out_of_range, all.points_fused);
+  EXPECT_NEAR(static_cast<double>(band.points_fused) / all.points_fused, 2.0 / 8.0, 0.01);  // 2 m of 8
+  for (const auto& [cell, stats] : band.cells) {
+    EXPECT_GE(cell.j, 16);  // y >= 4 m
+    EXPECT_LT(cell.j, 24);  // y < 6 m
+  }
+}
+
+TEST(TerrainGrid, FusingInTwoHalvesAndMergingEqualsFusingAtOnce) {
+  const TerrainMapOptions o;
+  const auto surface = [](double x, double y) {
+    return 0.1 * std::sin(x) + 0.05 * y + (std::abs(x - 1) < 0.3 && std::abs(y - 7) < 0.3 ? 0.4 : 0.0);
+  };
+  std::vector<std::pair<cv::Mat, FramePose>> frames;
+  for (int k = 0; k < 6; ++k) {
+    const FramePose p = Pose(0.1 * k, 0.45 * k, 5.0 * k, 3.2 * k);
+    cv::Mat xyz = SurfaceXyz(surface, p);
+    xyz.at<cv::Vec3f>(10 + k, 20)[2] += 2.0f;  // an outlier per frame
+    frames.push_back({xyz, p});
+  }
+  const TerrainGrid whole = Fuse(frames, o);
+  TerrainGrid first = Fuse({frames.begin(), frames.begin() + 3}, o);
+  const TerrainGrid second = Fuse({frames.begin() + 3, frames.end()}, o);
+  first.Merge(second);
+  const auto b = whole.MappedBounds();
+  ASSERT_TRUE(b.has_value());
+  ASSERT_EQ(first.MappedBounds(), b);
+  ASSERT_EQ(first.MappedCells(), whole.MappedCells());
+  for (std::int64_t j = (*b)[1]; j <= (*b)[3]; ++j) {
+    for (std::int64_t i = (*b)[0]; i <= (*b)[2]; ++i) {
+      const CellStats* a = whole.Find({i, j});
+      const CellStats* m = first.Find({i, j});
+      ASSERT_EQ(a == nullptr, m == nullptr);
+      if (a == nullptr) continue;
+      EXPECT_EQ(a->count, m->count);
+      EXPECT_EQ(a->rejected, m->rejected);
+      EXPECT_EQ(a->z_min, m->z_min);
+      EXPECT_EQ(a->z_max, m->z_max);
+      EXPECT_EQ(a->last_t_s, m->last_t_s);
+      EXPECT_NEAR(a->Mean(), m->Mean(), 1e-9);
+      EXPECT_NEAR(a->sum_w, m->sum_w, 1e-9 * a->sum_w);
+    }
+  }
+}
+
+TEST(TerrainGrid, PoseErrorOfKnownSizeShiftsTheMapByThatAmount) {
+  const TerrainMapOptions o;
+  const auto surface = BoxOnPlane(0.0, 1.0, 1.5, 6.0, 6.5, 0.3);
+  const FramePose truth = Pose(0, 0, 0);
+  const cv::Mat xyz = SurfaceXyz(surface, truth, 480, 640);
+  // The same points placed with a pose 0.5 m east, 0.75 m north and 0.1 m high.
+  FramePose wrong = Pose(0.5, 0.75, 0);
+  wrong.z_m = 0.1;
+  TerrainGrid a(o.cell_m), b(o.cell_m);
+  a.Add(BinFrame(xyz, cv::Mat(), truth.WorldFromVehicle(), 0, o));
+  b.Add(BinFrame(xyz, cv::Mat(), wrong.WorldFromVehicle(), 0, o));
+  const MapLayers la = ComputeLayers(a, o.obstacles), lb = ComputeLayers(b, o.obstacles);
+  EXPECT_NEAR(lb.x_west_m - la.x_west_m, 0.5, 1e-9);
+  EXPECT_NEAR(lb.y_north_m - la.y_north_m, 0.75, 1e-9);
+  ASSERT_EQ(la.elevation_m.size(), lb.elevation_m.size());
+  for (int r = 0; r < la.elevation_m.rows; ++r) {
+    for (int c = 0; c < la.elevation_m.cols; ++c) {
+      const float ea = la.elevation_m.at<float>(r, c), eb = lb.elevation_m.at<float>(r, c);
+      ASSERT_EQ(std::isfinite(ea), std::isfinite(eb));
+      if (std::isfinite(ea)) {
+        EXPECT_NEAR(eb - ea, 0.1, 1e-5);
+      }
+    }
+  }
+  // The box's obstacle cells moved by (+2, +3) cells.
+  int col = 0, row = 0;
+  ASSERT_TRUE(lb.CellOf(1.1 + 0.5, 6.1 + 0.75, &col, &row));
+  EXPECT_GT(lb.obstacle.at<float>(row, col), 0);
+  ASSERT_TRUE(lb.CellOf(1.1, 6.1, &col, &row));
+  EXPECT_EQ(lb.obstacle.at<float>(row, col), 0);
+}
+
+TEST(TerrainGrid, StateRasterRoundTripsExactly) {
+  const TerrainMapOptions o;
+  const FramePose p = Pose(0.3, 0.2, 10, 4.5);
+  const TerrainGrid grid = Fuse({{SurfaceXyz([](double x, double y) { return 0.2 * x - 0.1 * y; }, p), p}}, o);
+  const TerrainGrid back = TerrainGrid::FromStateRaster(grid.ToStateRaster(), "test");
+  ASSERT_EQ(back.MappedBounds(), grid.MappedBounds());
+  const auto b = *grid.MappedBounds();
+  for (std::int64_t j = b[1]; j <= b[3]; ++j) {
+    for (std::int64_t i = b[0]; i <= b[2]; ++i) {
+      const CellStats* s = grid.Find({i, j});
+      const CellStats* t = back.Find({i, j});
+      ASSERT_EQ(s == nullptr, t == nullptr);
+      if (s == nullptr) continue;
+      EXPECT_EQ(s->sum_w, t->sum_w);
+      EXPECT_EQ(s->sum_wz, t->sum_wz);
+      EXPECT_EQ(s->count, t->count);
+      EXPECT_EQ(s->last_t_s, t->last_t_s);
+    }
+  }
+}
+
+TEST(TerrainGrid, WindowKeepsTheSurroundingsOfTheVehicleOnly) {
+  TerrainMapOptions o;
+  TerrainGrid grid(o.cell_m);
+  for (int k = 0; k < 20; ++k) {
+    const FramePose p = Pose(0, 5.0 * k, 0, k);
+    grid.Add(BinFrame(SurfaceXyz([](double, double) { return 0.0; }, p, 40, 30), cv::Mat(), p.WorldFromVehicle(), k, o));
+    grid.KeepWindow(p.x_m, p.y_m, 30.0);
+  }
+  // The vehicle is at y = 95 m; nothing 15 m (plus a tile of 16 m) behind it remains.
+  const auto b = grid.MappedBounds();
+  ASSERT_TRUE(b.has_value());
+  EXPECT_GE((*b)[1] * o.cell_m, 95.0 - 15.0 - 16.0);
+  EXPECT_LE(grid.TileCount(), 9u);  // a 30 m window touches at most 3 x 3 tiles of 16 m
+}
+
+}  // namespace
+}  // namespace lunarnav::mapping

@@ -1,0 +1,72 @@
+#include "mapping/window_planner.h"
+
+#include <cmath>
+
+#include <gtest/gtest.h>
+
+#include "util/errors.h"
+
+namespace lunarnav::mapping {
+namespace {
+
+// A straight run north at `speed` m/s, a pair every `interval` s.
+std::vector<FramePose> StraightRun(double speed, double interval, int n) {
+  std::vector<FramePose> poses;
+  for (int k = 0; k < n; ++k) {
+    FramePose p;
+    p.stem = std::to_string(k);
+    p.t_s = k * interval;
+    p.y_m = speed * p.t_s;
+    poses.push_back(p);
+  }
+  return poses;
+}
+
+TEST(PlanWindows, IntervalGrowsWithSpeedAsTheStoppingDistanceDoes) {
+  const calib::VehicleSpec ratler;  // the paper's: t_stop 2 s, mu 0.25
+  const WindowPlannerOptions o;
+  const double g = calib::GravityMps2(o.gravity);
+  std::vector<double> y_need, y_max;
+  for (double v : {0.15, 0.4, 0.7}) {
+    const auto plan = PlanWindows(StraightRun(v, 3.2, 20), ratler, o);
+    const PlannedWindow& w = plan[10];
+    EXPECT_NEAR(w.speed_mps, v, 1e-9);
+    const double d_stop = ratler.stop_time_s * v + v * v / (2 * ratler.sliding_friction * g);
+    EXPECT_NEAR(w.d_stop_m, d_stop, 1e-12);
+    EXPECT_NEAR(w.y_need_m, ratler.FrontOfWheelsY() + d_stop + v * o.stereo_delay_s, 1e-12);
+    // Steady state: the ground of one cycle plus the overlap, beyond the horizon.
+    EXPECT_NEAR(w.y_max_m, w.y_need_m + o.horizon_m + v * 3.2, 1e-9);
+    EXPECT_NEAR(w.y_min_m, w.y_need_m + o.horizon_m - o.overlap_m, 1e-9);
+    y_need.push_back(w.y_need_m);
+    y_max.push_back(w.y_max_m);
+  }
+  // From 0.15 to 0.7 m/s the near edge moves out by the growth of d_stop plus the delay's share.
+  const double d015 = 2 * 0.15 + 0.15 * 0.15 / (2 * 0.25 * g), d07 = 2 * 0.7 + 0.7 * 0.7 / (2 * 0.25 * g);
+  EXPECT_NEAR(y_need[2] - y_need[0], d07 - d015 + (0.7 - 0.15) * o.stereo_delay_s, 1e-9);
+  EXPECT_LT(y_max[0], y_max[1]);
+  EXPECT_LT(y_max[1], y_max[2]);
+  // The paper's 0.7 m/s: 1.5 m of stopping distance (sec. 3.1).
+  EXPECT_NEAR(d07, 1.5, 0.01);
+}
+
+TEST(PlanWindows, FirstRequestIsWiderThanTheSteadyOnes) {
+  const auto plan = PlanWindows(StraightRun(0.15, 3.2, 5), calib::VehicleSpec(), WindowPlannerOptions());
+  EXPECT_TRUE(std::isnan(plan[0].covered_to_m));
+  const double first = plan[0].y_max_m - plan[0].y_min_m, steady = plan[3].y_max_m - plan[3].y_min_m;
+  EXPECT_NEAR(steady, 0.15 * 3.2 + WindowPlannerOptions().overlap_m, 1e-9);
+  EXPECT_GT(first, steady);
+}
+
+TEST(PlanWindows, NonFinitePoseNamesTheStem) {
+  auto poses = StraightRun(0.15, 3.2, 4);
+  poses[2].x_m = std::nan("");
+  try {
+    PlanWindows(poses, calib::VehicleSpec(), WindowPlannerOptions());
+    FAIL() << "no error";
+  } catch (const InputError& e) {
+    EXPECT_NE(std::string(e.what()).find("stem 2"), std::string::npos) << e.what();
+  }
+}
+
+}  // namespace
+}  // namespace lunarnav::mapping
