@@ -97,11 +97,17 @@ void CheckShardSummary(const ShardFile& f) {
     LN_CHECK_INPUT(e.is_object() && e.contains("stem") && e["stem"].is_string() && e.contains("status"))
         << file << ": an entry of '" << entries << "' without stem or status";
   }
+}
+
+// Checks that a shard summary holds as many items as its shard of the listing has.
+void CheckShardSize(const ShardFile& f) {
+  const json& s = f.summary;
+  const std::string entries = s["listing"]["entries"].get<std::string>();
   const long listed = s["listing"]["items"].get<long>();
   const long expected = f.index < listed ? (listed - f.index + f.count - 1) / f.count : 0;
   LN_CHECK_INPUT(static_cast<long>(s[entries].size()) == expected)
-      << file << ": holds " << s[entries].size() << " " << entries << " where shard " << f.Shard() << " of "
-      << listed << " has " << expected;
+      << f.path.string() << ": holds " << s[entries].size() << " " << entries << " where shard " << f.Shard()
+      << " of " << listed << " has " << expected;
 }
 
 // Checks that `f` belongs to the batch of `first` (same tool, listing, input, options, ...).
@@ -187,6 +193,7 @@ ShardMergeResult MergeShardSummaries(const fs::path& output_dir, const ShardMerg
   for (const ShardFile& f : files) CheckShardSummary(f);
   const ShardFile& first = files.front();
   for (const ShardFile& f : files) CheckSameBatch(first, f);
+  for (const ShardFile& f : files) CheckShardSize(f);
 
   ShardMergeResult result;
   result.tool = first.summary["tool"].get<std::string>();
@@ -307,7 +314,8 @@ ShardMergeResult MergeShardSummaries(const fs::path& output_dir, const ShardMerg
   counts[p + "ok"] = ok;
   counts[p + "resumed"] = resumed;
   counts[p + "failed"] = result.items_failed;
-  for (const auto& [key, value] : first.summary.value("counts", json::object()).items()) {
+  const json first_counts = first.summary.value("counts", json::object());
+  for (const auto& [key, value] : first_counts.items()) {
     if (counts.contains(key) || !value.is_number()) continue;
     bool from_items = true;
     long long sum = 0;
@@ -324,7 +332,7 @@ ShardMergeResult MergeShardSummaries(const fs::path& output_dir, const ShardMerg
       counts[key] = sum;
     } else {
       double total = 0;
-      for (const ShardFile& f : files) total += Number(f.summary["counts"].value(key, json()));
+      for (const ShardFile& f : files) total += Number(f.summary.value("counts", json::object()).value(key, json()));
       counts[key] = total;
     }
   }
@@ -333,7 +341,8 @@ ShardMergeResult MergeShardSummaries(const fs::path& output_dir, const ShardMerg
   double peak_mib = 0;
   json shards = json::array();
   for (const ShardFile& f : files) {
-    for (const auto& [key, value] : f.summary.value("timings_s", json::object()).items()) {
+    const json shard_timings = f.summary.value("timings_s", json::object());
+    for (const auto& [key, value] : shard_timings.items()) {
       timings[key] = Number(timings.value(key, json(0.0))) + Number(value);
     }
     peak_mib = std::max(peak_mib, Number(f.summary.value("peak_memory_mib", json())));
@@ -370,8 +379,10 @@ ShardMergeResult MergeShardSummaries(const fs::path& output_dir, const ShardMerg
                   << SummaryFileName(std::stoi(shard.substr(0, slash)), std::stoi(shard.substr(slash + 1)))
                   << "); rerun it with --resume";
   }
+  // "pair" for "pairs": the word stereo-batch's own error lines use.
+  const std::string entry = entries.size() > 1 && entries.back() == 's' ? entries.substr(0, entries.size() - 1) : entries;
   for (const UndoneItem& item : result.undone) {
-    LN_LOG(Error) << entries << " " << (item.name.empty() ? "#" + std::to_string(item.index) : item.name)
+    LN_LOG(Error) << entry << " " << (item.name.empty() ? "#" + std::to_string(item.index) : item.name)
                   << " (shard " << item.shard << "): not done: " << item.reason;
   }
   if (!result.done_twice.empty()) {

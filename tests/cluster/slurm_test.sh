@@ -17,7 +17,7 @@
 set -euo pipefail
 [[ $# -eq 3 ]] || { echo "usage: $0 BIN_DIR COMPARE_RUNS SCRIPTS_CLUSTER_DIR" >&2; exit 2; }
 bin=$(cd "$1" && pwd)
-compare=$2
+compare=$(cd "$(dirname "$2")" && pwd)/$(basename "$2")
 cluster=$(cd "$3" && pwd)
 timeout_s=300  # bound of every wait on the cluster
 
@@ -129,12 +129,13 @@ done
 say "cluster up: node $node idle, ports $base-$((base + 1)), in $work"
 
 # --- The data and the one-machine run ------------------------------------------------------
-# 40 simulated raw pairs, small (160 x 120, one ray per pixel) to keep the test short.
-"$bin/simulate" stereo -o "$work/sim" --frames 40 --width 160 --height 120 --focal 185 --rays 1 -q ||
+# 40 simulated raw pairs, small (160 x 120, one ray per pixel, a 0.3 m baseline: disparities
+# within 0..47 px) to keep the test short.
+"$bin/simulate" stereo -o "$work/sim" --frames 40 --width 160 --height 120 --focal 185 --baseline 0.3 --rays 1 -q ||
   fail "simulate stereo failed"
 # The same relative paths in both runs, so that the paths the outputs record are the same.
 mkdir -p "$work/one" "$work/cluster"
-stereo_options=(--rig ../sim/rig.json --disparity 0:31 --preview)
+stereo_options=(--rig ../sim/rig.json --disparity 0:47 --preview)
 (cd "$work/one" && "$bin/rectify" ../sim -o rect --rig ../sim/rig.json -q -j 2) || fail "one-machine rectify failed"
 (cd "$work/one" && "$bin/stereo-batch" rect -o disp "${stereo_options[@]}" -q -j 2) || fail "one-machine stereo-batch failed"
 

@@ -15,14 +15,18 @@
 
 namespace lunarnav::testing {
 
-/// `j` without the keys that describe a run rather than its results (at any depth): timings,
-/// memory, command line, thread count, output directory, and the merge's own record.
+/// `j` without the keys that describe a run rather than its results (at any depth): timings
+/// (and any key ending in `_ms` or `_s`, such as a pair's `match_ms`), memory, command line,
+/// thread count, output directory, and the merge's own record.
 inline nlohmann::json WithoutRunKeys(nlohmann::json j) {
-  static const std::set<std::string> kRunKeys = {"timings_s", "timings_ms", "peak_memory_mib", "invocation",
-                                                 "threads",   "output_dir", "merge"};
+  static const std::set<std::string> kRunKeys = {"peak_memory_mib", "invocation", "threads", "output_dir", "merge"};
+  auto ends_with = [](const std::string& s, const std::string& suffix) {
+    return s.size() >= suffix.size() && s.compare(s.size() - suffix.size(), suffix.size(), suffix) == 0;
+  };
   if (j.is_object()) {
     for (auto it = j.begin(); it != j.end();) {
-      if (kRunKeys.count(it.key()) > 0) {
+      if (kRunKeys.count(it.key()) > 0 || it.key().rfind("timings_", 0) == 0 || ends_with(it.key(), "_ms") ||
+          ends_with(it.key(), "_s")) {
         it = j.erase(it);
       } else {
         it.value() = WithoutRunKeys(it.value());

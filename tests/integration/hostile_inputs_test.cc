@@ -251,6 +251,14 @@ std::vector<Case> Cases() {
          return std::vector<std::string>{"--rig", w.At("rig.json"), "--vehicle", w.At("vehicle.json")};
        },
        3, {"vehicle.json"}, {}},
+      // shard-merge: a shard summary cut short (a full disk on the shared storage).
+      {"shard-merge: a shard summary cut short", "shard-merge",
+       [](const Workspace& w) {
+         fs::create_directories(w.out);
+         WriteText(w.out / "summary.shard-0-of-2.json", "{\n  \"counts\": {\n    \"pairs_in");
+         return std::vector<std::string>{w.Out(), "-q"};
+       },
+       3, {"summary.shard-0-of-2.json"}, {}},
       // evaluate: damaged disparity maps are those items' failures.
       {"evaluate: a PFM with a negative size and one cut short", "evaluate",
        [](const Workspace& w) {

@@ -144,7 +144,7 @@ TEST(ShardMerge, AKilledShardIsReportedAndResumeCompletesTheSet) {
   const auto incomplete = RunTool("shard-merge", {out.string()}, tmp.path());
   EXPECT_EQ(incomplete.exit_code, 4) << incomplete.stderr_text;
   EXPECT_NE(incomplete.stderr_text.find("shard 1/2 missing"), std::string::npos) << incomplete.stderr_text;
-  EXPECT_NE(incomplete.stderr_text.find("pairs p109 (shard 1/2): not done"), std::string::npos)
+  EXPECT_NE(incomplete.stderr_text.find("pair p109 (shard 1/2): not done"), std::string::npos)
       << incomplete.stderr_text;  // named from the input directory
   nlohmann::json summary = io::ReadJson(out / "summary.json");
   EXPECT_EQ(summary["merge"]["complete"], false);
