@@ -198,6 +198,8 @@ TEST(ShardMerge, ShardAutoOutsideASchedulerIsAUsageError) {
   EXPECT_EQ(run.exit_code, 2);
   EXPECT_EQ(run.ErrorLines(), 1) << run.stderr_text;
   EXPECT_NE(run.stderr_text.find("SLURM_ARRAY_TASK_ID"), std::string::npos) << run.stderr_text;
+  EXPECT_FALSE(fs::exists(tmp.path() / "out"));  // refused before anything was written
+  fs::create_directories(tmp.path() / "out");
   const auto merge = RunTool("shard-merge", {(tmp.path() / "out").string()}, tmp.path());
   EXPECT_EQ(merge.exit_code, 3);  // nothing to merge
   EXPECT_NE(merge.stderr_text.find("no shard summaries"), std::string::npos) << merge.stderr_text;
