@@ -8,6 +8,7 @@
 #include "io/atomic_file.h"
 #include "io/image_io.h"
 #include "io/json_io.h"
+#include "io/shard_merge.h"
 #include "io/stereo_pairs.h"
 #include "util/check.h"
 #include "util/log.h"
@@ -200,6 +201,7 @@ RectifyBatchSummary RunRectifyBatch(const RectifyBatchOptions& options, const St
               {"output", summary.rig_path.filename().string()},
               {"rectified", RectifiedRigJson(summary.rectified_rig)},
               {"notes", rig.notes}};
+  j["listing"] = io::ListingRecord("stereo-pairs", "pairs", io::PairStems(listing));  // shard-merge's check
   j["options"] = options.ToJson();
   j["shard"] = {options.shard_index, options.shard_count};
   j["threads"] = util::EffectiveThreadCount(options.num_threads);

@@ -1,8 +1,12 @@
 #include "io/atomic_file.h"
 
+#include <signal.h>
 #include <unistd.h>
 
 #include <atomic>
+#include <cctype>
+#include <cerrno>
+#include <chrono>
 #include <cstdio>
 #include <fstream>
 #include <stdexcept>
@@ -14,10 +18,52 @@ namespace fs = std::filesystem;
 namespace {
 constexpr std::string_view kTempSuffix = ".lunarnav-tmp";
 std::atomic<unsigned long> g_counter{0};
+// A temporary file of another machine untouched for this long is a killed run's.
+constexpr auto kStaleTempAge = std::chrono::hours(1);
+
+// This machine's short host name, letters, digits and '-' only ("host" when unknown).
+const std::string& HostTag() {
+  static const std::string tag = [] {
+    char name[256] = {};
+    if (gethostname(name, sizeof name - 1) != 0 || name[0] == '\0') return std::string("host");
+    std::string t;
+    for (const char* c = name; *c != '\0' && *c != '.'; ++c) {
+      t += std::isalnum(static_cast<unsigned char>(*c)) != 0 || *c == '-' ? *c : '-';
+    }
+    return t.empty() ? std::string("host") : t;
+  }();
+  return tag;
+}
+
+// Whether the temporary file `path` was left by a run that is over: on this machine, one whose
+// process no longer exists; from another machine (shards of one batch on a cluster write into
+// one directory) or of unknown origin, one untouched for kStaleTempAge.
+bool IsStaleTempFile(const fs::path& path) {
+  std::string name = path.filename().string();
+  name.resize(name.size() - kTempSuffix.size());        // .<file>.<host>-<pid>.<n>
+  const std::size_t counter_dot = name.rfind('.');
+  const std::size_t owner_dot = counter_dot == std::string::npos || counter_dot == 0
+                                    ? std::string::npos : name.rfind('.', counter_dot - 1);
+  if (owner_dot != std::string::npos) {
+    const std::string owner = name.substr(owner_dot + 1, counter_dot - owner_dot - 1);  // <host>-<pid>
+    const std::size_t dash = owner.rfind('-');
+    if (dash != std::string::npos && owner.substr(0, dash) == HostTag()) {
+      try {
+        const pid_t pid = static_cast<pid_t>(std::stol(owner.substr(dash + 1)));
+        return pid > 0 && kill(pid, 0) != 0 && errno == ESRCH;
+      } catch (const std::exception&) {
+        // not a pid: judged by its age below
+      }
+    }
+  }
+  std::error_code ec;
+  const auto written = fs::last_write_time(path, ec);
+  return !ec && fs::file_time_type::clock::now() - written > kStaleTempAge;
+}
 }  // namespace
 
 fs::path TempPathFor(const fs::path& path) {
-  const std::string name = "." + path.filename().string() + "." + std::to_string(getpid()) + "." +
+  const std::string name = "." + path.filename().string() + "." + HostTag() + "-" + std::to_string(getpid()) + "." +
                            std::to_string(g_counter++) + std::string(kTempSuffix);
   return path.parent_path() / name;
 }
@@ -100,7 +146,7 @@ int RemoveStaleTempFiles(const fs::path& dir) {
   std::error_code ec;
   if (!fs::is_directory(dir, ec)) return 0;
   for (const auto& entry : fs::directory_iterator(dir, ec)) {
-    if (entry.is_regular_file() && IsTempFileName(entry.path())) {
+    if (entry.is_regular_file() && IsTempFileName(entry.path()) && IsStaleTempFile(entry.path())) {
       if (fs::remove(entry.path(), ec)) ++removed;
     }
   }

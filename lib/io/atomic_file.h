@@ -14,7 +14,8 @@ namespace lunarnav::io {
 /// Throws std::runtime_error (exit 1) when the file system refuses.
 void WriteFileAtomic(const std::filesystem::path& path, std::string_view bytes);
 
-/// The hidden temporary name used while `path` is being written (unique per process and call).
+/// The hidden temporary name used while `path` is being written (unique per host, process and
+/// call): `.<name>.<host>-<pid>.<n>.lunarnav-tmp`.
 std::filesystem::path TempPathFor(const std::filesystem::path& path);
 
 /// Renames a finished temporary file onto its final name (atomic on POSIX file systems).
@@ -43,7 +44,11 @@ class AtomicOutputFile {
 /// file of that name exists or permission is denied.
 void CreateOutputDirectory(const std::filesystem::path& dir);
 
-/// Deletes leftover temporary files of killed runs in `dir` (not recursive). Returns how many.
+/// Deletes leftover temporary files of killed runs in `dir` (not recursive), and never those
+/// being written: a temporary file is named after its host and process
+/// (`.<name>.<host>-<pid>.<n>.lunarnav-tmp`), and is deleted when that process no longer runs
+/// on this host, or, made on another host (shards of a batch on a cluster share the
+/// directory), when untouched for an hour. Returns how many were deleted.
 int RemoveStaleTempFiles(const std::filesystem::path& dir);
 
 /// True for the names TempPathFor produces.

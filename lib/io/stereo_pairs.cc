@@ -69,6 +69,13 @@ std::vector<PairFiles> ListStereoPairs(const fs::path& input_dir) {
   return listing;
 }
 
+std::vector<std::string> PairStems(const std::vector<PairFiles>& listing) {
+  std::vector<std::string> stems;
+  stems.reserve(listing.size());
+  for (const PairFiles& p : listing) stems.push_back(p.stem);
+  return stems;
+}
+
 void CheckShard(int shard_index, int shard_count) {
   LN_CHECK_ARG(shard_count >= 1 && shard_index >= 0 && shard_index < shard_count)
       << "shard: need 0 <= K < N, got " << shard_index << "/" << shard_count;

@@ -21,6 +21,9 @@ struct PairFiles {
 /// @throws InputError when INPUT_DIR, left/ or right/ is missing.
 std::vector<PairFiles> ListStereoPairs(const std::filesystem::path& input_dir);
 
+/// The stems of a listing, in its order.
+std::vector<std::string> PairStems(const std::vector<PairFiles>& listing);
+
 /// The items of shard K of N: indices i with i % N == K, in order.
 /// @throws std::invalid_argument unless 0 <= K < N.
 template <typename T>

@@ -20,6 +20,7 @@
 #include "io/image_io.h"
 #include "io/json_io.h"
 #include "io/ply_io.h"
+#include "io/shard_merge.h"
 #include "stereo/ncc_matcher.h"
 #include "stereo/preview.h"
 #include "util/check.h"
@@ -513,6 +514,7 @@ BatchSummary RunStereoBatch(const BatchOptions& options, const fs::path& input_d
   json j = util::SummaryHead("stereo-batch", invocation);
   j["input_dir"] = input_dir.string();
   j["output_dir"] = output_dir.string();
+  j["listing"] = io::ListingRecord("stereo-pairs", "pairs", io::PairStems(listing));  // shard-merge's check
   j["options"] = options_json;
   j["shard"] = {options.shard_index, options.shard_count};
   j["threads"] = util::EffectiveThreadCount(options.num_threads);

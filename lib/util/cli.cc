@@ -8,6 +8,7 @@
 #include "util/errors.h"
 #include "util/log.h"
 #include "util/parse.h"
+#include "util/shard.h"
 #include "util/version.h"
 
 namespace lunarnav::util {
@@ -20,7 +21,9 @@ void AddCommonFlags(CLI::App* app, bool* quiet) {
 void AddBatchFlags(CLI::App* app, const std::string& resume_help, bool* resume, std::string* shard,
                    int* threads) {
   app->add_flag("--resume", *resume, resume_help);
-  app->add_option("--shard", *shard, "K/N: process pairs K, K+N, K+2N, ... (0 <= K < N)");
+  app->add_option("--shard", *shard,
+                  "K/N: process pairs K, K+N, K+2N, ... (0 <= K < N); auto: K and N from a Slurm job array; "
+                  "auto/N: K from the Slurm array task id or GNU parallel's PARALLEL_SEQ (docs/cluster.md)");
   app->add_option("-j,--threads", *threads, "worker threads (0 = all cores)")->capture_default_str();
 }
 
@@ -31,7 +34,11 @@ void AddMaxPixelsFlag(CLI::App* app, long long* max_pixels) {
 }
 
 void ApplyShard(const std::string& shard, int* index, int* count) {
-  if (!shard.empty()) std::tie(*index, *count) = ParseIntPair(shard, '/', "--shard");
+  if (shard.empty()) return;
+  const ShardSpec spec = ParseShard(shard);
+  *index = spec.index;
+  *count = spec.count;
+  LN_LOG(Info) << "shard " << spec.index << " of " << spec.count << " (" << spec.source << ")";
 }
 
 std::optional<int> ParseCommandLine(CLI::App* app, int argc, char** argv, const bool& quiet) {

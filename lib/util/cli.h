@@ -22,8 +22,9 @@ void AddBatchFlags(CLI::App* app, const std::string& resume_help, bool* resume, 
 /// the default (io::kDefaultMaxImagePixels) and receives the value.
 void AddMaxPixelsFlag(CLI::App* app, long long* max_pixels);
 
-/// Reads --shard's K/N into *index and *count; nothing when `shard` is empty.
-/// @throws std::invalid_argument when it is not two integers separated by '/'.
+/// Reads --shard's K/N, auto or auto/N (util::ParseShard, from the scheduler's environment)
+/// into *index and *count, and logs where they came from; nothing when `shard` is empty.
+/// @throws std::invalid_argument as ParseShard does.
 void ApplyShard(const std::string& shard, int* index, int* count);
 
 /// Parses the command line. Returns std::nullopt when the tool should go on (and lowers the
