@@ -57,6 +57,10 @@ int main(int argc, char** argv) {
   app.add_flag("--no-preview", no_preview, "do not write preview.png");
   app.add_flag("--resume", opt.resume, "continue the map in OUT_DIR: frames listed in its frames.csv are skipped");
   app.add_option("-j,--threads", opt.num_threads, "threads reading frames (0 = all cores)")->capture_default_str();
+  std::string shard;
+  app.add_option("--shard", shard,
+                 "map shard K of N of the frames (K/N, or auto / auto/N from a Slurm job array or GNU parallel) "
+                 "into OUT_DIR/shard-K-of-N; then --merge the shards (docs/cluster.md)");
   util::AddCommonFlags(&app, &quiet);
   if (const auto exit_code = util::ParseCommandLine(&app, argc, argv, quiet)) return *exit_code;
 
@@ -66,6 +70,10 @@ int main(int argc, char** argv) {
       const calib::VehicleSpec v = calib::ReadVehicleSpec(vehicle);
       opt.map.obstacles.step_height_m = v.requirements.obstacle_height_m;
       opt.map.obstacles.max_slope_deg = v.max_slope_deg;
+    }
+    util::ApplyShard(shard, &opt.shard_index, &opt.shard_count);
+    if (opt.shard_count > 1) {
+      output_dir /= "shard-" + std::to_string(opt.shard_index) + "-of-" + std::to_string(opt.shard_count);
     }
     opt.write_preview = !no_preview;
     opt.show_progress = !quiet;

@@ -16,6 +16,7 @@
 #include "io/geotiff_io.h"
 #include "io/image_io.h"
 #include "io/json_io.h"
+#include "io/stereo_pairs.h"
 #include "mapping/frame_poses.h"
 #include "mapping/map_preview.h"
 #include "stereo/window_requests.h"
@@ -95,6 +96,10 @@ void TerrainMapRunOptions::Validate() const {
     LN_CHECK_ARG(!by_trajectory || !frame_times.empty()) << "--trajectory needs --frame-times";
   }
   LN_CHECK_ARG(num_threads >= 0) << "threads: must be >= 0";
+  io::CheckShard(shard_index, shard_count);
+  LN_CHECK_ARG(shard_count == 1 || map.window_m <= 0)
+      << "--window-m: a rolling window follows the vehicle over every frame; map the shards whole and merge them";
+  LN_CHECK_ARG(shard_count == 1 || !stereo_dir.empty()) << "--shard: give the stereo directory whose frames to share";
 }
 
 std::string TerrainMapRunSummary::BriefReport() const {
@@ -119,8 +124,12 @@ TerrainMapRunSummary RunTerrainMap(const TerrainMapRunOptions& options, const fs
   std::vector<FramePose> todo;
   bool has_sigma = false;
   if (!options.stereo_dir.empty()) {
-    const std::vector<std::string> stems = ListStems(options.stereo_dir / "xyz");
-    LN_CHECK_INPUT(!stems.empty()) << (options.stereo_dir / "xyz").string() << ": no <stem>.exr arrays";
+    const std::vector<std::string> all_stems = ListStems(options.stereo_dir / "xyz");
+    LN_CHECK_INPUT(!all_stems.empty()) << (options.stereo_dir / "xyz").string() << ": no <stem>.exr arrays";
+    std::vector<std::string> stems;
+    for (const std::string* stem : io::SelectShard(all_stems, options.shard_index, options.shard_count)) {
+      stems.push_back(*stem);
+    }
     const fs::path& pose_file = options.poses_csv.empty() ? options.frame_times : options.poses_csv;
     std::vector<FramePose> listed = options.poses_csv.empty() ? ReadFrameTimes(options.frame_times)
                                                               : ReadPosesCsv(options.poses_csv);

@@ -34,6 +34,10 @@ struct TerrainMapRunOptions {
   bool resume = false;       ///< Continue the map in the output directory, skipping fused frames.
   bool write_preview = true;  ///< preview.png.
   int num_threads = 0;        ///< Frames read in parallel; 0 = all cores.
+  /// Shard K of N of the stereo directory's frames (the stems in name order, every N-th from
+  /// the K-th, as stereo-batch shards its pairs): shard maps hold disjoint frames and merge
+  /// (--merge) into the map of all. N = 1: every frame. A rolling window needs all frames.
+  int shard_index = 0, shard_count = 1;
   bool show_progress = true;
   void Validate() const;  ///< std::invalid_argument for missing or conflicting inputs.
 };

@@ -175,6 +175,13 @@ TEST(TerrainMapTool, ResumeAndMergeOfDisjointFramesEqualFusingAtOnce) {
   map({"--merge", (tmp.path() / "m_first").string(), "--merge", (tmp.path() / "m_second").string(), "-o",
        (tmp.path() / "m_merged").string()});
   ExpectSameState(tmp.path() / "m_all", tmp.path() / "m_merged");
+  // Shards of the frames (every second one, as a cluster's array tasks run them), each into
+  // OUT_DIR/shard-K-of-N, merged: the same map again.
+  for (const char* shard : {"0/2", "1/2"}) map({all.string(), "--shard", shard, "-o", (tmp.path() / "sharded").string()});
+  EXPECT_EQ(io::ReadJson(tmp.path() / "sharded" / "shard-1-of-2" / "summary.json")["counts"]["frames_fused"], 3);
+  map({"--merge", (tmp.path() / "sharded" / "shard-0-of-2").string(), "--merge",
+       (tmp.path() / "sharded" / "shard-1-of-2").string(), "-o", (tmp.path() / "sharded" / "map").string()});
+  ExpectSameState(tmp.path() / "m_all", tmp.path() / "sharded" / "map");
   // Resume: the first half's map continued over all frames.
   fs::copy(tmp.path() / "m_first", tmp.path() / "m_resumed");
   map({all.string(), "--resume", "-o", (tmp.path() / "m_resumed").string()});
