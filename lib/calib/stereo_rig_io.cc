@@ -1,6 +1,7 @@
 #include "calib/stereo_rig_io.h"
 
 #include <set>
+#include <tuple>
 
 #include <opencv2/core.hpp>
 #include <opencv2/core/eigen.hpp>
@@ -74,7 +75,11 @@ std::pair<int, int> SizeFrom(const nlohmann::json& v, const std::string& where) 
 
 cv::Mat ReadMat(const cv::FileStorage& fs, const char* name, const std::string& file, bool required) {
   cv::Mat m;
-  fs[name] >> m;
+  try {
+    fs[name] >> m;
+  } catch (const cv::Exception& e) {  // e.g. rows x cols that its data does not fill
+    throw InputError(file + ": matrix '" + name + "' is malformed (" + e.err + ")");
+  }
   LN_CHECK_INPUT(!required || !m.empty()) << file << ": missing matrix '" << name << "'";
   if (!m.empty()) m.convertTo(m, CV_64F);
   return m;
@@ -201,6 +206,9 @@ StereoRig ReadOpenCvCalibration(const std::filesystem::path& intrinsics,
   const cv::Mat r1 = ReadMat(ex, "R1", ex_name, false), r2 = ReadMat(ex, "R2", ex_name, false);
   const cv::Mat p1 = ReadMat(ex, "P1", ex_name, false), p2 = ReadMat(ex, "P2", ex_name, false);
   if (!r1.empty() && !r2.empty() && !p1.empty() && !p2.empty()) {
+    for (const auto& [m, name, cols] : {std::tuple{&r1, "R1", 3}, {&r2, "R2", 3}, {&p1, "P1", 4}, {&p2, "P2", 4}}) {
+      LN_CHECK_INPUT(m->rows == 3 && m->cols == cols) << ex_name << ": " << name << " must be 3x" << cols;
+    }
     RectifiedGeometry g;
     cv::cv2eigen(r1, g.rect_from_left);
     cv::cv2eigen(r2, g.rect_from_right);

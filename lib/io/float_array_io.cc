@@ -1,9 +1,10 @@
 #include "io/float_array_io.h"
 
 #include <algorithm>
+#include <cstdint>
+#include <fstream>
 #include <stdexcept>
 #include <system_error>
-
 
 #include "io/atomic_file.h"
 #include "io/image_io.h"
@@ -41,9 +42,60 @@ void WriteExrAtomic(const fs::path& path, const cv::Mat& image, const std::vecto
 
 void PreloadExrReader() { internal::Oiio(); }
 
+namespace {
+
+// What is wrong with an OpenEXR file's header, or "": each attribute (name, type, a 32-bit
+// size, the value) must fit in the file. OpenEXR 3.1 allocates an attribute's claimed size
+// before reading it, so a few hundred bytes claiming 2 GB of string cost 2 GB (found by
+// fuzzing); this walk reads only the names and sizes.
+std::string ExrHeaderProblem(const fs::path& path) {
+  std::ifstream in(path, std::ios::binary);
+  std::error_code ec;
+  const auto file_size = static_cast<std::int64_t>(fs::file_size(path, ec));
+  if (!in || ec) return "cannot read";
+  unsigned char head[8];
+  if (!in.read(reinterpret_cast<char*>(head), 8)) return "";  // too short: OpenImageIO says so
+  if (!(head[0] == 0x76 && head[1] == 0x2f && head[2] == 0x31 && head[3] == 0x01)) return "";  // not EXR
+  const bool multipart = (head[5] & 0x10) != 0;
+  auto read_string = [&](std::string* s) {
+    s->clear();
+    for (char c; in.get(c);) {
+      if (c == '\0') return true;
+      if (s->size() >= 255) return false;
+      s->push_back(c);
+    }
+    return false;
+  };
+  for (int part = 0; part < 1 << 16; ++part) {
+    bool any = false;
+    for (int attribute = 0; attribute < 1 << 16; ++attribute) {
+      std::string name, type;
+      if (!read_string(&name)) return "header cut short";
+      if (name.empty()) break;  // the end of this header
+      any = true;
+      unsigned char size_bytes[4];
+      if (!read_string(&type) || !in.read(reinterpret_cast<char*>(size_bytes), 4)) return "header cut short";
+      const std::int32_t size = static_cast<std::int32_t>(size_bytes[0] | size_bytes[1] << 8 | size_bytes[2] << 16 |
+                                                          static_cast<std::uint32_t>(size_bytes[3]) << 24);
+      const std::int64_t left = file_size - static_cast<std::int64_t>(in.tellg());
+      if (size < 0 || size > left) {
+        return "header attribute '" + name + "' claims " + std::to_string(size) + " bytes, the file has " +
+               std::to_string(std::max<std::int64_t>(left, 0)) + " left";
+      }
+      in.seekg(size, std::ios::cur);
+    }
+    if (!multipart || !any) break;  // one header, or the empty header closing a multi-part list
+  }
+  return "";
+}
+
+}  // namespace
+
 ExrImage ReadExr(const fs::path& path) {
   std::error_code ec;
   LN_CHECK_INPUT(fs::is_regular_file(path, ec)) << path.string() << ": no such file";
+  const std::string problem = ExrHeaderProblem(path);
+  LN_CHECK_INPUT(problem.empty()) << path.string() << ": corrupt OpenEXR file (" << problem << ")";
   ExrImage result;
   std::string error;
   if (!internal::Oiio().ReadFloat(path.string(), MaxImagePixels(), &result.pixels, &result.channel_names,
