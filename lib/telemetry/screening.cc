@@ -34,6 +34,14 @@ double SubsampledMedian(std::size_t count, Value value) {
   return v[mid];
 }
 
+// A channel's white-noise sigma from `count` second differences d2(q) of its samples,
+// robustly: their variance is 6 sigma^2, and 1.4826 x the median of |d2| estimates their
+// sigma ignoring the few abrupt changes and faults (a smooth trend adds little).
+template <typename SecondDifference>
+double NoiseOfSecondDifferences(std::size_t count, SecondDifference d2) {
+  return 1.4826 * SubsampledMedian(count, [&](std::size_t q) { return std::abs(d2(q)); }) / std::sqrt(6.0);
+}
+
 // The spike test's shortcut for the interior samples q in [b, e) of a channel's queue (see
 // HampelTests: the half window 3): the trend (the median of the six slopes joining the seven
 // samples q - 3 ... q + 3) and the farthest of their residuals from sample q, into
@@ -390,13 +398,10 @@ class ScreeningStream::Impl {
       value.push_back(s.radians_at_zero + s.radians_per_count * r);
     }
     if (value.size() < 8) return;  // too few: the slack stays the counts' alone
-    const double noise = 1.4826 *
-                         SubsampledMedian(value.size() - 2, [&](std::size_t q) {
-                           double d2 = value[q + 2] - 2.0 * value[q + 1] + value[q];
-                           if (s.kind == kCompassKind) d2 = std::remainder(d2, 2.0 * M_PI);  // across +-180 deg
-                           return std::abs(d2);
-                         }) /
-                         std::sqrt(6.0);
+    const double noise = NoiseOfSecondDifferences(value.size() - 2, [&](std::size_t q) {
+      const double d2 = value[q + 2] - 2.0 * value[q + 1] + value[q];
+      return s.kind == kCompassKind ? std::remainder(d2, 2.0 * M_PI) : d2;  // across +-180 deg
+    });
     s.slack += o_.rate_noise_sigmas * std::sqrt(2.0) * noise;
     out_.rate_slack[static_cast<int>(c)] = s.slack;
     out_.rate_noise[static_cast<int>(c)] = noise;
@@ -598,11 +603,8 @@ class ScreeningStream::Impl {
       return;
     }
     const double* value = s->queue_value.data();  // nothing dropped from the queue yet
-    s->channel_sigma = 1.4826 *
-                       SubsampledMedian(count - 2, [&](std::size_t q) {
-                         return std::abs(value[q + 2] - 2.0 * value[q + 1] + value[q]);
-                       }) /
-                       std::sqrt(6.0);
+    s->channel_sigma =
+        NoiseOfSecondDifferences(count - 2, [&](std::size_t q) { return value[q + 2] - 2.0 * value[q + 1] + value[q]; });
     s->smallest_threshold = std::max(o_.hampel_threshold * s->channel_sigma, s->min_dev);
     s->sigma_state = Typical::kKnown;
   }
