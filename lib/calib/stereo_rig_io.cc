@@ -73,16 +73,58 @@ std::pair<int, int> SizeFrom(const nlohmann::json& v, const std::string& where) 
   return {v[0].get<int>(), v[1].get<int>()};
 }
 
-cv::Mat ReadMat(const cv::FileStorage& fs, const char* name, const std::string& file, bool required) {
-  cv::Mat m;
-  try {
-    fs[name] >> m;
-  } catch (const cv::Exception& e) {  // e.g. rows x cols that its data does not fill
-    throw InputError(file + ": matrix '" + name + "' is malformed (" + e.err + ")");
+// The largest matrix of a calibration file: 3x4 (P1, P2) or a distortion vector of up to 14
+// coefficients (OpenCV's rational, thin-prism and tilted models) in either orientation.
+constexpr int kMaxMatrixSide = 16;
+
+// Reads an OpenCV matrix node (`!!opencv-matrix` in YAML, `type_id="opencv-matrix"` in XML)
+// element by element: its header (rows, cols) is checked against kMaxMatrixSide and its data
+// count before anything is allocated, so that a header claiming billions of elements is bad
+// input, not a 16 GB allocation inside OpenCV's own `>>` (a fuzz finding).
+cv::Mat ReadMatNode(const cv::FileStorage& fs, const char* name, const std::string& file, bool required) {
+  const std::string what = file + ": matrix '" + name + "'";
+  const cv::FileNode node = fs[name];
+  if (node.empty() || node.isNone()) {
+    LN_CHECK_INPUT(!required) << file << ": missing matrix '" << name << "'";
+    return {};
   }
-  LN_CHECK_INPUT(!required || !m.empty()) << file << ": missing matrix '" << name << "'";
-  if (!m.empty()) m.convertTo(m, CV_64F);
+  LN_CHECK_INPUT(node.isMap()) << what << ": expected an opencv-matrix (rows, cols, dt, data)";
+  const cv::FileNode rows = node["rows"], cols = node["cols"], data = node["data"];
+  LN_CHECK_INPUT(rows.isInt() && cols.isInt()) << what << ": rows and cols must be integers";
+  const int r = static_cast<int>(rows), c = static_cast<int>(cols);
+  LN_CHECK_INPUT(r >= 1 && c >= 1 && r <= kMaxMatrixSide && c <= kMaxMatrixSide)
+      << what << ": " << r << " x " << c << " is not the size of a calibration matrix (1.." << kMaxMatrixSide
+      << " rows and columns)";
+  LN_CHECK_INPUT(data.isSeq() || (r * c == 1 && (data.isReal() || data.isInt())))
+      << what << ": data must be a list of numbers";
+  const int count = data.isSeq() ? static_cast<int>(data.size()) : 1;
+  LN_CHECK_INPUT(count == r * c) << what << ": " << r << " x " << c << " needs " << r * c << " values, data has "
+                                 << count;
+  cv::Mat m(r, c, CV_64F);
+  if (!data.isSeq()) {
+    m.at<double>(0) = static_cast<double>(data);
+    return m;
+  }
+  int i = 0;
+  for (cv::FileNodeIterator it = data.begin(); it != data.end(); ++it, ++i) {
+    const cv::FileNode v = *it;
+    LN_CHECK_INPUT(v.isReal() || v.isInt()) << what << ": value " << i + 1 << " is not a number";
+    m.at<double>(i) = static_cast<double>(v);
+  }
   return m;
+}
+
+// ReadMatNode with whatever OpenCV's file nodes throw on a malformed file turned into bad input.
+cv::Mat ReadMat(const cv::FileStorage& fs, const char* name, const std::string& file, bool required) {
+  try {
+    return ReadMatNode(fs, name, file, required);
+  } catch (const InputError&) {
+    throw;
+  } catch (const cv::Exception& e) {
+    throw InputError(file + ": matrix '" + name + "' is malformed (" + e.err + ")");
+  } catch (const std::exception& e) {
+    throw InputError(file + ": matrix '" + name + "' is malformed (" + e.what() + ")");
+  }
 }
 
 }  // namespace
@@ -178,6 +220,8 @@ StereoRig ReadOpenCvCalibration(const std::filesystem::path& intrinsics,
       fs.open(p.string(), cv::FileStorage::READ);
     } catch (const cv::Exception& e) {
       throw InputError(p.string() + ": not an OpenCV YAML/XML file (" + e.msg + ")");
+    } catch (const std::exception& e) {  // e.g. std::length_error from the parser's buffers
+      throw InputError(p.string() + ": not an OpenCV YAML/XML file (" + e.what() + ")");
     }
     LN_CHECK_INPUT(fs.isOpened()) << p.string() << ": not an OpenCV YAML/XML file";
     return fs;

@@ -144,5 +144,81 @@ TEST(ReadOpenCvCalibration, AgreesWithTheJsonItProduces) {
                InputError);
 }
 
+TEST(ReadOpenCvCalibration, ReadsTheXmlFormToo) {
+  util::ScopedTempDir tmp;
+  const StereoRig truth = testing::PaperRig();
+  testing::WriteOpenCvCalibration(tmp.path(), truth, 0.1);
+  for (const char* name : {"intrinsics", "extrinsics"}) {  // the same nodes, written as XML by OpenCV
+    cv::FileStorage yml((tmp.path() / (std::string(name) + ".yml")).string(), cv::FileStorage::READ);
+    cv::FileStorage xml((tmp.path() / (std::string(name) + ".xml")).string(), cv::FileStorage::WRITE);
+    for (const char* key : {"M1", "D1", "M2", "D2", "R", "T"}) {
+      cv::Mat m;
+      yml[key] >> m;
+      if (!m.empty()) xml << key << m;
+    }
+  }
+  const StereoRig xml = ReadOpenCvCalibration(tmp.path() / "intrinsics.xml", tmp.path() / "extrinsics.xml", 640,
+                                              480, 0.1, truth.mast);
+  const StereoRig yml = ReadOpenCvCalibration(tmp.path() / "intrinsics.yml", tmp.path() / "extrinsics.yml", 640,
+                                              480, 0.1, truth.mast);
+  ExpectSameRig(xml, yml);
+}
+
+// Writes extrinsics.yml with R as given (a YAML opencv-matrix body) and a valid T.
+void WriteExtrinsics(const std::filesystem::path& dir, const std::string& r_body) {
+  std::FILE* f = std::fopen((dir / "extrinsics.yml").string().c_str(), "w");
+  ASSERT_NE(f, nullptr);
+  std::fprintf(f, "%%YAML:1.0\n---\nR: !!opencv-matrix\n%s\nT: !!opencv-matrix\n   rows: 3\n   cols: 1\n"
+               "   dt: d\n   data: [ -1., 0., 0. ]\n", r_body.c_str());
+  std::fclose(f);
+}
+
+std::string ImportError(const std::filesystem::path& dir) {
+  try {
+    ReadOpenCvCalibration(dir / "intrinsics.yml", dir / "extrinsics.yml", 640, 480, 0.1, MastPose{});
+  } catch (const InputError& e) {
+    return e.what();
+  }
+  return "(no error)";
+}
+
+TEST(ReadOpenCvCalibration, RefusesAMatrixHeaderBeforeAllocatingIt) {
+  // A header claiming 40000 x 50000 doubles (16 GB) over three values: OpenCV's own reader
+  // allocated it before noticing (a fuzz finding); it is bad input, named, without memory.
+  util::ScopedTempDir tmp;
+  testing::WriteOpenCvCalibration(tmp.path(), testing::PaperRig(), 0.1);
+  WriteExtrinsics(tmp.path(), "   rows: 40000\n   cols: 50000\n   dt: d\n   data: [ 1., 0., 0. ]");
+  std::string error = ImportError(tmp.path());
+  EXPECT_NE(error.find("extrinsics.yml: matrix 'R': 40000 x 50000 is not the size"), std::string::npos) << error;
+  WriteExtrinsics(tmp.path(), "   rows: -3\n   cols: 3\n   dt: d\n   data: [ 1., 0., 0. ]");
+  EXPECT_NE(ImportError(tmp.path()).find("matrix 'R': -3 x 3"), std::string::npos);
+  WriteExtrinsics(tmp.path(), "   rows: 3\n   cols: 3\n   dt: d\n   data: [ 1., 0., 0. ]");
+  error = ImportError(tmp.path());
+  EXPECT_NE(error.find("3 x 3 needs 9 values, data has 3"), std::string::npos) << error;
+  WriteExtrinsics(tmp.path(), "   rows: 3\n   cols: 3\n   dt: d\n   data: [ 1., 0., 0., 0., 1., 0., 0., 0., x ]");
+  error = ImportError(tmp.path());
+  EXPECT_NE(error.find("value 9 is not a number"), std::string::npos) << error;
+}
+
+TEST(ReadOpenCvCalibration, ReadsValuesAsWrittenWhateverTheDeclaredType) {
+  // `dt: u` (8-bit) over a focal length of 800: OpenCV's reader saturated it to 255; the
+  // calibration means 800.
+  util::ScopedTempDir tmp;
+  const StereoRig truth = testing::PaperRig();
+  testing::WriteOpenCvCalibration(tmp.path(), truth, 0.1);
+  WriteExtrinsics(tmp.path(), "   rows: 3\n   cols: 3\n   dt: u\n   data: [ 1, 0, 0, 0, 1, 0, 0, 0, 1 ]");
+  std::FILE* f = std::fopen((tmp.path() / "intrinsics.yml").string().c_str(), "w");
+  ASSERT_NE(f, nullptr);
+  std::fprintf(f, "%%YAML:1.0\n---\n");
+  for (const char* k : {"M1", "M2"}) {
+    std::fprintf(f, "%s: !!opencv-matrix\n   rows: 3\n   cols: 3\n   dt: u\n   data: [ 800, 0, 320, 0, 800, 240, 0, 0, 1 ]\n", k);
+  }
+  std::fclose(f);
+  const StereoRig rig = ReadOpenCvCalibration(tmp.path() / "intrinsics.yml", tmp.path() / "extrinsics.yml", 640,
+                                              480, 0.1, truth.mast);
+  EXPECT_EQ(rig.left.K(0, 0), 800.0);
+  EXPECT_EQ(rig.right.K(1, 1), 800.0);
+}
+
 }  // namespace
 }  // namespace lunarnav::calib
