@@ -93,6 +93,10 @@ int main(int argc, char** argv) {
   app.add_option("--speckle-range", given.semi_global.speckle_range_px,
                  "semi-global: disparity step, px, that disconnects a region")
       ->default_str(std::to_string(quality.semi_global.speckle_range_px));
+  app.add_option("--border-tolerance", given.border_tolerance_px,
+                 "border rule: reject a pixel whose search runs past the other image when its match lies this many "
+                 "px left of the surface's to its left (-1 = off)")
+      ->default_str(preset_default(paper.border_tolerance_px, quality.border_tolerance_px));
   app.add_option("--bit-depth", given.bit_depth,
                  "significant bits of 16-bit images (default: a PNG's sBIT, else 16)");
   CLI::Option* disparity_option =
@@ -167,6 +171,7 @@ int main(int argc, char** argv) {
     if (given_option("--speckle-size")) m.semi_global.speckle_max_size_px = given.semi_global.speckle_max_size_px;
     if (given_option("--speckle-range")) m.semi_global.speckle_range_px = given.semi_global.speckle_range_px;
     if (given_option("--bit-depth")) m.bit_depth = given.bit_depth;
+    if (given_option("--border-tolerance")) m.border_tolerance_px = given.border_tolerance_px;
     if (!given_option("--window")) {
       window = std::to_string(m.half_window_x_px) + "x" + std::to_string(m.half_window_y_px);
     }

@@ -15,6 +15,54 @@
 
 namespace lunarnav::stereo {
 
+namespace {
+// How far a visible surface's match advances per pixel, at least: x + d grows by 1 + dd/dx,
+// which is 1 for a fronto-parallel surface or level ground, and below 0.5 only for a surface
+// the other camera sees less than half as wide as the reference camera (a wall at a grazing
+// angle).
+constexpr double kMinAdvance = 0.5;
+}  // namespace
+
+int RejectMatchesBeyondTheBorder(int x0, int step_x, int width, int reach_px, double tolerance_px,
+                                 cv::Mat* disparity, cv::Mat* rejection) {
+  LN_CHECK(disparity != nullptr && rejection != nullptr);
+  LN_CHECK(disparity->type() == CV_32FC1 && rejection->type() == CV_8UC1 &&
+           disparity->size() == rejection->size());
+  LN_CHECK(step_x >= 1);
+  const int rows = disparity->rows, cols = disparity->cols;
+  // The first grid cell whose range is cut: x + reach_px > width - 1.
+  int first_cut = 0;
+  while (first_cut < cols && x0 + first_cut * step_x + reach_px <= width - 1) ++first_cut;
+  if (first_cut >= cols) return 0;
+  std::vector<int> rejected(rows, 0);
+  tbb::parallel_for(0, rows, [&](int j) {
+    auto* d = disparity->ptr<float>(j);
+    auto* reason = rejection->ptr<std::uint8_t>(j);
+    // The bound on the target column: the match (x_m, M) that raises it most, advanced by
+    // kMinAdvance a pixel.
+    double reached = -std::numeric_limits<double>::infinity();
+    int reached_x = 0;
+    for (int i = 0; i < cols; ++i) {
+      if (reason[i] != static_cast<std::uint8_t>(Rejection::kAccepted) || !std::isfinite(d[i])) continue;
+      const int x = x0 + i * step_x;
+      const double target = x + static_cast<double>(d[i]);
+      const double bound = reached + kMinAdvance * (x - reached_x);
+      if (i >= first_cut && target < bound - tolerance_px) {
+        d[i] = std::numeric_limits<float>::quiet_NaN();
+        reason[i] = static_cast<std::uint8_t>(Rejection::kBeyondBorder);
+        ++rejected[j];
+        continue;
+      }
+      if (target >= bound) {
+        reached = target;
+        reached_x = x;
+      }
+    }
+  });
+  int total = 0;
+  for (int r : rejected) total += r;
+  return total;
+}
 
 void MedianFilterDisparityGrid(int size, cv::Mat* disparity, cv::Mat* rejection, bool reject_isolated) {
   LN_CHECK(disparity != nullptr && rejection != nullptr);
@@ -31,7 +79,10 @@ void MedianFilterDisparityGrid(int size, cv::Mat* disparity, cv::Mat* rejection,
   const cv::Mat accepted_mask = *rejection == accepted;
   // Fast path: where the whole neighbourhood is accepted, OpenCV's median (a SIMD sorting
   // network, k = 3 or 5 for float) is the answer, copied under a mask.
-  cv::Mat partial = accepted_mask;
+  // (A fresh matrix: assigning an expression to a header that shares accepted_mask's buffer
+  // would write the result into accepted_mask, and the neighbour counts below would miss every
+  // fully supported cell.)
+  cv::Mat partial;
   if ((size == 3 || size == 5) && rows >= size && cols >= size) {
     cv::Mat full_support, fast_median;
     cv::erode(accepted_mask, full_support, cv::getStructuringElement(cv::MORPH_RECT, {size, size}),
@@ -39,6 +90,8 @@ void MedianFilterDisparityGrid(int size, cv::Mat* disparity, cv::Mat* rejection,
     cv::medianBlur(in_disp, fast_median, size);
     fast_median.copyTo(*disparity, full_support);
     partial = accepted_mask & ~full_support;
+  } else {
+    partial = accepted_mask.clone();
   }
   // The rest: accepted pixels next to rejected or unevaluated ones.
   std::vector<cv::Point> remaining;

@@ -16,6 +16,27 @@ inline double ParabolicPeakOffset(double c_prev, double c_best, double c_next) {
   return offset < -0.5 ? -0.5 : (offset > 0.5 ? 0.5 : offset);
 }
 
+/// The border rule (both presets): matches that the other image cannot hold.
+///
+/// A disparity grid in the right-reference convention (working columns: the grid cell i is
+/// column x0 + i step_x, its match is target column x + d). A pixel whose search range was cut
+/// by the target image's right edge (x + reach_px > width - 1: some searched disparity, with
+/// its window, leaves the image) chose among the disparities left inside as if the range were
+/// complete; when its true match lies beyond the edge, any of them is wrong. Along a row, the
+/// matches of a visible surface keep their order and advance: x + d grows by 1 + dd/dx, at
+/// least 0.5 a pixel unless the other camera sees the surface less than half as wide (a pixel
+/// whose match lies left of a neighbour's is hidden from the other camera). So once an
+/// accepted pixel x_m to the left matches target column M, a cut pixel x whose match lies
+/// left of M + 0.5 (x - x_m) - tolerance_px is seen beyond the edge (or hidden): it is set to
+/// NaN and marked kBeyondBorder. The advance carries the bound across the pixels next to the
+/// edge that other filters rejected. Pixels whose range is complete are never touched, so a
+/// thin object in front of the background elsewhere in the image keeps both; in the cut
+/// zone, the ground right of a rock is rejected for twice the width it is hidden.
+/// @param reach_px  d_max plus the half-width of the window the target is compared over.
+/// @return the number of cells rejected.
+int RejectMatchesBeyondTheBorder(int x0, int step_x, int width, int reach_px, double tolerance_px,
+                                 cv::Mat* disparity, cv::Mat* rejection);
+
 /// The fourth filter: a k x k median filter over a disparity grid (the map on the
 /// subsampling grid, one cell per evaluated pixel).
 ///

@@ -20,6 +20,7 @@ std::string ToString(Rejection reason) {
     case Rejection::kMedian: return "median";
     case Rejection::kLeftRightMismatch: return "left_right";
     case Rejection::kSpeckle: return "speckle";
+    case Rejection::kBeyondBorder: return "beyond_border";
   }
   return "unknown";
 }
@@ -88,6 +89,8 @@ void NccOptions::Validate() const {
   LN_CHECK_ARG(median_size == 0 || (median_size % 2 == 1 && median_size <= 15))
       << "median: size must be 0 (off) or odd and <= 15, got " << median_size;
   LN_CHECK_ARG(num_threads >= 0) << "threads: must be >= 0";
+  LN_CHECK_ARG(!std::isnan(border_tolerance_px) && border_tolerance_px <= 1000)
+      << "border-tolerance: must be <= 1000 px (< 0 = off), got " << border_tolerance_px;
   LN_CHECK_ARG(bit_depth == 0 || (bit_depth >= 1 && bit_depth <= 16))
       << "bit-depth: must be in 1..16 (0 = from the image type), got " << bit_depth;
   if (aggregation == Aggregation::kSemiGlobal) {
@@ -137,6 +140,7 @@ nlohmann::json NccOptions::ToJson() const {
   j["reference"] = ToString(reference);
   j["sigma_min_grey8"] = min_sigma;
   j["c_min"] = min_correlation;
+  j["border_tolerance_px"] = border_tolerance_px >= 0 ? nlohmann::json(border_tolerance_px) : nlohmann::json("off");
   j["ambiguity"] = ambiguity;
   j["median_size"] = median_size;
   return j;

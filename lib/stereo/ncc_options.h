@@ -30,9 +30,12 @@ enum class Rejection : std::uint8_t {
   kRangeEdge = 6,       ///< The best correlation is at an end of the searched disparity range.
   kMedian = 7,          ///< Filter 4: the median filter found too few valid neighbours.
   kLeftRightMismatch = 8,  ///< Quality preset: the match seen from the other image disagrees.
-  kSpeckle = 9          ///< Quality preset: part of a small region disconnected from its surroundings.
+  kSpeckle = 9,         ///< Quality preset: part of a small region disconnected from its surroundings.
+  /// The search range was cut by the other image's edge and the surface to the left (right
+  /// reference) already matches up to that edge: the true match lies beyond it (both presets).
+  kBeyondBorder = 10
 };
-inline constexpr int kNumRejectionCodes = 10;
+inline constexpr int kNumRejectionCodes = 11;
 /// Short snake_case name of a code ("low_texture"), used in summaries.
 std::string ToString(Rejection reason);
 
@@ -119,6 +122,12 @@ struct NccOptions {
   /// in its neighbourhood; a pixel with fewer valid neighbours than half of the evaluated
   /// ones is rejected as an isolated match.
   int median_size = 3;
+  /// The border rule (RejectMatchesBeyondTheBorder, disparity_filters.h): a pixel whose search
+  /// range runs past the other image is rejected as kBeyondBorder when its match lies left of
+  /// the surface to its left by more than this many pixels (right reference; mirrored for the
+  /// left). The paper does not say what a pixel at the border does; < 0 = off, the paper's
+  /// matcher searching what is left inside as if the range were complete. Both presets: 1.
+  double border_tolerance_px = 1.0;
   /// Worker threads: 0 = run in the caller's TBB arena (all cores by default), 1 = serial.
   int num_threads = 0;
 

@@ -44,6 +44,7 @@ cv::Vec3b RejectionColour(Rejection reason) {
     case Rejection::kMedian: return {0, 255, 255};         // yellow
     case Rejection::kLeftRightMismatch: return {40, 40, 200};  // dark red
     case Rejection::kSpeckle: return {0, 100, 0};          // dark green
+    case Rejection::kBeyondBorder: return {160, 0, 80};    // purple
   }
   return {0, 0, 0};
 }

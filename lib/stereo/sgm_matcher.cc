@@ -202,6 +202,12 @@ void MatchSemiGlobal(const NccOptions& options, const cv::Mat& left, const cv::M
       }
     });
   }
+  if (options.border_tolerance_px >= 0) {
+    // The census at the target is taken with replicated borders: a range is cut where x + d_max
+    // leaves the image.
+    RejectMatchesBeyondTheBorder(x0, dx, width, options.max_disparity_px, options.border_tolerance_px, &grid_disp,
+                                 &grid_reason);
+  }
   MedianFilterDisparityGrid(options.median_size, &grid_disp, &grid_reason, /*reject_isolated=*/false);
   if (g.speckle_max_size_px > 0 && num_rows > 0) {
     // OpenCV's speckle filter on 1/16-pixel fixed point; a removed region gets `invalid`.

@@ -2,8 +2,10 @@
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <limits>
+#include <vector>
 
 #include "stereo/ncc_options.h"
 
@@ -47,6 +49,61 @@ TEST(MedianFilterDisparityGrid, PreservesAPlane) {
   const cv::Mat before = disparity.clone();
   MedianFilterDisparityGrid(5, &disparity, &rejection);
   EXPECT_EQ(cv::norm(disparity(cv::Rect(2, 2, 5, 5)), before(cv::Rect(2, 2, 5, 5)), cv::NORM_INF), 0);
+}
+
+
+// The filter against its definition, brute force, on random grids where accepted cells with a
+// fully accepted neighbourhood (the fast path) sit next to cells without one.
+TEST(MedianFilterDisparityGrid, MatchesItsDefinitionOnRandomGrids) {
+  cv::RNG rng(5);
+  for (int trial = 0; trial < 20; ++trial) {
+    const int size = trial % 2 == 0 ? 3 : 5;
+    const float nan = std::numeric_limits<float>::quiet_NaN();
+    cv::Mat disparity(24, 31, CV_32FC1), rejection(24, 31, CV_8UC1);
+    const double rejected_share = 0.05 + 0.4 * rng.uniform(0.0, 1.0);
+    for (int r = 0; r < disparity.rows; ++r) {
+      for (int c = 0; c < disparity.cols; ++c) {
+        const bool rejected = rng.uniform(0.0, 1.0) < rejected_share;
+        const int code = rejected ? rng.uniform(1, kNumRejectionCodes) : 0;
+        rejection.at<std::uint8_t>(r, c) = static_cast<std::uint8_t>(code);
+        disparity.at<float>(r, c) = rejected ? nan : static_cast<float>(rng.uniform(0.0, 50.0));
+      }
+    }
+    cv::Mat expected_d = disparity.clone(), expected_r = rejection.clone();
+    const int half = size / 2;
+    for (int r = 0; r < disparity.rows; ++r) {
+      for (int c = 0; c < disparity.cols; ++c) {
+        if (rejection.at<std::uint8_t>(r, c) != 0) continue;
+        std::vector<float> values;
+        int evaluated = 0;
+        for (int rr = std::max(0, r - half); rr <= std::min(disparity.rows - 1, r + half); ++rr) {
+          for (int cc = std::max(0, c - half); cc <= std::min(disparity.cols - 1, c + half); ++cc) {
+            const int code = rejection.at<std::uint8_t>(rr, cc);
+            if (code == 0) values.push_back(disparity.at<float>(rr, cc));
+            evaluated += code != static_cast<int>(Rejection::kNotEvaluated) && code != static_cast<int>(Rejection::kBorder);
+          }
+        }
+        if (2 * static_cast<int>(values.size()) < evaluated) {
+          expected_d.at<float>(r, c) = nan;
+          expected_r.at<std::uint8_t>(r, c) = static_cast<std::uint8_t>(Rejection::kMedian);
+          continue;
+        }
+        std::sort(values.begin(), values.end());
+        const std::size_t n = values.size();
+        expected_d.at<float>(r, c) = n % 2 == 1 ? values[n / 2] : 0.5f * (values[n / 2 - 1] + values[n / 2]);
+      }
+    }
+    MedianFilterDisparityGrid(size, &disparity, &rejection);
+    EXPECT_EQ(cv::countNonZero(rejection != expected_r), 0) << "trial " << trial;
+    int differ = 0;
+    for (int r = 0; r < disparity.rows; ++r) {
+      for (int c = 0; c < disparity.cols; ++c) {
+        const float a = disparity.at<float>(r, c), b = expected_d.at<float>(r, c);
+        differ += !((std::isnan(a) && std::isnan(b)) || std::abs(a - b) <= 1e-5f);
+      }
+    }
+    EXPECT_EQ(differ, 0) << "trial " << trial;
+  }
 }
 
 }  // namespace

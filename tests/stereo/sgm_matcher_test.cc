@@ -8,9 +8,12 @@
 #include <climits>
 #include <cmath>
 #include <functional>
+#include <limits>
+#include <string>
 #include <vector>
 
 #include "sim/layered_scene.h"
+#include "stereo/disparity_filters.h"
 #include "stereo/ncc_matcher.h"
 #include "stereo/semi_global.h"
 
@@ -144,6 +147,105 @@ TEST(SemiGlobal, LeftRightCheckRemovesTheOccludedBand) {
     }
   }
   EXPECT_GT(wrong_unchecked, 2 * occluded_accepted_wrong + 50);
+}
+
+// The ground seen by a rig, nearer down the image: disparity grows row by row until, in the
+// last columns of the near rows, the match lies beyond the left image's right edge (right
+// reference: x + d > width - 1). Those pixels searched only the disparities left inside, and
+// on smooth texture (cells of 6-12 px, sensor noise) some match there with confidence.
+struct BorderCount {
+  int beyond = 0, beyond_accepted = 0;  // true match outside the left image
+  int cut = 0, cut_accepted = 0, cut_wrong = 0;  // range cut by the edge, true match inside
+  int inside = 0, inside_accepted = 0;  // whole range inside the image
+  int rule = 0;                         // marked beyond_border
+};
+BorderCount CountAtTheBorder(const NccResult& r, const cv::Mat& truth, int reach_px) {
+  BorderCount c;
+  const int width = truth.cols;
+  for (int y = 20; y < truth.rows - 20; ++y) {
+    for (int x = 40; x < width; ++x) {
+      const float t = truth.at<float>(y, x);
+      const float d = r.disparity_px.at<float>(y, x);
+      const bool accepted = std::isfinite(d);
+      c.rule += r.rejection.at<std::uint8_t>(y, x) == static_cast<int>(Rejection::kBeyondBorder);
+      if (x + t > width - 1) {
+        ++c.beyond;
+        c.beyond_accepted += accepted;
+      } else if (x + reach_px > width - 1) {
+        ++c.cut;
+        c.cut_accepted += accepted;
+        c.cut_wrong += accepted && std::abs(d - t) > 1.0f;
+      } else {
+        ++c.inside;
+        c.inside_accepted += accepted;
+      }
+    }
+  }
+  return c;
+}
+
+TEST(BorderRule, NoPixelSeenBeyondTheEdgeIsMatchedInside) {
+  struct Case {
+    std::string preset;
+    double texture_px, slope;
+  };
+  // The paper's 51 x 35 window needs gentle slopes; the quality preset follows steeper ground.
+  for (const Case& k : {Case{"quality", 6.0, 0.6}, Case{"quality", 12.0, 0.3}, Case{"paper", 12.0, 0.1}}) {
+    SCOPED_TRACE(k.preset + " texture " + std::to_string(k.texture_px) + " slope " + std::to_string(k.slope));
+    PlaneLayer ground = Plane(230.0 - 200.0 * k.slope, 0.0, k.slope);  // d = 230 at row 200
+    ground.texture_scale_px = k.texture_px;
+    LayeredSceneOptions scene = Scene({ground}, 640, 240);
+    scene.noise_sigma = 2.0;
+    const auto pair = RenderLayeredPair(scene);
+    NccOptions o = PresetOptions(k.preset);
+    o.min_disparity_px = 0;
+    o.max_disparity_px = 280;
+    const int reach = o.max_disparity_px + (k.preset == "paper" ? o.half_window_x_px : 0);
+    const BorderCount with_rule = CountAtTheBorder(MatchStereoPair(o, pair.left, pair.right), pair.disparity_right_px, reach);
+    o.border_tolerance_px = -1;
+    const BorderCount without = CountAtTheBorder(MatchStereoPair(o, pair.left, pair.right), pair.disparity_right_px, reach);
+    ASSERT_GT(with_rule.beyond, 30000);
+    EXPECT_EQ(with_rule.beyond_accepted, 0) << "of " << with_rule.beyond;
+    EXPECT_GT(with_rule.rule, 0);
+    // Without the rule pixels beyond the edge are matched inside (a wrong, smaller disparity:
+    // points below the ground in the map).
+    EXPECT_GT(without.beyond_accepted, 100) << "of " << without.beyond;
+    EXPECT_EQ(without.rule, 0);
+    // Where the true match is inside, the cut range loses little and gains no error...
+    EXPECT_GT(with_rule.cut_accepted, 0.9 * without.cut_accepted);
+    EXPECT_LE(with_rule.cut_wrong, without.cut_wrong);
+    // ... and where the whole range was inside, nothing changes.
+    EXPECT_EQ(with_rule.inside_accepted, without.inside_accepted);
+    EXPECT_GT(with_rule.inside_accepted, 0.7 * with_rule.inside);
+  }
+}
+
+// The rule's arithmetic on a hand-made grid: the bound advances half a pixel a pixel, from
+// the match that raised it; only cut cells are judged.
+TEST(BorderRule, BoundAdvancesFromTheFarthestMatch) {
+  const float nan = std::numeric_limits<float>::quiet_NaN();
+  // Width 20, reach 10: cells x >= 10 are cut. Cell 8 matches column 16; cells 9-11 are
+  // rejected by other filters; cell 12 matches column 17, on the bound 16 + 0.5 * 4 - 1 (kept);
+  // cell 13 matches column 15, left of 16 + 0.5 * 5 - 1 (rejected); cell 14 column 19 (kept).
+  cv::Mat d(1, 20, CV_32FC1, cv::Scalar(nan));
+  cv::Mat reason(1, 20, CV_8UC1, cv::Scalar(static_cast<int>(Rejection::kLowTexture)));
+  auto set = [&](int x, float v) {
+    d.at<float>(0, x) = v;
+    reason.at<std::uint8_t>(0, x) = static_cast<std::uint8_t>(Rejection::kAccepted);
+  };
+  set(3, 1.0f);  // column 4, far behind
+  set(8, 8.0f);
+  set(12, 5.0f);
+  set(13, 2.0f);
+  set(14, 5.0f);
+  EXPECT_EQ(RejectMatchesBeyondTheBorder(0, 1, 20, 10, 1.0, &d, &reason), 1);
+  EXPECT_EQ(reason.at<std::uint8_t>(0, 13), static_cast<int>(Rejection::kBeyondBorder));
+  EXPECT_TRUE(std::isnan(d.at<float>(0, 13)));
+  for (int x : {3, 8, 12, 14}) EXPECT_EQ(reason.at<std::uint8_t>(0, x), static_cast<int>(Rejection::kAccepted)) << x;
+  // An uncut cell is never judged, whatever its match: cell 9 matching column 10.
+  set(9, 1.0f);
+  EXPECT_EQ(RejectMatchesBeyondTheBorder(0, 1, 20, 10, 1.0, &d, &reason), 0);
+  EXPECT_EQ(reason.at<std::uint8_t>(0, 9), static_cast<int>(Rejection::kAccepted));
 }
 
 // Speckles: a disparity map with an island smaller than the speckle size loses it, a larger
