@@ -100,7 +100,8 @@ int main(int argc, char** argv) {
   app.add_option("--bit-depth", given.bit_depth,
                  "significant bits of 16-bit images (default: a PNG's sBIT, else 16)");
   CLI::Option* disparity_option =
-      app.add_option("--disparity", disparity, "disparity range MIN:MAX, pixels, inclusive")
+      app.add_option("--disparity", disparity,
+                     "disparity range MIN:MAX, pixels, inclusive (default with --rig: the ground the rig sees)")
           ->capture_default_str();
   CLI::Option* rows_option =
       app.add_option("--rows", rows, "row band MIN:MAX of the reference image (default: all rows)");
@@ -131,7 +132,8 @@ int main(int argc, char** argv) {
       "window selection: measure only Y in YMIN:YMAX metres (vehicle frame); replaces --rows and "
       "--disparity (needs --rig)");
   app.add_option(
-      "--z-range", z_range, "heights ZMIN:ZMAX metres of the objects for window selection (default -0.5:1)");
+      "--z-range", z_range,
+      "heights ZMIN:ZMAX metres of the objects for window selection and the rig's default search (default -0.5:1)");
   CLI::Option* requests_option = app.add_option(
       "--requests", requests_path,
       "CSV stem,y_min_m,y_max_m: each listed pair's own distance interval (needs --rig)");
@@ -194,9 +196,19 @@ int main(int argc, char** argv) {
     }
     if (sigma_option->count() > 0) opt.xyz_sigma_px = xyz_sigma;
     calib::RegionOfInterest region;  // the paper's heights unless --z-range
+    // With a rig and neither --disparity, --rows nor --range-y, the search is the ground the
+    // rig sees (calib::SelectGroundWindow; the pairs --requests does not list use it too).
+    const bool rig_default = opt.rig && opt.rig->rectified && !given_option("--disparity") && rows.empty() && range_y.empty();
     if (!z_range.empty()) {
-      LN_CHECK_ARG(!range_y.empty() || !requests_path.empty()) << "--z-range: needs --range-y or --requests";
+      LN_CHECK_ARG(!range_y.empty() || !requests_path.empty() || rig_default)
+          << "--z-range: needs --range-y, --requests, or --rig without --disparity and --rows";
       std::tie(region.z_min_m, region.z_max_m) = util::ParseDoublePair(z_range, ':', "--z-range");
+    }
+    if (rig_default) {
+      calib::GroundWindowOptions ground;
+      ground.z_min_m = region.z_min_m;
+      ground.z_max_m = region.z_max_m;
+      opt.ground = calib::SelectGroundWindow(*opt.rig, opt.matcher.reference, ground, opt.window_selection);
     }
     if (!range_y.empty()) {
       std::tie(region.y_min_m, region.y_max_m) = util::ParseDoublePair(range_y, ':', "--range-y");

@@ -148,4 +148,118 @@ ImageWindow SelectWindow(const StereoRig& rig, const RegionOfInterest& region, R
   return window;
 }
 
+void GroundWindowOptions::Validate() const {
+  LN_CHECK_ARG(std::isfinite(z_min_m) && std::isfinite(z_max_m) && z_min_m <= z_max_m)
+      << "z-range: need finite ZMIN <= ZMAX, got " << z_min_m << ":" << z_max_m << " m";
+  LN_CHECK_ARG(std::isfinite(max_range_error_m) && max_range_error_m > 0)
+      << "far limit: the range error bound must be > 0 m, got " << max_range_error_m;
+  LN_CHECK_ARG(std::isfinite(sigma_d_px) && sigma_d_px > 0) << "far limit: sigma_d must be > 0 px";
+}
+
+nlohmann::json GroundWindow::ToJson() const {
+  int rows = 0, widest = 0;
+  long searched = 0;
+  for (const auto& [lo, hi] : row_disparity_px) {
+    if (hi < lo) continue;
+    ++rows;
+    widest = std::max(widest, hi - lo + 1);
+    searched += hi - lo + 1;
+  }
+  return {{"region", region.ToJson()},
+          {"far_limit_depth_m", far_limit_depth_m},
+          {"window", window.ToJson()},
+          {"rows_with_points", rows},
+          {"row_band_widest_px", widest},
+          {"row_band_mean_px", rows > 0 ? static_cast<double>(searched) / rows : 0.0}};
+}
+
+GroundWindow SelectGroundWindow(const StereoRig& rig, ReferenceImage reference, const GroundWindowOptions& options,
+                                const WindowSelectionOptions& selection) {
+  LN_CHECK_ARG(rig.rectified.has_value()) << "rig: not rectified (rectify the pair first)";
+  options.Validate();
+  selection.Validate();
+  const RectifiedGeometry& g = *rig.rectified;
+  const double f = g.P_left(0, 0);
+  const double c_left = g.P_left(0, 2), c_right = g.P_right(0, 2), c_y = g.P_left(1, 2);
+  const double baseline_m = -g.P_right(0, 3) / f;
+  const double c_x = reference == ReferenceImage::kRight ? c_right : c_left;
+  const Eigen::Isometry3d vehicle_from_left = rig.VehicleFromLeft();
+  const Eigen::Matrix3d vehicle_from_rect = vehicle_from_left.linear() * g.rect_from_left.transpose();
+  const Eigen::Vector3d centre =
+      vehicle_from_left.translation() +
+      (reference == ReferenceImage::kRight ? Eigen::Vector3d(vehicle_from_rect.col(0) * baseline_m)
+                                           : Eigen::Vector3d::Zero());
+  const Eigen::Vector3d along_y = vehicle_from_rect.row(1).transpose();
+  const Eigen::Vector3d along_z = vehicle_from_rect.row(2).transpose();
+  const double fb = f * baseline_m, dc = c_left - c_right;
+  LN_CHECK_ARG(fb > 0) << "rig: the rectified baseline must be positive";
+  const double width = g.width_px;
+  // Farther than this depth, a disparity error of sigma_d moves a point by more than the bound.
+  const double far_depth = std::sqrt(options.max_range_error_m * fb / options.sigma_d_px);
+
+  GroundWindow out;
+  out.far_limit_depth_m = far_depth;
+  // The ground Z = 0 on each pixel's ray: the nearest point both images hold, and the farthest
+  // within the far limit.
+  double y_near = std::numeric_limits<double>::infinity(), y_far = -y_near;
+  auto ray = [&](double x, double y) {
+    return Eigen::Vector3d((x - c_x) / f, (y - c_y) / f, 1.0);
+  };
+  for (int y = 0; y < g.height_px; ++y) {
+    for (int x = 0; x < g.width_px; ++x) {
+      const Eigen::Vector3d u = ray(x, y);
+      const double dz = along_z.dot(u);  // Z = centre.z + depth dz
+      if (!(dz < 0)) continue;           // the ray does not come down to the ground
+      const double depth = -centre.z() / dz;
+      if (!(depth > 0) || depth > far_depth) continue;
+      const double d = fb / depth + dc;
+      const double other = reference == ReferenceImage::kRight ? x + d : x - d;
+      if (other < 0 || other > width - 1) continue;
+      const double ground_y = centre.y() + depth * along_y.dot(u);
+      y_near = std::min(y_near, ground_y);
+      y_far = std::max(y_far, ground_y);
+    }
+  }
+  LN_CHECK_ARG(y_near <= y_far) << "rig: neither camera sees the ground (Z = 0 in the vehicle frame) within "
+                                << far_depth << " m of depth; give --disparity or --range-y";
+  out.region.y_min_m = y_near;
+  out.region.y_max_m = y_far;
+  out.region.z_min_m = options.z_min_m;
+  out.region.z_max_m = options.z_max_m;
+  out.window = SelectWindow(rig, out.region, reference, selection);
+
+  // Per row: each column's ray crosses the slab (Y and Z within the region, depth > 0) along
+  // a segment of depths [t0, t1]; disparity falls with depth.
+  out.row_disparity_px.assign(g.height_px, {0, -1});
+  const double d_limit = width - 1;
+  for (int y = 0; y < g.height_px; ++y) {
+    double d_lo = std::numeric_limits<double>::infinity(), d_hi = -d_lo;
+    for (int x = 0; x < g.width_px; ++x) {
+      const Eigen::Vector3d u = ray(x, y);
+      double t0 = 1e-3, t1 = 1e5;
+      auto clip = [&](double base, double rate, double lo, double hi) {  // lo <= base + t rate <= hi
+        if (std::abs(rate) < 1e-15) {
+          if (base < lo || base > hi) t1 = -1;
+          return;
+        }
+        double a = (lo - base) / rate, b = (hi - base) / rate;
+        if (a > b) std::swap(a, b);
+        t0 = std::max(t0, a);
+        t1 = std::min(t1, b);
+      };
+      clip(centre.y(), along_y.dot(u), out.region.y_min_m, out.region.y_max_m);
+      clip(centre.z(), along_z.dot(u), out.region.z_min_m, out.region.z_max_m);
+      if (!(t0 <= t1)) continue;
+      d_lo = std::min(d_lo, fb / t1 + dc);
+      d_hi = std::max(d_hi, fb / t0 + dc);
+    }
+    if (!(d_lo <= d_hi)) continue;
+    constexpr double kHair = 1e-9;
+    const int lo = static_cast<int>(std::floor(std::max(d_lo, -d_limit) - kHair)) - selection.disparity_margin_px;
+    const int hi = static_cast<int>(std::ceil(std::min(d_hi, d_limit) + kHair)) + selection.disparity_margin_px;
+    out.row_disparity_px[y] = {std::max(lo, out.window.min_disparity_px), std::min(hi, out.window.max_disparity_px)};
+  }
+  return out;
+}
+
 }  // namespace lunarnav::calib

@@ -4,6 +4,8 @@
 #pragma once
 
 #include <string>
+#include <utility>
+#include <vector>
 
 #include <nlohmann/json.hpp>
 
@@ -82,5 +84,42 @@ struct ImageWindow {
 ///        lateral extent is that of this image).
 ImageWindow SelectWindow(const StereoRig& rig, const RegionOfInterest& region, ReferenceImage reference,
                          const WindowSelectionOptions& options = {});
+
+/// Options of SelectGroundWindow.
+struct GroundWindowOptions {
+  /// Heights of the objects to measure, metres (the region's Z_min, Z_max).
+  double z_min_m = -0.5;
+  double z_max_m = 1.0;
+  /// The far limit: a ground point is measured while the range error of a disparity error of
+  /// sigma_d_px (sigma_d Z^2 / (f B), along the ray) stays within this many metres. The
+  /// default, one cell of the paper's 25 cm terrain map, with sigma_d = 1 px: farther, a
+  /// point's error spans more than a cell.
+  double max_range_error_m = 0.25;
+  double sigma_d_px = 1.0;
+  void Validate() const;
+};
+
+/// The part of the world a rig's stereo is worth running on, and the search it needs.
+struct GroundWindow {
+  /// Y from the nearest ground both cameras see (the flat ground Z = 0 in the vehicle frame)
+  /// to the far limit, Z from the options.
+  RegionOfInterest region;
+  double far_limit_depth_m = 0;  ///< Depth (rectified frame) at which the range error reaches the bound.
+  /// SelectWindow over the region: the row band and the one disparity range that hold it.
+  ImageWindow window;
+  /// Per reference-image row (size: the image's height), the disparities of the region's
+  /// points seen in that row (with the margin, within window's range); {0, -1} = none.
+  std::vector<std::pair<int, int>> row_disparity_px;
+  nlohmann::json ToJson() const;
+};
+
+/// stereo-batch's default search with a rig (docs/stereo-batch.md): the region of the ground
+/// the rig sees, from the nearest ground point that projects inside both images to the far
+/// limit, with the objects' heights; its window (SelectWindow), and per row the disparities of
+/// the region's points on that row's rays (each ray crosses the slab Z_min <= Z <= Z_max,
+/// Y_min <= Y <= Y_max along a segment whose ends bound its disparities).
+/// @throws std::invalid_argument when the rig is not rectified or sees no ground.
+GroundWindow SelectGroundWindow(const StereoRig& rig, ReferenceImage reference, const GroundWindowOptions& options,
+                                const WindowSelectionOptions& selection = {});
 
 }  // namespace lunarnav::calib

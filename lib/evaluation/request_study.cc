@@ -65,6 +65,8 @@ std::vector<RequestWindow> ReadRequestWindows(const fs::path& run_dir, int* with
         << path.string() << ": not a stereo-batch sidecar (format lunarnav.disparity/1)";
     const nlohmann::json* w = nullptr;
     if (j.contains("result") && j["result"].is_object() && j["result"].contains("window")) w = &j["result"]["window"];
+    // The rig's default search (source rig-ground) is not window selection for a distance.
+    if (w != nullptr && w->is_object() && w->value("source", "") == "rig-ground") w = nullptr;
     if (w == nullptr) {
       ++without;
       continue;

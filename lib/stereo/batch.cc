@@ -43,7 +43,7 @@ constexpr const char* kVehicleFrame = "vehicle: X right, Y forward (direction of
 
 // The window (row band and disparity range) one pair measures, and where it came from.
 struct PairWindow {
-  std::string source;  // "requests" or "range-y"
+  std::string source;  // "requests", "range-y" or "rig-ground"
   calib::RegionOfInterest region;
   calib::ImageWindow window;
   long request_line = 0;
@@ -345,8 +345,9 @@ json BatchOptions::ToJson() const {
     j["geometry"] = {{"rig", calib::StereoRigToJson(*rig)},
                      {"ply", write_ply},
                      {"xyz_sigma_d_px", xyz_sigma_px ? json(*xyz_sigma_px) : json(nullptr)}};
-    if (region || !requests.empty()) {
+    if (region || ground || !requests.empty()) {
       j["window_selection"] = {{"range", region ? region->ToJson() : json(nullptr)},
+                               {"from_rig", ground && !region ? ground->region.ToJson() : json(nullptr)},
                                {"requests", requests.empty() ? json(nullptr) : json(requests_source)},
                                {"requests_z_m", {requests_region.z_min_m, requests_region.z_max_m}},
                                {"disparity_margin_px", window_selection.disparity_margin_px}};
@@ -429,6 +430,8 @@ BatchSummary RunStereoBatch(const BatchOptions& options, const fs::path& input_d
                               calib::SelectWindow(*options.rig, *options.region, options.matcher.reference,
                                                   options.window_selection),
                               0};
+  } else if (options.ground) {
+    range_window = PairWindow{"rig-ground", options.ground->region, options.ground->window, 0};
   }
   auto window_for = [&](const std::string& stem) -> const PairWindow* {
     if (const auto it = requested.find(stem); it != requested.end()) return &it->second;
@@ -537,7 +540,11 @@ BatchSummary RunStereoBatch(const BatchOptions& options, const fs::path& input_d
                      {"rig_notes", options.rig->notes},  // what reading the rig changed (printed precision)
                      {"frame", kVehicleFrame},
                      {"outputs", subdirectories}};
-    if (range_window) j["geometry"]["window_range_y"] = range_window->ToJson();
+    if (options.region) j["geometry"]["window_range_y"] = range_window->ToJson();
+    if (options.ground && !options.region) {
+      // stereo-batch's default with a rig: what the rig sees, and why (docs/stereo-batch.md).
+      j["geometry"]["window_from_rig"] = options.ground->ToJson();
+    }
     if (!options.requests.empty()) {
       j["geometry"]["requests"] = {{"file", options.requests_source},
                                    {"count", options.requests.size()}};

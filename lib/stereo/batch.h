@@ -44,6 +44,10 @@ struct BatchOptions {
   /// Window selection (sec. 3.3, needs the rig): the region every pair measures; its row band
   /// and disparity range replace `matcher`'s. Unset = the matcher's own rows and range.
   std::optional<calib::RegionOfInterest> region;
+  /// The rig's default when neither a region nor a disparity range or row band was given
+  /// (calib::SelectGroundWindow): the ground both cameras see, to the far limit, with the
+  /// objects' heights. Used like `region`.
+  std::optional<calib::GroundWindow> ground;
   /// Per-pair distance intervals (the planner's requests); a listed pair measures
   /// {Y in its interval, Z in requests_region's heights}; other pairs fall back to `region`,
   /// or to the matcher's rows and range.

@@ -300,5 +300,88 @@ TEST(SelectWindow, NeedsARectifiedRigAndAnOrderedRegion) {
                std::invalid_argument);
 }
 
+
+// stereo-batch's default with a rig: the ground from the nearest point both images hold to the
+// far limit, and per row the disparities of the region's points.
+TEST(SelectGroundWindow, StartsAtTheNearestGroundBothImagesHoldAndBoundsEveryRowsPoints) {
+  std::mt19937 rng(7);
+  for (const RigCase& rc : Rigs()) {
+    const RectifiedGeometry& g = *rc.rig.rectified;
+    for (ReferenceImage reference : {ReferenceImage::kRight, ReferenceImage::kLeft}) {
+      SCOPED_TRACE(std::string(rc.name) + ", " + ToString(reference));
+      const Projector proj(rc.rig, reference);
+      GroundWindowOptions options;
+      const GroundWindow gw = SelectGroundWindow(rc.rig, reference, options);
+      // Both images hold a ground point (X, Y, 0) when its reference pixel and its match are
+      // inside: some X does at Y_min + 1 cm, none at Y_min - 1 cm.
+      auto both_hold = [&](double y) {
+        for (double x = -5; x <= 5; x += 0.002) {
+          const auto p = proj.Project(Eigen::Vector3d(x, y, 0));
+          const double other = reference == ReferenceImage::kRight ? p.column + p.disparity : p.column - p.disparity;
+          if (p.depth > 0 && p.row >= -0.5 && p.row <= g.height_px - 0.5 && p.column >= -0.5 &&
+              p.column <= g.width_px - 0.5 && other >= -0.5 && other <= g.width_px - 0.5) {
+            return true;
+          }
+        }
+        return false;
+      };
+      EXPECT_TRUE(both_hold(gw.region.y_min_m + 0.01));
+      EXPECT_FALSE(both_hold(gw.region.y_min_m - 0.01));
+      // The far limit: a 1 px disparity error moves a point by 25 cm along its ray there.
+      const double fb = g.P_left(0, 0) * (-g.P_right(0, 3) / g.P_left(0, 0));
+      EXPECT_NEAR(gw.far_limit_depth_m * gw.far_limit_depth_m / fb, 0.25, 1e-9);
+      EXPECT_EQ(gw.region.z_min_m, options.z_min_m);
+      EXPECT_EQ(gw.region.z_max_m, options.z_max_m);
+      // The whole-region window is SelectWindow's.
+      const ImageWindow w = SelectWindow(rc.rig, gw.region, reference);
+      EXPECT_EQ(gw.window.min_disparity_px, w.min_disparity_px);
+      EXPECT_EQ(gw.window.max_disparity_px, w.max_disparity_px);
+      EXPECT_EQ(gw.window.min_row, w.min_row);
+      EXPECT_EQ(gw.window.max_row, w.max_row);
+      ASSERT_EQ(static_cast<int>(gw.row_disparity_px.size()), g.height_px);
+      // Random points of the region seen by the reference image fall inside their row's band,
+      // and the bands are tight: the widest exceeds the samples' spread by little.
+      std::uniform_real_distribution<double> Y(gw.region.y_min_m, gw.region.y_max_m), Z(options.z_min_m, options.z_max_m),
+          column(-0.5, g.width_px - 0.5);
+      std::bernoulli_distribution coin(0.5);
+      auto pick = [&](std::uniform_real_distribution<double>& u) {  // often at an end, where the extremes are
+        return coin(rng) ? (coin(rng) ? u.a() : u.b()) : u(rng);
+      };
+      std::vector<double> lo(g.height_px, kInf), hi(g.height_px, -kInf);
+      int seen = 0, outside = 0;
+      for (int i = 0; i < 400000; ++i) {
+        // A point of the slab at a random column of the reference image (as above).
+        const Eigen::Vector3d base(0, pick(Y), pick(Z));
+        const double x = pick(column);
+        const Eigen::Vector3d q0 = proj.vehicle_from_rect.transpose() * (base - proj.centre);
+        const Eigen::Vector3d e = proj.vehicle_from_rect.transpose() * Eigen::Vector3d::UnitX();
+        const double X = (proj.f * q0.x() - (x - proj.c_x) * q0.z()) / ((x - proj.c_x) * e.z() - proj.f * e.x());
+        const auto p = proj.Project(Eigen::Vector3d(X, base.y(), base.z()));
+        if (!(p.depth > 0) || p.row < -0.5 || p.row > g.height_px - 0.5 || p.column < -0.5 ||
+            p.column > g.width_px - 0.5) {
+          continue;
+        }
+        const int row = static_cast<int>(std::lround(p.row));
+        ++seen;
+        const auto [band_lo, band_hi] = gw.row_disparity_px[row];
+        outside += !(p.disparity >= band_lo && p.disparity <= band_hi);
+        lo[row] = std::min(lo[row], p.disparity);
+        hi[row] = std::max(hi[row], p.disparity);
+      }
+      ASSERT_GT(seen, 20000);
+      EXPECT_EQ(outside, 0);
+      double slack = 0;
+      int rows = 0;
+      for (int r = 0; r < g.height_px; ++r) {
+        if (!(lo[r] <= hi[r])) continue;
+        const auto [band_lo, band_hi] = gw.row_disparity_px[r];
+        slack += (band_hi - band_lo) - (hi[r] - lo[r]);
+        ++rows;
+      }
+      EXPECT_LT(slack / rows, 6.0);  // margin 1 px each end, rounding, and samples short of the extremes
+    }
+  }
+}
+
 }  // namespace
 }  // namespace lunarnav::calib

@@ -256,6 +256,47 @@ TEST(StereoBatchRig, RangeYRestrictsRowsAndDisparitiesToTheBand) {
   EXPECT_GT(kept, 0.95 * in_interval);
 }
 
+// With a rig and no --disparity, --rows or --range-y, stereo-batch searches the ground the rig
+// sees (calib::SelectGroundWindow), says so in summary.json, and measures the ground as the
+// hand-picked range does.
+TEST(StereoBatchRig, WithoutARangeTheRigsGroundIsSearched) {
+  Fixture fx;
+  const fs::path chosen = fx.tmp.path() / "chosen", by_rig = fx.tmp.path() / "by-rig";
+  ASSERT_EQ(RunTool("stereo-batch", fx.Args(chosen, {"--disparity", "0:100"}), fx.tmp.path()).exit_code, 0);
+  const auto run = RunTool("stereo-batch", fx.Args(by_rig), fx.tmp.path());
+  ASSERT_EQ(run.exit_code, 0) << run.stderr_text;
+  const calib::GroundWindow expected =
+      calib::SelectGroundWindow(fx.rig, calib::ReferenceImage::kRight, calib::GroundWindowOptions{});
+  const nlohmann::json summary = io::ReadJson(by_rig / "summary.json");
+  const nlohmann::json& from_rig = summary["geometry"]["window_from_rig"];
+  EXPECT_EQ(from_rig["window"]["disparity_px"],
+            nlohmann::json({expected.window.min_disparity_px, expected.window.max_disparity_px}));
+  EXPECT_NEAR(from_rig["region"]["y_m"][0].get<double>(), expected.region.y_min_m, 1e-9);
+  EXPECT_FALSE(io::ReadJson(chosen / "summary.json")["geometry"].contains("window_from_rig"));
+  for (const nlohmann::json& pair : summary["pairs"]) {
+    EXPECT_EQ(pair["result"]["window"]["source"], "rig-ground");
+  }
+  // The hand-picked range's ground points within the region (Y up to the far limit, where a
+  // 1 px error moves a point by a map cell) are measured alike.
+  const cv::Mat xyz_rig = io::ReadExr(by_rig / "xyz" / "a.exr").pixels;
+  const cv::Mat xyz_chosen = io::ReadExr(chosen / "xyz" / "a.exr").pixels;
+  int in_region = 0, both = 0, differ = 0;
+  for (int y = 0; y < 120; ++y) {
+    for (int x = 0; x < 160; ++x) {
+      const cv::Vec3f a = xyz_chosen.at<cv::Vec3f>(y, x), b = xyz_rig.at<cv::Vec3f>(y, x);
+      if (!std::isfinite(a[1])) continue;
+      if (a[1] < expected.region.y_max_m - 0.5) {
+        ++in_region;
+        both += std::isfinite(b[1]);
+        differ += std::isfinite(b[1]) && std::abs(a[2] - b[2]) > 0.05f;
+      }
+    }
+  }
+  ASSERT_GT(in_region, 5000);
+  EXPECT_GT(both, 0.98 * in_region);
+  EXPECT_LT(differ, 0.01 * in_region);
+}
+
 TEST(StereoBatchRig, RequestsGiveEachPairItsOwnBand) {
   Fixture fx;
   const fs::path out = fx.tmp.path() / "out", requests = fx.tmp.path() / "requests.csv";
