@@ -259,6 +259,22 @@ GroundWindow SelectGroundWindow(const StereoRig& rig, ReferenceImage reference, 
     const int hi = static_cast<int>(std::ceil(std::min(d_hi, d_limit) + kHair)) + selection.disparity_margin_px;
     out.row_disparity_px[y] = {std::max(lo, out.window.min_disparity_px), std::min(hi, out.window.max_disparity_px)};
   }
+  // A row of the window whose pixel centres' rays miss the region (the window's rows are
+  // rounded outward) takes the band of the nearest row that has one.
+  for (int pass = 0; pass < 2; ++pass) {
+    const int step = pass == 0 ? 1 : -1;
+    const int begin = pass == 0 ? out.window.min_row : out.window.max_row;
+    const int end = pass == 0 ? out.window.max_row + 1 : out.window.min_row - 1;
+    std::pair<int, int> last{0, -1};
+    for (int y = begin; out.window.visible && y != end; y += step) {
+      auto& band = out.row_disparity_px[y];
+      if (band.first <= band.second) {
+        last = band;
+      } else if (last.first <= last.second) {
+        band = last;
+      }
+    }
+  }
   return out;
 }
 

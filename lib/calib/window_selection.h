@@ -108,7 +108,8 @@ struct GroundWindow {
   /// SelectWindow over the region: the row band and the one disparity range that hold it.
   ImageWindow window;
   /// Per reference-image row (size: the image's height), the disparities of the region's
-  /// points seen in that row (with the margin, within window's range); {0, -1} = none.
+  /// points seen in that row (with the margin, within window's range); {0, -1} = none, which
+  /// only rows outside the window's rows have.
   std::vector<std::pair<int, int>> row_disparity_px;
   nlohmann::json ToJson() const;
 };

@@ -47,11 +47,22 @@ struct PairWindow {
   calib::RegionOfInterest region;
   calib::ImageWindow window;
   long request_line = 0;
+  std::vector<std::pair<int, int>> row_disparity_px;  // rig-ground: per-row bands (semi-global)
   nlohmann::json ToJson() const {
     nlohmann::json j = window.ToJson();
     j["source"] = source;
     j["region"] = region.ToJson();
     if (request_line > 0) j["request_line"] = request_line;
+    if (!row_disparity_px.empty()) {
+      long searched = 0;
+      int rows = 0;
+      for (const auto& [lo, hi] : row_disparity_px) {
+        if (hi < lo) continue;
+        ++rows;
+        searched += hi - lo + 1;
+      }
+      j["row_band_mean_px"] = rows > 0 ? static_cast<double>(searched) / rows : 0.0;
+    }
     return j;
   }
 };
@@ -236,6 +247,8 @@ json ProcessPair(const BatchOptions& options, const PairFiles& pair, const PairO
     matcher.max_row = window->window.max_row;
     matcher.min_disparity_px = window->window.min_disparity_px;
     matcher.max_disparity_px = window->window.max_disparity_px;
+    // Semi-global matching searches each row's own band (docs/stereo-batch.md).
+    if (matcher.aggregation == Aggregation::kSemiGlobal) matcher.row_disparity_px = window->row_disparity_px;
   }
   MatchStereoPair(matcher, left, right, result);
   timings->match_s = timer.ElapsedSeconds();
@@ -429,9 +442,11 @@ BatchSummary RunStereoBatch(const BatchOptions& options, const fs::path& input_d
     range_window = PairWindow{"range-y", *options.region,
                               calib::SelectWindow(*options.rig, *options.region, options.matcher.reference,
                                                   options.window_selection),
-                              0};
+                              0,
+                              {}};
   } else if (options.ground) {
-    range_window = PairWindow{"rig-ground", options.ground->region, options.ground->window, 0};
+    range_window =
+        PairWindow{"rig-ground", options.ground->region, options.ground->window, 0, options.ground->row_disparity_px};
   }
   auto window_for = [&](const std::string& stem) -> const PairWindow* {
     if (const auto it = requested.find(stem); it != requested.end()) return &it->second;

@@ -23,19 +23,20 @@ namespace {
 constexpr double kMinAdvance = 0.5;
 }  // namespace
 
-int RejectMatchesBeyondTheBorder(int x0, int step_x, int width, int reach_px, double tolerance_px,
+int RejectMatchesBeyondTheBorder(int x0, int step_x, int width, const std::vector<int>& reach_px, double tolerance_px,
                                  cv::Mat* disparity, cv::Mat* rejection) {
   LN_CHECK(disparity != nullptr && rejection != nullptr);
   LN_CHECK(disparity->type() == CV_32FC1 && rejection->type() == CV_8UC1 &&
            disparity->size() == rejection->size());
   LN_CHECK(step_x >= 1);
   const int rows = disparity->rows, cols = disparity->cols;
-  // The first grid cell whose range is cut: x + reach_px > width - 1.
-  int first_cut = 0;
-  while (first_cut < cols && x0 + first_cut * step_x + reach_px <= width - 1) ++first_cut;
-  if (first_cut >= cols) return 0;
+  LN_CHECK(static_cast<int>(reach_px.size()) == rows);
   std::vector<int> rejected(rows, 0);
   tbb::parallel_for(0, rows, [&](int j) {
+    // The first grid cell whose range is cut: x0 + i step_x + reach > width - 1.
+    const int room = width - 1 - reach_px[j] - x0;
+    const int first_cut = room < 0 ? 0 : std::min(cols, room / step_x + 1);
+    if (first_cut >= cols) return;
     auto* d = disparity->ptr<float>(j);
     auto* reason = rejection->ptr<std::uint8_t>(j);
     // The bound on the target column: the match (x_m, M) that raises it most, advanced by

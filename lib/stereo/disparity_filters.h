@@ -1,6 +1,8 @@
 // Sub-pixel interpolation and the median filter of the correlation matcher.
 #pragma once
 
+#include <vector>
+
 #include <opencv2/core.hpp>
 
 namespace lunarnav::stereo {
@@ -32,9 +34,10 @@ inline double ParabolicPeakOffset(double c_prev, double c_best, double c_next) {
 /// edge that other filters rejected. Pixels whose range is complete are never touched, so a
 /// thin object in front of the background elsewhere in the image keeps both; in the cut
 /// zone, the ground right of a rock is rejected for twice the width it is hidden.
-/// @param reach_px  d_max plus the half-width of the window the target is compared over.
+/// @param reach_px  per grid row: its d_max plus the half-width of the window the target is
+///        compared over.
 /// @return the number of cells rejected.
-int RejectMatchesBeyondTheBorder(int x0, int step_x, int width, int reach_px, double tolerance_px,
+int RejectMatchesBeyondTheBorder(int x0, int step_x, int width, const std::vector<int>& reach_px, double tolerance_px,
                                  cv::Mat* disparity, cv::Mat* rejection);
 
 /// The fourth filter: a k x k median filter over a disparity grid (the map on the

@@ -239,8 +239,8 @@ void MatchWindowInCurrentArena(const NccOptions& options, const cv::Mat& left, c
   cv::Mat& grid_corr = grid.correlation;
   cv::Mat& grid_reason = grid.rejection;
   if (options.border_tolerance_px >= 0) {
-    RejectMatchesBeyondTheBorder(in.x0, dx, width, options.max_disparity_px + in.mx * dx, options.border_tolerance_px,
-                                 &grid_disp, &grid_reason);
+    RejectMatchesBeyondTheBorder(in.x0, dx, width, std::vector<int>(grid_disp.rows, options.max_disparity_px + in.mx * dx),
+                                 options.border_tolerance_px, &grid_disp, &grid_reason);
   }
   MedianFilterDisparityGrid(options.median_size, &grid_disp, &grid_reason);
 

@@ -1,6 +1,8 @@
 #include "stereo/ncc_options.h"
 
+#include <algorithm>
 #include <cmath>
+#include <cstdint>
 #include <sstream>
 #include <stdexcept>
 
@@ -74,6 +76,13 @@ void NccOptions::Validate() const {
       << "disparity: range must hold at most 16384 values";
   LN_CHECK_ARG(std::abs(min_disparity_px) < 100000 && std::abs(max_disparity_px) < 100000)
       << "disparity: values must be within +-100000";
+  for (std::size_t y = 0; y < row_disparity_px.size(); ++y) {
+    const auto [lo, hi] = row_disparity_px[y];
+    const bool empty_row = hi < lo && (!min_row || static_cast<int>(y) < *min_row || static_cast<int>(y) > *max_row);
+    LN_CHECK_ARG(empty_row || (lo <= hi && lo >= min_disparity_px && hi <= max_disparity_px))
+        << "per-row disparity band of row " << y << ": " << lo << ":" << hi << " is not inside "
+        << min_disparity_px << ":" << max_disparity_px;
+  }
   LN_CHECK_ARG(min_row.has_value() == max_row.has_value())
       << "rows: give both MIN and MAX";
   if (min_row) {
@@ -136,6 +145,28 @@ nlohmann::json NccOptions::ToJson() const {
   j["half_window_px"] = {half_window_x_px, half_window_y_px};
   j["step_px"] = {step_x_px, step_y_px};
   j["disparity_range_px"] = {min_disparity_px, max_disparity_px};
+  if (!row_disparity_px.empty()) {
+    // Their shape and a fingerprint (FNV-1a of the bounds): resuming with other bands redoes
+    // the pairs, and a sidecar stays small.
+    std::uint64_t fnv = 1469598103934665603ull;
+    long searched = 0;
+    int rows = 0, widest = 0;
+    for (const auto& [lo, hi] : row_disparity_px) {
+      for (const int v : {lo, hi}) {
+        for (int b = 0; b < 4; ++b) fnv = (fnv ^ ((static_cast<std::uint32_t>(v) >> (8 * b)) & 0xffu)) * 1099511628211ull;
+      }
+      if (hi < lo) continue;
+      ++rows;
+      searched += hi - lo + 1;
+      widest = std::max(widest, hi - lo + 1);
+    }
+    std::ostringstream hex;
+    hex << std::hex << fnv;
+    j["row_disparity_bands"] = {{"rows", rows},
+                                {"mean_px", rows > 0 ? static_cast<double>(searched) / rows : 0.0},
+                                {"widest_px", widest},
+                                {"fnv1a", hex.str()}};
+  }
   j["rows"] = min_row ? nlohmann::json{*min_row, *max_row} : nlohmann::json(nullptr);
   j["reference"] = ToString(reference);
   j["sigma_min_grey8"] = min_sigma;

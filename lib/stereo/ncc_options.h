@@ -5,6 +5,7 @@
 #include <cstdint>
 #include <optional>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include <nlohmann/json.hpp>
@@ -101,6 +102,11 @@ struct NccOptions {
   /// Inclusive disparity search range [d_min, d_max], pixels. d_min <= d_max.
   int min_disparity_px = 0;
   int max_disparity_px = 127;
+  /// Per-row bands (window selection from the ground, calib::SelectGroundWindow): when not
+  /// empty, one [lo, hi] per image row, inside [min_disparity_px, max_disparity_px]; semi-global
+  /// aggregation searches only row y's band at row y (the window matcher, whose sums run over
+  /// rows, searches the whole range). Rows of the band processed need lo <= hi.
+  std::vector<std::pair<int, int>> row_disparity_px;
   /// Inclusive band of reference-image rows [y_min, y_max] to process (window selection,
   /// sec. 3.3). Unset = the whole image.
   std::optional<int> min_row;

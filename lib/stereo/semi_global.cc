@@ -92,7 +92,8 @@ inline __attribute__((always_inline)) std::int16_t Start(const std::uint8_t* cos
 // Costs of the grid pixels [i_begin, i_end) of row j, n per pixel from cost[0].
 inline __attribute__((always_inline)) void FillCosts(const SgmInput& in, int j, int i_begin, int i_end,
                                                      std::uint8_t* cost) {
-  const int n = in.num_disp, width = in.width;
+  const int n = in.RowDisp(j), width = in.width;
+  const int d_min = in.d_min + in.Shift(j);
   const int y = in.y0 + j * in.step_y;
   const std::uint64_t* ref = in.ref_census + static_cast<std::size_t>(y) * width;
   const std::uint64_t* tgt = in.tgt_census + static_cast<std::size_t>(y) * width;
@@ -100,10 +101,10 @@ inline __attribute__((always_inline)) void FillCosts(const SgmInput& in, int j, 
     const int x = in.x0 + i * in.step_x;
     std::uint8_t* c = cost + static_cast<std::size_t>(i - i_begin) * n;
     // Target x + d_min + k inside [0, width): k in [k_lo, k_hi).
-    const int k_lo = std::clamp(-x - in.d_min, 0, n);
-    const int k_hi = std::clamp(width - x - in.d_min, k_lo, n);
+    const int k_lo = std::clamp(-x - d_min, 0, n);
+    const int k_hi = std::clamp(width - x - d_min, k_lo, n);
     const std::uint64_t r = ref[x];
-    const std::uint64_t* t = tgt + x + in.d_min;
+    const std::uint64_t* t = tgt + x + d_min;
     for (int k = k_lo; k < k_hi; ++k) c[k] = static_cast<std::uint8_t>(__builtin_popcountll(r ^ t[k]));
     // Beyond the image the nearest valid cost is repeated: a fixed high cost would push the
     // paths towards the disparities that stay inside and break the ties of repeated patterns
@@ -150,13 +151,13 @@ struct RowScratch {
 // Both horizontal paths of row j: from the left (assigns the sums) and from the right (adds).
 LN_SGM_CLONES void HorizontalRow(const SgmInput& in, const EdgePenalties& edge, int j, RowScratch* scratch,
                                  std::uint16_t* sum) {
-  const int n = in.num_disp, cols = in.num_cols;
+  const int n = in.RowDisp(j), cols = in.num_cols;
   const auto p1 = static_cast<std::int16_t>(in.penalty_small);
   const auto p2 = static_cast<std::int16_t>(in.penalty_large);
   FillCosts(in, j, 0, cols, scratch->cost.data());
   const std::int16_t* grey = GreyRow(in, j);
   const int sx = in.step_x;
-  std::uint16_t* row_sum = sum + static_cast<std::size_t>(j) * cols * n;
+  std::uint16_t* row_sum = sum;  // row j's sums (the caller's offset)
   std::int16_t* l[2] = {scratch->line[0].data() + 1, scratch->line[1].data() + 1};
   std::int16_t m = 0;
   for (int i = 0; i < cols; ++i) {
@@ -177,14 +178,18 @@ LN_SGM_CLONES void HorizontalRow(const SgmInput& in, const EdgePenalties& edge, 
 
 // The previous and the current row of the vertical and diagonal paths of one direction of
 // travel (down or up): L with sentinels at both ends of each pixel's n values, and minima.
+// With per-row bands a pixel's n values are read shifted by the change of band between the
+// rows (Step reads prev[k - 1 .. k + 1] at prev + shift): `pad` sentinels on each side of the
+// widest band keep every read outside the previous row's own band on a sentinel.
 struct VerticalRows {
-  int n = 0, cols = 0, stride = 0;
+  int n = 0, cols = 0, stride = 0, pad = 1;
   std::vector<std::int16_t> rows[3][2];  // [from i - 1, from i, from i + 1][previous/current]
   std::vector<std::int16_t> mins[3][2];
-  void Init(int num_cols, int num_disp) {
+  void Init(int num_cols, int num_disp, int padding) {
     n = num_disp;
     cols = num_cols;
-    stride = num_disp + 2;
+    pad = padding;
+    stride = num_disp + 2 * pad;
     for (auto& dir : rows) {
       for (auto& r : dir) r.assign(static_cast<std::size_t>(stride) * cols, kSentinel);
     }
@@ -193,7 +198,7 @@ struct VerticalRows {
     }
   }
   std::int16_t* Row(int dir, int which, int i) {
-    return rows[dir][which].data() + static_cast<std::size_t>(i) * stride + 1;
+    return rows[dir][which].data() + static_cast<std::size_t>(i) * stride + pad;
   }
 };
 
@@ -203,10 +208,13 @@ struct VerticalRows {
 LN_SGM_CLONES void VerticalChunk(const SgmInput& in, const EdgePenalties& edge, int j, bool down, bool first, int cur,
                                  int i_begin, int i_end,
                                  std::uint8_t* cost, VerticalRows* b, std::uint16_t* sum) {
-  const int n = in.num_disp, cols = in.num_cols;
+  const int n = in.RowDisp(j), cols = in.num_cols;
   const auto p1 = static_cast<std::int16_t>(in.penalty_small);
   const bool diagonals = in.num_paths == 8;
   const int prev = cur ^ 1;
+  // Index k of this row is index k + shift of the previous row of the direction of travel.
+  const int shift = first ? 0 : in.Shift(j) - in.Shift(down ? j - 1 : j + 1);
+  const bool banded = in.row_num_disp != nullptr;
   FillCosts(in, j, i_begin, i_end, cost);
   const auto p2 = static_cast<std::int16_t>(in.penalty_large);
   const std::int16_t* grey = GreyRow(in, j);
@@ -214,17 +222,19 @@ LN_SGM_CLONES void VerticalChunk(const SgmInput& in, const EdgePenalties& edge, 
   const int sx = in.step_x;
   for (int i = i_begin; i < i_end; ++i) {
     const std::uint8_t* c = cost + static_cast<std::size_t>(i - i_begin) * n;
-    std::uint16_t* s = sum + (static_cast<std::size_t>(j) * cols + i) * n;
+    std::uint16_t* s = sum + static_cast<std::size_t>(i) * n;  // row j's sums (the caller's offset)
     for (int dir = diagonals ? 0 : 1; dir < (diagonals ? 3 : 2); ++dir) {
       const int from = i + dir - 1;  // column of the predecessor in the previous row
       std::int16_t* out = b->Row(dir, cur, i);
       if (!first && from >= 0 && from < cols) {
         const std::int16_t p2_here = grey == nullptr ? p2 : edge(grey[i * sx], grey_from[from * sx]);
-        b->mins[dir][cur][i] =
-            Step<SumMode::kNone>(c, b->Row(dir, prev, from), b->mins[dir][prev][from], p1, p2_here, n, out, s);
+        b->mins[dir][cur][i] = Step<SumMode::kNone>(c, b->Row(dir, prev, from) + shift, b->mins[dir][prev][from], p1,
+                                                    p2_here, n, out, s);
       } else {
         b->mins[dir][cur][i] = Start<SumMode::kNone>(c, n, out, s);
       }
+      // What lies past this row's band in the buffer is read as "not searched" by the next row.
+      if (banded) std::fill(out + n, out + std::min(b->n + b->pad, n + b->pad), kSentinel);
     }
     // The sums read and written once for the pixel's paths.
     const std::int16_t* v = b->Row(1, cur, i);
@@ -310,24 +320,46 @@ void SemiGlobalAggregate(const SgmInput& in, AggregatedCost* out) {
   out->num_cols_ = in.num_cols;
   out->num_rows_ = in.num_rows;
   out->num_disp_ = in.num_disp;
-  const std::size_t cells = static_cast<std::size_t>(in.num_cols) * in.num_rows * in.num_disp;
+  out->row_start_.clear();
+  out->row_disp_.clear();
+  std::size_t cells = static_cast<std::size_t>(in.num_cols) * in.num_rows * in.num_disp;
+  int pad = 1;  // sentinels each side of a pixel's values in the vertical paths' rows
+  if (in.row_num_disp != nullptr) {
+    LN_CHECK(in.row_shift != nullptr);
+    out->row_start_.resize(in.num_rows);
+    out->row_disp_.assign(in.row_num_disp, in.row_num_disp + in.num_rows);
+    cells = 0;
+    for (int j = 0; j < in.num_rows; ++j) {
+      LN_CHECK(in.row_num_disp[j] >= 1 && in.row_num_disp[j] <= in.num_disp && in.row_shift[j] >= 0);
+      out->row_start_[j] = cells;
+      cells += static_cast<std::size_t>(in.num_cols) * in.row_num_disp[j];
+      if (j > 0) {
+        // Reads run from shift - 1 to n + shift in the previous row's buffer (both directions).
+        const int up = in.row_shift[j] - in.row_shift[j - 1], down = -up;
+        pad = std::max({pad, 1 - up, 1 - down, in.row_num_disp[j] + up - in.num_disp + 1,
+                        in.row_num_disp[j - 1] + down - in.num_disp + 1, in.row_num_disp[j] + up - in.row_num_disp[j - 1] + 1,
+                        in.row_num_disp[j - 1] + down - in.row_num_disp[j] + 1});
+      }
+    }
+  }
   out->sum_.Reserve(cells);
   if (cells == 0) return;
   std::uint16_t* sum = out->sum_.data();
+  auto row_sum = [&](int j) { return sum + out->Index(0, j); };
   const EdgePenalties edge(in);
   // The horizontal paths: rows are independent.
   tbb::enumerable_thread_specific<RowScratch> scratch;
   tbb::parallel_for(0, in.num_rows, [&](int j) {
     RowScratch& s = scratch.local();
     s.Init(in.num_cols, in.num_disp);
-    HorizontalRow(in, edge, j, &s, sum);
+    HorizontalRow(in, edge, j, &s, row_sum(j));
   });
   // The vertical and diagonal paths, down then up: row after row, each row's columns in as
   // many chunks as the arena has threads.
   const int chunks = std::max(1, std::min(tbb::this_task_arena::max_concurrency(), in.num_cols / 64));
   VerticalRows rows;
   for (const bool down : {true, false}) {
-    rows.Init(in.num_cols, in.num_disp);
+    rows.Init(in.num_cols, in.num_disp, pad);
     int cur = 0;
     for (int jj = 0; jj < in.num_rows; ++jj) {
       const int j = down ? jj : in.num_rows - 1 - jj;
@@ -336,7 +368,7 @@ void SemiGlobalAggregate(const SgmInput& in, AggregatedCost* out) {
         const int end = static_cast<int>(static_cast<long>(in.num_cols) * (chunk + 1) / chunks);
         RowScratch& s = scratch.local();
         s.Init(in.num_cols, in.num_disp);
-        VerticalChunk(in, edge, j, down, jj == 0, cur, begin, end, s.cost.data(), &rows, sum);
+        VerticalChunk(in, edge, j, down, jj == 0, cur, begin, end, s.cost.data(), &rows, row_sum(j));
       };
       if (chunks == 1) {
         run(0);

@@ -31,7 +31,8 @@ void CensusTransform(const cv::Mat& image, int half_x, int half_y, const cv::Ran
 /// What SemiGlobalAggregate needs: census codes of both images on the full pixel grid, the
 /// sample grid it matches (partial subsampling: grid pixel (i, j) is image pixel
 /// (x0 + i step_x, y0 + j step_y)), and the disparities searched: reference pixel x matches
-/// target pixel x + d for d in [d_min, d_min + num_disp).
+/// target pixel x + d for d in [d_min, d_min + num_disp), or, with per-row bands, grid row j
+/// searches d_min + row_shift[j] + k for k in [0, row_num_disp[j]).
 struct SgmInput {
   const std::uint64_t* ref_census = nullptr;
   const std::uint64_t* tgt_census = nullptr;
@@ -47,6 +48,13 @@ struct SgmInput {
   const std::int16_t* ref_grey = nullptr;
   int edge_levels = 0;
   int num_paths = 8;       ///< 4 (horizontal and vertical) or 8 (and diagonals).
+  /// Per-row bands (num_rows entries each), or null: every row searches all num_disp. A path
+  /// from one row to the next carries each disparity it has in both rows; a disparity the
+  /// previous row did not search is reached from its neighbours (P1) or by a jump (P2).
+  const int* row_shift = nullptr;     ///< >= 0.
+  const int* row_num_disp = nullptr;  ///< In [1, num_disp].
+  int Shift(int j) const { return row_shift ? row_shift[j] : 0; }
+  int RowDisp(int j) const { return row_num_disp ? row_num_disp[j] : num_disp; }
 };
 
 /// A large array on 2 MiB pages where the kernel offers them (madvise), so that a fresh pair's
@@ -79,15 +87,18 @@ class AggregatedCost {
   int num_cols() const { return num_cols_; }
   int num_rows() const { return num_rows_; }
   int num_disp() const { return num_disp_; }
-  /// The num_disp sums of grid pixel (i, j).
+  /// The sums of grid pixel (i, j): SgmInput::RowDisp(j) of them.
   const std::uint16_t* sum(int i, int j) const { return &sum_[Index(i, j)]; }
 
  private:
   friend void SemiGlobalAggregate(const SgmInput& in, AggregatedCost* out);
   std::size_t Index(int i, int j) const {
-    return (static_cast<std::size_t>(j) * num_cols_ + i) * num_disp_;
+    return row_start_.empty() ? (static_cast<std::size_t>(j) * num_cols_ + i) * num_disp_
+                              : row_start_[j] + static_cast<std::size_t>(i) * row_disp_[j];
   }
   int num_cols_ = 0, num_rows_ = 0, num_disp_ = 0;
+  std::vector<std::size_t> row_start_;  // per-row bands: where row j's sums start
+  std::vector<int> row_disp_;
   LargeArray<std::uint16_t> sum_;
 };
 

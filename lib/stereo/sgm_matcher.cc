@@ -79,7 +79,28 @@ void MatchSemiGlobal(const NccOptions& options, const cv::Mat& left, const cv::M
   const int num_rows = grid_hi >= grid_lo ? (grid_hi - grid_lo) / dy + 1 : 0;
   const int x0 = flip ? (width - 1) % dx : 0;
   const int num_cols = (width - 1 - x0) / dx + 1;
-  const int n = options.max_disparity_px - options.min_disparity_px + 1;
+  // Per grid row: the first disparity searched and how many (per-row bands, or the one range).
+  std::vector<int> row_shift, row_n;
+  const bool banded = !options.row_disparity_px.empty() && num_rows > 0;
+  int d_min = options.min_disparity_px, n = options.max_disparity_px - options.min_disparity_px + 1;
+  if (banded) {
+    LN_CHECK_INPUT(static_cast<int>(options.row_disparity_px.size()) == height)
+        << "per-row disparity bands: " << options.row_disparity_px.size() << " bands for an image of " << height
+        << " rows";
+    row_shift.resize(num_rows);
+    row_n.resize(num_rows);
+    d_min = std::numeric_limits<int>::max();
+    for (int j = 0; j < num_rows; ++j) d_min = std::min(d_min, options.row_disparity_px[grid_lo + j * dy].first);
+    n = 1;
+    for (int j = 0; j < num_rows; ++j) {
+      const auto [lo, hi] = options.row_disparity_px[grid_lo + j * dy];
+      row_shift[j] = lo - d_min;
+      row_n[j] = hi - lo + 1;
+      n = std::max(n, row_n[j]);
+    }
+  }
+  auto row_d_min = [&](int j) { return banded ? d_min + row_shift[j] : d_min; };
+  auto row_num = [&](int j) { return banded ? row_n[j] : n; };
 
   SgmWorkspace& ws = ThreadSgmWorkspace();
   const cv::Range census_rows(num_rows > 0 ? grid_lo : 0, num_rows > 0 ? grid_hi + 1 : 0);
@@ -95,8 +116,12 @@ void MatchSemiGlobal(const NccOptions& options, const cv::Mat& left, const cv::M
   in.step_y = dy;
   in.num_cols = num_cols;
   in.num_rows = num_rows;
-  in.d_min = options.min_disparity_px;
+  in.d_min = d_min;
   in.num_disp = n;
+  if (banded) {
+    in.row_shift = row_shift.data();
+    in.row_num_disp = row_n.data();
+  }
   in.penalty_small = g.penalty_small;
   in.penalty_large = g.penalty_large;
   in.num_paths = g.num_paths;
@@ -137,10 +162,11 @@ void MatchSemiGlobal(const NccOptions& options, const cv::Mat& left, const cv::M
     int* tgt_k = tgt_best.ptr<int>(j);
     const float* m = mean.ptr<float>(y);
     const float* m2 = mean_sq.ptr<float>(y);
+    const int d_lo = row_d_min(j), nj = row_num(j);
     for (int i = 0; i < num_cols; ++i) {
       const int x = x0 + i * dx;
-      const int k_lo = std::clamp(-x - in.d_min, 0, n);
-      const int k_hi = std::clamp(width - x - in.d_min, k_lo, n) - 1;  // inclusive
+      const int k_lo = std::clamp(-x - d_lo, 0, nj);
+      const int k_hi = std::clamp(width - x - d_lo, k_lo, nj) - 1;  // inclusive
       if (k_hi < k_lo) {
         reason[i] = static_cast<std::uint8_t>(Rejection::kBorder);
         continue;
@@ -148,14 +174,14 @@ void MatchSemiGlobal(const NccOptions& options, const cv::Mat& left, const cv::M
       const std::uint16_t* s = ws.cost.sum(i, j);
       const int best = ArgMin(s, k_lo, k_hi);
       if (lr_check) {
-        const int shift = x + in.d_min;  // target column of index k: shift + k
+        const int shift = x + d_lo;  // target column of index k: shift + k
         TargetMinimum(s, k_lo, k_hi, tgt_cost.data() + shift, tgt_k + shift);
       }
       if (m2[x] - m[x] * m[x] < min_var) {
         reason[i] = static_cast<std::uint8_t>(Rejection::kLowTexture);
         continue;
       }
-      if (best == 0 || best == n - 1) {
+      if (best == 0 || best == nj - 1) {
         reason[i] = static_cast<std::uint8_t>(Rejection::kRangeEdge);
         continue;
       }
@@ -163,7 +189,7 @@ void MatchSemiGlobal(const NccOptions& options, const cv::Mat& left, const cv::M
         reason[i] = static_cast<std::uint8_t>(Rejection::kAmbiguous);
         continue;
       }
-      const int d_best = in.d_min + best;
+      const int d_best = d_lo + best;
       // The paper's C at the chosen disparity (in the images' own columns), over the whole
       // window at full resolution whatever the grid's steps (a window of 7 x 7 subsampled by
       // 5 x 4 would be a single pixel).
@@ -182,7 +208,7 @@ void MatchSemiGlobal(const NccOptions& options, const cv::Mat& left, const cv::M
         const double rise = std::max(a - b, e - b);
         if (rise > 0) offset = std::clamp(0.5 * (a - e) / rise, -0.5, 0.5);
       }
-      disp[i] = static_cast<float>(in.d_min + best + offset);
+      disp[i] = static_cast<float>(d_lo + best + offset);
     }
   });
   if (lr_check) {
@@ -190,11 +216,12 @@ void MatchSemiGlobal(const NccOptions& options, const cv::Mat& left, const cv::M
       const int* tgt_k = tgt_best.ptr<int>(j);
       auto* disp = grid_disp.ptr<float>(j);
       auto* reason = grid_reason.ptr<std::uint8_t>(j);
+      const int d_lo = row_d_min(j);
       for (int i = 0; i < num_cols; ++i) {
         if (reason[i] != static_cast<std::uint8_t>(Rejection::kAccepted)) continue;
         const int xt = static_cast<int>(std::lround(x0 + i + disp[i]));
         const bool ok = xt >= 0 && xt < width && tgt_k[xt] >= 0 &&
-                        std::abs(in.d_min + tgt_k[xt] - disp[i]) <= g.left_right_max_diff_px + 0.5f;
+                        std::abs(d_lo + tgt_k[xt] - disp[i]) <= g.left_right_max_diff_px + 0.5f;
         if (!ok) {
           reason[i] = static_cast<std::uint8_t>(Rejection::kLeftRightMismatch);
           disp[i] = nan;
@@ -205,8 +232,9 @@ void MatchSemiGlobal(const NccOptions& options, const cv::Mat& left, const cv::M
   if (options.border_tolerance_px >= 0) {
     // The census at the target is taken with replicated borders: a range is cut where x + d_max
     // leaves the image.
-    RejectMatchesBeyondTheBorder(x0, dx, width, options.max_disparity_px, options.border_tolerance_px, &grid_disp,
-                                 &grid_reason);
+    std::vector<int> reach(num_rows);
+    for (int j = 0; j < num_rows; ++j) reach[j] = row_d_min(j) + row_num(j) - 1;
+    RejectMatchesBeyondTheBorder(x0, dx, width, reach, options.border_tolerance_px, &grid_disp, &grid_reason);
   }
   MedianFilterDisparityGrid(options.median_size, &grid_disp, &grid_reason, /*reject_isolated=*/false);
   if (g.speckle_max_size_px > 0 && num_rows > 0) {
@@ -217,7 +245,7 @@ void MatchSemiGlobal(const NccOptions& options, const cv::Mat& left, const cv::M
       const float* d = grid_disp.ptr<float>(j);
       auto* f = fixed.ptr<std::int16_t>(j);
       for (int i = 0; i < num_cols; ++i) {
-        f[i] = std::isfinite(d[i]) ? cv::saturate_cast<std::int16_t>(std::lround(16.0 * (d[i] - in.d_min)))
+        f[i] = std::isfinite(d[i]) ? cv::saturate_cast<std::int16_t>(std::lround(16.0 * (d[i] - d_min)))
                                    : static_cast<std::int16_t>(kInvalid);
       }
     }

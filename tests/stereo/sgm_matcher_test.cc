@@ -238,13 +238,13 @@ TEST(BorderRule, BoundAdvancesFromTheFarthestMatch) {
   set(12, 5.0f);
   set(13, 2.0f);
   set(14, 5.0f);
-  EXPECT_EQ(RejectMatchesBeyondTheBorder(0, 1, 20, 10, 1.0, &d, &reason), 1);
+  EXPECT_EQ(RejectMatchesBeyondTheBorder(0, 1, 20, {10}, 1.0, &d, &reason), 1);
   EXPECT_EQ(reason.at<std::uint8_t>(0, 13), static_cast<int>(Rejection::kBeyondBorder));
   EXPECT_TRUE(std::isnan(d.at<float>(0, 13)));
   for (int x : {3, 8, 12, 14}) EXPECT_EQ(reason.at<std::uint8_t>(0, x), static_cast<int>(Rejection::kAccepted)) << x;
   // An uncut cell is never judged, whatever its match: cell 9 matching column 10.
   set(9, 1.0f);
-  EXPECT_EQ(RejectMatchesBeyondTheBorder(0, 1, 20, 10, 1.0, &d, &reason), 0);
+  EXPECT_EQ(RejectMatchesBeyondTheBorder(0, 1, 20, {10}, 1.0, &d, &reason), 0);
   EXPECT_EQ(reason.at<std::uint8_t>(0, 9), static_cast<int>(Rejection::kAccepted));
 }
 
@@ -384,8 +384,13 @@ TEST(CensusTransform, MatchesTheDefinitionWithReplicatedBorders) {
 // constant P2 and with the edge-aware one (P2 from the grey-level step along each path).
 TEST(SemiGlobalAggregate, MatchesABruteForceRecurrence) {
   for (const int edge_levels : {0, 16}) {
+  for (const bool banded : {false, true}) {
   SCOPED_TRACE(edge_levels);
+  SCOPED_TRACE(banded);
   const int w = 23, h = 9, n = 7;
+  // Per-row bands: row y searches d_min + shift[y] + k, k < width[y] (bands that move by up to
+  // 3 and change width, some rows sharing no disparity with the previous row).
+  const std::vector<int> shift = {0, 1, 1, 3, 0, 2, 5, 5, 1}, width = {7, 6, 3, 4, 7, 2, 1, 2, 6};
   cv::Mat ref(h, w, CV_8UC1), tgt(h, w, CV_8UC1);
   cv::randu(ref, 0, 256);
   cv::randu(tgt, 0, 256);
@@ -402,6 +407,12 @@ TEST(SemiGlobalAggregate, MatchesABruteForceRecurrence) {
   in.num_disp = n;
   in.penalty_small = 5;
   in.penalty_large = 40;
+  if (banded) {
+    in.row_shift = shift.data();
+    in.row_num_disp = width.data();
+  }
+  auto band_n = [&](int y) { return banded ? width[y] : n; };
+  auto band_lo = [&](int y) { return in.d_min + (banded ? shift[y] : 0); };
   cv::Mat grey;
   ref.convertTo(grey, CV_16S);
   in.ref_grey = grey.ptr<std::int16_t>();
@@ -413,41 +424,53 @@ TEST(SemiGlobalAggregate, MatchesABruteForceRecurrence) {
   };
   internal::AggregatedCost agg;
   internal::SemiGlobalAggregate(in, &agg);
-  auto cost = [&](int x, int y, int k) {
-    const int xt = std::clamp(x + in.d_min + k, 0, w - 1);  // outside: the nearest inside cost
+  // Everything by disparity d (the band's k-th is band_lo + k).
+  auto cost = [&](int x, int y, int d) {
+    // Outside: the nearest inside cost; no target of the band inside: kInvalidCensusCost.
+    const int first = x + band_lo(y), last = first + band_n(y) - 1;
+    if (last < 0 || first > w - 1) return internal::kInvalidCensusCost;
+    const int xt = std::clamp(x + d, std::max(first, 0), std::min(last, w - 1));
     return __builtin_popcountll(rc[y * w + x] ^ tc[y * w + xt]);
   };
+  auto in_band = [&](int y, int d) { return d >= band_lo(y) && d < band_lo(y) + band_n(y); };
   const int dirs[8][2] = {{1, 0}, {1, 1}, {0, 1}, {-1, 1}, {-1, 0}, {-1, -1}, {0, -1}, {1, -1}};
   std::vector<long> expected(static_cast<std::size_t>(w) * h * n, 0);
   for (const auto& dir : dirs) {
     // L along the direction (dx, dy): predecessor (x - dx, y - dy).
-    std::vector<long> L(static_cast<std::size_t>(w) * h * n, -1);
-    std::function<long(int, int, int)> path = [&](int x, int y, int k) -> long {
-      long& v = L[(static_cast<std::size_t>(y) * w + x) * n + k];
+    // L(x, y, d) for d in row y's band; a disparity the predecessor's row did not search is
+    // not a state of it.
+    const int span = 16;
+    std::vector<long> L(static_cast<std::size_t>(w) * h * span, -1);
+    std::function<long(int, int, int)> path = [&](int x, int y, int d) -> long {
+      long& v = L[(static_cast<std::size_t>(y) * w + x) * span + (d - in.d_min)];
       if (v >= 0) return v;
       const int px = x - dir[0], py = y - dir[1];
-      if (px < 0 || px >= w || py < 0 || py >= h) return v = cost(x, y, k);
+      if (px < 0 || px >= w || py < 0 || py >= h) return v = cost(x, y, d);
       long prev_min = LONG_MAX;
-      for (int q = 0; q < n; ++q) prev_min = std::min(prev_min, path(px, py, q));
-      long best = std::min(path(px, py, k), prev_min + p2_between(x, y, px, py));
-      if (k > 0) best = std::min(best, path(px, py, k - 1) + in.penalty_small);
-      if (k + 1 < n) best = std::min(best, path(px, py, k + 1) + in.penalty_small);
-      return v = cost(x, y, k) + best - prev_min;
+      for (int q = band_lo(py); q < band_lo(py) + band_n(py); ++q) prev_min = std::min(prev_min, path(px, py, q));
+      long best = prev_min + p2_between(x, y, px, py);
+      if (in_band(py, d)) best = std::min(best, path(px, py, d));
+      if (in_band(py, d - 1)) best = std::min(best, path(px, py, d - 1) + in.penalty_small);
+      if (in_band(py, d + 1)) best = std::min(best, path(px, py, d + 1) + in.penalty_small);
+      return v = cost(x, y, d) + best - prev_min;
     };
     for (int y = 0; y < h; ++y) {
       for (int x = 0; x < w; ++x) {
-        for (int k = 0; k < n; ++k) expected[(static_cast<std::size_t>(y) * w + x) * n + k] += path(x, y, k);
+        for (int k = 0; k < band_n(y); ++k) {
+          expected[(static_cast<std::size_t>(y) * w + x) * n + k] += path(x, y, band_lo(y) + k);
+        }
       }
     }
   }
   for (int y = 0; y < h; ++y) {
     for (int x = 0; x < w; ++x) {
       const std::uint16_t* got = agg.sum(x, y);
-      for (int k = 0; k < n; ++k) {
+      for (int k = 0; k < band_n(y); ++k) {
         ASSERT_EQ(static_cast<long>(got[k]), expected[(static_cast<std::size_t>(y) * w + x) * n + k])
             << x << "," << y << " k " << k;
       }
     }
+  }
   }
 }
 }
