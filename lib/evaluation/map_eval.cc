@@ -59,10 +59,14 @@ void MapEvalOptions::Validate() const {
   LN_CHECK_ARG(min_points >= 1) << "min points: must be >= 1";
   LN_CHECK_ARG(std::isfinite(rock_height_m) && rock_height_m >= 0) << "rock height: must be >= 0 m";
   LN_CHECK_ARG(tolerance_cells >= 0 && tolerance_cells <= 10) << "tolerance: must be in 0..10 cells";
+  LN_CHECK_ARG(std::isfinite(large_error_m) && large_error_m > 0) << "large error: must be > 0 m";
 }
 
 json MapEvalOptions::ToJson() const {
-  return {{"min_points", min_points}, {"rock_height_m", rock_height_m}, {"tolerance_cells", tolerance_cells}};
+  return {{"min_points", min_points},
+          {"rock_height_m", rock_height_m},
+          {"tolerance_cells", tolerance_cells},
+          {"large_error_m", large_error_m}};
 }
 
 std::vector<TrueRock> ReadRocksCsv(const fs::path& path) {
@@ -140,6 +144,7 @@ MapEvalResult EvaluateMap(const io::GeoRaster& map, const io::GeoRaster& truth, 
     double sum = 0, sum2 = 0;
     std::vector<double> abs_err;
     for (double e : errors) {
+      r.cells_large_error += std::abs(e) > o.large_error_m;
       sum += e;
       sum2 += e * e;
       abs_err.push_back(std::abs(e));
@@ -222,6 +227,7 @@ json MapEvalResult::ToJson() const {
           {"elevation_mean_abs_m", Number(mean_abs_m)},
           {"elevation_p90_abs_m", Number(p90_abs_m)},
           {"elevation_max_abs_m", Number(max_abs_m)},
+          {"cells_large_error", cells_large_error},
           {"cells_seen", cells_seen},
           {"cells_seen_mapped", cells_seen_mapped},
           {"coverage", Number(coverage)},

@@ -22,6 +22,9 @@ struct MapEvalOptions {
   double rock_height_m = 0.2;
   /// A detection within this many cells of a true obstacle cell (or a rock's footprint) counts, >= 0.
   int tolerance_cells = 1;
+  /// A compared cell farther than this from the truth is counted as a large error, metres
+  /// (a phantom cliff or pit for a planner).
+  double large_error_m = 0.30;
   void Validate() const;
   nlohmann::json ToJson() const;
 };
@@ -36,6 +39,7 @@ std::vector<TrueRock> ReadRocksCsv(const std::filesystem::path& path);
 struct MapEvalResult {
   long cells_compared = 0;  ///< Mapped with >= min_points and inside the truth.
   double rmse_m = 0, bias_m = 0, mean_abs_m = 0, p90_abs_m = 0, max_abs_m = 0;
+  long cells_large_error = 0;  ///< Compared cells more than large_error_m from the truth.
   long cells_seen = 0, cells_seen_mapped = 0;
   double coverage = 0;  ///< cells_seen_mapped / cells_seen.
   long obstacle_map = 0, obstacle_true = 0;  ///< Obstacle cells among the compared cells.
