@@ -346,7 +346,7 @@ StereoSimSummary RunStereoSimulation(const StereoSimOptions& options, const fs::
     util::Timer truth_timer;
     arena.execute([&] {
       io::WriteGeoTiffAtomic(output_dir / "truth" / "terrain.tif",
-                             TerrainTruthRaster(scene->terrain(), options.truth_cell_m, mapping::ObstacleOptions()));
+                             TerrainTruthRaster(scene->terrain(), options.truth_cell_m, TrueObstacleOptions()));
     });
     io::WriteFileAtomic(output_dir / "truth" / "rocks.csv", RocksCsv(scene->terrain()));
     LN_LOG(Info) << "truth: terrain.tif (" << options.truth_cell_m << " m cells) and rocks.csv ("

@@ -2,12 +2,18 @@
 
 #include <cmath>
 
-#include "mapping/frame_poses.h"
-
 namespace lunarnav::sim {
 
 Eigen::Isometry3d VehiclePose::WorldFromVehicle() const {
-  return mapping::WorldFromVehicle(x_m, y_m, z_m, heading_rad, pitch_rad, roll_rad);  // the one convention
+  // Written here from the convention (vehicle_pose.h), not taken from the mapping module, so
+  // that a change on either side shows up as a disagreement (tests/sim/terrain_truth_test.cc).
+  Eigen::Isometry3d t = Eigen::Isometry3d::Identity();
+  t.linear() = (Eigen::AngleAxisd(-heading_rad, Eigen::Vector3d::UnitZ()) *
+                Eigen::AngleAxisd(pitch_rad, Eigen::Vector3d::UnitX()) *
+                Eigen::AngleAxisd(roll_rad, Eigen::Vector3d::UnitY()))
+                   .toRotationMatrix();
+  t.translation() = Eigen::Vector3d(x_m, y_m, z_m);
+  return t;
 }
 
 nlohmann::json VehiclePose::ToJson() const {
