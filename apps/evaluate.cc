@@ -5,6 +5,7 @@
 #include <functional>
 #include <memory>
 #include <string>
+#include <tuple>
 #include <vector>
 
 #include "evaluation/boxes_eval.h"
@@ -19,6 +20,7 @@
 #include "util/cli.h"
 #include "util/errors.h"
 #include "util/log.h"
+#include "util/parse.h"
 #include "util/run_main.h"
 #include "util/summary.h"
 
@@ -185,6 +187,7 @@ Subcommand AddMap(CLI::App* app) {
   struct MapArgs {
     std::filesystem::path map, truth, output_dir;
     evaluation::MapEvalOptions options;
+    std::string seen_y = "2:10";
     int threads = 0;
   };
   auto c = std::make_shared<MapArgs>();
@@ -199,9 +202,16 @@ Subcommand AddMap(CLI::App* app) {
       ->capture_default_str();
   cmd->add_option("--tolerance", c->options.tolerance_cells, "detections this many cells away count")
       ->capture_default_str();
+  cmd->add_option("--large-error", c->options.large_error_m, "a cell farther than this from the truth is counted, m")
+      ->capture_default_str();
+  cmd->add_option("--seen-y", c->seen_y,
+                  "the ground scored for coverage and recall: true points both cameras see MIN:MAX m ahead")
+      ->capture_default_str();
   cmd->add_option("-j,--threads", c->threads, "threads (0 = all cores)")->capture_default_str();
   cmd->add_option("-o,--output", c->output_dir, "output directory (created)")->required();
   return {cmd, [c](const json& head) {
+            std::tie(c->options.seen_min_y_m, c->options.seen_max_y_m) =
+                util::ParseDoublePair(c->seen_y, ':', "--seen-y");
             const evaluation::MapEvalResult r = evaluation::RunMapEvaluation(
                 c->map, c->truth, c->options, c->output_dir, c->threads, head.at("invocation"));
             LN_LOG(Info) << "evaluate map: " << r.BriefReport() << "; " << (c->output_dir / "map.md").string();

@@ -2,15 +2,17 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdint>
 #include <fstream>
 #include <mutex>
 #include <sstream>
 
 #include "io/atomic_file.h"
 #include "io/float_array_io.h"
+#include "io/image_io.h"
 #include "io/json_io.h"
 #include "mapping/frame_poses.h"
-#include "mapping/terrain_grid.h"
+#include "sim/vehicle_pose.h"
 #include "util/check.h"
 #include "util/errors.h"
 #include "util/parallel.h"
@@ -60,13 +62,16 @@ void MapEvalOptions::Validate() const {
   LN_CHECK_ARG(std::isfinite(rock_height_m) && rock_height_m >= 0) << "rock height: must be >= 0 m";
   LN_CHECK_ARG(tolerance_cells >= 0 && tolerance_cells <= 10) << "tolerance: must be in 0..10 cells";
   LN_CHECK_ARG(std::isfinite(large_error_m) && large_error_m > 0) << "large error: must be > 0 m";
+  LN_CHECK_ARG(std::isfinite(seen_min_y_m) && std::isfinite(seen_max_y_m) && seen_min_y_m < seen_max_y_m)
+      << "seen range: need finite MIN < MAX, got " << seen_min_y_m << ":" << seen_max_y_m << " m";
 }
 
 json MapEvalOptions::ToJson() const {
   return {{"min_points", min_points},
           {"rock_height_m", rock_height_m},
           {"tolerance_cells", tolerance_cells},
-          {"large_error_m", large_error_m}};
+          {"large_error_m", large_error_m},
+          {"seen_y_m", {seen_min_y_m, seen_max_y_m}}};
 }
 
 std::vector<TrueRock> ReadRocksCsv(const fs::path& path) {
@@ -127,16 +132,16 @@ MapEvalResult EvaluateMap(const io::GeoRaster& map, const io::GeoRaster& truth, 
     return compared(col, row) && obstacle.at<float>(row, col) > 0;
   };
   auto true_obstacle_at = [&](int col, int row) { return At(true_obstacle, col - tc, row - tr) > 0; };
+  // The elevation error over the compared cells; precision over the map's obstacle cells.
   std::vector<double> errors;
   for (int row = 0; row < elevation.rows; ++row) {
     for (int col = 0; col < elevation.cols; ++col) {
       if (!compared(col, row)) continue;
       errors.push_back(elevation.at<float>(row, col) - At(true_elevation, col - tc, row - tr));
-      const bool is_map = obstacle.at<float>(row, col) > 0, is_true = true_obstacle_at(col, row);
-      r.obstacle_map += is_map;
-      r.obstacle_true += is_true;
-      if (is_map) (any_near(col, row, tol, true_obstacle_at) ? r.obstacle_tp : r.obstacle_fp)++;
-      if (is_true && any_near(col, row, tol, map_obstacle)) ++r.obstacle_found;
+      if (obstacle.at<float>(row, col) > 0) {
+        ++r.obstacle_map;
+        (any_near(col, row, tol, true_obstacle_at) ? r.obstacle_tp : r.obstacle_fp)++;
+      }
     }
   }
   r.cells_compared = static_cast<long>(errors.size());
@@ -162,24 +167,32 @@ MapEvalResult EvaluateMap(const io::GeoRaster& map, const io::GeoRaster& truth, 
     r.bias_m = r.rmse_m = r.mean_abs_m = r.p90_abs_m = r.max_abs_m = kNaN;
   }
   r.precision = Ratio(r.obstacle_tp, r.obstacle_map);
-  r.recall = Ratio(r.obstacle_found, r.obstacle_true);
 
-  // Coverage of the ground seen.
+  // The ground seen (in map coordinates: seen cell (col, row) is map cell (col + sc, row + sr)):
+  // coverage and the recall of true obstacles, the cells the map left empty included.
+  auto seen_at = [&](int col, int row) { return At(rays, col - sc, row - sr) >= o.min_points; };
   for (int row = 0; row < rays.rows; ++row) {
     for (int col = 0; col < rays.cols; ++col) {
       if (!(rays.at<float>(row, col) >= o.min_points)) continue;
+      const int mc = col + sc, mr = row + sr;
+      if (!std::isfinite(At(true_elevation, mc - tc, mr - tr))) continue;  // outside the truth
       ++r.cells_seen;
-      r.cells_seen_mapped += At(count, col + sc, row + sr) >= 1;
+      r.cells_seen_mapped += At(count, mc, mr) >= o.min_points;
+      if (true_obstacle_at(mc, mr)) {
+        ++r.obstacle_true;
+        r.obstacle_found += any_near(mc, mr, tol, map_obstacle);
+      }
     }
   }
   r.coverage = Ratio(r.cells_seen_mapped, r.cells_seen);
+  r.recall = Ratio(r.obstacle_found, r.obstacle_true);
 
-  // Rocks above the limit whose centre cell was compared.
+  // Rocks above the limit whose centre cell was seen, mapped or not.
   for (const TrueRock& rock : rocks) {
     if (rock.height_m <= o.rock_height_m) continue;
     const int col = static_cast<int>(std::floor((rock.x_m - map.x_west_m) / map.cell_m));
     const int row = static_cast<int>(std::floor((map.y_north_m - rock.y_m) / map.cell_m));
-    if (!compared(col, row)) continue;
+    if (!seen_at(col, row)) continue;
     ++r.rocks;
     const int radius = static_cast<int>(std::ceil(rock.semi_major_m / map.cell_m)) + tol;
     r.rocks_found += any_near(col, row, radius, map_obstacle);
@@ -189,33 +202,73 @@ MapEvalResult EvaluateMap(const io::GeoRaster& map, const io::GeoRaster& truth, 
 }
 
 io::GeoRaster TrueRayCounts(const fs::path& sim_dir, const std::vector<std::string>& stems, double cell_m,
-                            int num_threads) {
+                            const MapEvalOptions& options, int num_threads) {
   const fs::path poses_path = sim_dir / "truth" / "poses.csv";
   const auto poses = mapping::IndexByStem(mapping::ReadPosesCsv(poses_path));
-  mapping::TerrainMapOptions o;
-  o.cell_m = cell_m;
-  o.gate_k = std::numeric_limits<double>::infinity();
-  mapping::TerrainGrid grid(cell_m);
-  std::mutex mutex;
   for (const std::string& stem : stems) {
     LN_CHECK_INPUT(poses.count(stem) > 0) << "stem " << stem << ": no pose in " << poses_path.string();
   }
+  // Per frame, the world cells (i, j) = floor(x / cell), floor(y / cell) of its points.
+  std::vector<std::vector<std::pair<std::int64_t, std::int64_t>>> cells(stems.size());
   util::ParallelForEachItem(stems.size(), num_threads, [&](std::size_t k) {
-    const mapping::FramePose& pose = poses.at(stems[k]);
-    const io::ExrImage xyz = io::ReadExr(sim_dir / "truth" / "xyz" / (stems[k] + ".exr"));
-    LN_CHECK_INPUT(xyz.pixels.type() == CV_32FC3) << "stem " << stems[k] << ": truth XYZ is not 3 channels";
-    const mapping::FrameContribution part = mapping::BinFrame(xyz.pixels, cv::Mat(), pose.WorldFromVehicle(), pose.t_s, o);
-    const std::lock_guard<std::mutex> lock(mutex);
-    grid.Add(part);
+    const mapping::FramePose& p = poses.at(stems[k]);
+    sim::VehiclePose pose;  // the simulator's convention, with which it wrote the truth
+    pose.x_m = p.x_m;
+    pose.y_m = p.y_m;
+    pose.z_m = p.z_m;
+    pose.heading_rad = p.heading_rad;
+    pose.pitch_rad = p.pitch_rad;
+    pose.roll_rad = p.roll_rad;
+    const Eigen::Isometry3d world_from_vehicle = pose.WorldFromVehicle();
+    const fs::path xyz_path = sim_dir / "truth" / "xyz" / (stems[k] + ".exr");
+    const fs::path disparity_path = sim_dir / "truth" / "disparity" / (stems[k] + ".pfm");
+    const io::ExrImage xyz = io::ReadExr(xyz_path);
+    LN_CHECK_INPUT(xyz.pixels.type() == CV_32FC3) << xyz_path.string() << ": truth XYZ is not 3 channels";
+    const cv::Mat disparity = io::ReadPfm(disparity_path);
+    LN_CHECK_INPUT(disparity.size() == xyz.pixels.size())
+        << disparity_path.string() << ": not the size of " << xyz_path.string();
+    auto& out = cells[k];
+    for (int y = 0; y < xyz.pixels.rows; ++y) {
+      const auto* v = xyz.pixels.ptr<cv::Vec3f>(y);
+      const auto* d = disparity.ptr<float>(y);
+      for (int x = 0; x < xyz.pixels.cols; ++x) {
+        // Both cameras see it (a finite true disparity), within the range ahead.
+        if (!std::isfinite(d[x]) || !std::isfinite(v[x][1])) continue;
+        if (v[x][1] < options.seen_min_y_m || v[x][1] > options.seen_max_y_m) continue;
+        const Eigen::Vector3d w = world_from_vehicle * Eigen::Vector3d(v[x][0], v[x][1], v[x][2]);
+        out.emplace_back(static_cast<std::int64_t>(std::floor(w.x() / cell_m)),
+                         static_cast<std::int64_t>(std::floor(w.y() / cell_m)));
+      }
+    }
   });
-  const mapping::MapLayers layers = mapping::ComputeLayers(grid, mapping::ObstacleOptions());
+  std::int64_t i_lo = 0, i_hi = -1, j_lo = 0, j_hi = -1;
+  bool any = false;
+  for (const auto& frame : cells) {
+    for (const auto& [i, j] : frame) {
+      if (!any) {
+        i_lo = i_hi = i;
+        j_lo = j_hi = j;
+        any = true;
+      }
+      i_lo = std::min(i_lo, i);
+      i_hi = std::max(i_hi, i);
+      j_lo = std::min(j_lo, j);
+      j_hi = std::max(j_hi, j);
+    }
+  }
+  LN_CHECK_INPUT(!any || (i_hi - i_lo < 100000 && j_hi - j_lo < 100000))
+      << sim_dir.string() << ": the true points span more than 100000 cells";
   io::GeoRaster r;
-  r.x_west_m = layers.x_west_m;
-  r.y_north_m = layers.y_north_m;
   r.cell_m = cell_m;
+  r.x_west_m = static_cast<double>(i_lo) * cell_m;
+  r.y_north_m = static_cast<double>(j_hi + 1) * cell_m;
   io::RasterBand band;
   band.description = "count";
-  band.pixels = layers.count.empty() ? cv::Mat(1, 1, CV_32FC1, cv::Scalar(0)) : layers.count;
+  band.pixels = cv::Mat(any ? static_cast<int>(j_hi - j_lo + 1) : 1, any ? static_cast<int>(i_hi - i_lo + 1) : 1,
+                        CV_32FC1, cv::Scalar(0));
+  for (const auto& frame : cells) {
+    for (const auto& [i, j] : frame) band.pixels.at<float>(static_cast<int>(j_hi - j), static_cast<int>(i - i_lo)) += 1;
+  }
   r.bands.push_back(std::move(band));
   return r;
 }
@@ -282,7 +335,7 @@ MapEvalResult RunMapEvaluation(const fs::path& map_dir, const fs::path& sim_dir,
   const std::vector<TrueRock> rocks = ReadRocksCsv(sim_dir / "truth" / "rocks.csv");
   std::vector<std::string> stems;
   for (const mapping::FramePose& p : mapping::ReadPosesCsv(map_dir / "frames.csv")) stems.push_back(p.stem);
-  const io::GeoRaster seen = TrueRayCounts(sim_dir, stems, map.cell_m, num_threads);
+  const io::GeoRaster seen = TrueRayCounts(sim_dir, stems, map.cell_m, options, num_threads);
   const MapEvalResult result = EvaluateMap(map, truth, seen, rocks, options);
 
   io::CreateOutputDirectory(output_dir);

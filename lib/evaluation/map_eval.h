@@ -25,6 +25,9 @@ struct MapEvalOptions {
   /// A compared cell farther than this from the truth is counted as a large error, metres
   /// (a phantom cliff or pit for a planner).
   double large_error_m = 0.30;
+  /// The ground scored for coverage, obstacle and rock recall: the true points both cameras
+  /// saw (a finite true disparity) this far ahead of the vehicle (vehicle-frame Y), metres.
+  double seen_min_y_m = 2.0, seen_max_y_m = 10.0;
   void Validate() const;
   nlohmann::json ToJson() const;
 };
@@ -41,11 +44,13 @@ struct MapEvalResult {
   double rmse_m = 0, bias_m = 0, mean_abs_m = 0, p90_abs_m = 0, max_abs_m = 0;
   long cells_large_error = 0;  ///< Compared cells more than large_error_m from the truth.
   long cells_seen = 0, cells_seen_mapped = 0;
-  double coverage = 0;  ///< cells_seen_mapped / cells_seen.
-  long obstacle_map = 0, obstacle_true = 0;  ///< Obstacle cells among the compared cells.
+  double coverage = 0;  ///< cells_seen_mapped (>= min_points) / cells_seen.
+  /// obstacle_map: the map's obstacle cells (compared cells); obstacle_true: the true obstacle
+  /// cells of the ground seen, mapped or not (an unmapped one is a missed one).
+  long obstacle_map = 0, obstacle_true = 0;
   long obstacle_tp = 0, obstacle_fp = 0, obstacle_found = 0;
   double precision = 0, recall = 0;  ///< NaN when undefined.
-  long rocks = 0, rocks_found = 0;   ///< Rocks above rock_height_m whose centre cell is compared.
+  long rocks = 0, rocks_found = 0;   ///< Rocks above rock_height_m whose centre cell was seen.
   double rock_recall = 0;
   nlohmann::json ToJson() const;
   Table ToTable() const;
@@ -54,16 +59,21 @@ struct MapEvalResult {
 
 /// Scores `map` (terrain-map's layers) against `truth` (truth/terrain.tif: elevation_m and
 /// obstacle on the same lattice), `seen` (a count raster of the true rays per cell, the
-/// same lattice: TrueRayCounts) and the rocks.
+/// same lattice: TrueRayCounts) and the rocks. The elevation error is over the compared cells
+/// (the map's, with >= min_points, inside the truth); coverage, obstacle recall and rock
+/// recall are over the ground seen (>= min_points true rays), where a cell the map left empty
+/// counts against them; precision is over the map's obstacle cells.
 /// @throws InputError when the lattices differ (cell size or origin off each other's lattice).
 MapEvalResult EvaluateMap(const io::GeoRaster& map, const io::GeoRaster& truth, const io::GeoRaster& seen,
                           const std::vector<TrueRock>& rocks, const MapEvalOptions& options);
 
-/// The cells the cameras saw: the true surface points of the listed frames
-/// (sim_dir/truth/xyz/<stem>.exr placed by sim_dir/truth/poses.csv) counted per cell of
-/// `cell_m`, as a one-band raster ("count").
+/// The cells the cameras saw: the true surface points of the listed frames that both
+/// cameras see (sim_dir/truth/disparity/<stem>.pfm finite) between seen_min_y_m and
+/// seen_max_y_m ahead (sim_dir/truth/xyz/<stem>.exr, vehicle frame, placed by
+/// sim_dir/truth/poses.csv with the simulator's pose convention), counted per world-anchored
+/// cell of `cell_m`, as a one-band raster ("count"). Code of its own: not the mapper's binning.
 io::GeoRaster TrueRayCounts(const std::filesystem::path& sim_dir, const std::vector<std::string>& stems,
-                            double cell_m, int num_threads);
+                            double cell_m, const MapEvalOptions& options, int num_threads);
 
 /// `evaluate map`: reads MAP_DIR/elevation.tif and frames.csv and the simulated run's truth,
 /// writes OUT_DIR/map.{csv,json,md} and summary.json. Returns the result.

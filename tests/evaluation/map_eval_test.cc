@@ -1,0 +1,135 @@
+// EvaluateMap on small hand-made maps, truths and seen grounds: every score counts what it
+// claims, the cells the map left empty included.
+#include "evaluation/map_eval.h"
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <limits>
+#include <string>
+#include <vector>
+
+#include "util/errors.h"
+
+namespace lunarnav::evaluation {
+namespace {
+
+constexpr float kNaN = std::numeric_limits<float>::quiet_NaN();
+
+io::GeoRaster Raster(double x_west, double y_north, const std::vector<std::pair<std::string, cv::Mat>>& bands) {
+  io::GeoRaster r;
+  r.x_west_m = x_west;
+  r.y_north_m = y_north;
+  r.cell_m = 0.25;
+  for (const auto& [name, pixels] : bands) {
+    io::RasterBand b;
+    b.description = name;
+    b.pixels = pixels.clone();
+    r.bands.push_back(std::move(b));
+  }
+  return r;
+}
+
+// A 10 x 10-cell flat truth at z = 0 with one true obstacle cell (a rock at cell (6, 4)), the
+// ground seen over all of it, and a map that holds every cell with 5 points at the truth.
+struct Scene {
+  cv::Mat truth_z = cv::Mat(10, 10, CV_32FC1, cv::Scalar(0));
+  cv::Mat truth_obstacle = cv::Mat(10, 10, CV_32FC1, cv::Scalar(0));
+  cv::Mat seen = cv::Mat(10, 10, CV_32FC1, cv::Scalar(20));
+  cv::Mat z = cv::Mat(10, 10, CV_32FC1, cv::Scalar(0));
+  cv::Mat count = cv::Mat(10, 10, CV_32FC1, cv::Scalar(5));
+  cv::Mat obstacle = cv::Mat(10, 10, CV_32FC1, cv::Scalar(0));
+  std::vector<TrueRock> rocks;
+  Scene() {
+    truth_obstacle.at<float>(4, 6) = 1;
+    obstacle.at<float>(4, 6) = 1;
+    TrueRock rock;
+    rock.x_m = 6.5 * 0.25;  // the centre of column 6
+    rock.y_m = 2.5 - 4.5 * 0.25;  // of row 4 (north edge at 2.5 m)
+    rock.height_m = 0.3;
+    rock.semi_major_m = 0.1;
+    rocks.push_back(rock);
+  }
+  MapEvalResult Evaluate() const {
+    const io::GeoRaster map = Raster(0, 2.5, {{"elevation_m", z}, {"count", count}, {"obstacle", obstacle}});
+    const io::GeoRaster truth = Raster(0, 2.5, {{"elevation_m", truth_z}, {"obstacle", truth_obstacle}});
+    const io::GeoRaster seen_raster = Raster(0, 2.5, {{"count", seen}});
+    return EvaluateMap(map, truth, seen_raster, rocks, MapEvalOptions{});
+  }
+};
+
+TEST(EvaluateMap, APerfectMapScoresPerfectly) {
+  const MapEvalResult r = Scene().Evaluate();
+  EXPECT_EQ(r.cells_compared, 100);
+  EXPECT_EQ(r.rmse_m, 0);
+  EXPECT_EQ(r.max_abs_m, 0);
+  EXPECT_EQ(r.cells_large_error, 0);
+  EXPECT_EQ(r.coverage, 1.0);
+  EXPECT_EQ(r.precision, 1.0);
+  EXPECT_EQ(r.recall, 1.0);
+  EXPECT_EQ(r.rocks, 1);
+  EXPECT_EQ(r.rocks_found, 1);
+}
+
+TEST(EvaluateMap, AMissedRockLowersRecallEvenWhereTheMapIsEmpty) {
+  Scene s;
+  // The map holds nothing around the rock: before, a cell the map did not fill was not scored,
+  // so the miss went unnoticed; now it counts against coverage, obstacle and rock recall.
+  for (int row = 3; row <= 5; ++row) {
+    for (int col = 5; col <= 7; ++col) {
+      s.count.at<float>(row, col) = 0;
+      s.z.at<float>(row, col) = kNaN;
+      s.obstacle.at<float>(row, col) = kNaN;
+    }
+  }
+  const MapEvalResult r = s.Evaluate();
+  EXPECT_EQ(r.cells_compared, 91);
+  EXPECT_NEAR(r.coverage, 91.0 / 100, 1e-12);
+  EXPECT_EQ(r.obstacle_true, 1);
+  EXPECT_EQ(r.recall, 0.0);
+  EXPECT_EQ(r.rocks, 1);
+  EXPECT_EQ(r.rocks_found, 0);
+  EXPECT_EQ(r.rock_recall, 0.0);
+  EXPECT_TRUE(std::isnan(r.precision));  // no obstacle mapped
+}
+
+TEST(EvaluateMap, APhantomCellRaisesTheLargestErrorAndIsCounted) {
+  Scene s;
+  s.z.at<float>(8, 2) = -3.0f;  // three metres below the ground
+  s.z.at<float>(1, 1) = 0.1f;
+  const MapEvalResult r = s.Evaluate();
+  EXPECT_FLOAT_EQ(static_cast<float>(r.max_abs_m), 3.0f);
+  EXPECT_EQ(r.cells_large_error, 1);
+  EXPECT_NEAR(r.rmse_m, std::sqrt((9.0 + 0.01) / 100), 1e-6);
+  // A false obstacle lowers precision, not recall.
+  s.obstacle.at<float>(8, 2) = 1;
+  const MapEvalResult f = s.Evaluate();
+  EXPECT_EQ(f.obstacle_map, 2);
+  EXPECT_EQ(f.obstacle_fp, 1);
+  EXPECT_EQ(f.precision, 0.5);
+  EXPECT_EQ(f.recall, 1.0);
+}
+
+TEST(EvaluateMap, OnlyTheGroundSeenIsScoredForCoverage) {
+  Scene s;
+  // The cameras saw the western half only; the map's eastern half is no coverage gain, and
+  // an unmapped western cell is a loss.
+  s.seen.colRange(5, 10).setTo(0);
+  s.count.at<float>(0, 0) = 1;  // below min_points: not covered
+  const MapEvalResult r = s.Evaluate();
+  EXPECT_EQ(r.cells_seen, 50);
+  EXPECT_EQ(r.cells_seen_mapped, 49);
+  EXPECT_EQ(r.obstacle_true, 0);  // the rock's cell was not seen
+  EXPECT_EQ(r.rocks, 0);
+}
+
+TEST(EvaluateMap, RefusesRastersOffTheLattice) {
+  Scene s;
+  const io::GeoRaster map = Raster(0.1, 2.5, {{"elevation_m", s.z}, {"count", s.count}, {"obstacle", s.obstacle}});
+  const io::GeoRaster truth = Raster(0, 2.5, {{"elevation_m", s.truth_z}, {"obstacle", s.truth_obstacle}});
+  const io::GeoRaster seen = Raster(0, 2.5, {{"count", s.seen}});
+  EXPECT_THROW(EvaluateMap(map, truth, seen, s.rocks, MapEvalOptions{}), InputError);
+}
+
+}  // namespace
+}  // namespace lunarnav::evaluation
