@@ -57,20 +57,83 @@ std::string FramesCsv(const std::vector<FusedFrame>& frames) {
   return s;
 }
 
-// A map directory written by an earlier run: its grid and frames.
+// The frames of a map at full precision, with their counts: state.tif's metadata, so that the
+// sums and the list of what they hold are committed by one rename.
+json FramesJson(const std::vector<FusedFrame>& frames) {
+  json a = json::array();
+  for (const FusedFrame& f : frames) {
+    const FramePose& p = f.pose;
+    a.push_back({p.stem, p.t_s, p.x_m, p.y_m, p.z_m, p.heading_rad, p.pitch_rad, p.roll_rad, f.points_fused,
+                 f.points_rejected});
+  }
+  return a;
+}
+
+// What a map's sums depend on besides its frames: a map fused with other values cannot be
+// continued or merged into this one.
+json FusionJson(const TerrainMapRunOptions& options, const std::string& errors) {
+  const TerrainMapOptions& mo = options.map;
+  auto number = [](double v) { return std::isfinite(v) ? json(v) : json("inf"); };
+  return {{"cell_m", mo.cell_m},
+          {"gate_k", number(mo.gate_k)},
+          {"gate_floor_m", mo.gate_floor_m},
+          {"gate_min_points", mo.gate_min_points},
+          {"max_range_m", number(mo.max_range_m)},
+          {"errors", errors}};
+}
+
+// A map directory written by an earlier run: its grid, frames and fusion record.
 struct StoredMap {
   TerrainGrid grid{1.0};
   std::vector<FusedFrame> frames;
+  json fusion = json::object();
 };
 
-StoredMap ReadStoredMap(const fs::path& dir, double cell_m) {
+// Reads DIR's state.tif (the sums, the frames and the fusion values it was made with; maps of
+// earlier versions list their frames in frames.csv only). `fusion`: this run's; a stored map
+// made with other values is refused naming the first that differs (exit 2).
+StoredMap ReadStoredMap(const fs::path& dir, const json& fusion) {
   const fs::path state = dir / "state.tif", frames_csv = dir / "frames.csv";
-  LN_CHECK_INPUT(fs::is_regular_file(state) && fs::is_regular_file(frames_csv))
-      << dir.string() << ": not a terrain-map output (state.tif and frames.csv needed)";
-  StoredMap m{TerrainGrid::FromStateRaster(io::ReadGeoTiff(state), state.string()), {}};
-  LN_CHECK_INPUT(std::abs(m.grid.cell_m() - cell_m) <= 1e-9 * cell_m)
+  LN_CHECK_INPUT(fs::is_regular_file(state))
+      << dir.string() << ": not a terrain-map output (state.tif needed)";
+  const io::GeoRaster raster = io::ReadGeoTiff(state);
+  StoredMap m{TerrainGrid::FromStateRaster(raster, state.string()), {}};
+  const double cell_m = fusion.at("cell_m").get<double>();
+  LN_CHECK_ARG(std::abs(m.grid.cell_m() - cell_m) <= 1e-9 * cell_m)
       << state.string() << ": cell " << m.grid.cell_m() << " m, this run's is " << cell_m << " m";
-  for (const FramePose& p : ReadPosesCsv(frames_csv)) m.frames.push_back({p, 0, 0});
+  const auto frames_item = raster.metadata.find("lunarnav_frames");
+  if (frames_item == raster.metadata.end()) {
+    LN_CHECK_INPUT(fs::is_regular_file(frames_csv))
+        << dir.string() << ": not a terrain-map output (state.tif lists no frames and there is no frames.csv)";
+    for (const FramePose& p : ReadPosesCsv(frames_csv)) m.frames.push_back({p, 0, 0});
+    return m;
+  }
+  const auto fusion_item = raster.metadata.find("lunarnav_fusion");
+  try {
+    const json stored = json::parse(fusion_item == raster.metadata.end() ? std::string("{}") : fusion_item->second);
+    m.fusion = stored;
+    for (const auto& [key, value] : fusion.items()) {
+      LN_CHECK_ARG(stored.contains(key) && stored.at(key) == value)
+          << state.string() << ": made with " << key << " " << (stored.contains(key) ? stored.at(key).dump() : "(not recorded)")
+          << ", this run's is " << value.dump() << "; a map can only be continued or merged with the same fusion";
+    }
+    for (const json& f : json::parse(frames_item->second)) {
+      FusedFrame frame;
+      frame.pose.stem = f.at(0).get<std::string>();
+      frame.pose.t_s = f.at(1).get<double>();
+      frame.pose.x_m = f.at(2).get<double>();
+      frame.pose.y_m = f.at(3).get<double>();
+      frame.pose.z_m = f.at(4).get<double>();
+      frame.pose.heading_rad = f.at(5).get<double>();
+      frame.pose.pitch_rad = f.at(6).get<double>();
+      frame.pose.roll_rad = f.at(7).get<double>();
+      frame.points_fused = f.at(8).get<long>();
+      frame.points_rejected = f.at(9).get<long>();
+      m.frames.push_back(frame);
+    }
+  } catch (const json::exception& e) {
+    throw InputError(state.string() + ": its frame list or fusion record is malformed (" + e.what() + ")");
+  }
   return m;
 }
 
@@ -164,21 +227,45 @@ TerrainMapRunSummary RunTerrainMap(const TerrainMapRunOptions& options, const fs
   TerrainGrid grid(mo.cell_m);
   std::vector<FusedFrame> fused;
   std::set<std::string> known;
+  const std::string errors_source = has_sigma      ? "xyz_sigma arrays"
+                                    : error_model ? "the rig's error model, sigma_d " + std::to_string(options.sigma_d_px) + " px"
+                                                  : "default sigma " + std::to_string(mo.default_sigma_m) + " m";
+  // A run that only merges fuses nothing itself: the first stored map's error source becomes
+  // the reference the others must share.
+  json fusion = FusionJson(options, errors_source);
+  if (options.stereo_dir.empty()) fusion.erase("errors");
+  // This run's pose of each stem it knows: a stored frame fused with another pose is refused.
+  std::map<std::string, const FramePose*> run_pose;
+  for (const FramePose& p : todo) run_pose[p.stem] = &p;
   auto absorb = [&](StoredMap&& m, const std::string& what) {
     for (const FusedFrame& f : m.frames) {
       LN_CHECK_INPUT(known.insert(f.pose.stem).second)
           << "stem " << f.pose.stem << ": fused twice (" << what << " and another map); merged maps must hold disjoint frames";
+      if (const auto it = run_pose.find(f.pose.stem); it != run_pose.end()) {
+        const FramePose& a = f.pose;
+        const FramePose& b = *it->second;
+        const double d = std::max({std::abs(a.x_m - b.x_m), std::abs(a.y_m - b.y_m), std::abs(a.z_m - b.z_m),
+                                   std::abs(a.heading_rad - b.heading_rad), std::abs(a.pitch_rad - b.pitch_rad),
+                                   std::abs(a.roll_rad - b.roll_rad), std::abs(a.t_s - b.t_s)});
+        LN_CHECK_INPUT(d <= 1e-6)
+            << "stem " << a.stem << ": " << what << " fused it at (" << a.x_m << ", " << a.y_m << ", " << a.z_m
+            << ") m, heading " << a.heading_rad * kDeg << " deg; this run's pose is (" << b.x_m << ", " << b.y_m << ", "
+            << b.z_m << ") m, heading " << b.heading_rad * kDeg << " deg: a map made with other poses";
+      }
       fused.push_back(f);
     }
     grid.Merge(m.grid);
+    for (const auto& [key, value] : m.fusion.items()) {
+      if (!fusion.contains(key)) fusion[key] = value;
+    }
   };
   if (options.resume && fs::is_regular_file(out / "state.tif")) {
-    StoredMap m = ReadStoredMap(out, mo.cell_m);
+    StoredMap m = ReadStoredMap(out, fusion);
     summary.frames_resumed = static_cast<long>(m.frames.size());
     absorb(std::move(m), (out / "state.tif").string());
   }
   for (const fs::path& dir : options.merge_maps) {
-    StoredMap m = ReadStoredMap(dir, mo.cell_m);
+    StoredMap m = ReadStoredMap(dir, fusion);
     summary.frames_merged += static_cast<long>(m.frames.size());
     absorb(std::move(m), dir.string());
   }
@@ -264,7 +351,12 @@ TerrainMapRunSummary RunTerrainMap(const TerrainMapRunOptions& options, const fs
     raster.metadata["lunarnav_tool"] = "terrain-map";
     io::WriteGeoTiffAtomic(out / "elevation.tif", raster);
   }
-  io::WriteGeoTiffAtomic(out / "state.tif", grid.ToStateRaster());
+  // The commit: the sums with the frames they hold and the fusion values, in one file renamed
+  // into place; frames.csv, after it, is the same list for people and tools.
+  io::GeoRaster state = grid.ToStateRaster();
+  state.metadata["lunarnav_frames"] = FramesJson(fused).dump();
+  state.metadata["lunarnav_fusion"] = fusion.dump();
+  io::WriteGeoTiffAtomic(out / "state.tif", state);
   io::WriteFileAtomic(out / "frames.csv", FramesCsv(fused));
   if (options.write_preview) {
     std::vector<Eigen::Vector2d> path;

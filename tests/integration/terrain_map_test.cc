@@ -3,7 +3,9 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdlib>
+#include <filesystem>
 #include <fstream>
+#include <iterator>
 
 #include <gtest/gtest.h>
 #include <nlohmann/json.hpp>
@@ -193,6 +195,63 @@ TEST(TerrainMapTool, ResumeAndMergeOfDisjointFramesEqualFusingAtOnce) {
                              tmp.path());
   EXPECT_EQ(twice.exit_code, 3);
   EXPECT_NE(twice.stderr_text.find("fused twice"), std::string::npos) << twice.stderr_text;
+}
+
+// The sums and the list of frames they hold are committed as one (state.tif): a run killed
+// after state.tif's rename and before frames.csv's leaves a frames.csv that lists fewer frames,
+// and --resume must still not fuse them twice. Maps made with other fusion values or other
+// poses are refused, naming the difference.
+std::string FileText(const fs::path& path) {
+  std::ifstream in(path, std::ios::binary);
+  return std::string(std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>());
+}
+
+TEST(TerrainMapTool, ResumeAndMergeCannotDoubleCountOrMixFusions) {
+  util::ScopedTempDir tmp;
+  const fs::path all = tmp.path() / "all", first = tmp.path() / "first";
+  WriteStereoDir(all, 0, 6);
+  WriteStereoDir(first, 0, 3);
+  const std::string poses = (tmp.path() / "poses.csv").string();
+  WritePoses(poses, 6);
+  auto run = [&](std::vector<std::string> args, const std::string& pose_file) {
+    args.insert(args.end(), {"--poses", pose_file, "-q", "--no-preview"});
+    return RunTool("terrain-map", args, tmp.path());
+  };
+  ASSERT_EQ(run({all.string(), "-o", (tmp.path() / "m_all").string()}, poses).exit_code, 0);
+  ASSERT_EQ(run({first.string(), "-o", (tmp.path() / "m_first").string()}, poses).exit_code, 0);
+  // The kill: the full map's state with the first half's frames.csv.
+  fs::copy(tmp.path() / "m_all", tmp.path() / "m_killed");
+  fs::copy_file(tmp.path() / "m_first" / "frames.csv", tmp.path() / "m_killed" / "frames.csv",
+                fs::copy_options::overwrite_existing);
+  const auto resumed = run({all.string(), "--resume", "-o", (tmp.path() / "m_killed").string()}, poses);
+  ASSERT_EQ(resumed.exit_code, 0) << resumed.stderr_text;
+  const nlohmann::json summary = io::ReadJson(tmp.path() / "m_killed" / "summary.json");
+  EXPECT_EQ(summary["counts"]["frames_resumed"], 6);
+  EXPECT_EQ(summary["counts"]["frames_fused"], 0);
+  ExpectSameState(tmp.path() / "m_all", tmp.path() / "m_killed");
+  // frames.csv, rewritten, keeps each carried frame's counts.
+  const std::string frames = FileText(tmp.path() / "m_killed" / "frames.csv");
+  EXPECT_EQ(frames, FileText(tmp.path() / "m_all" / "frames.csv"));
+
+  // Another gate: refused naming it (exit 2), nothing written.
+  fs::copy(tmp.path() / "m_first", tmp.path() / "m_gate");
+  const auto gate = run({all.string(), "--resume", "--gate", "5", "-o", (tmp.path() / "m_gate").string()}, poses);
+  EXPECT_EQ(gate.exit_code, 2);
+  EXPECT_NE(gate.stderr_text.find("gate_k"), std::string::npos) << gate.stderr_text;
+  EXPECT_EQ(io::ReadJson(tmp.path() / "m_gate" / "summary.json")["counts"]["frames_fused"], 3);
+  // Other poses for the frames a map holds: refused naming the stem (exit 3).
+  const std::string moved = (tmp.path() / "moved.csv").string();
+  std::string text = FileText(poses);
+  const std::size_t at = text.find("000001,");
+  ASSERT_NE(at, std::string::npos);
+  text.replace(text.find(",0,", at), 3, ",0.5,");  // frame 1 half a metre east
+  io::WriteFileAtomic(moved, text);
+  const auto other = run({all.string(), "--merge", (tmp.path() / "m_first").string(), "--shard", "1/2", "-o",
+                          (tmp.path() / "m_other").string()},
+                         moved);
+  EXPECT_EQ(other.exit_code, 3);
+  EXPECT_NE(other.stderr_text.find("stem 000001"), std::string::npos) << other.stderr_text;
+  EXPECT_NE(other.stderr_text.find("other poses"), std::string::npos) << other.stderr_text;
 }
 
 TEST(TerrainMapTool, ATrajectoryInterpolatedAtTheFrameTimesGivesTheMapOfThePoses) {
