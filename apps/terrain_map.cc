@@ -44,6 +44,9 @@ int main(int argc, char** argv) {
   app.add_option("--gate-floor", opt.map.gate_floor_m, "floor of the gate's sigma, m")->capture_default_str();
   app.add_option("--default-sigma", opt.map.default_sigma_m, "elevation error of points without xyz_sigma, m")
       ->capture_default_str();
+  app.add_option("--max-sigma-cells", opt.map.max_horizontal_sigma_cells,
+                 "ignore points whose predicted horizontal error (xyz_sigma or --rig) exceeds this many cells")
+      ->capture_default_str();
   app.add_option("--max-range", opt.map.max_range_m, "ignore points farther from the mast base, m")
       ->capture_default_str();
   app.add_option("--window-m", window_m, "keep only a square window of this side centred at the vehicle, m "

@@ -17,7 +17,10 @@ ElevationErrorModel::ElevationErrorModel(const calib::StereoRig& rig, calib::Ref
   left_ = vehicle_from_left.translation();
   axis_ = vehicle_from_rect * Eigen::Vector3d::UnitZ();
   const Eigen::Vector3d ref_offset_rect(reference == calib::ReferenceImage::kRight ? baseline_m : 0.0, 0, 0);
-  ref_z_ = (left_ + vehicle_from_rect * ref_offset_rect).z();
+  const Eigen::Vector3d ref = left_ + vehicle_from_rect * ref_offset_rect;
+  ref_x_ = ref.x();
+  ref_y_ = ref.y();
+  ref_z_ = ref.z();
   scale_ = sigma_d_px / (f * baseline_m);
 }
 

@@ -4,6 +4,9 @@
 // read a second array per pair.
 #pragma once
 
+#include <cmath>
+#include <limits>
+
 #include <Eigen/Core>
 
 #include "calib/stereo_rig.h"
@@ -27,10 +30,17 @@ class ElevationErrorModel {
     if (!(depth > 0)) return std::numeric_limits<double>::quiet_NaN();
     return scale_ * depth * std::abs(z - ref_z_);
   }
+  /// The horizontal part of the same error: sigma_d depth / (f B) times the point's horizontal
+  /// distance from the reference camera (the error runs along the ray). NaN behind the cameras.
+  double SigmaHorizontal(double x, double y, double z) const {
+    const double depth = axis_.x() * (x - left_.x()) + axis_.y() * (y - left_.y()) + axis_.z() * (z - left_.z());
+    if (!(depth > 0)) return std::numeric_limits<double>::quiet_NaN();
+    return scale_ * depth * std::hypot(x - ref_x_, y - ref_y_);
+  }
 
  private:
   Eigen::Vector3d left_, axis_;
-  double ref_z_ = 0, scale_ = 0;  // scale_ = sigma_d / (f B)
+  double ref_x_ = 0, ref_y_ = 0, ref_z_ = 0, scale_ = 0;  // scale_ = sigma_d / (f B)
 };
 
 }  // namespace lunarnav::mapping

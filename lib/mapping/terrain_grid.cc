@@ -53,6 +53,7 @@ void TerrainMapOptions::Validate() const {
   LN_CHECK_ARG(gate_min_points >= 1) << "gate min points: must be >= 1";
   LN_CHECK_ARG(std::isfinite(default_sigma_m) && default_sigma_m > 0) << "default sigma: must be > 0 m";
   LN_CHECK_ARG(max_range_m > 0) << "max range: must be > 0 m";
+  LN_CHECK_ARG(max_horizontal_sigma_cells > 0) << "max horizontal sigma: must be > 0 cells";
   LN_CHECK_ARG(!window_m || (std::isfinite(*window_m) && *window_m >= 4 * cell_m))
       << "window: must be at least 4 cells";
   obstacles.Validate();
@@ -66,6 +67,7 @@ nlohmann::json TerrainMapOptions::ToJson() const {
           {"gate_min_points", gate_min_points},
           {"default_sigma_m", default_sigma_m},
           {"max_range_m", number(max_range_m)},
+          {"max_horizontal_sigma_cells", number(max_horizontal_sigma_cells)},
           {"window_m", window_m ? nlohmann::json(*window_m) : nlohmann::json(nullptr)},
           {"obstacles", obstacles.ToJson()}};
 }
@@ -102,6 +104,7 @@ FrameContribution BinFrame(const cv::Mat& xyz, const cv::Mat& sigma, const Eigen
   const double inv_cell = 1.0 / o.cell_m;
   const double max_range2 = o.max_range_m * o.max_range_m;
   const double default_w = 1.0 / (o.default_sigma_m * o.default_sigma_m);
+  const double max_h2 = o.max_horizontal_sigma_cells * o.cell_m * o.max_horizontal_sigma_cells * o.cell_m;
 
   // Buffers kept per thread from frame to frame (a frame's worth of points each).
   struct Buffers {
@@ -142,12 +145,20 @@ FrameContribution BinFrame(const cv::Mat& xyz, const cv::Mat& sigma, const Eigen
       const double wy = r(1, 0) * x + r(1, 1) * y + r(1, 2) * z + t.y();
       const double wz = r(2, 0) * x + r(2, 1) * y + r(2, 2) * z + t.z();
       double w = default_w;
+      double h2 = 0;  // the predicted horizontal error, squared
       if (s != nullptr) {
         const float sz = s[3 * col + 2];
         if (std::isfinite(sz) && sz > 0) w = 1.0 / (static_cast<double>(sz) * sz);
+        h2 = static_cast<double>(s[3 * col]) * s[3 * col] + static_cast<double>(s[3 * col + 1]) * s[3 * col + 1];
       } else if (error_model != nullptr) {
         const double sz = error_model->SigmaZ(x, y, z);
         if (std::isfinite(sz) && sz > 0) w = 1.0 / (sz * sz);
+        const double sh = error_model->SigmaHorizontal(x, y, z);
+        h2 = sh * sh;
+      }
+      if (h2 > max_h2) {  // too uncertain to say which cell it belongs to
+        ++out.points_out_of_range;
+        continue;
       }
       const auto i = static_cast<std::int32_t>(std::floor(wx * inv_cell));
       const auto j = static_cast<std::int32_t>(std::floor(wy * inv_cell));

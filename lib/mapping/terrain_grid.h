@@ -63,6 +63,12 @@ struct TerrainMapOptions {
   /// Points farther than this from the mast base (horizontally, vehicle frame) are ignored,
   /// metres, > 0; infinity keeps them all.
   double max_range_m = std::numeric_limits<double>::infinity();
+  /// Points whose predicted horizontal error (xyz_sigma's X and Y, or the rig's error model)
+  /// exceeds this many cells are ignored: such a point may fall in any of the cells around its
+  /// own, and the map's resolution is worth more than its reach (for the paper's rig, beyond
+  /// about 13 m with a 1 px disparity error). > 0; infinity keeps them. Points with no predicted
+  /// error (default_sigma_m) are kept at any range.
+  double max_horizontal_sigma_cells = 1.0;
   /// Side of the square window centred at the vehicle that the map keeps (the navigation
   /// map of sec. 3), metres; nothing = the whole traverse.
   std::optional<double> window_m;

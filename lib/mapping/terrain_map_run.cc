@@ -79,6 +79,7 @@ json FusionJson(const TerrainMapRunOptions& options, const std::string& errors) 
           {"gate_floor_m", mo.gate_floor_m},
           {"gate_min_points", mo.gate_min_points},
           {"max_range_m", number(mo.max_range_m)},
+          {"max_horizontal_sigma_cells", number(mo.max_horizontal_sigma_cells)},
           {"errors", errors}};
 }
 

@@ -2,6 +2,8 @@
 
 #include <gtest/gtest.h>
 
+#include <cmath>
+
 #include "calib/rectify.h"
 #include "calib/paper_rig.h"
 
@@ -14,8 +16,10 @@ TEST(ElevationErrorModel, EqualsTheTriangulationErrorModelAtAnyPoint) {
   for (const auto reference : {calib::ReferenceImage::kRight, calib::ReferenceImage::kLeft}) {
     const ElevationErrorModel model(rig, reference, 1.5);
     for (const Eigen::Vector3d& p : {Eigen::Vector3d(0, 4, 0), Eigen::Vector3d(-2, 8, 0.3), Eigen::Vector3d(3, 12, -0.4)}) {
-      const double expected = calib::PredictPointSigma(rig, p, reference, 1.5).z();
-      EXPECT_NEAR(model.SigmaZ(p.x(), p.y(), p.z()), expected, 1e-9 * expected) << p.transpose();
+      const Eigen::Vector3d sigma = calib::PredictPointSigma(rig, p, reference, 1.5);
+      EXPECT_NEAR(model.SigmaZ(p.x(), p.y(), p.z()), sigma.z(), 1e-9 * sigma.z()) << p.transpose();
+      const double horizontal = std::hypot(sigma.x(), sigma.y());
+      EXPECT_NEAR(model.SigmaHorizontal(p.x(), p.y(), p.z()), horizontal, 1e-9 * horizontal) << p.transpose();
     }
   }
   // Behind the cameras: none.

@@ -1,6 +1,7 @@
 #include "mapping/terrain_grid.h"
 
 #include <cmath>
+#include <limits>
 
 #include <gtest/gtest.h>
 
@@ -146,6 +147,36 @@ TEST(TerrainGrid, PointsOutsideTheRequestedIntervalAreLeftOut) {
     EXPECT_GE(cell.j, 16);  // y >= 4 m
     EXPECT_LT(cell.j, 24);  // y < 6 m
   }
+}
+
+// A point whose predicted horizontal error exceeds a cell could belong to any of the cells
+// around its own: left out (the map's default range follows from the predicted error).
+TEST(TerrainGrid, PointsTooUncertainForACellAreLeftOut) {
+  const TerrainMapOptions o;  // one cell (25 cm) of horizontal error at most
+  const FramePose pose = Pose(0, 0, 0);
+  const cv::Mat xyz = SurfaceXyz([](double, double) { return 0.0; }, pose);  // Y from 2 to 10 m
+  // The horizontal error grows as Y^2 / 40: 10 cm at 2 m ... 2.5 m at 10 m; 25 cm at Y = sqrt(10).
+  cv::Mat sigma(xyz.size(), CV_32FC3);
+  long expected_kept = 0, valid = 0;
+  for (int r = 0; r < xyz.rows; ++r) {
+    for (int c = 0; c < xyz.cols; ++c) {
+      const cv::Vec3f p = xyz.at<cv::Vec3f>(r, c);
+      const float h = static_cast<float>(p[1] * p[1] / 40.0);
+      sigma.at<cv::Vec3f>(r, c) = cv::Vec3f(0.6f * h, 0.8f * h, 0.01f);
+      if (!std::isfinite(p[1])) continue;
+      ++valid;
+      expected_kept += h <= 0.25f;
+    }
+  }
+  const FrameContribution part = BinFrame(xyz, sigma, pose.WorldFromVehicle(), 0, o);
+  EXPECT_EQ(part.points_in, valid);
+  EXPECT_NEAR(static_cast<double>(part.points_fused), static_cast<double>(expected_kept), 0.001 * valid);
+  EXPECT_GT(part.points_out_of_range, 0.5 * valid);
+  for (const auto& [cell, stats] : part.cells) EXPECT_LT(cell.j, 13);  // y < sqrt(10) m, 3.25 m
+  // Unbounded: every point in.
+  TerrainMapOptions all = o;
+  all.max_horizontal_sigma_cells = std::numeric_limits<double>::infinity();
+  EXPECT_EQ(BinFrame(xyz, sigma, pose.WorldFromVehicle(), 0, all).points_out_of_range, 0);
 }
 
 TEST(TerrainGrid, FusingInTwoHalvesAndMergingEqualsFusingAtOnce) {
