@@ -148,7 +148,6 @@ TEST(RunTimingStudy, TimesTheMatcherOnEveryWindow) {
                                            [&] { ++calls; });
   EXPECT_EQ(calls, 5 * 3);
   EXPECT_EQ(study.pairs, 2);
-  double largest = 0;
   for (const TimingPoint* p : {&study.points[0], &study.points[1], &study.full}) {
     ASSERT_EQ(p->repeat_seconds.size(), 5u);
     EXPECT_GT(p->seconds, 0);
@@ -156,8 +155,8 @@ TEST(RunTimingStudy, TimesTheMatcherOnEveryWindow) {
     EXPECT_EQ(p->evaluated_pixels, 2LL * 160 * p->window.Rows());
   }
   // Each window keeps the median of its five runs and their quartiles (with five runs, type 7
-  // puts them on the 2nd and 4th smallest); the normalised time
-  // divides by the slowest window's median, computed here from the recorded runs.
+  // puts them on the 2nd and 4th smallest). (The normalised times and shares are checked on
+  // hand-made times above, not recomputed here from the same formula.)
   for (const TimingPoint* p : {&study.points[0], &study.points[1], &study.full}) {
     std::vector<double> runs = p->repeat_seconds;
     std::sort(runs.begin(), runs.end());
@@ -165,10 +164,6 @@ TEST(RunTimingStudy, TimesTheMatcherOnEveryWindow) {
     EXPECT_EQ(p->seconds_q1, runs[1]);
     EXPECT_EQ(p->seconds_q3, runs[3]);
   }
-  largest = std::max(study.points[0].seconds, study.points[1].seconds);
-  for (const TimingPoint& p : study.points) EXPECT_DOUBLE_EQ(p.time_normalised, p.seconds / largest);
-  EXPECT_DOUBLE_EQ(study.full.time_share, 1.0);
-  EXPECT_DOUBLE_EQ(study.points[0].time_share, study.points[0].seconds / study.full.seconds);
   // The narrowest window does a small part of the whole image's work, and takes less time
   // (a wide margin: timing on a loaded machine is noisy).
   ASSERT_LT(study.points[0].work_share, 0.25);

@@ -128,10 +128,17 @@ TEST(TerrainGrid, GateRejectsOutliersAndKeepsTheHeight) {
   const MapLayers l = ComputeLayers(grid, o.obstacles);
   EXPECT_EQ(CountCells(l.max_m, [&](int r, int c) { return l.max_m.at<float>(r, c) > 0.51f; }), 0);
   EXPECT_EQ(CountCells(l.obstacle, [&](int r, int c) { return l.obstacle.at<float>(r, c) > 0; }), 0);
-  // With the gate off they stay, and make obstacles.
+  // With the gate off they stay: the cells' highest points rise 1 m and make step obstacles
+  // on the flat plane.
   TerrainMapOptions off = o;
   off.gate_k = std::numeric_limits<double>::infinity();
-  EXPECT_EQ(BinFrame(xyz, cv::Mat(), pose.WorldFromVehicle(), 0, off).points_rejected, 0);
+  const FrameContribution ungated = BinFrame(xyz, cv::Mat(), pose.WorldFromVehicle(), 0, off);
+  EXPECT_EQ(ungated.points_rejected, 0);
+  TerrainGrid raw(o.cell_m);
+  raw.Add(ungated);
+  const MapLayers lr = ComputeLayers(raw, o.obstacles);
+  EXPECT_GT(CountCells(lr.max_m, [&](int r, int c) { return lr.max_m.at<float>(r, c) > 1.4f; }), 10);
+  EXPECT_GT(CountCells(lr.obstacle, [&](int r, int c) { return lr.obstacle.at<float>(r, c) > 0; }), 10);
 }
 
 TEST(TerrainGrid, PointsOutsideTheRequestedIntervalAreLeftOut) {

@@ -5,6 +5,8 @@
 #include <cmath>
 #include <limits>
 
+#include <opencv2/imgproc.hpp>
+
 namespace lunarnav::stereo {
 namespace {
 
@@ -35,8 +37,16 @@ TEST(DisparityPreview, ColoursAcceptedPixelsByDisparityAndRejectedOnesByReason) 
   ASSERT_EQ(p.type(), CV_8UC3);
   EXPECT_EQ(p.cols, 40);
   EXPECT_GT(p.rows, 30);  // the legend below
-  EXPECT_EQ(p.at<cv::Vec3b>(10, 12), DisparityColour(12.0, 0.0, 63.0));
-  EXPECT_NE(DisparityColour(0.0, 0.0, 63.0), DisparityColour(63.0, 0.0, 63.0));
+  // Turbo at 12 / 63 of the range, from OpenCV's own colour map (grey level round(255 12 / 63)
+  // = 49), not from the function that drew it.
+  cv::Mat level(1, 1, CV_8UC1, cv::Scalar(49)), turbo;
+  cv::applyColorMap(level, turbo, cv::COLORMAP_TURBO);
+  EXPECT_EQ(p.at<cv::Vec3b>(10, 12), turbo.at<cv::Vec3b>(0, 0));
+  // The ends: dark blue (BGR, blue dominant) at the near end of the scale, dark red at the far.
+  const cv::Vec3b low = p.at<cv::Vec3b>(10, 12), first = DisparityColour(0.0, 0.0, 63.0), last = DisparityColour(63.0, 0.0, 63.0);
+  EXPECT_GT(first[0], first[2]);
+  EXPECT_GT(last[2], last[0]);
+  EXPECT_NE(low, first);
   EXPECT_EQ(p.at<cv::Vec3b>(2, 2), cv::Vec3b(100, 100, 100));  // not evaluated: the image
   const cv::Vec3b lr = RejectionColour(Rejection::kLeftRightMismatch);
   const cv::Vec3b got = p.at<cv::Vec3b>(10, 35);
@@ -54,7 +64,11 @@ TEST(DisparityPreview, GridPixelsFillTheirCells) {
   NccResult r = MakeResult();
   const cv::Mat grey(30, 40, CV_16UC1, cv::Scalar(1000));
   const cv::Mat p = DisparityPreview(r, grey, 12, 4, 3, 0.0, 63.0);
-  EXPECT_EQ(p.at<cv::Vec3b>(10, 13), DisparityColour(12.0, 0.0, 63.0));  // cell of (12, 9)
+  // The cell of grid pixel (12, 9) takes that pixel's colour: Turbo at 12 / 63 (OpenCV's map).
+  cv::Mat level(1, 1, CV_8UC1, cv::Scalar(49)), turbo;
+  cv::applyColorMap(level, turbo, cv::COLORMAP_TURBO);
+  EXPECT_EQ(p.at<cv::Vec3b>(9, 12), turbo.at<cv::Vec3b>(0, 0));
+  EXPECT_EQ(p.at<cv::Vec3b>(10, 13), turbo.at<cv::Vec3b>(0, 0));
 }
 
 }  // namespace
