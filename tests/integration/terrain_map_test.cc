@@ -9,13 +9,18 @@
 
 #include <gtest/gtest.h>
 #include <nlohmann/json.hpp>
+#include <opencv2/imgcodecs.hpp>
 
 #include "integration/run_tool.h"
 #include "io/atomic_file.h"
 #include "io/float_array_io.h"
 #include "io/geotiff_io.h"
 #include "io/json_io.h"
+#include "calib/rectified_rig.h"
+#include "calib/stereo_rig_io.h"
 #include "mapping/synthetic_frames.h"
+#include "sim/layered_scene.h"
+#include "stereo/window_requests.h"
 #include "positioning/trajectory_io.h"
 #include "util/testing.h"
 
@@ -301,6 +306,38 @@ TEST(PlanWindowsTool, WritesRequestsThatStereoBatchReads) {
   const std::string csv = testing::ReadFileBytes(tmp.path() / "plan" / "requests.csv");
   EXPECT_EQ(csv.rfind("stem,y_min_m,y_max_m\n000000,", 0), 0u) << csv;
   EXPECT_EQ(std::count(csv.begin(), csv.end(), '\n'), 11);
+
+  // stereo-batch reads them: ten rectified pairs of a quarter-size paper rig, each matched in
+  // its own requested interval.
+  const calib::StereoRig rig = calib::testing::IdealRectifiedRig(160, 120, 185);
+  const fs::path pairs = tmp.path() / "pairs", rig_file = tmp.path() / "rig.json";
+  calib::WriteStereoRig(rig_file, rig);
+  for (const char* side : {"left", "right"}) fs::create_directories(pairs / side);
+  sim::LayeredSceneOptions scene;
+  scene.width = 160;
+  scene.height = 120;
+  sim::PlaneLayer plane;
+  plane.d0_px = 20;
+  plane.slope_y = 0.3;
+  scene.layers = {plane};
+  const sim::RenderedPair pair = sim::RenderLayeredPair(scene);
+  for (int k = 0; k < 10; ++k) {
+    const std::string stem = PoseOf(k).stem;
+    cv::imwrite((pairs / "left" / (stem + ".png")).string(), pair.left);
+    cv::imwrite((pairs / "right" / (stem + ".png")).string(), pair.right);
+  }
+  const fs::path out = tmp.path() / "stereo";
+  const auto batch = RunTool("stereo-batch", {pairs.string(), "-o", out.string(), "-q", "--rig", rig_file.string(),
+                                              "--requests", (tmp.path() / "plan" / "requests.csv").string()},
+                             tmp.path());
+  ASSERT_EQ(batch.exit_code, 0) << batch.stderr_text;
+  for (const stereo::WindowRequest& r : stereo::ReadWindowRequests(tmp.path() / "plan" / "requests.csv")) {
+    const nlohmann::json sidecar = io::ReadJson(out / "disparity" / (r.stem + ".json"));
+    const nlohmann::json& window = sidecar["result"]["window"];
+    EXPECT_EQ(window["source"], "requests") << r.stem;
+    EXPECT_DOUBLE_EQ(window["region"]["y_m"][0].get<double>(), r.y_min_m) << r.stem;
+    EXPECT_DOUBLE_EQ(window["region"]["y_m"][1].get<double>(), r.y_max_m) << r.stem;
+  }
 }
 
 }  // namespace
