@@ -27,6 +27,31 @@ HalfSpace Normalized(const Eigen::Vector3d& a, double b) {
   return {a / n, b / n};
 }
 
+// The reference camera's rectified geometry in the vehicle frame: a point at rectified-frame
+// coordinates q (depth q.z) lies at centre + R q (R: vehicle from rectified); its Y and Z are
+// centre.y + along_y . q and centre.z + along_z . q; its disparity f B / q.z + (c_left - c_right).
+struct ReferenceGeometry {
+  double f, c_left, c_right, c_x, c_y, baseline_m;
+  Eigen::Vector3d centre, along_y, along_z;
+  ReferenceGeometry(const StereoRig& rig, ReferenceImage reference) {
+    const RectifiedGeometry& g = *rig.rectified;
+    f = g.P_left(0, 0);
+    c_left = g.P_left(0, 2);
+    c_right = g.P_right(0, 2);
+    c_y = g.P_left(1, 2);
+    baseline_m = -g.P_right(0, 3) / f;
+    c_x = reference == ReferenceImage::kRight ? c_right : c_left;
+    const Eigen::Isometry3d vehicle_from_left = rig.VehicleFromLeft();
+    const Eigen::Matrix3d vehicle_from_rect = vehicle_from_left.linear() * g.rect_from_left.transpose();
+    // The right camera sits B along the rectified x axis.
+    centre = vehicle_from_left.translation() +
+             (reference == ReferenceImage::kRight ? Eigen::Vector3d(vehicle_from_rect.col(0) * baseline_m)
+                                                  : Eigen::Vector3d::Zero());
+    along_y = vehicle_from_rect.row(1).transpose();
+    along_z = vehicle_from_rect.row(2).transpose();
+  }
+};
+
 }  // namespace
 
 void RegionOfInterest::Validate() const {
@@ -73,19 +98,10 @@ ImageWindow SelectWindow(const StereoRig& rig, const RegionOfInterest& region, R
   region.Validate();
   options.Validate();
   const RectifiedGeometry& g = *rig.rectified;
-  const double f = g.P_left(0, 0);
-  const double c_left = g.P_left(0, 2), c_right = g.P_right(0, 2), c_y = g.P_left(1, 2);
-  const double baseline_m = -g.P_right(0, 3) / f;
-  const double c_x = reference == ReferenceImage::kRight ? c_right : c_left;
-  const Eigen::Isometry3d vehicle_from_left = rig.VehicleFromLeft();
-  const Eigen::Matrix3d vehicle_from_rect = vehicle_from_left.linear() * g.rect_from_left.transpose();
-  // The reference camera's centre; the right one sits B along the rectified x axis.
-  const Eigen::Vector3d centre =
-      vehicle_from_left.translation() +
-      (reference == ReferenceImage::kRight ? Eigen::Vector3d(vehicle_from_rect.col(0) * baseline_m)
-                                           : Eigen::Vector3d::Zero());
-  const Eigen::Vector3d along_y = vehicle_from_rect.row(1).transpose();  // Y = centre.y + along_y . q
-  const Eigen::Vector3d along_z = vehicle_from_rect.row(2).transpose();
+  const ReferenceGeometry geo(rig, reference);
+  const double f = geo.f, c_left = geo.c_left, c_right = geo.c_right, c_x = geo.c_x, c_y = geo.c_y;
+  const double baseline_m = geo.baseline_m;
+  const Eigen::Vector3d &centre = geo.centre, &along_y = geo.along_y, &along_z = geo.along_z;
   const double x_lo = -0.5, x_hi = g.width_px - 0.5, y_lo = -0.5, y_hi = g.height_px - 0.5;
 
   const std::array<HalfSpace, 10> planes = {
@@ -179,18 +195,10 @@ GroundWindow SelectGroundWindow(const StereoRig& rig, ReferenceImage reference, 
   options.Validate();
   selection.Validate();
   const RectifiedGeometry& g = *rig.rectified;
-  const double f = g.P_left(0, 0);
-  const double c_left = g.P_left(0, 2), c_right = g.P_right(0, 2), c_y = g.P_left(1, 2);
-  const double baseline_m = -g.P_right(0, 3) / f;
-  const double c_x = reference == ReferenceImage::kRight ? c_right : c_left;
-  const Eigen::Isometry3d vehicle_from_left = rig.VehicleFromLeft();
-  const Eigen::Matrix3d vehicle_from_rect = vehicle_from_left.linear() * g.rect_from_left.transpose();
-  const Eigen::Vector3d centre =
-      vehicle_from_left.translation() +
-      (reference == ReferenceImage::kRight ? Eigen::Vector3d(vehicle_from_rect.col(0) * baseline_m)
-                                           : Eigen::Vector3d::Zero());
-  const Eigen::Vector3d along_y = vehicle_from_rect.row(1).transpose();
-  const Eigen::Vector3d along_z = vehicle_from_rect.row(2).transpose();
+  const ReferenceGeometry geo(rig, reference);
+  const double f = geo.f, c_left = geo.c_left, c_right = geo.c_right, c_x = geo.c_x, c_y = geo.c_y;
+  const double baseline_m = geo.baseline_m;
+  const Eigen::Vector3d &centre = geo.centre, &along_y = geo.along_y, &along_z = geo.along_z;
   const double fb = f * baseline_m, dc = c_left - c_right;
   LN_CHECK_ARG(fb > 0) << "rig: the rectified baseline must be positive";
   const double width = g.width_px;
