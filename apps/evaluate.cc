@@ -198,7 +198,16 @@ Subcommand AddMap(CLI::App* app) {
   cmd->add_option("--truth", c->truth, "simulate stereo output directory (truth/terrain.tif, rocks.csv)")->required();
   cmd->add_option("--min-points", c->options.min_points, "cells with fewer points are not scored")
       ->capture_default_str();
-  cmd->add_option("--rock-height", c->options.rock_height_m, "rocks taller than this are counted, m")
+  cmd->add_option("--rock-height", c->options.rock_height_m, "rocks at least this tall are counted, m")
+      ->capture_default_str();
+  cmd->add_option("--rock-near", c->options.rock_near_m,
+                  "a rock is found by a map obstacle cell whose centre is this close to its centre, m")
+      ->capture_default_str();
+  cmd->add_option("--relief-height", c->options.relief_height_m,
+                  "precision: a map obstacle near this much true relief (a step or a rock) is real, m")
+      ->capture_default_str();
+  cmd->add_option("--relief-slope", c->options.relief_slope_deg,
+                  "precision: a map obstacle near a true slope above this is real, deg")
       ->capture_default_str();
   cmd->add_option("--tolerance", c->options.tolerance_cells, "detections this many cells away count")
       ->capture_default_str();

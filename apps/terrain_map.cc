@@ -42,6 +42,15 @@ int main(int argc, char** argv) {
   app.add_option("--gate", opt.map.gate_k, "gate: reject points farther than this many combined sigmas from the "
                                            "cell's median in their frame (inf: off)")->capture_default_str();
   app.add_option("--gate-floor", opt.map.gate_floor_m, "floor of the gate's sigma, m")->capture_default_str();
+  app.add_option("--visibility", opt.map.visibility_k,
+                 "visibility: reject a point when a ray of its image column to a farther point passes beneath it, "
+                 "by this many sigmas of distance plus --visibility-floor (inf: off)")
+      ->capture_default_str();
+  app.add_option("--visibility-floor", opt.map.visibility_floor_m, "the visibility rule's margin, m")
+      ->capture_default_str();
+  app.add_option("--frame-floor", opt.map.frame_floor_m,
+                 "least error of one frame's estimate of a cell (its points' errors are correlated), m")
+      ->capture_default_str();
   app.add_option("--default-sigma", opt.map.default_sigma_m, "elevation error of points without xyz_sigma, m")
       ->capture_default_str();
   app.add_option("--max-sigma-cells", opt.map.max_horizontal_sigma_cells,

@@ -60,7 +60,10 @@ json Number(double v) { return std::isfinite(v) ? json(v) : json(nullptr); }
 void MapEvalOptions::Validate() const {
   LN_CHECK_ARG(min_points >= 1) << "min points: must be >= 1";
   LN_CHECK_ARG(std::isfinite(rock_height_m) && rock_height_m >= 0) << "rock height: must be >= 0 m";
+  LN_CHECK_ARG(std::isfinite(rock_near_m) && rock_near_m > 0) << "rock distance: must be > 0 m";
   LN_CHECK_ARG(tolerance_cells >= 0 && tolerance_cells <= 10) << "tolerance: must be in 0..10 cells";
+  LN_CHECK_ARG(std::isfinite(relief_height_m) && relief_height_m > 0) << "relief height: must be > 0 m";
+  LN_CHECK_ARG(relief_slope_deg > 0 && relief_slope_deg < 90) << "relief slope: must be in (0, 90) deg";
   LN_CHECK_ARG(std::isfinite(large_error_m) && large_error_m > 0) << "large error: must be > 0 m";
   LN_CHECK_ARG(std::isfinite(seen_min_y_m) && std::isfinite(seen_max_y_m) && seen_min_y_m < seen_max_y_m)
       << "seen range: need finite MIN < MAX, got " << seen_min_y_m << ":" << seen_max_y_m << " m";
@@ -69,7 +72,10 @@ void MapEvalOptions::Validate() const {
 json MapEvalOptions::ToJson() const {
   return {{"min_points", min_points},
           {"rock_height_m", rock_height_m},
+          {"rock_near_m", rock_near_m},
           {"tolerance_cells", tolerance_cells},
+          {"relief_height_m", relief_height_m},
+          {"relief_slope_deg", relief_slope_deg},
           {"large_error_m", large_error_m},
           {"seen_y_m", {seen_min_y_m, seen_max_y_m}}};
 }
@@ -109,6 +115,8 @@ MapEvalResult EvaluateMap(const io::GeoRaster& map, const io::GeoRaster& truth, 
   const cv::Mat& obstacle = Band(map, "obstacle", "map");
   const cv::Mat& true_elevation = Band(truth, "elevation_m", "truth");
   const cv::Mat& true_obstacle = Band(truth, "obstacle", "truth");
+  const cv::Mat& true_relief = Band(truth, "relief_m", "truth");
+  const cv::Mat& true_slope = Band(truth, "slope_deg", "truth");
   const cv::Mat& rays = Band(seen, "count", "seen cells");
   int tc = 0, tr = 0, sc = 0, sr = 0;
   LatticeOffset(map, truth, "truth", &tc, &tr);
@@ -132,6 +140,10 @@ MapEvalResult EvaluateMap(const io::GeoRaster& map, const io::GeoRaster& truth, 
     return compared(col, row) && obstacle.at<float>(row, col) > 0;
   };
   auto true_obstacle_at = [&](int col, int row) { return At(true_obstacle, col - tc, row - tr) > 0; };
+  auto real_relief_at = [&](int col, int row) {
+    return At(true_relief, col - tc, row - tr) >= o.relief_height_m ||
+           At(true_slope, col - tc, row - tr) > o.relief_slope_deg;
+  };
   // The elevation error over the compared cells; precision over the map's obstacle cells.
   std::vector<double> errors;
   for (int row = 0; row < elevation.rows; ++row) {
@@ -140,7 +152,7 @@ MapEvalResult EvaluateMap(const io::GeoRaster& map, const io::GeoRaster& truth, 
       errors.push_back(elevation.at<float>(row, col) - At(true_elevation, col - tc, row - tr));
       if (obstacle.at<float>(row, col) > 0) {
         ++r.obstacle_map;
-        (any_near(col, row, tol, true_obstacle_at) ? r.obstacle_tp : r.obstacle_fp)++;
+        (any_near(col, row, tol, real_relief_at) ? r.obstacle_tp : r.obstacle_fp)++;
       }
     }
   }
@@ -187,15 +199,20 @@ MapEvalResult EvaluateMap(const io::GeoRaster& map, const io::GeoRaster& truth, 
   r.coverage = Ratio(r.cells_seen_mapped, r.cells_seen);
   r.recall = Ratio(r.obstacle_found, r.obstacle_true);
 
-  // Rocks above the limit whose centre cell was seen, mapped or not.
+  // Rocks of at least the limit whose centre cell was seen, mapped or not: found when a map
+  // obstacle cell's centre lies within rock_near_m of the rock's centre.
   for (const TrueRock& rock : rocks) {
-    if (rock.height_m <= o.rock_height_m) continue;
+    if (rock.height_m < o.rock_height_m) continue;
     const int col = static_cast<int>(std::floor((rock.x_m - map.x_west_m) / map.cell_m));
     const int row = static_cast<int>(std::floor((map.y_north_m - rock.y_m) / map.cell_m));
     if (!seen_at(col, row)) continue;
     ++r.rocks;
-    const int radius = static_cast<int>(std::ceil(rock.semi_major_m / map.cell_m)) + tol;
-    r.rocks_found += any_near(col, row, radius, map_obstacle);
+    const int radius = static_cast<int>(std::ceil(o.rock_near_m / map.cell_m)) + 1;
+    r.rocks_found += any_near(col, row, radius, [&](int c, int rr) {
+      const double dx = map.x_west_m + (c + 0.5) * map.cell_m - rock.x_m;
+      const double dy = map.y_north_m - (rr + 0.5) * map.cell_m - rock.y_m;
+      return dx * dx + dy * dy <= o.rock_near_m * o.rock_near_m && map_obstacle(c, rr);
+    });
   }
   r.rock_recall = Ratio(r.rocks_found, r.rocks);
   return r;

@@ -18,10 +18,18 @@ struct MapEvalOptions {
   /// Cells with at least this many points enter the elevation error and the obstacle
   /// scores, and a cell counts as seen when at least this many true rays reach it, >= 1.
   int min_points = 3;
-  /// Rocks taller than this (above the relief) make the rock recall, metres (sec. 3.1: 20 cm).
+  /// Rocks at least this tall (above the relief) make the rock recall, metres (sec. 3.1: 20 cm).
   double rock_height_m = 0.2;
+  /// A rock is found when a map obstacle cell's centre lies within this of the rock's centre, m, > 0.
+  double rock_near_m = 0.5;
   /// A detection within this many cells of a true obstacle cell (or a rock's footprint) counts, >= 0.
   int tolerance_cells = 1;
+  /// Obstacle precision counts a map obstacle as real when a cell within tolerance_cells has
+  /// at least this much true relief (truth's relief_m: a rock this tall on it, or a step of
+  /// the surface), metres...
+  double relief_height_m = 0.15;
+  /// ...or a true slope (truth's slope_deg) above this, degrees, in (0, 90).
+  double relief_slope_deg = 25;
   /// A compared cell farther than this from the truth is counted as a large error, metres
   /// (a phantom cliff or pit for a planner).
   double large_error_m = 0.30;
@@ -50,19 +58,21 @@ struct MapEvalResult {
   long obstacle_map = 0, obstacle_true = 0;
   long obstacle_tp = 0, obstacle_fp = 0, obstacle_found = 0;
   double precision = 0, recall = 0;  ///< NaN when undefined.
-  long rocks = 0, rocks_found = 0;   ///< Rocks above rock_height_m whose centre cell was seen.
+  long rocks = 0, rocks_found = 0;   ///< Rocks of >= rock_height_m whose centre cell was seen.
   double rock_recall = 0;
   nlohmann::json ToJson() const;
   Table ToTable() const;
   std::string BriefReport() const;
 };
 
-/// Scores `map` (terrain-map's layers) against `truth` (truth/terrain.tif: elevation_m and
-/// obstacle on the same lattice), `seen` (a count raster of the true rays per cell, the
+/// Scores `map` (terrain-map's layers) against `truth` (truth/terrain.tif: elevation_m,
+/// obstacle, relief_m and slope_deg on the same lattice), `seen` (a count raster of the true rays per cell, the
 /// same lattice: TrueRayCounts) and the rocks. The elevation error is over the compared cells
 /// (the map's, with >= min_points, inside the truth); coverage, obstacle recall and rock
 /// recall are over the ground seen (>= min_points true rays), where a cell the map left empty
-/// counts against them; precision is over the map's obstacle cells.
+/// counts against them; precision is over the map's obstacle cells: the share near real relief
+/// (relief_height_m, relief_slope_deg), a looser bar than the obstacle it must find (a cell of
+/// 18 cm relief is no false alarm, though not an obstacle the map must report).
 /// @throws InputError when the lattices differ (cell size or origin off each other's lattice).
 MapEvalResult EvaluateMap(const io::GeoRaster& map, const io::GeoRaster& truth, const io::GeoRaster& seen,
                           const std::vector<TrueRock>& rocks, const MapEvalOptions& options);

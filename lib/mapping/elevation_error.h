@@ -37,6 +37,16 @@ class ElevationErrorModel {
     if (!(depth > 0)) return std::numeric_limits<double>::quiet_NaN();
     return scale_ * depth * std::hypot(x - ref_x_, y - ref_y_);
   }
+  /// Both errors and the point's horizontal distance from the reference camera at once (the
+  /// fusion's inner loop); false (outputs untouched) behind the cameras.
+  bool Errors(double x, double y, double z, double* sigma_z, double* sigma_h, double* range_m) const {
+    const double depth = axis_.x() * (x - left_.x()) + axis_.y() * (y - left_.y()) + axis_.z() * (z - left_.z());
+    if (!(depth > 0)) return false;
+    *range_m = std::hypot(x - ref_x_, y - ref_y_);
+    *sigma_z = scale_ * depth * std::abs(z - ref_z_);
+    *sigma_h = scale_ * depth * *range_m;
+    return true;
+  }
 
  private:
   Eigen::Vector3d left_, axis_;

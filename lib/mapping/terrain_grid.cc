@@ -51,6 +51,9 @@ void TerrainMapOptions::Validate() const {
   LN_CHECK_ARG(gate_k > 0) << "gate: must be > 0 (inf: off)";
   LN_CHECK_ARG(std::isfinite(gate_floor_m) && gate_floor_m >= 0) << "gate floor: must be >= 0 m";
   LN_CHECK_ARG(gate_min_points >= 1) << "gate min points: must be >= 1";
+  LN_CHECK_ARG(visibility_k > 0) << "visibility: must be > 0 (inf: off)";
+  LN_CHECK_ARG(std::isfinite(visibility_floor_m) && visibility_floor_m >= 0) << "visibility floor: must be >= 0 m";
+  LN_CHECK_ARG(std::isfinite(frame_floor_m) && frame_floor_m > 0) << "frame floor: must be > 0 m";
   LN_CHECK_ARG(std::isfinite(default_sigma_m) && default_sigma_m > 0) << "default sigma: must be > 0 m";
   LN_CHECK_ARG(max_range_m > 0) << "max range: must be > 0 m";
   LN_CHECK_ARG(max_horizontal_sigma_cells > 0) << "max horizontal sigma: must be > 0 cells";
@@ -65,6 +68,9 @@ nlohmann::json TerrainMapOptions::ToJson() const {
           {"gate_k", number(gate_k)},
           {"gate_floor_m", gate_floor_m},
           {"gate_min_points", gate_min_points},
+          {"visibility_k", number(visibility_k)},
+          {"visibility_floor_m", visibility_floor_m},
+          {"frame_floor_m", frame_floor_m},
           {"default_sigma_m", default_sigma_m},
           {"max_range_m", number(max_range_m)},
           {"max_horizontal_sigma_cells", number(max_horizontal_sigma_cells)},
@@ -111,6 +117,7 @@ FrameContribution BinFrame(const cv::Mat& xyz, const cv::Mat& sigma, const Eigen
     std::vector<std::int32_t> ci, cj;
     std::vector<float> zs, ws, sz, sw, scratch;
     std::vector<std::uint32_t> start, local, fill;
+    std::vector<std::array<float, 4>> reach;
   };
   static thread_local Buffers buf;
   std::vector<std::int32_t>& ci = buf.ci;
@@ -122,7 +129,7 @@ FrameContribution BinFrame(const cv::Mat& xyz, const cv::Mat& sigma, const Eigen
   zs.clear();
   ws.clear();
 
-  // Pass 1: points to world cells.
+  // Pass 1: points to world cells, rows bottom up (rays rising) for the visibility rule.
   const std::size_t capacity = xyz.total();
   ci.reserve(capacity);
   cj.reserve(capacity);
@@ -130,13 +137,54 @@ FrameContribution BinFrame(const cv::Mat& xyz, const cv::Mat& sigma, const Eigen
   ws.reserve(capacity);
   std::int32_t i0 = std::numeric_limits<std::int32_t>::max(), j0 = i0, i1 = std::numeric_limits<std::int32_t>::min(),
                j1 = i1;
-  for (int row = 0; row < xyz.rows; ++row) {
+  // Per column: the lower bounds r - k s of the last three rays and L, the largest of their
+  // least so far.
+  const bool visibility = std::isfinite(o.visibility_k);
+  constexpr float kNone = -std::numeric_limits<float>::infinity();
+  std::vector<std::array<float, 4>>& reach = buf.reach;
+  if (visibility) reach.assign(static_cast<std::size_t>(xyz.cols), {kNone, kNone, kNone, kNone});
+  for (int row = xyz.rows - 1; row >= 0; --row) {
     const float* p = xyz.ptr<float>(row);
     const float* s = sigma.empty() ? nullptr : sigma.ptr<float>(row);
     for (int col = 0; col < xyz.cols; ++col, p += 3) {
       const float x = p[0], y = p[1], z = p[2];
       if (!(std::isfinite(x) && std::isfinite(y) && std::isfinite(z))) continue;
       ++out.points_in;
+      double w = default_w;
+      double h2 = 0;  // the predicted horizontal error, squared
+      double range = 0, sigma_h = 0;
+      if (s != nullptr) {
+        const float sz = s[3 * col + 2];
+        if (std::isfinite(sz) && sz > 0) w = 1.0 / (static_cast<double>(sz) * sz);
+        h2 = static_cast<double>(s[3 * col]) * s[3 * col] + static_cast<double>(s[3 * col + 1]) * s[3 * col + 1];
+        sigma_h = std::sqrt(h2);
+        range = std::hypot(static_cast<double>(x), static_cast<double>(y));
+      } else if (error_model != nullptr) {
+        double sz = 0;
+        if (error_model->Errors(x, y, z, &sz, &sigma_h, &range)) {
+          if (sz > 0) w = 1.0 / (sz * sz);
+          h2 = sigma_h * sigma_h;
+        } else {
+          h2 = std::numeric_limits<double>::quiet_NaN();  // behind the cameras: out below
+        }
+      } else {
+        range = std::hypot(static_cast<double>(x), static_cast<double>(y));
+      }
+      if (visibility) {
+        std::array<float, 4>& v = reach[col];  // v[0..2] the last three lower bounds, v[3] = L
+        if (range + o.visibility_k * sigma_h + o.visibility_floor_m < v[3]) {
+          ++out.points_floating;
+          continue;
+        }
+        v[0] = v[1];
+        v[1] = v[2];
+        v[2] = static_cast<float>(range - o.visibility_k * sigma_h);
+        v[3] = std::max(v[3], std::min({v[0], v[1], v[2]}));
+      }
+      if (!(h2 <= max_h2)) {  // too uncertain to say which cell it belongs to
+        ++out.points_out_of_range;
+        continue;
+      }
       if (static_cast<double>(x) * x + static_cast<double>(y) * y > max_range2 || !(y >= y_min_m && y <= y_max_m)) {
         ++out.points_out_of_range;
         continue;
@@ -144,22 +192,6 @@ FrameContribution BinFrame(const cv::Mat& xyz, const cv::Mat& sigma, const Eigen
       const double wx = r(0, 0) * x + r(0, 1) * y + r(0, 2) * z + t.x();
       const double wy = r(1, 0) * x + r(1, 1) * y + r(1, 2) * z + t.y();
       const double wz = r(2, 0) * x + r(2, 1) * y + r(2, 2) * z + t.z();
-      double w = default_w;
-      double h2 = 0;  // the predicted horizontal error, squared
-      if (s != nullptr) {
-        const float sz = s[3 * col + 2];
-        if (std::isfinite(sz) && sz > 0) w = 1.0 / (static_cast<double>(sz) * sz);
-        h2 = static_cast<double>(s[3 * col]) * s[3 * col] + static_cast<double>(s[3 * col + 1]) * s[3 * col + 1];
-      } else if (error_model != nullptr) {
-        const double sz = error_model->SigmaZ(x, y, z);
-        if (std::isfinite(sz) && sz > 0) w = 1.0 / (sz * sz);
-        const double sh = error_model->SigmaHorizontal(x, y, z);
-        h2 = sh * sh;
-      }
-      if (h2 > max_h2) {  // too uncertain to say which cell it belongs to
-        ++out.points_out_of_range;
-        continue;
-      }
       const auto i = static_cast<std::int32_t>(std::floor(wx * inv_cell));
       const auto j = static_cast<std::int32_t>(std::floor(wy * inv_cell));
       i0 = std::min(i0, i);
@@ -202,6 +234,7 @@ FrameContribution BinFrame(const cv::Mat& xyz, const cv::Mat& sigma, const Eigen
   // Pass 3: per cell, gate against the frame's median and sum.
   std::vector<float>& scratch = buf.scratch;
   const double floor2 = o.gate_floor_m * o.gate_floor_m, k2 = o.gate_k * o.gate_k;
+  const double frame_floor2 = o.frame_floor_m * o.frame_floor_m;
   for (std::int64_t c = 0; c + 1 < static_cast<std::int64_t>(start.size()); ++c) {
     const std::uint32_t b = start[c], e = start[c + 1];
     if (b == e) continue;
@@ -219,6 +252,7 @@ FrameContribution BinFrame(const cv::Mat& xyz, const cv::Mat& sigma, const Eigen
       spread2 = spread * spread;
     }
     CellStats cell;
+    double sw_pts = 0, swz = 0, swzz = 0;  // the accepted points' weighted sums
     for (std::uint32_t k = b; k < e; ++k) {
       const double z = sz[k], w = sw[k];
       if (gated) {
@@ -228,14 +262,23 @@ FrameContribution BinFrame(const cv::Mat& xyz, const cv::Mat& sigma, const Eigen
           continue;
         }
       }
-      cell.sum_w += w;
-      cell.sum_wz += w * z;
-      cell.sum_wzz += w * z * z;
+      sw_pts += w;
+      swz += w * z;
+      swzz += w * z * z;
       cell.z_min = std::min(cell.z_min, static_cast<float>(z));
       cell.z_max = std::max(cell.z_max, static_cast<float>(z));
       ++cell.count;
     }
-    if (cell.count > 0) cell.last_t_s = t_s;
+    if (cell.count > 0) {
+      // The frame's one observation of the cell: the points' weighted mean, weighed by their
+      // mean variance (count / sum of weights) plus the frame's floor.
+      const double m = swz / sw_pts, v = std::max(0.0, swzz / sw_pts - m * m);
+      const double frame_w = 1.0 / (cell.count / sw_pts + frame_floor2);
+      cell.sum_w = frame_w;
+      cell.sum_wz = frame_w * m;
+      cell.sum_wzz = frame_w * (m * m + v);
+      cell.last_t_s = t_s;
+    }
     out.points_fused += cell.count;
     out.points_rejected += cell.rejected;
     out.cells.push_back({CellIndex{i0 + c % nx, j0 + c / nx}, cell});

@@ -8,11 +8,16 @@
 // allocated as points arrive: memory follows the mapped area, not the number of frames.
 //
 // Fusion (docs/terrain-map.md): each frame's points are binned by cell; within a frame, a
-// point is rejected when it is inconsistent with that frame's estimate of the cell (farther
-// from the cell's median than gate_k times the combination of its predicted error, the
-// cell's robust spread and a floor); the accepted points are added to the cell's sums with
-// inverse-variance weights 1 / sigma_z^2. The cell's elevation is the weighted mean; the map is
-// a sum of per-frame terms, so fusing frames in any order, or in parts that are then merged,
+// point is rejected when it floats (a ray of the same image column to a farther point passes
+// beneath it: elevation_mapping's visibility clean-up, within the frame) or when it is
+// inconsistent with that frame's estimate of the cell (farther from the cell's median than
+// gate_k times the combination of its predicted error, the cell's robust spread and a floor).
+// The accepted points of a frame in a cell make one observation (their inverse-variance
+// weighted mean), because they share the frame's errors (one pose, overlapping correlation
+// windows): its weight is 1 / (sigma^2 + frame_floor_m^2), sigma^2 the points' mean variance,
+// so that a frame seeing a cell with a thousand near points does not outvote every other
+// frame by its count. The cell's elevation is the weighted mean of its frames' observations;
+// the map is a sum of per-frame terms, so fusing frames in any order, or in parts that are then merged,
 // gives the same map.
 #pragma once
 
@@ -58,6 +63,18 @@ struct TerrainMapOptions {
   double gate_k = 3.0;
   double gate_floor_m = 0.02;  ///< Metres, >= 0.
   int gate_min_points = 3;     ///< Cells with fewer of the frame's points are not gated, >= 1.
+  /// Visibility: walking up an image column (rays rising, each farther ray above the nearer
+  /// ones), a point is rejected as floating when r + k s + floor < L, r its horizontal distance
+  /// from the camera, s that distance's predicted error, L the largest r - k s of the rays below
+  /// it (each the least of three consecutive rays, so that one stray far match does not veto
+  /// the column): a ray below it reached farther, so in a 2.5-D world the ground under the
+  /// point is lower than that ray and the point hangs in the air. > 0; infinity turns it off.
+  double visibility_k = 3.0;
+  double visibility_floor_m = 0.1;  ///< Metres, >= 0.
+  /// The least error of one frame's estimate of a cell, whatever its points' count and
+  /// precision (their errors are correlated: one pose, one rig, overlapping windows), metres,
+  /// > 0. A frame's observation of a cell weighs 1 / (mean point variance + this^2).
+  double frame_floor_m = 0.02;
   /// Predicted elevation error of points without an xyz_sigma map, metres, > 0.
   double default_sigma_m = 0.05;
   /// Points farther than this from the mast base (horizontally, vehicle frame) are ignored,
@@ -77,8 +94,11 @@ struct TerrainMapOptions {
   nlohmann::json ToJson() const;
 };
 
-/// What one cell has accumulated: weighted sums of the accepted points' elevations (weights
-/// 1 / sigma^2), their extremes, counts and the time of the last frame that saw it.
+/// What one cell has accumulated: over the frames that saw it, weighted sums of each frame's
+/// observation (weight W = 1 / (sigma^2 + frame_floor^2), value m its points' weighted mean;
+/// sum_wzz adds W (m^2 + v), v the points' weighted variance about m, so that the spread holds
+/// both the points' scatter and the frames' disagreement), the accepted points' extremes,
+/// counts and the time of the last frame that saw it.
 struct CellStats {
   double sum_w = 0, sum_wz = 0, sum_wzz = 0;
   float z_min = std::numeric_limits<float>::infinity();
@@ -89,9 +109,10 @@ struct CellStats {
 
   void Merge(const CellStats& other);
   double Mean() const { return sum_wz / sum_w; }
-  /// Weighted standard deviation of the accepted points about the mean (roughness).
+  /// Standard deviation of the accepted points about the mean (roughness): each frame's
+  /// points' spread and its offset from the mean, weighted by the frames' weights.
   double StdDev() const;
-  /// Predicted error of the mean, 1 / sqrt(sum of weights).
+  /// Predicted error of the mean, 1 / sqrt(sum of the frames' weights).
   double Sigma() const;
 };
 
@@ -106,6 +127,7 @@ struct FrameContribution {
   long points_in = 0;        ///< Valid points (finite XYZ) in the frame.
   long points_fused = 0;     ///< Accepted.
   long points_rejected = 0;  ///< Rejected by the gate.
+  long points_floating = 0;  ///< Rejected by the visibility rule (a farther ray passes beneath).
   long points_out_of_range = 0;
 };
 

@@ -78,6 +78,9 @@ json FusionJson(const TerrainMapRunOptions& options, const std::string& errors) 
           {"gate_k", number(mo.gate_k)},
           {"gate_floor_m", mo.gate_floor_m},
           {"gate_min_points", mo.gate_min_points},
+          {"visibility_k", number(mo.visibility_k)},
+          {"visibility_floor_m", mo.visibility_floor_m},
+          {"frame_floor_m", mo.frame_floor_m},
           {"max_range_m", number(mo.max_range_m)},
           {"max_horizontal_sigma_cells", number(mo.max_horizontal_sigma_cells)},
           {"errors", errors}};
@@ -173,7 +176,8 @@ std::string TerrainMapRunSummary::BriefReport() const {
   s << frames_fused << " frames fused";
   if (frames_resumed > 0) s << " (+" << frames_resumed << " resumed)";
   if (frames_merged > 0) s << " (+" << frames_merged << " merged)";
-  s << ", " << points_fused / 1e6 << " M points (" << points_rejected << " rejected by the gate); " << mapped_cells
+  s << ", " << points_fused / 1e6 << " M points (" << points_rejected << " rejected by the gate, " << points_floating
+    << " floating); " << mapped_cells
     << " cells, " << obstacle_cells << " obstacle cells; " << seconds << " s";
   return s.str();
 }
@@ -327,6 +331,7 @@ TerrainMapRunSummary RunTerrainMap(const TerrainMapRunOptions& options, const fs
       summary.points_in += c.points_in;
       summary.points_fused += c.points_fused;
       summary.points_rejected += c.points_rejected;
+      summary.points_floating += c.points_floating;
       summary.points_out_of_range += c.points_out_of_range;
       fused.push_back({pose, c.points_fused, c.points_rejected});
       ++summary.frames_fused;
@@ -393,7 +398,8 @@ TerrainMapRunSummary RunTerrainMap(const TerrainMapRunOptions& options, const fs
   j["counts"] = {{"frames_total", summary.frames_total},   {"frames_fused", summary.frames_fused},
                  {"frames_resumed", summary.frames_resumed}, {"frames_merged", summary.frames_merged},
                  {"points_in", summary.points_in},           {"points_fused", summary.points_fused},
-                 {"points_rejected", summary.points_rejected}, {"points_out_of_range", summary.points_out_of_range},
+                 {"points_rejected", summary.points_rejected}, {"points_floating", summary.points_floating},
+                 {"points_out_of_range", summary.points_out_of_range},
                  {"mapped_cells", summary.mapped_cells},     {"obstacle_cells", summary.obstacle_cells}};
   j["timings_s"] = {{"total", summary.seconds},
                     {"read_and_fuse", summary.fuse_seconds},

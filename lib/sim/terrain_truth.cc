@@ -68,7 +68,7 @@ io::GeoRaster TerrainTruthRaster(const Terrain& terrain, double cell_m, const Tr
   // Relief and slope: the least-squares plane of the 3 x 3 neighbourhood's cell means (x, y
   // in cells from the centre); the cell's highest sample against the neighbourhood's lowest,
   // both above that plane; the plane's slope.
-  cv::Mat obstacle(h, w, CV_32FC1, cv::Scalar(0));
+  cv::Mat obstacle(h, w, CV_32FC1, cv::Scalar(0)), relief(h, w, CV_32FC1), slope(h, w, CV_32FC1);
   const double tan_max = std::tan(obstacles.max_slope_deg * M_PI / 180);
   tbb::parallel_for(0, h, [&](int row) {
     for (int col = 0; col < w; ++col) {
@@ -115,11 +115,13 @@ io::GeoRaster TerrainTruthRaster(const Terrain& terrain, double cell_m, const Tr
       if (cell_top - around_bottom >= obstacles.step_height_m) code |= 1;
       if (std::hypot(q, t) / cell_m > tan_max) code |= 2;
       obstacle.at<float>(row, col) = static_cast<float>(code);
+      relief.at<float>(row, col) = static_cast<float>(cell_top - around_bottom);
+      slope.at<float>(row, col) = static_cast<float>(std::atan(std::hypot(q, t) / cell_m) * 180 / M_PI);
     }
   });
-  // Rocks at least a step tall: every cell one of whose samples their footprint covers.
+  // Rocks: every cell one of whose samples their footprint covers has at least the rock's
+  // height of relief, and is a step when the rock is at least a step tall.
   for (const TerrainRock& rock : terrain.Rocks()) {
-    if (rock.height_m < obstacles.step_height_m) continue;
     const double ca = std::cos(rock.angle_rad), sa = std::sin(rock.angle_rad);
     const int c_lo = std::max(0, static_cast<int>(std::floor((rock.x_m - rock.semi_major_m) / cell_m - i0)));
     const int c_hi = std::min(w - 1, static_cast<int>(std::floor((rock.x_m + rock.semi_major_m) / cell_m - i0)));
@@ -135,7 +137,11 @@ io::GeoRaster TerrainTruthRaster(const Terrain& terrain, double cell_m, const Tr
             covered = u * u + v * v < 1;
           }
         }
-        if (covered) obstacle.at<float>(row, col) = static_cast<float>(static_cast<int>(obstacle.at<float>(row, col)) | 1);
+        if (!covered) continue;
+        relief.at<float>(row, col) = std::max(relief.at<float>(row, col), static_cast<float>(rock.height_m));
+        if (rock.height_m >= obstacles.step_height_m) {
+          obstacle.at<float>(row, col) = static_cast<float>(static_cast<int>(obstacle.at<float>(row, col)) | 1);
+        }
       }
     }
   }
@@ -146,8 +152,8 @@ io::GeoRaster TerrainTruthRaster(const Terrain& terrain, double cell_m, const Tr
   r.cell_m = cell_m;
   r.metadata["lunarnav_frame"] = "world: x east, y north, z up; metres";
   r.metadata["lunarnav_content"] = "simulate stereo: the true terrain";
-  const std::array<std::pair<cv::Mat, const char*>, 4> bands = {{{mean, "elevation_m"}, {lo, "min_m"}, {hi, "max_m"},
-                                                                  {obstacle, "obstacle"}}};
+  const std::array<std::pair<cv::Mat, const char*>, 6> bands = {
+      {{mean, "elevation_m"}, {lo, "min_m"}, {hi, "max_m"}, {obstacle, "obstacle"}, {relief, "relief_m"}, {slope, "slope_deg"}}};
   for (const auto& [pixels, name] : bands) {
     io::RasterBand b;
     b.pixels = pixels;
@@ -160,6 +166,10 @@ io::GeoRaster TerrainTruthRaster(const Terrain& terrain, double cell_m, const Tr
   r.bands[3].metadata["meaning"] =
       "true obstacles from the scene: 0 free, 1 step (a rock at least a step tall, or a step of the relief), "
       "2 slope, 3 both";
+  r.bands[4].metadata["meaning"] =
+      "true relief: the cell's highest point above the lowest of its 3 x 3 neighbourhood, both from the "
+      "neighbourhood's least-squares plane, or the height of a rock whose footprint covers the cell if more, m";
+  r.bands[5].metadata["meaning"] = "slope of the 3 x 3 neighbourhood's least-squares plane, deg";
   r.metadata["lunarnav_obstacles"] = obstacles.ToJson().dump();
   return r;
 }

@@ -29,8 +29,9 @@ struct TrueObstacleOptions {
 /// footprint covers one of the cell's samples) or where the cell's highest point stands
 /// step_height_m above the lowest point of its 3 x 3 neighbourhood, both measured from the
 /// neighbourhood's least-squares plane (so an even slope is no step); bit 2 (slope) where
-/// that plane is steeper than max_slope_deg or where the surface between two adjacent
-/// samples of the cell is. Rows north first, as terrain-map writes.
+/// that plane is steeper than max_slope_deg; relief_m: that step measure (the cell's highest sample above the
+/// neighbourhood's lowest) or the height of a rock whose footprint covers the cell if more;
+/// slope_deg: the plane's slope. Rows north first, as terrain-map writes.
 io::GeoRaster TerrainTruthRaster(const Terrain& terrain, double cell_m, const TrueObstacleOptions& obstacles = {});
 
 /// The rocks as CSV: '#' lines, header x_m,y_m,height_m,semi_major_m,semi_minor_m,angle_deg.

@@ -35,6 +35,8 @@ io::GeoRaster Raster(double x_west, double y_north, const std::vector<std::pair<
 struct Scene {
   cv::Mat truth_z = cv::Mat(10, 10, CV_32FC1, cv::Scalar(0));
   cv::Mat truth_obstacle = cv::Mat(10, 10, CV_32FC1, cv::Scalar(0));
+  cv::Mat truth_relief = cv::Mat(10, 10, CV_32FC1, cv::Scalar(0.01));
+  cv::Mat truth_slope = cv::Mat(10, 10, CV_32FC1, cv::Scalar(2));
   cv::Mat seen = cv::Mat(10, 10, CV_32FC1, cv::Scalar(20));
   cv::Mat z = cv::Mat(10, 10, CV_32FC1, cv::Scalar(0));
   cv::Mat count = cv::Mat(10, 10, CV_32FC1, cv::Scalar(5));
@@ -42,6 +44,7 @@ struct Scene {
   std::vector<TrueRock> rocks;
   Scene() {
     truth_obstacle.at<float>(4, 6) = 1;
+    truth_relief.at<float>(4, 6) = 0.3;
     obstacle.at<float>(4, 6) = 1;
     TrueRock rock;
     rock.x_m = 6.5 * 0.25;  // the centre of column 6
@@ -52,7 +55,8 @@ struct Scene {
   }
   MapEvalResult Evaluate() const {
     const io::GeoRaster map = Raster(0, 2.5, {{"elevation_m", z}, {"count", count}, {"obstacle", obstacle}});
-    const io::GeoRaster truth = Raster(0, 2.5, {{"elevation_m", truth_z}, {"obstacle", truth_obstacle}});
+    const io::GeoRaster truth = Raster(0, 2.5, {{"elevation_m", truth_z}, {"obstacle", truth_obstacle},
+                                                {"relief_m", truth_relief}, {"slope_deg", truth_slope}});
     const io::GeoRaster seen_raster = Raster(0, 2.5, {{"count", seen}});
     return EvaluateMap(map, truth, seen_raster, rocks, MapEvalOptions{});
   }
@@ -110,6 +114,26 @@ TEST(EvaluateMap, APhantomCellRaisesTheLargestErrorAndIsCounted) {
   EXPECT_EQ(f.recall, 1.0);
 }
 
+TEST(EvaluateMap, PrecisionCountsAnObstacleOnRealReliefThoughNotAnObstacleAsNoFalseAlarm) {
+  Scene s;
+  // Cell (1, 1): 17 cm of relief (no true obstacle, but real); cell (8, 8): a 27 deg slope;
+  // cell (8, 1): 14 cm and 24 deg, below both bars. Obstacles mapped on all three.
+  s.truth_relief.at<float>(1, 1) = 0.17f;
+  s.truth_slope.at<float>(8, 8) = 27;
+  s.truth_relief.at<float>(8, 1) = 0.14f;
+  s.truth_slope.at<float>(8, 1) = 24;
+  for (auto [row, col] : {std::pair{1, 1}, {8, 8}, {8, 1}}) s.obstacle.at<float>(row, col) = 1;
+  const MapEvalResult r = s.Evaluate();
+  EXPECT_EQ(r.obstacle_map, 4);
+  EXPECT_EQ(r.obstacle_tp, 3);
+  EXPECT_EQ(r.obstacle_fp, 1);
+  EXPECT_EQ(r.recall, 1.0);  // recall still asks for the true obstacle only
+  // Within the tolerance (one cell) of real relief is real: the false alarm moves next to it.
+  s.obstacle.at<float>(8, 1) = 0;
+  s.obstacle.at<float>(1, 2) = 1;
+  EXPECT_EQ(s.Evaluate().obstacle_fp, 0);
+}
+
 TEST(EvaluateMap, OnlyTheGroundSeenIsScoredForCoverage) {
   Scene s;
   // The cameras saw the western half only; the map's eastern half is no coverage gain, and
@@ -126,7 +150,8 @@ TEST(EvaluateMap, OnlyTheGroundSeenIsScoredForCoverage) {
 TEST(EvaluateMap, RefusesRastersOffTheLattice) {
   Scene s;
   const io::GeoRaster map = Raster(0.1, 2.5, {{"elevation_m", s.z}, {"count", s.count}, {"obstacle", s.obstacle}});
-  const io::GeoRaster truth = Raster(0, 2.5, {{"elevation_m", s.truth_z}, {"obstacle", s.truth_obstacle}});
+  const io::GeoRaster truth = Raster(0, 2.5, {{"elevation_m", s.truth_z}, {"obstacle", s.truth_obstacle},
+                                              {"relief_m", s.truth_relief}, {"slope_deg", s.truth_slope}});
   const io::GeoRaster seen = Raster(0, 2.5, {{"count", s.seen}});
   EXPECT_THROW(EvaluateMap(map, truth, seen, s.rocks, MapEvalOptions{}), InputError);
 }

@@ -15,14 +15,15 @@ using HeightFn = std::function<double(double x_m, double y_m)>;
 
 /// An XYZ map (CV_32FC3, vehicle frame) of `height` seen from the level pose `pose` (heading
 /// and position only): `cols` x `rows` points on a regular grid of vehicle X in [x0, x1],
-/// Y in [y0, y1], each at the surface's height under it. Pixels listed in `holes` stay NaN.
+/// Y in [y0, y1], each at the surface's height under it, in a camera's order: row 0 the
+/// farthest (the top of an image), the last row the nearest.
 inline cv::Mat SurfaceXyz(const HeightFn& height, const FramePose& pose, int cols = 160, int rows = 120,
                           double x0 = -3, double x1 = 3, double y0 = 2, double y1 = 10) {
   cv::Mat xyz(rows, cols, CV_32FC3);
   const Eigen::Isometry3d world_from_vehicle = pose.WorldFromVehicle();
   for (int r = 0; r < rows; ++r) {
     for (int c = 0; c < cols; ++c) {
-      const double x = x0 + (x1 - x0) * (c + 0.5) / cols, y = y0 + (y1 - y0) * (r + 0.5) / rows;
+      const double x = x0 + (x1 - x0) * (c + 0.5) / cols, y = y1 - (y1 - y0) * (r + 0.5) / rows;
       const Eigen::Vector3d w = world_from_vehicle * Eigen::Vector3d(x, y, 0);
       const double z = height(w.x(), w.y()) - pose.z_m;
       xyz.at<cv::Vec3f>(r, c) = cv::Vec3f(static_cast<float>(x), static_cast<float>(y), static_cast<float>(z));

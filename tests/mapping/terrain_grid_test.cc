@@ -186,6 +186,70 @@ TEST(TerrainGrid, PointsTooUncertainForACellAreLeftOut) {
   EXPECT_EQ(BinFrame(xyz, sigma, pose.WorldFromVehicle(), 0, all).points_out_of_range, 0);
 }
 
+// The visibility rule: a blob of matches nearer than the rays below it in its image column
+// floats (those rays reached farther, passing beneath it) and is rejected, counted; a box
+// standing on the ground, whose face rises at one distance, is not.
+TEST(TerrainGrid, PointsAFartherRayPassesBeneathAreRejectedAsFloating) {
+  const TerrainMapOptions o;  // no predicted error (no sigma, no rig): the floor alone, 10 cm
+  const FramePose pose = Pose(0, 0, 0);
+  cv::Mat xyz = SurfaceXyz([](double, double) { return 0.0; }, pose);  // rows from Y = 10 m (top) to 2 m
+  // Near the top of the image (true ground at 9-10 m), a blob matched at Y = 5 m, 0.3 m up.
+  long blob = 0;
+  for (int r = 2; r < 10; ++r) {
+    for (int c = 40; c < 60; ++c) {
+      cv::Vec3f& p = xyz.at<cv::Vec3f>(r, c);
+      p[1] = 5.0f;
+      p[2] = 0.3f;
+      ++blob;
+    }
+  }
+  const FrameContribution part = BinFrame(xyz, cv::Mat(), pose.WorldFromVehicle(), 0, o);
+  EXPECT_EQ(part.points_floating, blob);
+  EXPECT_EQ(part.points_fused, part.points_in - blob);
+  TerrainGrid grid(o.cell_m);
+  grid.Add(part);
+  const MapLayers l = ComputeLayers(grid, o.obstacles);
+  EXPECT_EQ(CountCells(l.max_m, [&](int r, int c) { return l.max_m.at<float>(r, c) > 0.01f; }), 0);
+  // Off, the blob stands in the map.
+  TerrainMapOptions off = o;
+  off.visibility_k = std::numeric_limits<double>::infinity();
+  EXPECT_EQ(BinFrame(xyz, cv::Mat(), pose.WorldFromVehicle(), 0, off).points_floating, 0);
+  // One stray far match below a correct point does not veto it (three in a row are needed).
+  cv::Mat stray = SurfaceXyz([](double, double) { return 0.0; }, pose);
+  stray.at<cv::Vec3f>(100, 30)[1] = 9.5f;  // at Y of about 3.3 m
+  EXPECT_EQ(BinFrame(stray, cv::Mat(), pose.WorldFromVehicle(), 0, o).points_floating, 0);
+  // A box on the ground: its face rises at one distance, no ray below reaches past it.
+  const cv::Mat box = SurfaceXyz(BoxOnPlane(0.0, -1.0, 1.0, 5.0, 6.0, 0.3), pose);
+  EXPECT_EQ(BinFrame(box, cv::Mat(), pose.WorldFromVehicle(), 0, o).points_floating, 0);
+}
+
+// A frame's points in a cell are one observation: a frame with many precise points at a wrong
+// height does not outvote four frames that agree, and the cell's sigma is that of the frames.
+TEST(TerrainGrid, AFramesPointsInACellAreOneObservation) {
+  const TerrainMapOptions o;
+  const FramePose pose = Pose(0, 0, 0);
+  auto frame = [&](double z, float sigma_z) {
+    const cv::Mat xyz = SurfaceXyz([z](double, double) { return z; }, pose);
+    const cv::Mat sigma(xyz.size(), CV_32FC3, cv::Scalar(0.001f, 0.001f, sigma_z));
+    return BinFrame(xyz, sigma, pose.WorldFromVehicle(), 0, o);
+  };
+  TerrainGrid grid(o.cell_m);
+  grid.Add(frame(0.1, 0.001f));  // 1 mm points, 10 cm off
+  for (int k = 0; k < 4; ++k) grid.Add(frame(0.0, 0.02f));
+  const double w_precise = 1.0 / (1e-6 + o.frame_floor_m * o.frame_floor_m);
+  const double w_plain = 1.0 / (4e-4 + o.frame_floor_m * o.frame_floor_m);
+  const Eigen::Vector3d centre = pose.WorldFromVehicle() * Eigen::Vector3d(0.1, 6.1, 0);
+  const CellStats* s = grid.Find({static_cast<std::int64_t>(std::floor(centre.x() / o.cell_m)),
+                                  static_cast<std::int64_t>(std::floor(centre.y() / o.cell_m))});
+  ASSERT_NE(s, nullptr);
+  EXPECT_NEAR(s->Mean(), 0.1 * w_precise / (w_precise + 4 * w_plain), 1e-6);
+  EXPECT_NEAR(s->Sigma(), 1.0 / std::sqrt(w_precise + 4 * w_plain), 1e-9);
+  // The roughness holds the frames' disagreement (the points of each frame lie flat).
+  const double m = s->Mean();
+  EXPECT_NEAR(s->StdDev(),
+              std::sqrt((w_precise * (0.1 - m) * (0.1 - m) + 4 * w_plain * m * m) / (w_precise + 4 * w_plain)), 1e-6);
+}
+
 TEST(TerrainGrid, FusingInTwoHalvesAndMergingEqualsFusingAtOnce) {
   const TerrainMapOptions o;
   const auto surface = [](double x, double y) {
