@@ -64,6 +64,9 @@ int main(int argc, char** argv) {
                                        "max_slope_deg (default: 0.2 m, 30 deg)");
   app.add_option("--obstacle-min-points", opt.map.obstacles.min_points, "cells with fewer points are not judged")
       ->capture_default_str();
+  app.add_option("--obstacle-extremes", opt.map.obstacles.extreme_k,
+                 "the step rule's extremes of a cell: within this many roughnesses of its mean (inf: raw)")
+      ->capture_default_str();
   app.add_option("--merge", opt.merge_maps, "terrain-map output directory of other frames to merge in "
                                             "(repeatable)");
   app.add_flag("--no-preview", no_preview, "do not write preview.png");

@@ -40,10 +40,15 @@ void ObstacleOptions::Validate() const {
   LN_CHECK_ARG(std::isfinite(step_height_m) && step_height_m > 0) << "obstacle height: must be > 0 m";
   LN_CHECK_ARG(max_slope_deg > 0 && max_slope_deg < 90) << "slope limit: must be in (0, 90) deg";
   LN_CHECK_ARG(min_points >= 1) << "obstacle min points: must be >= 1";
+  LN_CHECK_ARG(extreme_k > 0) << "obstacle extremes: must be > 0 roughnesses (inf: raw)";
 }
 
 nlohmann::json ObstacleOptions::ToJson() const {
-  return {{"step_height_m", step_height_m}, {"max_slope_deg", max_slope_deg}, {"min_points", min_points}};
+  auto number = [](double v) { return std::isfinite(v) ? nlohmann::json(v) : nlohmann::json("inf"); };
+  return {{"step_height_m", step_height_m},
+          {"max_slope_deg", max_slope_deg},
+          {"min_points", min_points},
+          {"extreme_k", number(extreme_k)}};
 }
 
 void TerrainMapOptions::Validate() const {
@@ -438,8 +443,18 @@ bool MapLayers::CellOf(double x_m, double y_m, int* col, int* row) const {
 }
 
 cv::Mat DetectObstacles(const cv::Mat& elevation, const cv::Mat& min_m, const cv::Mat& max_m, const cv::Mat& count,
-                        double cell_m, const ObstacleOptions& o) {
+                        double cell_m, const ObstacleOptions& o, const cv::Mat& roughness) {
   o.Validate();
+  auto top = [&](int r, int c) {
+    const double raw = max_m.at<float>(r, c);
+    if (roughness.empty() || !std::isfinite(o.extreme_k)) return raw;
+    return std::min(raw, elevation.at<float>(r, c) + o.extreme_k * roughness.at<float>(r, c));
+  };
+  auto bottom = [&](int r, int c) {
+    const double raw = min_m.at<float>(r, c);
+    if (roughness.empty() || !std::isfinite(o.extreme_k)) return raw;
+    return std::max(raw, elevation.at<float>(r, c) - o.extreme_k * roughness.at<float>(r, c));
+  };
   const int h = elevation.rows, w = elevation.cols;
   cv::Mat out(h, w, CV_32FC1, cv::Scalar(kNaN));
   auto judged = [&](int r, int c) {
@@ -461,15 +476,15 @@ cv::Mat DetectObstacles(const cv::Mat& elevation, const cv::Mat& min_m, const cv
       // Step: the cell's highest point above the lowest point around it, each neighbour's
       // lowest point carried to this cell along the local ground slope (so that an even
       // slope is no step; at a step the minmod slope is 0).
-      double lowest = min_m.at<float>(r, c);
+      double lowest = bottom(r, c);
       for (int dr = -1; dr <= 1; ++dr) {
         for (int dc = -1; dc <= 1; ++dc) {
           if ((dr != 0 || dc != 0) && judged(r + dr, c + dc)) {
-            lowest = std::min(lowest, min_m.at<float>(r + dr, c + dc) - gx * dc * cell_m + gy * dr * cell_m);
+            lowest = std::min(lowest, bottom(r + dr, c + dc) - gx * dc * cell_m + gy * dr * cell_m);
           }
         }
       }
-      if (max_m.at<float>(r, c) - lowest > o.step_height_m) kind |= 1;
+      if (top(r, c) - lowest > o.step_height_m) kind |= 1;
       out.at<float>(r, c) = static_cast<float>(kind);
     }
   }
@@ -501,7 +516,7 @@ MapLayers ComputeLayers(const TerrainGrid& grid, const ObstacleOptions& obstacle
       l.last_t_s.at<float>(row, col) = static_cast<float>(s->last_t_s);
     }
   }
-  l.obstacle = DetectObstacles(l.elevation_m, l.min_m, l.max_m, l.count, l.cell_m, obstacles);
+  l.obstacle = DetectObstacles(l.elevation_m, l.min_m, l.max_m, l.count, l.cell_m, obstacles, l.roughness_m);
   return l;
 }
 

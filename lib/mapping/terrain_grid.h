@@ -51,6 +51,10 @@ struct ObstacleOptions {
   double max_slope_deg = 30.0;
   /// Cells with fewer points are not judged (no-data in the obstacle layer), >= 1.
   int min_points = 3;
+  /// The step rule's extremes of a cell: its highest point, but no higher than the mean plus
+  /// this many roughnesses, and its lowest, no lower than the mean minus as many (one stray
+  /// point of forty frames is no step); > 0, infinity: the raw extremes.
+  double extreme_k = 2.0;
   void Validate() const;
   nlohmann::json ToJson() const;
 };
@@ -198,7 +202,7 @@ MapLayers ComputeLayers(const TerrainGrid& grid, const ObstacleOptions& obstacle
 /// The obstacle layer (see MapLayers::obstacle) from elevation, min, max and count layers of
 /// one size (CV_32F, NaN = unmapped; `count` may be empty: every mapped cell is judged).
 cv::Mat DetectObstacles(const cv::Mat& elevation_m, const cv::Mat& min_m, const cv::Mat& max_m, const cv::Mat& count,
-                        double cell_m, const ObstacleOptions& options);
+                        double cell_m, const ObstacleOptions& options, const cv::Mat& roughness_m = cv::Mat());
 
 /// The layers as the GeoTIFF `elevation.tif` writes them (bands in MapLayers' order, each
 /// with its description and units; docs/terrain-map.md).

@@ -250,6 +250,29 @@ TEST(TerrainGrid, AFramesPointsInACellAreOneObservation) {
               std::sqrt((w_precise * (0.1 - m) * (0.1 - m) + 4 * w_plain * m * m) / (w_precise + 4 * w_plain)), 1e-6);
 }
 
+// The step rule's extremes lie within extreme_k roughnesses of the cell's mean: a stray high
+// point in a flat cell of low roughness makes no step; a rock cell's wide spread keeps its top.
+TEST(TerrainGrid, AStrayExtremeIsNoStepButARocksTopIs) {
+  const cv::Mat flat(5, 5, CV_32FC1, cv::Scalar(0));
+  cv::Mat max_m = flat.clone(), min_m = flat.clone(), roughness(5, 5, CV_32FC1, cv::Scalar(0.02));
+  max_m.at<float>(2, 2) = 0.25f;  // one stray point 25 cm up in a cell whose points lie within 2 cm
+  ObstacleOptions o;
+  const cv::Mat raw = DetectObstacles(flat, min_m, max_m, cv::Mat(), 0.25, o);
+  EXPECT_EQ(raw.at<float>(2, 2), 1);  // without the roughness: the raw extremes make a step
+  const cv::Mat robust = DetectObstacles(flat, min_m, max_m, cv::Mat(), 0.25, o, roughness);
+  EXPECT_EQ(robust.at<float>(2, 2), 0);
+  // A rock's cell: mean 15 cm, top 30 cm, points spread 10 cm: still a step.
+  cv::Mat elevation = flat.clone();
+  elevation.at<float>(2, 2) = 0.15f;
+  max_m.at<float>(2, 2) = 0.30f;
+  roughness.at<float>(2, 2) = 0.10f;
+  EXPECT_EQ(DetectObstacles(elevation, min_m, max_m, cv::Mat(), 0.25, o, roughness).at<float>(2, 2), 1);
+  // Raw extremes on request (infinity).
+  o.extreme_k = std::numeric_limits<double>::infinity();
+  max_m.at<float>(2, 2) = 0.25f;
+  EXPECT_EQ(DetectObstacles(flat, min_m, max_m, cv::Mat(), 0.25, o, roughness).at<float>(2, 2), 1);
+}
+
 TEST(TerrainGrid, FusingInTwoHalvesAndMergingEqualsFusingAtOnce) {
   const TerrainMapOptions o;
   const auto surface = [](double x, double y) {
