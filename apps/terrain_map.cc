@@ -48,6 +48,10 @@ int main(int argc, char** argv) {
       ->capture_default_str();
   app.add_option("--visibility-floor", opt.map.visibility_floor_m, "the visibility rule's margin, m")
       ->capture_default_str();
+  app.add_option("--support-rise", opt.map.support_rise_m,
+                 "support: reject a point risen more than this above the last point below it in its image column, "
+                 "steeper than 45 deg, with no face seen between (inf: off), m")
+      ->capture_default_str();
   app.add_option("--frame-floor", opt.map.frame_floor_m,
                  "least error of one frame's estimate of a cell (its points' errors are correlated), m")
       ->capture_default_str();

@@ -96,6 +96,11 @@ struct GroundWindowOptions {
   /// point's error spans more than a cell.
   double max_range_error_m = 0.25;
   double sigma_d_px = 1.0;
+  /// Each row also searches, below its band, the disparities of the same slab out to this
+  /// many times the far limit's distance (a guard: the ground beyond the far limit, seen in
+  /// the upper rows, finds its match there rather than a false one inside the band, and is
+  /// then rejected), >= 1; 1 = no guard.
+  double guard_distance_factor = 3.0;
   void Validate() const;
 };
 
@@ -105,12 +110,19 @@ struct GroundWindow {
   /// to the far limit, Z from the options.
   RegionOfInterest region;
   double far_limit_depth_m = 0;  ///< Depth (rectified frame) at which the range error reaches the bound.
-  /// SelectWindow over the region: the row band and the one disparity range that hold it.
+  double guard_y_max_m = 0;      ///< The guard's far end, Y (guard_distance_factor times the region's reach).
+  /// SelectWindow over the region: the row band and the one disparity range that hold it
+  /// (without the guard).
   ImageWindow window;
+  int guard_min_disparity_px = 0;  ///< The least disparity of the bands, guard included.
   /// Per reference-image row (size: the image's height), the disparities of the region's
-  /// points seen in that row (with the margin, within window's range); {0, -1} = none, which
-  /// only rows outside the window's rows have.
+  /// points seen in that row and, below them, the guard's (with the margin, within
+  /// [guard_min_disparity_px, window.max_disparity_px]); {0, -1} = none, which only rows
+  /// outside the window's rows have.
   std::vector<std::pair<int, int>> row_disparity_px;
+  /// Per row, the least disparity accepted (the region's far limit; the band extends below
+  /// it by the guard); 0 for rows without a band.
+  std::vector<int> row_accept_min_px;
   nlohmann::json ToJson() const;
 };
 

@@ -18,8 +18,8 @@ constexpr double kMadToSigma = 1.4826;  // MAD of a normal distribution -> its s
 constexpr float kNaN = std::numeric_limits<float>::quiet_NaN();
 
 // The state raster's bands, in order.
-const std::array<const char*, 8> kStateBands = {"sum_w", "sum_wz", "sum_wzz", "z_min",
-                                                 "z_max", "count", "rejected", "last_t_s"};
+const std::array<const char*, 9> kStateBands = {"sum_w", "sum_wz", "sum_wzz",  "z_min", "z_max",
+                                                 "count", "rejected", "last_t_s", "frames"};
 
 std::uint64_t TileKey(std::int64_t ti, std::int64_t tj) {
   return (static_cast<std::uint64_t>(static_cast<std::uint32_t>(ti)) << 32) |
@@ -27,6 +27,16 @@ std::uint64_t TileKey(std::int64_t ti, std::int64_t tj) {
 }
 
 std::int64_t FloorDiv(std::int64_t a, int shift) { return a >> shift; }  // arithmetic shift floors
+
+// What the walk up an image column remembers (BinFrame): the lower bounds r - k s of the last
+// three rays, the reach L (the largest of their least so far), and the last point kept.
+struct ColumnWalk {
+  std::array<float, 3> bound = {-std::numeric_limits<float>::infinity(), -std::numeric_limits<float>::infinity(),
+                                -std::numeric_limits<float>::infinity()};
+  float reach = -std::numeric_limits<float>::infinity();
+  float last_range = std::numeric_limits<float>::infinity();
+  float last_z = std::numeric_limits<float>::infinity();
+};
 
 // The smaller of two one-sided differences when they agree in sign, else 0 (minmod).
 double MinMod(double a, double b) {
@@ -58,6 +68,7 @@ void TerrainMapOptions::Validate() const {
   LN_CHECK_ARG(gate_min_points >= 1) << "gate min points: must be >= 1";
   LN_CHECK_ARG(visibility_k > 0) << "visibility: must be > 0 (inf: off)";
   LN_CHECK_ARG(std::isfinite(visibility_floor_m) && visibility_floor_m >= 0) << "visibility floor: must be >= 0 m";
+  LN_CHECK_ARG(support_rise_m > 0) << "support rise: must be > 0 m (inf: off)";
   LN_CHECK_ARG(std::isfinite(frame_floor_m) && frame_floor_m > 0) << "frame floor: must be > 0 m";
   LN_CHECK_ARG(std::isfinite(default_sigma_m) && default_sigma_m > 0) << "default sigma: must be > 0 m";
   LN_CHECK_ARG(max_range_m > 0) << "max range: must be > 0 m";
@@ -75,6 +86,7 @@ nlohmann::json TerrainMapOptions::ToJson() const {
           {"gate_min_points", gate_min_points},
           {"visibility_k", number(visibility_k)},
           {"visibility_floor_m", visibility_floor_m},
+          {"support_rise_m", number(support_rise_m)},
           {"frame_floor_m", frame_floor_m},
           {"default_sigma_m", default_sigma_m},
           {"max_range_m", number(max_range_m)},
@@ -91,6 +103,7 @@ void CellStats::Merge(const CellStats& o) {
   z_max = std::max(z_max, o.z_max);
   count += o.count;
   rejected += o.rejected;
+  frames += o.frames;
   last_t_s = std::max(last_t_s, o.last_t_s);
 }
 
@@ -122,7 +135,7 @@ FrameContribution BinFrame(const cv::Mat& xyz, const cv::Mat& sigma, const Eigen
     std::vector<std::int32_t> ci, cj;
     std::vector<float> zs, ws, sz, sw, scratch;
     std::vector<std::uint32_t> start, local, fill;
-    std::vector<std::array<float, 4>> reach;
+    std::vector<ColumnWalk> walk;
   };
   static thread_local Buffers buf;
   std::vector<std::int32_t>& ci = buf.ci;
@@ -142,12 +155,10 @@ FrameContribution BinFrame(const cv::Mat& xyz, const cv::Mat& sigma, const Eigen
   ws.reserve(capacity);
   std::int32_t i0 = std::numeric_limits<std::int32_t>::max(), j0 = i0, i1 = std::numeric_limits<std::int32_t>::min(),
                j1 = i1;
-  // Per column: the lower bounds r - k s of the last three rays and L, the largest of their
-  // least so far.
   const bool visibility = std::isfinite(o.visibility_k);
-  constexpr float kNone = -std::numeric_limits<float>::infinity();
-  std::vector<std::array<float, 4>>& reach = buf.reach;
-  if (visibility) reach.assign(static_cast<std::size_t>(xyz.cols), {kNone, kNone, kNone, kNone});
+  const bool support = std::isfinite(o.support_rise_m);
+  std::vector<ColumnWalk>& walk = buf.walk;
+  if (visibility || support) walk.assign(static_cast<std::size_t>(xyz.cols), ColumnWalk{});
   for (int row = xyz.rows - 1; row >= 0; --row) {
     const float* p = xyz.ptr<float>(row);
     const float* s = sigma.empty() ? nullptr : sigma.ptr<float>(row);
@@ -175,16 +186,22 @@ FrameContribution BinFrame(const cv::Mat& xyz, const cv::Mat& sigma, const Eigen
       } else {
         range = std::hypot(static_cast<double>(x), static_cast<double>(y));
       }
-      if (visibility) {
-        std::array<float, 4>& v = reach[col];  // v[0..2] the last three lower bounds, v[3] = L
-        if (range + o.visibility_k * sigma_h + o.visibility_floor_m < v[3]) {
+      if (visibility || support) {
+        ColumnWalk& v = walk[col];
+        if (visibility && range + o.visibility_k * sigma_h + o.visibility_floor_m < v.reach) {
           ++out.points_floating;
           continue;
         }
-        v[0] = v[1];
-        v[1] = v[2];
-        v[2] = static_cast<float>(range - o.visibility_k * sigma_h);
-        v[3] = std::max(v[3], std::min({v[0], v[1], v[2]}));
+        if (support && z - v.last_z > o.support_rise_m && range - v.last_range < z - v.last_z) {
+          ++out.points_unsupported;
+          continue;
+        }
+        v.bound[0] = v.bound[1];
+        v.bound[1] = v.bound[2];
+        v.bound[2] = static_cast<float>(range - o.visibility_k * sigma_h);
+        v.reach = std::max(v.reach, std::min({v.bound[0], v.bound[1], v.bound[2]}));
+        v.last_range = static_cast<float>(range);
+        v.last_z = z;
       }
       if (!(h2 <= max_h2)) {  // too uncertain to say which cell it belongs to
         ++out.points_out_of_range;
@@ -283,6 +300,7 @@ FrameContribution BinFrame(const cv::Mat& xyz, const cv::Mat& sigma, const Eigen
       cell.sum_wz = frame_w * m;
       cell.sum_wzz = frame_w * (m * m + v);
       cell.last_t_s = t_s;
+      cell.frames = 1;
     }
     out.points_fused += cell.count;
     out.points_rejected += cell.rejected;
@@ -396,9 +414,16 @@ io::GeoRaster TerrainGrid::ToStateRaster() const {
     for (int col = 0; col < w; ++col) {
       const CellStats* s = b ? Find({i0 + col, j1 - row}) : nullptr;
       if (s == nullptr) continue;
-      const double v[8] = {s->sum_w, s->sum_wz, s->sum_wzz, s->z_min, s->z_max,
-                           static_cast<double>(s->count), static_cast<double>(s->rejected), s->last_t_s};
-      for (int k = 0; k < 8; ++k) r.bands[k].pixels.at<double>(row, col) = v[k];
+      const double v[9] = {s->sum_w,
+                           s->sum_wz,
+                           s->sum_wzz,
+                           s->z_min,
+                           s->z_max,
+                           static_cast<double>(s->count),
+                           static_cast<double>(s->rejected),
+                           s->last_t_s,
+                           static_cast<double>(s->frames)};
+      for (int k = 0; k < 9; ++k) r.bands[k].pixels.at<double>(row, col) = v[k];
     }
   }
   return r;
@@ -417,8 +442,8 @@ TerrainGrid TerrainGrid::FromStateRaster(const io::GeoRaster& r, const std::stri
   const auto i0 = static_cast<std::int64_t>(std::llround(fi)), j1 = static_cast<std::int64_t>(std::llround(fj)) - 1;
   for (int row = 0; row < r.Height(); ++row) {
     for (int col = 0; col < r.Width(); ++col) {
-      double v[8];
-      for (int k = 0; k < 8; ++k) v[k] = r.bands[k].pixels.at<double>(row, col);
+      double v[9];
+      for (int k = 0; k < 9; ++k) v[k] = r.bands[k].pixels.at<double>(row, col);
       if (v[5] <= 0 && v[6] <= 0) continue;
       CellStats* s = grid.Cell({i0 + col, j1 - row});
       s->sum_w = v[0];
@@ -428,6 +453,7 @@ TerrainGrid TerrainGrid::FromStateRaster(const io::GeoRaster& r, const std::stri
       s->z_max = static_cast<float>(v[4]);
       s->count = static_cast<std::uint32_t>(v[5]);
       s->rejected = static_cast<std::uint32_t>(v[6]);
+      s->frames = static_cast<std::uint32_t>(v[8]);
       s->last_t_s = v[7];
     }
   }
@@ -500,7 +526,7 @@ MapLayers ComputeLayers(const TerrainGrid& grid, const ObstacleOptions& obstacle
   const std::int64_t i0 = (*b)[0], j1 = (*b)[3];
   l.x_west_m = static_cast<double>(i0) * l.cell_m;
   l.y_north_m = static_cast<double>(j1 + 1) * l.cell_m;
-  for (cv::Mat* m : {&l.elevation_m, &l.min_m, &l.max_m, &l.count, &l.roughness_m, &l.sigma_m, &l.last_t_s}) {
+  for (cv::Mat* m : {&l.elevation_m, &l.min_m, &l.max_m, &l.count, &l.roughness_m, &l.sigma_m, &l.last_t_s, &l.frames}) {
     *m = cv::Mat(h, w, CV_32FC1, cv::Scalar(kNaN));
   }
   for (int row = 0; row < h; ++row) {
@@ -514,6 +540,7 @@ MapLayers ComputeLayers(const TerrainGrid& grid, const ObstacleOptions& obstacle
       l.roughness_m.at<float>(row, col) = static_cast<float>(s->StdDev());
       l.sigma_m.at<float>(row, col) = static_cast<float>(s->Sigma());
       l.last_t_s.at<float>(row, col) = static_cast<float>(s->last_t_s);
+      l.frames.at<float>(row, col) = static_cast<float>(s->frames);
     }
   }
   l.obstacle = DetectObstacles(l.elevation_m, l.min_m, l.max_m, l.count, l.cell_m, obstacles, l.roughness_m);
@@ -527,15 +554,16 @@ io::GeoRaster LayersToRaster(const MapLayers& l) {
   r.cell_m = l.cell_m;
   r.metadata["lunarnav_frame"] = "world: x east, y north, z up; metres";
   r.metadata["lunarnav_nodata"] = "NaN in every band where the cell has no point";
-  const std::array<std::tuple<const cv::Mat*, const char*, const char*>, 8> bands = {{
-      {&l.elevation_m, "elevation_m", "inverse-variance weighted mean elevation of the cell's points, m"},
+  const std::array<std::tuple<const cv::Mat*, const char*, const char*>, 9> bands = {{
+      {&l.elevation_m, "elevation_m", "weighted mean of the pairs' observations of the cell (each its points' mean), m"},
       {&l.min_m, "min_m", "lowest accepted point, m"},
       {&l.max_m, "max_m", "highest accepted point, m"},
       {&l.count, "count", "accepted points"},
-      {&l.roughness_m, "roughness_m", "weighted standard deviation of the points about the mean, m"},
-      {&l.sigma_m, "sigma_m", "predicted error of the mean elevation (1 / sqrt of the summed weights), m"},
+      {&l.roughness_m, "roughness_m", "standard deviation of the points about the mean (their pairs' spread and offsets), m"},
+      {&l.sigma_m, "sigma_m", "predicted error of the mean elevation (1 / sqrt of the pairs' summed weights), m"},
       {&l.last_t_s, "last_t_s", "time of the last frame that added points, s"},
       {&l.obstacle, "obstacle", "0 free, 1 step, 2 slope, 3 step and slope; NaN not judged"},
+      {&l.frames, "frames", "pairs that added points"},
   }};
   for (const auto& [mat, name, meaning] : bands) {
     io::RasterBand band;

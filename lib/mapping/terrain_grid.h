@@ -75,6 +75,12 @@ struct TerrainMapOptions {
   /// point is lower than that ray and the point hangs in the air. > 0; infinity turns it off.
   double visibility_k = 3.0;
   double visibility_floor_m = 0.1;  ///< Metres, >= 0.
+  /// Support: in the same walk, a point that stands more than this above the last point kept
+  /// below it in its column, and no farther from the camera than it stands higher (a rise
+  /// steeper than 45 deg), is rejected as unsupported: the face between them would have been
+  /// seen by the rows between, and was not (adjacent pixels of a real face differ by far less),
+  /// metres, > 0; infinity turns it off.
+  double support_rise_m = 0.2;
   /// The least error of one frame's estimate of a cell, whatever its points' count and
   /// precision (their errors are correlated: one pose, one rig, overlapping windows), metres,
   /// > 0. A frame's observation of a cell weighs 1 / (mean point variance + this^2).
@@ -109,6 +115,7 @@ struct CellStats {
   float z_max = -std::numeric_limits<float>::infinity();
   std::uint32_t count = 0;     ///< Accepted points.
   std::uint32_t rejected = 0;  ///< Points the gate rejected.
+  std::uint32_t frames = 0;    ///< Pairs that added points.
   double last_t_s = -std::numeric_limits<double>::infinity();  ///< Time of the last frame that added points.
 
   void Merge(const CellStats& other);
@@ -132,6 +139,7 @@ struct FrameContribution {
   long points_fused = 0;     ///< Accepted.
   long points_rejected = 0;  ///< Rejected by the gate.
   long points_floating = 0;  ///< Rejected by the visibility rule (a farther ray passes beneath).
+  long points_unsupported = 0;  ///< Rejected by the support rule (a rise with no face seen below).
   long points_out_of_range = 0;
 };
 
@@ -174,7 +182,7 @@ class TerrainGrid {
   std::optional<std::array<std::int64_t, 4>> MappedBounds() const;
 
   /// The exact accumulators as a Float64 raster (bands sum_w, sum_wz, sum_wzz, z_min, z_max,
-  /// count, rejected, last_t_s) over MappedBounds(), for --resume and merging.
+  /// count, rejected, last_t_s, frames) over MappedBounds(), for --resume and merging.
   io::GeoRaster ToStateRaster() const;
   /// The inverse of ToStateRaster. @throws InputError naming `source` for a raster that is
   /// not a state raster or whose origin is off the lattice.
@@ -190,7 +198,7 @@ class TerrainGrid {
 /// Dense layers over a cell box, north row first (GeoTIFF order).
 struct MapLayers {
   double x_west_m = 0, y_north_m = 0, cell_m = 0.25;
-  cv::Mat elevation_m, min_m, max_m, count, roughness_m, sigma_m, last_t_s;  ///< CV_32F, NaN = unmapped.
+  cv::Mat elevation_m, min_m, max_m, count, roughness_m, sigma_m, last_t_s, frames;  ///< CV_32F, NaN = unmapped.
   cv::Mat obstacle;  ///< CV_32F: 0 free, 1 step, 2 slope, 3 both; NaN = not judged.
   /// Cell (col, row) of world (x, y), or false when outside.
   bool CellOf(double x_m, double y_m, int* col, int* row) const;

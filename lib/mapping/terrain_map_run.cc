@@ -80,6 +80,7 @@ json FusionJson(const TerrainMapRunOptions& options, const std::string& errors) 
           {"gate_min_points", mo.gate_min_points},
           {"visibility_k", number(mo.visibility_k)},
           {"visibility_floor_m", mo.visibility_floor_m},
+          {"support_rise_m", number(mo.support_rise_m)},
           {"frame_floor_m", mo.frame_floor_m},
           {"max_range_m", number(mo.max_range_m)},
           {"max_horizontal_sigma_cells", number(mo.max_horizontal_sigma_cells)},
@@ -177,7 +178,7 @@ std::string TerrainMapRunSummary::BriefReport() const {
   if (frames_resumed > 0) s << " (+" << frames_resumed << " resumed)";
   if (frames_merged > 0) s << " (+" << frames_merged << " merged)";
   s << ", " << points_fused / 1e6 << " M points (" << points_rejected << " rejected by the gate, " << points_floating
-    << " floating); " << mapped_cells
+    << " floating, " << points_unsupported << " unsupported); " << mapped_cells
     << " cells, " << obstacle_cells << " obstacle cells; " << seconds << " s";
   return s.str();
 }
@@ -332,6 +333,7 @@ TerrainMapRunSummary RunTerrainMap(const TerrainMapRunOptions& options, const fs
       summary.points_fused += c.points_fused;
       summary.points_rejected += c.points_rejected;
       summary.points_floating += c.points_floating;
+      summary.points_unsupported += c.points_unsupported;
       summary.points_out_of_range += c.points_out_of_range;
       fused.push_back({pose, c.points_fused, c.points_rejected});
       ++summary.frames_fused;
@@ -399,6 +401,7 @@ TerrainMapRunSummary RunTerrainMap(const TerrainMapRunOptions& options, const fs
                  {"frames_resumed", summary.frames_resumed}, {"frames_merged", summary.frames_merged},
                  {"points_in", summary.points_in},           {"points_fused", summary.points_fused},
                  {"points_rejected", summary.points_rejected}, {"points_floating", summary.points_floating},
+                 {"points_unsupported", summary.points_unsupported},
                  {"points_out_of_range", summary.points_out_of_range},
                  {"mapped_cells", summary.mapped_cells},     {"obstacle_cells", summary.obstacle_cells}};
   j["timings_s"] = {{"total", summary.seconds},

@@ -44,7 +44,8 @@ struct TerrainMapRunOptions {
 
 struct TerrainMapRunSummary {
   long frames_total = 0, frames_fused = 0, frames_resumed = 0, frames_merged = 0;
-  long points_in = 0, points_fused = 0, points_rejected = 0, points_floating = 0, points_out_of_range = 0;
+  long points_in = 0, points_fused = 0, points_rejected = 0, points_floating = 0, points_unsupported = 0,
+       points_out_of_range = 0;
   long mapped_cells = 0, obstacle_cells = 0;
   double seconds = 0, fuse_seconds = 0, fuse_cpu_seconds = 0, write_seconds = 0;
   double peak_memory_mib = 0;

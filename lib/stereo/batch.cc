@@ -47,7 +47,9 @@ struct PairWindow {
   calib::RegionOfInterest region;
   calib::ImageWindow window;
   long request_line = 0;
-  std::vector<std::pair<int, int>> row_disparity_px;  // rig-ground: per-row bands (semi-global)
+  std::vector<std::pair<int, int>> row_disparity_px;  // rig-ground: per-row bands (semi-global), guard included
+  std::vector<int> row_accept_min_px;                 // rig-ground: the far limit's disparity per row
+  int guard_min_disparity_px = 0;
   nlohmann::json ToJson() const {
     nlohmann::json j = window.ToJson();
     j["source"] = source;
@@ -248,7 +250,11 @@ json ProcessPair(const BatchOptions& options, const PairFiles& pair, const PairO
     matcher.min_disparity_px = window->window.min_disparity_px;
     matcher.max_disparity_px = window->window.max_disparity_px;
     // Semi-global matching searches each row's own band (docs/stereo-batch.md).
-    if (matcher.aggregation == Aggregation::kSemiGlobal) matcher.row_disparity_px = window->row_disparity_px;
+    if (matcher.aggregation == Aggregation::kSemiGlobal && !window->row_disparity_px.empty()) {
+      matcher.row_disparity_px = window->row_disparity_px;
+      matcher.row_accept_min_px = window->row_accept_min_px;
+      matcher.min_disparity_px = window->guard_min_disparity_px;
+    }
   }
   MatchStereoPair(matcher, left, right, result);
   timings->match_s = timer.ElapsedSeconds();
@@ -446,7 +452,13 @@ BatchSummary RunStereoBatch(const BatchOptions& options, const fs::path& input_d
                               {}};
   } else if (options.ground) {
     range_window =
-        PairWindow{"rig-ground", options.ground->region, options.ground->window, 0, options.ground->row_disparity_px};
+        PairWindow{"rig-ground",
+                   options.ground->region,
+                   options.ground->window,
+                   0,
+                   options.ground->row_disparity_px,
+                   options.ground->row_accept_min_px,
+                   options.ground->guard_min_disparity_px};
   }
   auto window_for = [&](const std::string& stem) -> const PairWindow* {
     if (const auto it = requested.find(stem); it != requested.end()) return &it->second;

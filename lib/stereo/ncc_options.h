@@ -34,9 +34,12 @@ enum class Rejection : std::uint8_t {
   kSpeckle = 9,         ///< Quality preset: part of a small region disconnected from its surroundings.
   /// The search range was cut by the other image's edge and the surface to the left (right
   /// reference) already matches up to that edge: the true match lies beyond it (both presets).
-  kBeyondBorder = 10
+  kBeyondBorder = 10,
+  /// The match lies below the row's accepted disparities (row_accept_min_px): in the guard
+  /// band searched beyond the window's far limit, farther than the map wants it.
+  kBeyondFar = 11
 };
-inline constexpr int kNumRejectionCodes = 11;
+inline constexpr int kNumRejectionCodes = 12;
 /// Short snake_case name of a code ("low_texture"), used in summaries.
 std::string ToString(Rejection reason);
 
@@ -107,6 +110,11 @@ struct NccOptions {
   /// aggregation searches only row y's band at row y (the window matcher, whose sums run over
   /// rows, searches the whole range). Rows of the band processed need lo <= hi.
   std::vector<std::pair<int, int>> row_disparity_px;
+  /// With row_disparity_px: per image row, the least disparity accepted (the window's far
+  /// limit). The band below it is searched as a guard, so that a pixel whose surface lies
+  /// beyond the far limit finds its match there instead of a false one inside the window, and
+  /// such a match is rejected as kBeyondFar. Empty = every disparity of the band is accepted.
+  std::vector<int> row_accept_min_px;
   /// Inclusive band of reference-image rows [y_min, y_max] to process (window selection,
   /// sec. 3.3). Unset = the whole image.
   std::optional<int> min_row;

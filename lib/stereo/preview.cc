@@ -45,6 +45,7 @@ cv::Vec3b RejectionColour(Rejection reason) {
     case Rejection::kLeftRightMismatch: return {40, 40, 200};  // dark red
     case Rejection::kSpeckle: return {0, 100, 0};          // dark green
     case Rejection::kBeyondBorder: return {160, 0, 80};    // purple
+    case Rejection::kBeyondFar: return {200, 160, 0};      // teal
   }
   return {0, 0, 0};
 }

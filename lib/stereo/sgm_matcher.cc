@@ -236,6 +236,20 @@ void MatchSemiGlobal(const NccOptions& options, const cv::Mat& left, const cv::M
     for (int j = 0; j < num_rows; ++j) reach[j] = row_d_min(j) + row_num(j) - 1;
     RejectMatchesBeyondTheBorder(x0, dx, width, reach, options.border_tolerance_px, &grid_disp, &grid_reason);
   }
+  if (banded && !options.row_accept_min_px.empty()) {
+    // Matches in the guard band below a row's accepted disparities lie beyond the far limit.
+    for (int j = 0; j < num_rows; ++j) {
+      const float accept = static_cast<float>(options.row_accept_min_px[grid_lo + j * dy]);
+      float* d = grid_disp.ptr<float>(j);
+      auto* reason = grid_reason.ptr<std::uint8_t>(j);
+      for (int i = 0; i < num_cols; ++i) {
+        if (d[i] < accept) {  // false for NaN
+          d[i] = nan;
+          reason[i] = static_cast<std::uint8_t>(Rejection::kBeyondFar);
+        }
+      }
+    }
+  }
   MedianFilterDisparityGrid(options.median_size, &grid_disp, &grid_reason, /*reject_isolated=*/false);
   if (g.speckle_max_size_px > 0 && num_rows > 0) {
     // OpenCV's speckle filter on 1/16-pixel fixed point; a removed region gets `invalid`.

@@ -348,7 +348,18 @@ TEST(SelectGroundWindow, StartsAtTheNearestGroundBothImagesHoldAndBoundsEveryRow
         return coin(rng) ? (coin(rng) ? u.a() : u.b()) : u(rng);
       };
       std::vector<double> lo(g.height_px, kInf), hi(g.height_px, -kInf);
-      int seen = 0, outside = 0;
+      int seen = 0, outside = 0, guard_seen = 0, guard_outside = 0, guard_below = 0;
+      EXPECT_LE(gw.guard_min_disparity_px, gw.window.min_disparity_px);
+      ASSERT_EQ(gw.row_accept_min_px.size(), gw.row_disparity_px.size());
+      for (int r = 0; r < g.height_px; ++r) {
+        const auto [band_lo, band_hi] = gw.row_disparity_px[r];
+        if (band_lo > band_hi) continue;
+        EXPECT_LE(band_lo, gw.row_accept_min_px[r]);  // the guard lies below the accepted band
+        EXPECT_LE(gw.row_accept_min_px[r], band_hi);
+        EXPECT_GE(band_lo, gw.guard_min_disparity_px);
+      }
+      EXPECT_NEAR(gw.guard_y_max_m - proj.centre.y(), options.guard_distance_factor * (gw.region.y_max_m - proj.centre.y()),
+                  1e-9);
       for (int i = 0; i < 400000; ++i) {
         // A point of the slab at a random column of the reference image (as above).
         const Eigen::Vector3d base(0, pick(Y), pick(Z));
@@ -363,18 +374,36 @@ TEST(SelectGroundWindow, StartsAtTheNearestGroundBothImagesHoldAndBoundsEveryRow
         }
         const int row = static_cast<int>(std::lround(p.row));
         ++seen;
-        const auto [band_lo, band_hi] = gw.row_disparity_px[row];
+        // Inside the accepted band: from the row's far limit to the top of its band.
+        const int band_lo = gw.row_accept_min_px[row], band_hi = gw.row_disparity_px[row].second;
         outside += !(p.disparity >= band_lo && p.disparity <= band_hi);
+        // The guard: a point of the slab beyond the far limit, out to guard_y_max_m, seen on a
+        // row that has a band, lies in the searched band.
+        const double y_guard = gw.region.y_max_m + (gw.guard_y_max_m - gw.region.y_max_m) * (i % 97) / 96.0;
+        const Eigen::Vector3d g0 = proj.vehicle_from_rect.transpose() * (Eigen::Vector3d(0, y_guard, base.z()) - proj.centre);
+        const double Xg = (proj.f * g0.x() - (x - proj.c_x) * g0.z()) / ((x - proj.c_x) * e.z() - proj.f * e.x());
+        const auto pg = proj.Project(Eigen::Vector3d(Xg, y_guard, base.z()));
+        if (pg.depth > 0 && pg.row >= -0.5 && pg.row <= g.height_px - 0.5) {
+          const auto [guard_lo, guard_hi] = gw.row_disparity_px[static_cast<int>(std::lround(pg.row))];
+          if (guard_lo <= guard_hi) {
+            guard_outside += !(pg.disparity >= guard_lo);
+            guard_below += pg.disparity < gw.row_accept_min_px[static_cast<int>(std::lround(pg.row))] - 1;
+            ++guard_seen;
+          }
+        }
         lo[row] = std::min(lo[row], p.disparity);
         hi[row] = std::max(hi[row], p.disparity);
       }
       ASSERT_GT(seen, 20000);
       EXPECT_EQ(outside, 0);
+      EXPECT_GT(guard_seen, 100);
+      EXPECT_EQ(guard_outside, 0);
+      EXPECT_GT(guard_below, 100);  // the guard searches below the accepted band
       double slack = 0;
       int rows = 0;
       for (int r = 0; r < g.height_px; ++r) {
         if (!(lo[r] <= hi[r])) continue;
-        const auto [band_lo, band_hi] = gw.row_disparity_px[r];
+        const int band_lo = gw.row_accept_min_px[r], band_hi = gw.row_disparity_px[r].second;
         slack += (band_hi - band_lo) - (hi[r] - lo[r]);
         ++rows;
       }

@@ -71,9 +71,18 @@ TEST(TerrainGrid, FlatPlaneMapsToItsHeightWhereverSeen) {
   }
 }
 
+// SurfaceXyz puts its points on a ground grid, not on an image's rays: a box's face is in none
+// of them, so the tests of a box or of stray points turn the support rule (which asks for the
+// face) off; AnUnsupportedRiseIsRejected tests it on an image-like column.
+TerrainMapOptions GridFrameOptions() {
+  TerrainMapOptions o;
+  o.support_rise_m = std::numeric_limits<double>::infinity();
+  return o;
+}
+
 TEST(TerrainGrid, BoxOfKnownSizeIsAnObstacleOfThatSizeAndNowhereElse) {
   // A 0.5 m x 0.75 m box, 0.3 m tall (above the 0.2 m limit), on cell boundaries: 2 x 3 cells.
-  const TerrainMapOptions o;
+  const TerrainMapOptions o = GridFrameOptions();
   const FramePose pose = Pose(0, 0, 0);
   const auto surface = BoxOnPlane(0.0, 1.0, 1.5, 5.0, 5.75, 0.3);
   const TerrainGrid grid = Fuse({{SurfaceXyz(surface, pose, 480, 640), pose}}, o);
@@ -111,7 +120,7 @@ TEST(TerrainGrid, SteepRampIsASlopeObstacleAndAGentleOneIsNot) {
 }
 
 TEST(TerrainGrid, GateRejectsOutliersAndKeepsTheHeight) {
-  const TerrainMapOptions o;
+  const TerrainMapOptions o = GridFrameOptions();
   const FramePose pose = Pose(0, 0, 0);
   cv::Mat xyz = SurfaceXyz([](double, double) { return 0.5; }, pose);
   int outliers = 0;
@@ -273,6 +282,37 @@ TEST(TerrainGrid, AStrayExtremeIsNoStepButARocksTopIs) {
   EXPECT_EQ(DetectObstacles(flat, min_m, max_m, cv::Mat(), 0.25, o, roughness).at<float>(2, 2), 1);
 }
 
+// The support rule on image-like columns: a blob that stands high above the last point below
+// it, across rows where nothing was matched, is rejected; a face seen row by row is kept.
+TEST(TerrainGrid, AnUnsupportedRiseIsRejectedAndASeenFaceIsNot) {
+  const TerrainMapOptions o;
+  const FramePose pose = Pose(0, 0, 0);
+  constexpr float kNaN = std::numeric_limits<float>::quiet_NaN();
+  // 200 rows x 20 columns, bottom row nearest. Rows 199..100: ground from Y = 2 to 7 m.
+  cv::Mat xyz(200, 20, CV_32FC3, cv::Scalar::all(kNaN));
+  auto set = [&](int row, float y, float z) {
+    for (int c = 0; c < xyz.cols; ++c) xyz.at<cv::Vec3f>(row, c) = cv::Vec3f(0.05f * c - 0.5f, y, z);
+  };
+  for (int row = 199; row >= 100; --row) set(row, 2.0f + 0.05f * (199 - row), 0.0f);
+  // Rows 99..60 unmatched; rows 59..50: a blob at 7 m, 0.5 m up.
+  for (int row = 59; row >= 50; --row) set(row, 7.0f, 0.5f);
+  FrameContribution part = BinFrame(xyz, cv::Mat(), pose.WorldFromVehicle(), 0, o);
+  EXPECT_EQ(part.points_unsupported, 10 * 20);
+  EXPECT_EQ(part.points_floating, 0);
+  // Off, it stays.
+  TerrainMapOptions off = o;
+  off.support_rise_m = std::numeric_limits<double>::infinity();
+  EXPECT_EQ(BinFrame(xyz, cv::Mat(), pose.WorldFromVehicle(), 0, off).points_unsupported, 0);
+  // The same rise seen as a face, one row per centimetre, then its top and the ground behind.
+  int row = 99;
+  for (int k = 1; k <= 50; ++k) set(row--, 7.0f, 0.01f * k);
+  for (int k = 1; k <= 10; ++k) set(row--, 7.0f + 0.02f * k, 0.5f);
+  for (; row >= 0; --row) set(row, 9.0f + 0.01f * static_cast<float>(39 - row), 0.0f);
+  part = BinFrame(xyz, cv::Mat(), pose.WorldFromVehicle(), 0, o);
+  EXPECT_EQ(part.points_unsupported, 0);
+  EXPECT_EQ(part.points_floating, 0);
+}
+
 TEST(TerrainGrid, FusingInTwoHalvesAndMergingEqualsFusingAtOnce) {
   const TerrainMapOptions o;
   const auto surface = [](double x, double y) {
@@ -311,7 +351,7 @@ TEST(TerrainGrid, FusingInTwoHalvesAndMergingEqualsFusingAtOnce) {
 }
 
 TEST(TerrainGrid, PoseErrorOfKnownSizeShiftsTheMapByThatAmount) {
-  const TerrainMapOptions o;
+  const TerrainMapOptions o = GridFrameOptions();
   const auto surface = BoxOnPlane(0.0, 1.0, 1.5, 6.0, 6.5, 0.3);
   const FramePose truth = Pose(0, 0, 0);
   const cv::Mat xyz = SurfaceXyz(surface, truth, 480, 640);

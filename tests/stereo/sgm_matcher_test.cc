@@ -251,6 +251,35 @@ TEST(BorderRule, BoundAdvancesFromTheFarthestMatch) {
 // Speckles: a disparity map with an island smaller than the speckle size loses it, a larger
 // region stays. The matcher's own stage runs OpenCV's filter on the grid; here the whole
 // matcher sees a scene whose small patch is noise on a flat plane.
+// The far guard: rows whose surface (disparity 17.3) lies beyond their accepted band [25, 40]
+// match falsely inside it when only the band is searched; searched down to 5 with 25 as the
+// least accepted, they find the surface in the guard and reject it as beyond_far. Rows whose
+// accepted band holds the surface keep it.
+TEST(SemiGlobal, TheFarGuardRejectsSurfacesBeyondTheBandInsteadOfMatchingThemFalsely) {
+  const auto pair = RenderLayeredPair(Scene({Plane(17.3)}));
+  const cv::Rect upper(8, 8, 280, 100), lower(8, 132, 280, 100);
+  NccOptions o = Quality(40);
+  o.min_disparity_px = 5;
+  // Without the guard: the upper rows search [25, 40] only.
+  o.row_disparity_px.assign(240, {5, 40});
+  for (int y = 0; y < 120; ++y) o.row_disparity_px[y] = {25, 40};
+  const NccResult unguarded = MatchStereoPair(o, pair.left, pair.right);
+  const Agreement false_matches = Compare(unguarded, pair.disparity_right_px, upper);
+  // With it: every row searches [5, 40]; the upper rows accept from 25, the lower from 10.
+  o.row_disparity_px.assign(240, {5, 40});
+  o.row_accept_min_px.assign(240, 10);
+  for (int y = 0; y < 120; ++y) o.row_accept_min_px[y] = 25;
+  const NccResult guarded = MatchStereoPair(o, pair.left, pair.right);
+  const Agreement up = Compare(guarded, pair.disparity_right_px, upper);
+  const Agreement down = Compare(guarded, pair.disparity_right_px, lower);
+  EXPECT_GT(false_matches.AcceptedShare(), 0.05);  // what the guard is for: matches, all wrong
+  EXPECT_EQ(false_matches.ShareWithin(1.0), 0.0);
+  EXPECT_EQ(up.errors.size(), 0u);
+  EXPECT_GT(guarded.summary.pixels_by_reason[static_cast<int>(Rejection::kBeyondFar)], 0.9 * 280 * 100);
+  EXPECT_GT(down.AcceptedShare(), 0.97);
+  EXPECT_GT(down.ShareWithin(0.5), 0.97);
+}
+
 TEST(SemiGlobal, SpeckleFilterRemovesSmallIslandsAndKeepsLargeRegions) {
   const auto pair = RenderLayeredPair(Scene({Plane(25.0, 0, 0, cv::Rect2d(60, 60, 6, 6), 3),
                                              Plane(25.0, 0, 0, cv::Rect2d(180, 60, 60, 60), 4), Plane(5.0)}));
