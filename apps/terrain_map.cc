@@ -52,6 +52,9 @@ int main(int argc, char** argv) {
                  "support: reject a point risen more than this above the last point below it in its image column, "
                  "steeper than 45 deg, with no face seen between (inf: off), m")
       ->capture_default_str();
+  app.add_option("--min-frames", opt.map.min_frames,
+                 "cells fewer pairs saw are left out of the layers (kept in the sums)")
+      ->capture_default_str();
   app.add_option("--frame-floor", opt.map.frame_floor_m,
                  "least error of one frame's estimate of a cell (its points' errors are correlated), m")
       ->capture_default_str();
@@ -67,6 +70,9 @@ int main(int argc, char** argv) {
   app.add_option("--vehicle", vehicle, "vehicle file: obstacle height (requirements.obstacle_height_m) and "
                                        "max_slope_deg (default: 0.2 m, 30 deg)");
   app.add_option("--obstacle-min-points", opt.map.obstacles.min_points, "cells with fewer points are not judged")
+      ->capture_default_str();
+  app.add_option("--step-tolerance", opt.map.obstacles.step_tolerance_m,
+                 "flag a step when it exceeds the obstacle height minus this, m")
       ->capture_default_str();
   app.add_option("--obstacle-extremes", opt.map.obstacles.extreme_k,
                  "the step rule's extremes of a cell: within this many roughnesses of its mean (inf: raw)")

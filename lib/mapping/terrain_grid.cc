@@ -18,8 +18,8 @@ constexpr double kMadToSigma = 1.4826;  // MAD of a normal distribution -> its s
 constexpr float kNaN = std::numeric_limits<float>::quiet_NaN();
 
 // The state raster's bands, in order.
-const std::array<const char*, 9> kStateBands = {"sum_w", "sum_wz", "sum_wzz",  "z_min", "z_max",
-                                                 "count", "rejected", "last_t_s", "frames"};
+const std::array<const char*, 11> kStateBands = {"sum_w",    "sum_wz",   "sum_wzz", "z_min",  "z_max", "count",
+                                                  "rejected", "last_t_s", "frames",  "z_min2", "z_max2"};
 
 std::uint64_t TileKey(std::int64_t ti, std::int64_t tj) {
   return (static_cast<std::uint64_t>(static_cast<std::uint32_t>(ti)) << 32) |
@@ -30,6 +30,9 @@ std::int64_t FloorDiv(std::int64_t a, int shift) { return a >> shift; }  // arit
 
 // What the walk up an image column remembers (BinFrame): the lower bounds r - k s of the last
 // three rays, the reach L (the largest of their least so far), and the last point kept.
+// The support rule's steepest rise left unquestioned: 30 deg (its cotangent).
+constexpr double kSupportCot = 1.7320508075688772;
+
 struct ColumnWalk {
   std::array<float, 3> bound = {-std::numeric_limits<float>::infinity(), -std::numeric_limits<float>::infinity(),
                                 -std::numeric_limits<float>::infinity()};
@@ -51,6 +54,8 @@ void ObstacleOptions::Validate() const {
   LN_CHECK_ARG(max_slope_deg > 0 && max_slope_deg < 90) << "slope limit: must be in (0, 90) deg";
   LN_CHECK_ARG(min_points >= 1) << "obstacle min points: must be >= 1";
   LN_CHECK_ARG(extreme_k > 0) << "obstacle extremes: must be > 0 roughnesses (inf: raw)";
+  LN_CHECK_ARG(std::isfinite(step_tolerance_m) && step_tolerance_m >= 0 && step_tolerance_m < step_height_m)
+      << "step tolerance: must be in [0, obstacle height)";
 }
 
 nlohmann::json ObstacleOptions::ToJson() const {
@@ -58,7 +63,8 @@ nlohmann::json ObstacleOptions::ToJson() const {
   return {{"step_height_m", step_height_m},
           {"max_slope_deg", max_slope_deg},
           {"min_points", min_points},
-          {"extreme_k", number(extreme_k)}};
+          {"extreme_k", number(extreme_k)},
+          {"step_tolerance_m", step_tolerance_m}};
 }
 
 void TerrainMapOptions::Validate() const {
@@ -73,6 +79,7 @@ void TerrainMapOptions::Validate() const {
   LN_CHECK_ARG(std::isfinite(default_sigma_m) && default_sigma_m > 0) << "default sigma: must be > 0 m";
   LN_CHECK_ARG(max_range_m > 0) << "max range: must be > 0 m";
   LN_CHECK_ARG(max_horizontal_sigma_cells > 0) << "max horizontal sigma: must be > 0 cells";
+  LN_CHECK_ARG(min_frames >= 1) << "min frames: must be >= 1";
   LN_CHECK_ARG(!window_m || (std::isfinite(*window_m) && *window_m >= 4 * cell_m))
       << "window: must be at least 4 cells";
   obstacles.Validate();
@@ -91,6 +98,7 @@ nlohmann::json TerrainMapOptions::ToJson() const {
           {"default_sigma_m", default_sigma_m},
           {"max_range_m", number(max_range_m)},
           {"max_horizontal_sigma_cells", number(max_horizontal_sigma_cells)},
+          {"min_frames", min_frames},
           {"window_m", window_m ? nlohmann::json(*window_m) : nlohmann::json(nullptr)},
           {"obstacles", obstacles.ToJson()}};
 }
@@ -99,6 +107,9 @@ void CellStats::Merge(const CellStats& o) {
   sum_w += o.sum_w;
   sum_wz += o.sum_wz;
   sum_wzz += o.sum_wzz;
+  // The two lowest of the four lows and the two highest of the four highs.
+  z_min2 = std::min(std::max(z_min, o.z_min), std::min(z_min2, o.z_min2));
+  z_max2 = std::max(std::min(z_max, o.z_max), std::max(z_max2, o.z_max2));
   z_min = std::min(z_min, o.z_min);
   z_max = std::max(z_max, o.z_max);
   count += o.count;
@@ -192,7 +203,7 @@ FrameContribution BinFrame(const cv::Mat& xyz, const cv::Mat& sigma, const Eigen
           ++out.points_floating;
           continue;
         }
-        if (support && z - v.last_z > o.support_rise_m && range - v.last_range < z - v.last_z) {
+        if (support && z - v.last_z > o.support_rise_m && range - v.last_range < kSupportCot * (z - v.last_z)) {
           ++out.points_unsupported;
           continue;
         }
@@ -414,7 +425,7 @@ io::GeoRaster TerrainGrid::ToStateRaster() const {
     for (int col = 0; col < w; ++col) {
       const CellStats* s = b ? Find({i0 + col, j1 - row}) : nullptr;
       if (s == nullptr) continue;
-      const double v[9] = {s->sum_w,
+      const double v[11] = {s->sum_w,
                            s->sum_wz,
                            s->sum_wzz,
                            s->z_min,
@@ -422,8 +433,10 @@ io::GeoRaster TerrainGrid::ToStateRaster() const {
                            static_cast<double>(s->count),
                            static_cast<double>(s->rejected),
                            s->last_t_s,
-                           static_cast<double>(s->frames)};
-      for (int k = 0; k < 9; ++k) r.bands[k].pixels.at<double>(row, col) = v[k];
+                           static_cast<double>(s->frames),
+                           s->z_min2,
+                           s->z_max2};
+      for (int k = 0; k < 11; ++k) r.bands[k].pixels.at<double>(row, col) = v[k];
     }
   }
   return r;
@@ -442,8 +455,8 @@ TerrainGrid TerrainGrid::FromStateRaster(const io::GeoRaster& r, const std::stri
   const auto i0 = static_cast<std::int64_t>(std::llround(fi)), j1 = static_cast<std::int64_t>(std::llround(fj)) - 1;
   for (int row = 0; row < r.Height(); ++row) {
     for (int col = 0; col < r.Width(); ++col) {
-      double v[9];
-      for (int k = 0; k < 9; ++k) v[k] = r.bands[k].pixels.at<double>(row, col);
+      double v[11];
+      for (int k = 0; k < 11; ++k) v[k] = r.bands[k].pixels.at<double>(row, col);
       if (v[5] <= 0 && v[6] <= 0) continue;
       CellStats* s = grid.Cell({i0 + col, j1 - row});
       s->sum_w = v[0];
@@ -454,6 +467,8 @@ TerrainGrid TerrainGrid::FromStateRaster(const io::GeoRaster& r, const std::stri
       s->count = static_cast<std::uint32_t>(v[5]);
       s->rejected = static_cast<std::uint32_t>(v[6]);
       s->frames = static_cast<std::uint32_t>(v[8]);
+      s->z_min2 = static_cast<float>(v[9]);
+      s->z_max2 = static_cast<float>(v[10]);
       s->last_t_s = v[7];
     }
   }
@@ -510,14 +525,15 @@ cv::Mat DetectObstacles(const cv::Mat& elevation, const cv::Mat& min_m, const cv
           }
         }
       }
-      if (top(r, c) - lowest > o.step_height_m) kind |= 1;
+      if (top(r, c) - lowest > o.step_height_m - o.step_tolerance_m) kind |= 1;
       out.at<float>(r, c) = static_cast<float>(kind);
     }
   }
   return out;
 }
 
-MapLayers ComputeLayers(const TerrainGrid& grid, const ObstacleOptions& obstacles) {
+MapLayers ComputeLayers(const TerrainGrid& grid, const ObstacleOptions& obstacles, int min_frames) {
+  LN_CHECK_ARG(min_frames >= 1) << "min frames: must be >= 1";
   MapLayers l;
   l.cell_m = grid.cell_m();
   const auto b = grid.MappedBounds();
@@ -526,13 +542,15 @@ MapLayers ComputeLayers(const TerrainGrid& grid, const ObstacleOptions& obstacle
   const std::int64_t i0 = (*b)[0], j1 = (*b)[3];
   l.x_west_m = static_cast<double>(i0) * l.cell_m;
   l.y_north_m = static_cast<double>(j1 + 1) * l.cell_m;
+  // The obstacle rule's extremes: those a second pair confirms (a cell one pair saw has only its).
+  cv::Mat low(h, w, CV_32FC1, cv::Scalar(kNaN)), high(h, w, CV_32FC1, cv::Scalar(kNaN));
   for (cv::Mat* m : {&l.elevation_m, &l.min_m, &l.max_m, &l.count, &l.roughness_m, &l.sigma_m, &l.last_t_s, &l.frames}) {
     *m = cv::Mat(h, w, CV_32FC1, cv::Scalar(kNaN));
   }
   for (int row = 0; row < h; ++row) {
     for (int col = 0; col < w; ++col) {
       const CellStats* s = grid.Find({i0 + col, j1 - row});
-      if (s == nullptr || s->count == 0) continue;
+      if (s == nullptr || s->count == 0 || s->frames < static_cast<std::uint32_t>(min_frames)) continue;
       l.elevation_m.at<float>(row, col) = static_cast<float>(s->Mean());
       l.min_m.at<float>(row, col) = s->z_min;
       l.max_m.at<float>(row, col) = s->z_max;
@@ -541,9 +559,11 @@ MapLayers ComputeLayers(const TerrainGrid& grid, const ObstacleOptions& obstacle
       l.sigma_m.at<float>(row, col) = static_cast<float>(s->Sigma());
       l.last_t_s.at<float>(row, col) = static_cast<float>(s->last_t_s);
       l.frames.at<float>(row, col) = static_cast<float>(s->frames);
+      low.at<float>(row, col) = s->frames >= 2 ? s->z_min2 : s->z_min;
+      high.at<float>(row, col) = s->frames >= 2 ? s->z_max2 : s->z_max;
     }
   }
-  l.obstacle = DetectObstacles(l.elevation_m, l.min_m, l.max_m, l.count, l.cell_m, obstacles, l.roughness_m);
+  l.obstacle = DetectObstacles(l.elevation_m, low, high, l.count, l.cell_m, obstacles, l.roughness_m);
   return l;
 }
 

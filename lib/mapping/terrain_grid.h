@@ -55,6 +55,11 @@ struct ObstacleOptions {
   /// this many roughnesses, and its lowest, no lower than the mean minus as many (one stray
   /// point of forty frames is no step); > 0, infinity: the raw extremes.
   double extreme_k = 2.0;
+  /// A step is flagged when the measured step exceeds step_height_m minus this, metres, in
+  /// [0, step_height_m): the measure falls short of a rock's height (a cell's highest points are
+  /// seldom the rock's very top, and the extremes are trimmed), and a planner would rather
+  /// avoid a 19 cm step than drive into a 21 cm one.
+  double step_tolerance_m = 0.02;
   void Validate() const;
   nlohmann::json ToJson() const;
 };
@@ -96,6 +101,11 @@ struct TerrainMapOptions {
   /// about 13 m with a 1 px disparity error). > 0; infinity keeps them. Points with no predicted
   /// error (default_sigma_m) are kept at any range.
   double max_horizontal_sigma_cells = 1.0;
+  /// Cells that fewer pairs saw are left out of the map's layers (kept in its sums, so that a
+  /// later pair, a resumed run or a merged map confirms them), >= 1. One pair's view of a cell
+  /// has no second opinion: at the fringes of the ground seen (the field of view's edges, far
+  /// ahead at a traverse's end) a few wrong matches of one pair made whole cells 30-50 cm off.
+  int min_frames = 2;
   /// Side of the square window centred at the vehicle that the map keeps (the navigation
   /// map of sec. 3), metres; nothing = the whole traverse.
   std::optional<double> window_m;
@@ -113,6 +123,10 @@ struct CellStats {
   double sum_w = 0, sum_wz = 0, sum_wzz = 0;
   float z_min = std::numeric_limits<float>::infinity();
   float z_max = -std::numeric_limits<float>::infinity();
+  /// The second lowest of the pairs' lowest points and the second highest of their highest:
+  /// the extremes a second pair confirms (one pair's stray points cannot set them).
+  float z_min2 = std::numeric_limits<float>::infinity();
+  float z_max2 = -std::numeric_limits<float>::infinity();
   std::uint32_t count = 0;     ///< Accepted points.
   std::uint32_t rejected = 0;  ///< Points the gate rejected.
   std::uint32_t frames = 0;    ///< Pairs that added points.
@@ -182,7 +196,7 @@ class TerrainGrid {
   std::optional<std::array<std::int64_t, 4>> MappedBounds() const;
 
   /// The exact accumulators as a Float64 raster (bands sum_w, sum_wz, sum_wzz, z_min, z_max,
-  /// count, rejected, last_t_s, frames) over MappedBounds(), for --resume and merging.
+  /// count, rejected, last_t_s, frames, z_min2, z_max2) over MappedBounds(), for --resume and merging.
   io::GeoRaster ToStateRaster() const;
   /// The inverse of ToStateRaster. @throws InputError naming `source` for a raster that is
   /// not a state raster or whose origin is off the lattice.
@@ -204,8 +218,9 @@ struct MapLayers {
   bool CellOf(double x_m, double y_m, int* col, int* row) const;
 };
 
-/// The layers of `grid` over its mapped bounds (empty Mats when nothing is mapped).
-MapLayers ComputeLayers(const TerrainGrid& grid, const ObstacleOptions& obstacles);
+/// The layers of `grid` over its mapped bounds (empty Mats when nothing is mapped); cells that
+/// fewer than `min_frames` pairs saw are left out of the layers (NaN), not of the grid.
+MapLayers ComputeLayers(const TerrainGrid& grid, const ObstacleOptions& obstacles, int min_frames = 1);
 
 /// The obstacle layer (see MapLayers::obstacle) from elevation, min, max and count layers of
 /// one size (CV_32F, NaN = unmapped; `count` may be empty: every mapped cell is judged).

@@ -349,7 +349,7 @@ TerrainMapRunSummary RunTerrainMap(const TerrainMapRunOptions& options, const fs
   util::Timer write_timer;
   io::CreateOutputDirectory(out);
   io::RemoveStaleTempFiles(out);
-  const MapLayers layers = ComputeLayers(grid, mo.obstacles);
+  const MapLayers layers = ComputeLayers(grid, mo.obstacles, mo.min_frames);
   summary.mapped_cells = static_cast<long>(grid.MappedCells());
   if (!layers.obstacle.empty()) {
     summary.obstacle_cells = cv::countNonZero(layers.obstacle > 0);
