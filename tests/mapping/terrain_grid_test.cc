@@ -313,6 +313,55 @@ TEST(TerrainGrid, AnUnsupportedRiseIsRejectedAndASeenFaceIsNot) {
   EXPECT_EQ(part.points_floating, 0);
 }
 
+// The step rule's extremes are those a second pair confirms: one pair's stray high points in a
+// flat cell make no step; a box every pair sees does. The second extremes merge exactly.
+TEST(TerrainGrid, ExtremesOfOnePairAloneMakeNoStep) {
+  TerrainMapOptions o = GridFrameOptions();
+  o.gate_k = std::numeric_limits<double>::infinity();  // the stray points reach the sums
+  o.obstacles.extreme_k = std::numeric_limits<double>::infinity();  // confirmation alone
+  const auto box = BoxOnPlane(0.0, 1.0, 1.5, 5.0, 5.5, 0.3);
+  TerrainGrid grid(o.cell_m);
+  for (int k = 0; k < 3; ++k) {
+    const FramePose p = Pose(0, 0.3 * k, 0);
+    cv::Mat xyz = SurfaceXyz(box, p, 480, 640);
+    if (k == 1) {  // pair 1: a cluster of wrong matches 35 cm up over flat ground at (-1, 7)
+      for (int r = 0; r < xyz.rows; ++r) {
+        for (int c = 0; c < xyz.cols; ++c) {
+          cv::Vec3f& q = xyz.at<cv::Vec3f>(r, c);
+          if (std::abs(q[0] + 1.0f) < 0.05f && std::abs(q[1] + 0.3f - 7.1f) < 0.05f) q[2] += 0.35f;
+        }
+      }
+    }
+    grid.Add(BinFrame(xyz, cv::Mat(), p.WorldFromVehicle(), k, o));
+  }
+  const MapLayers l = ComputeLayers(grid, o.obstacles, 2);
+  int col = 0, row = 0;
+  ASSERT_TRUE(l.CellOf(-1.0, 7.1, &col, &row));
+  EXPECT_GT(l.max_m.at<float>(row, col), 0.3f);  // the raw extreme holds the stray points
+  EXPECT_EQ(l.obstacle.at<float>(row, col), 0);
+  ASSERT_TRUE(l.CellOf(1.25, 5.25, &col, &row));
+  EXPECT_EQ(l.obstacle.at<float>(row, col), 1);
+  // Merging in any order keeps the two highest and the two lowest.
+  CellStats a, b, c;
+  a.z_max = 0.3f;
+  a.z_min = -0.1f;
+  b.z_max = 0.01f;
+  b.z_min = 0.0f;
+  c.z_max = 0.02f;
+  c.z_min = -0.05f;
+  CellStats abc = a, cba = c;
+  abc.Merge(b);
+  abc.Merge(c);
+  cba.Merge(b);
+  cba.Merge(a);
+  for (const CellStats* s : {&abc, &cba}) {
+    EXPECT_EQ(s->z_max, 0.3f);
+    EXPECT_EQ(s->z_max2, 0.02f);
+    EXPECT_EQ(s->z_min, -0.1f);
+    EXPECT_EQ(s->z_min2, -0.05f);
+  }
+}
+
 TEST(TerrainGrid, FusingInTwoHalvesAndMergingEqualsFusingAtOnce) {
   const TerrainMapOptions o;
   const auto surface = [](double x, double y) {
