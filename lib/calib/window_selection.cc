@@ -193,6 +193,87 @@ nlohmann::json GroundWindow::ToJson() const {
           {"row_band_mean_px", rows > 0 ? static_cast<double>(searched) / rows : 0.0}};
 }
 
+RowBands SelectRowBands(const StereoRig& rig, ReferenceImage reference, const RegionOfInterest& region,
+                        const ImageWindow& window, double guard_distance_factor, const WindowSelectionOptions& selection) {
+  LN_CHECK_ARG(rig.rectified.has_value()) << "rig: not rectified (rectify the pair first)";
+  LN_CHECK_ARG(std::isfinite(guard_distance_factor) && guard_distance_factor >= 1)
+      << "far guard: the distance factor must be >= 1, got " << guard_distance_factor;
+  const RectifiedGeometry& g = *rig.rectified;
+  const ReferenceGeometry geo(rig, reference);
+  const double f = geo.f, c_x = geo.c_x, c_y = geo.c_y;
+  const Eigen::Vector3d &centre = geo.centre, &along_y = geo.along_y, &along_z = geo.along_z;
+  const double fb = f * geo.baseline_m, dc = geo.c_left - geo.c_right;
+  const double width = g.width_px;
+  auto ray = [&](double x, double y) { return Eigen::Vector3d((x - c_x) / f, (y - c_y) / f, 1.0); };
+  RowBands out;
+  // Per row: each column's ray crosses the slab (Y and Z within the region, depth > 0) along
+  // a segment of depths [t0, t1]; disparity falls with depth. The guard: the same slab out
+  // to guard_y_max_m.
+  out.guard_y_max_m = centre.y() + (region.y_max_m - centre.y()) * guard_distance_factor;
+  out.row_disparity_px.assign(g.height_px, {0, -1});
+  out.row_accept_min_px.assign(g.height_px, 0);
+  const double d_limit = width - 1;
+  constexpr double kHair = 1e-9;
+  auto floor_px = [&](double d) {
+    return static_cast<int>(std::floor(std::max(d, -d_limit) - kHair)) - selection.disparity_margin_px;
+  };
+  int guard_min = window.min_disparity_px;
+  for (int y = 0; y < g.height_px; ++y) {
+    double d_lo = std::numeric_limits<double>::infinity(), d_hi = -d_lo, d_guard = d_lo;
+    for (int x = 0; x < g.width_px; ++x) {
+      const Eigen::Vector3d u = ray(x, y);
+      // The depths along the ray within [lo, hi] of base + t rate, intersected into [t0, t1].
+      auto clip = [](double base, double rate, double lo, double hi, double* t0, double* t1) {
+        if (std::abs(rate) < 1e-15) {
+          if (base < lo || base > hi) *t1 = -1;
+          return;
+        }
+        double a = (lo - base) / rate, b = (hi - base) / rate;
+        if (a > b) std::swap(a, b);
+        *t0 = std::max(*t0, a);
+        *t1 = std::min(*t1, b);
+      };
+      double t0 = 1e-3, t1 = 1e5, g0 = 1e-3, g1 = 1e5;
+      clip(centre.y(), along_y.dot(u), region.y_min_m, region.y_max_m, &t0, &t1);
+      clip(centre.z(), along_z.dot(u), region.z_min_m, region.z_max_m, &t0, &t1);
+      if (!(t0 <= t1)) continue;
+      d_lo = std::min(d_lo, fb / t1 + dc);
+      d_hi = std::max(d_hi, fb / t0 + dc);
+      clip(centre.y(), along_y.dot(u), region.y_min_m, out.guard_y_max_m, &g0, &g1);
+      clip(centre.z(), along_z.dot(u), region.z_min_m, region.z_max_m, &g0, &g1);
+      d_guard = std::min(d_guard, fb / g1 + dc);
+    }
+    if (!(d_lo <= d_hi)) continue;
+    const int lo = std::max(floor_px(d_lo), window.min_disparity_px);
+    const int hi = static_cast<int>(std::ceil(std::min(d_hi, d_limit) + kHair)) + selection.disparity_margin_px;
+    const int guard = std::min(lo, std::max(floor_px(d_guard), static_cast<int>(-d_limit)));
+    out.row_disparity_px[y] = {guard, std::min(hi, window.max_disparity_px)};
+    out.row_accept_min_px[y] = lo;
+    guard_min = std::min(guard_min, guard);
+  }
+  out.guard_min_disparity_px = guard_min;
+  // A row of the window whose pixel centres' rays miss the region (the window's rows are
+  // rounded outward) takes the band of the nearest row that has one.
+  for (int pass = 0; pass < 2; ++pass) {
+    const int step = pass == 0 ? 1 : -1;
+    const int begin = pass == 0 ? window.min_row : window.max_row;
+    const int end = pass == 0 ? window.max_row + 1 : window.min_row - 1;
+    std::pair<int, int> last{0, -1};
+    int last_accept = 0;
+    for (int y = begin; window.visible && y != end; y += step) {
+      auto& band = out.row_disparity_px[y];
+      if (band.first <= band.second) {
+        last = band;
+        last_accept = out.row_accept_min_px[y];
+      } else if (last.first <= last.second) {
+        band = last;
+        out.row_accept_min_px[y] = last_accept;
+      }
+    }
+  }
+  return out;
+}
+
 GroundWindow SelectGroundWindow(const StereoRig& rig, ReferenceImage reference, const GroundWindowOptions& options,
                                 const WindowSelectionOptions& selection) {
   LN_CHECK_ARG(rig.rectified.has_value()) << "rig: not rectified (rectify the pair first)";
@@ -240,71 +321,11 @@ GroundWindow SelectGroundWindow(const StereoRig& rig, ReferenceImage reference, 
   out.region.z_max_m = options.z_max_m;
   out.window = SelectWindow(rig, out.region, reference, selection);
 
-  // Per row: each column's ray crosses the slab (Y and Z within the region, depth > 0) along
-  // a segment of depths [t0, t1]; disparity falls with depth. The guard: the same slab out
-  // to guard_y_max_m.
-  out.guard_y_max_m = centre.y() + (out.region.y_max_m - centre.y()) * options.guard_distance_factor;
-  out.row_disparity_px.assign(g.height_px, {0, -1});
-  out.row_accept_min_px.assign(g.height_px, 0);
-  const double d_limit = width - 1;
-  constexpr double kHair = 1e-9;
-  auto floor_px = [&](double d) {
-    return static_cast<int>(std::floor(std::max(d, -d_limit) - kHair)) - selection.disparity_margin_px;
-  };
-  int guard_min = out.window.min_disparity_px;
-  for (int y = 0; y < g.height_px; ++y) {
-    double d_lo = std::numeric_limits<double>::infinity(), d_hi = -d_lo, d_guard = d_lo;
-    for (int x = 0; x < g.width_px; ++x) {
-      const Eigen::Vector3d u = ray(x, y);
-      // The depths along the ray within [lo, hi] of base + t rate, intersected into [t0, t1].
-      auto clip = [](double base, double rate, double lo, double hi, double* t0, double* t1) {
-        if (std::abs(rate) < 1e-15) {
-          if (base < lo || base > hi) *t1 = -1;
-          return;
-        }
-        double a = (lo - base) / rate, b = (hi - base) / rate;
-        if (a > b) std::swap(a, b);
-        *t0 = std::max(*t0, a);
-        *t1 = std::min(*t1, b);
-      };
-      double t0 = 1e-3, t1 = 1e5, g0 = 1e-3, g1 = 1e5;
-      clip(centre.y(), along_y.dot(u), out.region.y_min_m, out.region.y_max_m, &t0, &t1);
-      clip(centre.z(), along_z.dot(u), out.region.z_min_m, out.region.z_max_m, &t0, &t1);
-      if (!(t0 <= t1)) continue;
-      d_lo = std::min(d_lo, fb / t1 + dc);
-      d_hi = std::max(d_hi, fb / t0 + dc);
-      clip(centre.y(), along_y.dot(u), out.region.y_min_m, out.guard_y_max_m, &g0, &g1);
-      clip(centre.z(), along_z.dot(u), out.region.z_min_m, out.region.z_max_m, &g0, &g1);
-      d_guard = std::min(d_guard, fb / g1 + dc);
-    }
-    if (!(d_lo <= d_hi)) continue;
-    const int lo = std::max(floor_px(d_lo), out.window.min_disparity_px);
-    const int hi = static_cast<int>(std::ceil(std::min(d_hi, d_limit) + kHair)) + selection.disparity_margin_px;
-    const int guard = std::min(lo, std::max(floor_px(d_guard), static_cast<int>(-d_limit)));
-    out.row_disparity_px[y] = {guard, std::min(hi, out.window.max_disparity_px)};
-    out.row_accept_min_px[y] = lo;
-    guard_min = std::min(guard_min, guard);
-  }
-  out.guard_min_disparity_px = guard_min;
-  // A row of the window whose pixel centres' rays miss the region (the window's rows are
-  // rounded outward) takes the band of the nearest row that has one.
-  for (int pass = 0; pass < 2; ++pass) {
-    const int step = pass == 0 ? 1 : -1;
-    const int begin = pass == 0 ? out.window.min_row : out.window.max_row;
-    const int end = pass == 0 ? out.window.max_row + 1 : out.window.min_row - 1;
-    std::pair<int, int> last{0, -1};
-    int last_accept = 0;
-    for (int y = begin; out.window.visible && y != end; y += step) {
-      auto& band = out.row_disparity_px[y];
-      if (band.first <= band.second) {
-        last = band;
-        last_accept = out.row_accept_min_px[y];
-      } else if (last.first <= last.second) {
-        band = last;
-        out.row_accept_min_px[y] = last_accept;
-      }
-    }
-  }
+  const RowBands bands = SelectRowBands(rig, reference, out.region, out.window, options.guard_distance_factor, selection);
+  out.guard_y_max_m = bands.guard_y_max_m;
+  out.row_disparity_px = bands.row_disparity_px;
+  out.row_accept_min_px = bands.row_accept_min_px;
+  out.guard_min_disparity_px = bands.guard_min_disparity_px;
   return out;
 }
 

@@ -126,6 +126,25 @@ struct GroundWindow {
   nlohmann::json ToJson() const;
 };
 
+/// Per reference-image row, the disparities of a region's points on that row's rays, and below
+/// them a far guard (the same heights out to guard_distance_factor times the region's reach).
+struct RowBands {
+  double guard_y_max_m = 0;  ///< The guard's far end, Y.
+  /// Per row (size: the image's height): the band searched, guard included, within
+  /// [guard_min_disparity_px, window.max_disparity_px]; {0, -1} = none (rows outside the window).
+  std::vector<std::pair<int, int>> row_disparity_px;
+  /// Per row, the least disparity accepted (the region's far end); 0 for rows without a band.
+  std::vector<int> row_accept_min_px;
+  int guard_min_disparity_px = 0;  ///< The least disparity of the bands.
+};
+/// The bands of `region` in `window` (SelectWindow's for that region): each column's ray
+/// crosses the slab (Y and Z within the region, depth > 0) along a segment whose ends bound its
+/// disparities; a row of the window whose pixel centres' rays miss the region takes the band of
+/// the nearest row that has one. guard_distance_factor >= 1 (1 = no guard).
+RowBands SelectRowBands(const StereoRig& rig, ReferenceImage reference, const RegionOfInterest& region,
+                        const ImageWindow& window, double guard_distance_factor,
+                        const WindowSelectionOptions& selection = {});
+
 /// stereo-batch's default search with a rig (docs/stereo-batch.md): the region of the ground
 /// the rig sees, from the nearest ground point that projects inside both images to the far
 /// limit, with the objects' heights; its window (SelectWindow), and per row the disparities of

@@ -445,11 +445,11 @@ BatchSummary RunStereoBatch(const BatchOptions& options, const fs::path& input_d
   }
   std::optional<PairWindow> range_window;
   if (options.region) {
-    range_window = PairWindow{"range-y", *options.region,
-                              calib::SelectWindow(*options.rig, *options.region, options.matcher.reference,
-                                                  options.window_selection),
-                              0,
-                              {}};
+    range_window.emplace();
+    range_window->source = "range-y";
+    range_window->region = *options.region;
+    range_window->window =
+        calib::SelectWindow(*options.rig, *options.region, options.matcher.reference, options.window_selection);
   } else if (options.ground) {
     range_window =
         PairWindow{"rig-ground",
