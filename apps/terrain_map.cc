@@ -50,7 +50,7 @@ int main(int argc, char** argv) {
       ->capture_default_str();
   app.add_option("--support-rise", opt.map.support_rise_m,
                  "support: reject a point risen more than this above the last point below it in its image column, "
-                 "steeper than 45 deg, with no face seen between (inf: off), m")
+                 "steeper than 30 deg, with no face seen between (inf: off), m")
       ->capture_default_str();
   app.add_option("--min-frames", opt.map.min_frames,
                  "cells fewer pairs saw are left out of the layers (kept in the sums)")

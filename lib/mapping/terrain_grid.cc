@@ -28,11 +28,11 @@ std::uint64_t TileKey(std::int64_t ti, std::int64_t tj) {
 
 std::int64_t FloorDiv(std::int64_t a, int shift) { return a >> shift; }  // arithmetic shift floors
 
-// What the walk up an image column remembers (BinFrame): the lower bounds r - k s of the last
-// three rays, the reach L (the largest of their least so far), and the last point kept.
 // The support rule's steepest rise left unquestioned: 30 deg (its cotangent).
 constexpr double kSupportCot = 1.7320508075688772;
 
+// What the walk up an image column remembers (BinFrame): the lower bounds r - k s of the last
+// three rays, the reach L (the largest of their least so far), and the last point kept.
 struct ColumnWalk {
   std::array<float, 3> bound = {-std::numeric_limits<float>::infinity(), -std::numeric_limits<float>::infinity(),
                                 -std::numeric_limits<float>::infinity()};

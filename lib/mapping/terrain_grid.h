@@ -81,8 +81,8 @@ struct TerrainMapOptions {
   double visibility_k = 3.0;
   double visibility_floor_m = 0.1;  ///< Metres, >= 0.
   /// Support: in the same walk, a point that stands more than this above the last point kept
-  /// below it in its column, and no farther from the camera than it stands higher (a rise
-  /// steeper than 45 deg), is rejected as unsupported: the face between them would have been
+  /// below it in its column, and less than sqrt(3) times as much farther from the camera (a
+  /// rise steeper than 30 deg), is rejected as unsupported: the face between them would have been
   /// seen by the rows between, and was not (adjacent pixels of a real face differ by far less),
   /// metres, > 0; infinity turns it off.
   double support_rise_m = 0.2;
