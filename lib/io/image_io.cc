@@ -122,7 +122,8 @@ std::string PngSizeProblem(const fs::path& path) {
   if (width == 0 || height == 0) {
     return "invalid PNG header (" + std::to_string(width) + " x " + std::to_string(height) + " pixels)";
   }
-  if (width * height > max_image_pixels.load()) {
+  // width * height > limit, without the product (two 32-bit sizes overflow a long long).
+  if (width > max_image_pixels.load() / height) {
     return "the header claims " + std::to_string(width) + " x " + std::to_string(height) +
            " pixels, more than the limit of " + std::to_string(max_image_pixels.load()) + " (--max-pixels)";
   }

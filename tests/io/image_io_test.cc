@@ -165,5 +165,22 @@ TEST(ReadGreyImage, RefusesAHeaderClaimingMorePixelsThanTheLimit) {
   }
 }
 
+// A PNG whose header claims 4294967295 x 4294967295 pixels: the size check itself must not
+// overflow (the product of two 32-bit sizes does not fit a long long); refused from its header.
+TEST(ReadGreyImage, RefusesAPngHeaderClaimingTheLargestSize) {
+  util::ScopedTempDir tmp;
+  std::string png = std::string("\x89PNG\r\n\x1a\n", 8) + std::string("\0\0\0\x0dIHDR", 8) +
+                    std::string(8, '\xff') + std::string("\x08\0\0\0\0", 5) + std::string(4, '\0');
+  const auto path = tmp.path() / "huge.png";
+  std::ofstream(path, std::ios::binary) << png;
+  try {
+    ReadGreyImage(path);
+    ADD_FAILURE() << "accepted";
+  } catch (const InputError& e) {
+    const std::string what = e.what();
+    EXPECT_NE(what.find("the header claims 4294967295 x 4294967295 pixels"), std::string::npos) << what;
+  }
+}
+
 }  // namespace
 }  // namespace lunarnav::io

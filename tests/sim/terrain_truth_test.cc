@@ -36,6 +36,8 @@ TEST(TerrainTruthRaster, APlaneGivesItsHeightAtCellCentresAndItsExtremesAtTheEdg
   const cv::Mat& lo = r.bands[r.BandIndex("min_m")].pixels;
   const cv::Mat& hi = r.bands[r.BandIndex("max_m")].pixels;
   const cv::Mat& ob = r.bands[r.BandIndex("obstacle")].pixels;
+  const cv::Mat& relief = r.bands[r.BandIndex("relief_m")].pixels;
+  const cv::Mat& slope = r.bands[r.BandIndex("slope_deg")].pixels;
   for (int row = 0; row < r.Height(); ++row) {
     for (int col = 0; col < r.Width(); ++col) {
       const double x = r.CellCentreX(col);
@@ -43,6 +45,9 @@ TEST(TerrainTruthRaster, APlaneGivesItsHeightAtCellCentresAndItsExtremesAtTheEdg
       EXPECT_NEAR(lo.at<float>(row, col), 0.1 * (x - 0.125), 1e-5);
       EXPECT_NEAR(hi.at<float>(row, col), 0.1 * (x + 0.125), 1e-5);
       EXPECT_EQ(ob.at<float>(row, col), 0.0f);  // 5.7 deg, no step
+      // An even slope: no relief above its own plane, and the plane's slope, atan(0.1).
+      EXPECT_NEAR(relief.at<float>(row, col), 0.0, 1e-5);
+      EXPECT_NEAR(slope.at<float>(row, col), std::atan(0.1) * 180 / M_PI, 1e-3);
     }
   }
 }
@@ -54,6 +59,7 @@ TEST(TerrainTruthRaster, RocksTallerThanTheLimitAreObstaclesWhereTheyStand) {
   const io::GeoRaster r = TerrainTruthRaster(terrain, 0.25);
   const cv::Mat& hi = r.bands[r.BandIndex("max_m")].pixels;
   const cv::Mat& ob = r.bands[r.BandIndex("obstacle")].pixels;
+  const cv::Mat& relief = r.bands[r.BandIndex("relief_m")].pixels;
   int tall = 0;
   for (const TerrainRock& rock : terrain.Rocks()) {
     const int col = static_cast<int>(std::floor((rock.x_m - r.x_west_m) / r.cell_m));
@@ -65,6 +71,8 @@ TEST(TerrainTruthRaster, RocksTallerThanTheLimitAreObstaclesWhereTheyStand) {
       EXPECT_GE(hi.at<float>(row, col), 0.9 * rock.height_m);
       EXPECT_GT(ob.at<float>(row, col), 0) << rock.x_m << ", " << rock.y_m << ": " << rock.height_m << " m";
     }
+    // Every rock's cell has at least its height of relief (the rock covers the cell).
+    EXPECT_GE(relief.at<float>(row, col), rock.height_m - 1e-6) << rock.x_m << ", " << rock.y_m;
   }
   EXPECT_GT(tall, 0);  // 72 rocks, 4 % of them above 25 cm (N(>h) ~ h^-2 from 5 cm): a few
 }
