@@ -26,19 +26,27 @@ inline double ParabolicPeakOffset(double c_prev, double c_best, double c_next) {
 /// its window, leaves the image) chose among the disparities left inside as if the range were
 /// complete; when its true match lies beyond the edge, any of them is wrong. Along a row, the
 /// matches of a visible surface keep their order and advance: x + d grows by 1 + dd/dx, at
-/// least 0.5 a pixel unless the other camera sees the surface less than half as wide (a pixel
-/// whose match lies left of a neighbour's is hidden from the other camera). So once an
+/// least 0.15 a pixel unless the other camera sees the surface less than a seventh as wide (a
+/// pixel whose match lies left of a neighbour's is hidden from the other camera). So once an
 /// accepted pixel x_m to the left matches target column M, a cut pixel x whose match lies
-/// left of M + 0.5 (x - x_m) - tolerance_px is seen beyond the edge (or hidden): it is set to
-/// NaN and marked kBeyondBorder. The advance carries the bound across the pixels next to the
-/// edge that other filters rejected. Pixels whose range is complete are never touched, so a
-/// thin object in front of the background elsewhere in the image keeps both; in the cut
-/// zone, the ground right of a rock is rejected for twice the width it is hidden.
+/// left of M + 0.15 (x - x_m) - tolerance_px is seen beyond the edge (or hidden), and it is set
+/// to NaN and marked kBeyondBorder when, besides, that surface carried on at a pixel a pixel
+/// (M + x - x_m) matches beyond the last column a target window fits in (width - 1 -
+/// window_half_px): only there may its true match lie outside the image. Nearer the middle, a
+/// match left of the bound is an ordinary occlusion (the background beside a thin post: on
+/// real street pairs, the rule without this condition rejected hundreds of correct pixels per
+/// pair) and stays. The advance carries the bound across the pixels next to the edge that
+/// other filters rejected; the matchers run the rule after their other filters, so that only
+/// matches that survive them set the bound. Pixels whose range is complete are never touched;
+/// in the cut zone, the ground right of a rock near the edge is rejected for up to 1.18 times
+/// the width it is hidden.
 /// @param reach_px  per grid row: its d_max plus the half-width of the window the target is
 ///        compared over.
+/// @param window_half_px  the half-width of that window (0 for a cost taken with replicated
+///        borders).
 /// @return the number of cells rejected.
-int RejectMatchesBeyondTheBorder(int x0, int step_x, int width, const std::vector<int>& reach_px, double tolerance_px,
-                                 cv::Mat* disparity, cv::Mat* rejection);
+int RejectMatchesBeyondTheBorder(int x0, int step_x, int width, const std::vector<int>& reach_px, int window_half_px,
+                                 double tolerance_px, cv::Mat* disparity, cv::Mat* rejection);
 
 /// The fourth filter: a k x k median filter over a disparity grid (the map on the
 /// subsampling grid, one cell per evaluated pixel).

@@ -238,11 +238,11 @@ void MatchWindowInCurrentArena(const NccOptions& options, const cv::Mat& left, c
   cv::Mat& grid_disp = grid.disparity;
   cv::Mat& grid_corr = grid.correlation;
   cv::Mat& grid_reason = grid.rejection;
-  if (options.border_tolerance_px >= 0) {
-    RejectMatchesBeyondTheBorder(in.x0, dx, width, std::vector<int>(grid_disp.rows, options.max_disparity_px + in.mx * dx),
-                                 options.border_tolerance_px, &grid_disp, &grid_reason);
-  }
   MedianFilterDisparityGrid(options.median_size, &grid_disp, &grid_reason);
+  if (options.border_tolerance_px >= 0) {  // after the filters: only surviving matches set its bound
+    RejectMatchesBeyondTheBorder(in.x0, dx, width, std::vector<int>(grid_disp.rows, options.max_disparity_px + in.mx * dx),
+                                 in.mx * dx, options.border_tolerance_px, &grid_disp, &grid_reason);
+  }
 
   // Everything outside the grid rows, then the grid scattered into the reference image's
   // columns (unless the kernel wrote into the maps directly).

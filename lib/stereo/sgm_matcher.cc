@@ -229,13 +229,6 @@ void MatchSemiGlobal(const NccOptions& options, const cv::Mat& left, const cv::M
       }
     });
   }
-  if (options.border_tolerance_px >= 0) {
-    // The census at the target is taken with replicated borders: a range is cut where x + d_max
-    // leaves the image.
-    std::vector<int> reach(num_rows);
-    for (int j = 0; j < num_rows; ++j) reach[j] = row_d_min(j) + row_num(j) - 1;
-    RejectMatchesBeyondTheBorder(x0, dx, width, reach, options.border_tolerance_px, &grid_disp, &grid_reason);
-  }
   if (banded && !options.row_accept_min_px.empty()) {
     // Matches in the guard band below a row's accepted disparities lie beyond the far limit.
     for (int j = 0; j < num_rows; ++j) {
@@ -277,6 +270,16 @@ void MatchSemiGlobal(const NccOptions& options, const cv::Mat& left, const cv::M
         }
       }
     }
+  }
+
+  if (options.border_tolerance_px >= 0) {
+    // After the speckle filter, so that only matches that survive every filter set the bound
+    // (a stray match the filter removes would otherwise reject a whole run of correct pixels).
+    // The census at the target is taken with replicated borders: a range is cut where x + d_max
+    // leaves the image.
+    std::vector<int> reach(num_rows);
+    for (int j = 0; j < num_rows; ++j) reach[j] = row_d_min(j) + row_num(j) - 1;
+    RejectMatchesBeyondTheBorder(x0, dx, width, reach, 0, options.border_tolerance_px, &grid_disp, &grid_reason);
   }
 
   // Full-size maps: the grid scattered into the reference image's columns.

@@ -220,32 +220,53 @@ TEST(BorderRule, NoPixelSeenBeyondTheEdgeIsMatchedInside) {
   }
 }
 
-// The rule's arithmetic on a hand-made grid: the bound advances half a pixel a pixel, from
-// the match that raised it; only cut cells are judged.
+// The rule's arithmetic on a hand-made grid: the bound advances 0.15 px a pixel from the
+// match that raised it; only cut cells are judged, and among them only where that match,
+// carried on a pixel a pixel, leaves the image (nearer the middle it is an occlusion).
 TEST(BorderRule, BoundAdvancesFromTheFarthestMatch) {
   const float nan = std::numeric_limits<float>::quiet_NaN();
-  // Width 20, reach 10: cells x >= 10 are cut. Cell 8 matches column 16; cells 9-11 are
-  // rejected by other filters; cell 12 matches column 17, on the bound 16 + 0.5 * 4 - 1 (kept);
-  // cell 13 matches column 15, left of 16 + 0.5 * 5 - 1 (rejected); cell 14 column 19 (kept).
-  cv::Mat d(1, 20, CV_32FC1, cv::Scalar(nan));
-  cv::Mat reason(1, 20, CV_8UC1, cv::Scalar(static_cast<int>(Rejection::kLowTexture)));
+  cv::Mat d, reason;
+  auto reset = [&] {
+    d = cv::Mat(1, 20, CV_32FC1, cv::Scalar(nan));
+    reason = cv::Mat(1, 20, CV_8UC1, cv::Scalar(static_cast<int>(Rejection::kLowTexture)));
+  };
   auto set = [&](int x, float v) {
     d.at<float>(0, x) = v;
     reason.at<std::uint8_t>(0, x) = static_cast<std::uint8_t>(Rejection::kAccepted);
   };
+  auto accepted = [&](int x) { return reason.at<std::uint8_t>(0, x) == static_cast<int>(Rejection::kAccepted); };
+  // Width 20, reach 10: cells x >= 10 are cut. Cell 8 matches column 16; cells 9-11 are
+  // rejected by other filters. Cell 12 matches column 16, within the tolerance of the bound
+  // 16 + 0.15 * 4 (kept, the bound stays); cell 13 column 14.5, left of 16 + 0.15 * 5 - 1 where
+  // 16 + 5 leaves the image (rejected); cell 14 column 19 (kept, raises the bound); cell 15
+  // column 15.5, left of 19.15 - 1 with 19 + 1 beyond column 19 (rejected).
+  reset();
   set(3, 1.0f);  // column 4, far behind
   set(8, 8.0f);
-  set(12, 5.0f);
-  set(13, 2.0f);
+  set(12, 4.0f);
+  set(13, 1.5f);
   set(14, 5.0f);
-  EXPECT_EQ(RejectMatchesBeyondTheBorder(0, 1, 20, {10}, 1.0, &d, &reason), 1);
-  EXPECT_EQ(reason.at<std::uint8_t>(0, 13), static_cast<int>(Rejection::kBeyondBorder));
-  EXPECT_TRUE(std::isnan(d.at<float>(0, 13)));
-  for (int x : {3, 8, 12, 14}) EXPECT_EQ(reason.at<std::uint8_t>(0, x), static_cast<int>(Rejection::kAccepted)) << x;
+  set(15, 0.5f);
+  EXPECT_EQ(RejectMatchesBeyondTheBorder(0, 1, 20, {10}, 0, 1.0, &d, &reason), 2);
+  for (int x : {13, 15}) {
+    EXPECT_EQ(reason.at<std::uint8_t>(0, x), static_cast<int>(Rejection::kBeyondBorder)) << x;
+    EXPECT_TRUE(std::isnan(d.at<float>(0, x))) << x;
+  }
+  for (int x : {3, 8, 12, 14}) EXPECT_TRUE(accepted(x)) << x;
   // An uncut cell is never judged, whatever its match: cell 9 matching column 10.
   set(9, 1.0f);
-  EXPECT_EQ(RejectMatchesBeyondTheBorder(0, 1, 20, {10}, 1.0, &d, &reason), 0);
-  EXPECT_EQ(reason.at<std::uint8_t>(0, 9), static_cast<int>(Rejection::kAccepted));
+  EXPECT_EQ(RejectMatchesBeyondTheBorder(0, 1, 20, {10}, 0, 1.0, &d, &reason), 0);
+  EXPECT_TRUE(accepted(9));
+  // An occlusion far from the edge: cell 10 matches column 12, cell 11 column 11, left of the
+  // bound 12.15 - 1 but with 12 + 1 inside the image: kept. With a window of 7 (columns 13-19
+  // hold no window), 12 + 1 lies beyond the last column 12 that does: rejected.
+  reset();
+  set(10, 2.0f);
+  set(11, 0.0f);
+  EXPECT_EQ(RejectMatchesBeyondTheBorder(0, 1, 20, {10}, 0, 1.0, &d, &reason), 0);
+  EXPECT_TRUE(accepted(11));
+  EXPECT_EQ(RejectMatchesBeyondTheBorder(0, 1, 20, {10}, 7, 1.0, &d, &reason), 1);
+  EXPECT_FALSE(accepted(11));
 }
 
 // Speckles: a disparity map with an island smaller than the speckle size loses it, a larger
