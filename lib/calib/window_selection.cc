@@ -172,6 +172,8 @@ void GroundWindowOptions::Validate() const {
   LN_CHECK_ARG(std::isfinite(sigma_d_px) && sigma_d_px > 0) << "far limit: sigma_d must be > 0 px";
   LN_CHECK_ARG(std::isfinite(guard_distance_factor) && guard_distance_factor >= 1)
       << "far guard: the distance factor must be >= 1, got " << guard_distance_factor;
+  LN_CHECK_ARG(guard_tilt_deg >= 0 && guard_tilt_deg < 45) << "far guard: the tilt must be in [0, 45) deg, got "
+                                                           << guard_tilt_deg;
 }
 
 nlohmann::json GroundWindow::ToJson() const {
@@ -186,6 +188,7 @@ nlohmann::json GroundWindow::ToJson() const {
   return {{"region", region.ToJson()},
           {"far_limit_depth_m", far_limit_depth_m},
           {"guard_y_max_m", guard_y_max_m},
+          {"guard_tilt_deg", guard_tilt_deg},
           {"guard_min_disparity_px", guard_min_disparity_px},
           {"window", window.ToJson()},
           {"rows_with_points", rows},
@@ -194,10 +197,13 @@ nlohmann::json GroundWindow::ToJson() const {
 }
 
 RowBands SelectRowBands(const StereoRig& rig, ReferenceImage reference, const RegionOfInterest& region,
-                        const ImageWindow& window, double guard_distance_factor, const WindowSelectionOptions& selection) {
+                        const ImageWindow& window, double guard_distance_factor, double guard_tilt_deg,
+                        const WindowSelectionOptions& selection) {
   LN_CHECK_ARG(rig.rectified.has_value()) << "rig: not rectified (rectify the pair first)";
   LN_CHECK_ARG(std::isfinite(guard_distance_factor) && guard_distance_factor >= 1)
       << "far guard: the distance factor must be >= 1, got " << guard_distance_factor;
+  LN_CHECK_ARG(guard_tilt_deg >= 0 && guard_tilt_deg < 45) << "far guard: the tilt must be in [0, 45) deg, got "
+                                                           << guard_tilt_deg;
   const RectifiedGeometry& g = *rig.rectified;
   const ReferenceGeometry geo(rig, reference);
   const double f = geo.f, c_x = geo.c_x, c_y = geo.c_y;
@@ -210,6 +216,7 @@ RowBands SelectRowBands(const StereoRig& rig, ReferenceImage reference, const Re
   // a segment of depths [t0, t1]; disparity falls with depth. The guard: the same slab out
   // to guard_y_max_m.
   out.guard_y_max_m = centre.y() + (region.y_max_m - centre.y()) * guard_distance_factor;
+  const double tan_tilt = std::tan(guard_tilt_deg * M_PI / 180.0);
   out.row_disparity_px.assign(g.height_px, {0, -1});
   out.row_accept_min_px.assign(g.height_px, 0);
   const double d_limit = width - 1;
@@ -240,7 +247,11 @@ RowBands SelectRowBands(const StereoRig& rig, ReferenceImage reference, const Re
       d_lo = std::min(d_lo, fb / t1 + dc);
       d_hi = std::max(d_hi, fb / t0 + dc);
       clip(centre.y(), along_y.dot(u), region.y_min_m, out.guard_y_max_m, &g0, &g1);
-      clip(centre.z(), along_z.dot(u), region.z_min_m, region.z_max_m, &g0, &g1);
+      clip(centre.z(), along_z.dot(u), -std::numeric_limits<double>::infinity(), region.z_max_m, &g0, &g1);
+      // The guard's floor sinks below the region's by tan(guard_tilt) per metre of Y: Z +
+      // tan_tilt Y >= z_min, linear along the ray.
+      clip(centre.z() + tan_tilt * centre.y(), along_z.dot(u) + tan_tilt * along_y.dot(u), region.z_min_m,
+           std::numeric_limits<double>::infinity(), &g0, &g1);
       d_guard = std::min(d_guard, fb / g1 + dc);
     }
     if (!(d_lo <= d_hi)) continue;
@@ -321,8 +332,10 @@ GroundWindow SelectGroundWindow(const StereoRig& rig, ReferenceImage reference, 
   out.region.z_max_m = options.z_max_m;
   out.window = SelectWindow(rig, out.region, reference, selection);
 
-  const RowBands bands = SelectRowBands(rig, reference, out.region, out.window, options.guard_distance_factor, selection);
+  const RowBands bands = SelectRowBands(rig, reference, out.region, out.window, options.guard_distance_factor,
+                                        options.guard_tilt_deg, selection);
   out.guard_y_max_m = bands.guard_y_max_m;
+  out.guard_tilt_deg = options.guard_tilt_deg;
   out.row_disparity_px = bands.row_disparity_px;
   out.row_accept_min_px = bands.row_accept_min_px;
   out.guard_min_disparity_px = bands.guard_min_disparity_px;

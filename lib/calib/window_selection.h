@@ -101,6 +101,13 @@ struct GroundWindowOptions {
   /// the upper rows, finds its match there rather than a false one inside the band, and is
   /// then rejected), >= 1; 1 = no guard.
   double guard_distance_factor = 3.0;
+  /// The guard also searches below the heights: its floor sinks below z_min_m by the tangent
+  /// of this angle per metre of Y, degrees, in [0, 45). The region's heights are relative to
+  /// the vehicle's base plane; a vehicle pitched up, or ground falling away beyond a crest,
+  /// puts the ground of the upper rows below z_min_m there (0.6 m below at 12 m for 2.8 deg
+  /// of pitch), where the band alone forced a false match at its far end: a wall of points
+  /// 20-30 cm tall (seed 7 of scripts/bench-terrain-map: 34 false obstacle cells of 56).
+  double guard_tilt_deg = 5.0;
   void Validate() const;
 };
 
@@ -111,6 +118,7 @@ struct GroundWindow {
   RegionOfInterest region;
   double far_limit_depth_m = 0;  ///< Depth (rectified frame) at which the range error reaches the bound.
   double guard_y_max_m = 0;      ///< The guard's far end, Y (guard_distance_factor times the region's reach).
+  double guard_tilt_deg = 0;     ///< How the guard's floor sinks below Z_min (GroundWindowOptions).
   /// SelectWindow over the region: the row band and the one disparity range that hold it
   /// (without the guard).
   ImageWindow window;
@@ -127,7 +135,9 @@ struct GroundWindow {
 };
 
 /// Per reference-image row, the disparities of a region's points on that row's rays, and below
-/// them a far guard (the same heights out to guard_distance_factor times the region's reach).
+/// them a far guard (the heights up to the region's Z_max, out to guard_distance_factor times
+/// the region's reach, above a floor that sinks below Z_min by tan(guard_tilt_deg) per metre
+/// of Y).
 struct RowBands {
   double guard_y_max_m = 0;  ///< The guard's far end, Y.
   /// Per row (size: the image's height): the band searched, guard included, within
@@ -140,9 +150,10 @@ struct RowBands {
 /// The bands of `region` in `window` (SelectWindow's for that region): each column's ray
 /// crosses the slab (Y and Z within the region, depth > 0) along a segment whose ends bound its
 /// disparities; a row of the window whose pixel centres' rays miss the region takes the band of
-/// the nearest row that has one. guard_distance_factor >= 1 (1 = no guard).
+/// the nearest row that has one. guard_distance_factor >= 1 and guard_tilt_deg = 0 (1, 0 = no
+/// guard); guard_tilt_deg in [0, 45).
 RowBands SelectRowBands(const StereoRig& rig, ReferenceImage reference, const RegionOfInterest& region,
-                        const ImageWindow& window, double guard_distance_factor,
+                        const ImageWindow& window, double guard_distance_factor, double guard_tilt_deg = 0.0,
                         const WindowSelectionOptions& selection = {});
 
 /// stereo-batch's default search with a rig (docs/stereo-batch.md): the region of the ground

@@ -4,6 +4,8 @@
 #include <cmath>
 #include <cstdint>
 #include <fstream>
+#include <iomanip>
+#include <map>
 #include <mutex>
 #include <sstream>
 
@@ -80,6 +82,13 @@ json MapEvalOptions::ToJson() const {
           {"seen_y_m", {seen_min_y_m, seen_max_y_m}}};
 }
 
+bool TrueRock::InUpperHalf(double x, double y) const {
+  const double a = angle_deg * M_PI / 180.0, dx = x - x_m, dy = y - y_m;
+  const double u = (std::cos(a) * dx + std::sin(a) * dy) / semi_major_m;
+  const double v = (-std::sin(a) * dx + std::cos(a) * dy) / semi_minor_m;
+  return u * u + v * v <= 1.0 - std::sqrt(0.5);  // h (1 - q)^2 >= h / 2
+}
+
 std::vector<TrueRock> ReadRocksCsv(const fs::path& path) {
   std::ifstream in(path);
   LN_CHECK_INPUT(in.good()) << path.string() << ": cannot open";
@@ -89,18 +98,21 @@ std::vector<TrueRock> ReadRocksCsv(const fs::path& path) {
   for (long number = 1; std::getline(in, line); ++number) {
     if (line.empty() || line[0] == '#') continue;
     if (!header) {
-      LN_CHECK_INPUT(line.rfind("x_m,y_m,height_m,semi_major_m", 0) == 0)
-          << path.string() << ":" << number << ": expected the header x_m,y_m,height_m,semi_major_m,...";
+      LN_CHECK_INPUT(line.rfind("x_m,y_m,height_m,semi_major_m,semi_minor_m,angle_deg", 0) == 0)
+          << path.string() << ":" << number
+          << ": expected the header x_m,y_m,height_m,semi_major_m,semi_minor_m,angle_deg";
       header = true;
       continue;
     }
     std::istringstream row(line);
     row.imbue(std::locale::classic());
     TrueRock r;
-    char c1, c2, c3;
-    row >> r.x_m >> c1 >> r.y_m >> c2 >> r.height_m >> c3 >> r.semi_major_m;
-    LN_CHECK_INPUT(!row.fail() && c1 == ',' && c2 == ',' && c3 == ',') << path.string() << ":" << number
-                                                                      << ": malformed row";
+    char c1, c2, c3, c4, c5;
+    row >> r.x_m >> c1 >> r.y_m >> c2 >> r.height_m >> c3 >> r.semi_major_m >> c4 >> r.semi_minor_m >> c5 >>
+        r.angle_deg;
+    LN_CHECK_INPUT(!row.fail() && c1 == ',' && c2 == ',' && c3 == ',' && c4 == ',' && c5 == ',' &&
+                   r.semi_major_m > 0 && r.semi_minor_m > 0)
+        << path.string() << ":" << number << ": malformed row";
     rocks.push_back(r);
   }
   LN_CHECK_INPUT(header) << path.string() << ": no header";
@@ -199,27 +211,52 @@ MapEvalResult EvaluateMap(const io::GeoRaster& map, const io::GeoRaster& truth, 
   r.coverage = Ratio(r.cells_seen_mapped, r.cells_seen);
   r.recall = Ratio(r.obstacle_found, r.obstacle_true);
 
-  // Rocks of at least the limit whose centre cell was seen, mapped or not: found when a map
-  // obstacle cell's centre lies within rock_near_m of the rock's centre.
+  // Rocks of at least the limit whose upper half both cameras saw (a sliver of a rock's foot at
+  // an image's edge tells no one its height), mapped or not: found when a map obstacle cell's
+  // centre lies within rock_near_m of the rock's centre.
   for (const TrueRock& rock : rocks) {
     if (rock.height_m < o.rock_height_m) continue;
     const int col = static_cast<int>(std::floor((rock.x_m - map.x_west_m) / map.cell_m));
     const int row = static_cast<int>(std::floor((map.y_north_m - rock.y_m) / map.cell_m));
-    if (!seen_at(col, row)) continue;
+    MapEvalResult::Rock& listed = r.rock_list.emplace_back();
+    listed.x_m = rock.x_m;
+    listed.y_m = rock.y_m;
+    listed.height_m = rock.height_m;
+    listed.top_rays = rock.top_rays;
+    if (rock.top_rays >= 0 ? rock.top_rays < o.min_points : !seen_at(col, row)) continue;
+    listed.scored = true;
     ++r.rocks;
     const int radius = static_cast<int>(std::ceil(o.rock_near_m / map.cell_m)) + 1;
-    r.rocks_found += any_near(col, row, radius, [&](int c, int rr) {
+    listed.found = any_near(col, row, radius, [&](int c, int rr) {
       const double dx = map.x_west_m + (c + 0.5) * map.cell_m - rock.x_m;
       const double dy = map.y_north_m - (rr + 0.5) * map.cell_m - rock.y_m;
       return dx * dx + dy * dy <= o.rock_near_m * o.rock_near_m && map_obstacle(c, rr);
     });
+    r.rocks_found += listed.found;
   }
   r.rock_recall = Ratio(r.rocks_found, r.rocks);
   return r;
 }
 
 io::GeoRaster TrueRayCounts(const fs::path& sim_dir, const std::vector<std::string>& stems, double cell_m,
-                            const MapEvalOptions& options, int num_threads) {
+                            const MapEvalOptions& options, int num_threads, std::vector<TrueRock>* rocks) {
+  // The rocks by 1 m square (each listed in every square its ellipse's box touches).
+  std::map<std::pair<std::int64_t, std::int64_t>, std::vector<std::size_t>> rocks_at;
+  if (rocks != nullptr) {
+    for (std::size_t k = 0; k < rocks->size(); ++k) {
+      TrueRock& rock = (*rocks)[k];
+      rock.top_rays = 0;
+      const double reach = rock.semi_major_m;
+      for (auto i = static_cast<std::int64_t>(std::floor(rock.x_m - reach));
+           i <= static_cast<std::int64_t>(std::floor(rock.x_m + reach)); ++i) {
+        for (auto j = static_cast<std::int64_t>(std::floor(rock.y_m - reach));
+             j <= static_cast<std::int64_t>(std::floor(rock.y_m + reach)); ++j) {
+          rocks_at[{i, j}].push_back(k);
+        }
+      }
+    }
+  }
+  std::vector<std::vector<long>> top_rays(stems.size());
   const fs::path poses_path = sim_dir / "truth" / "poses.csv";
   const auto poses = mapping::IndexByStem(mapping::ReadPosesCsv(poses_path));
   for (const std::string& stem : stems) {
@@ -245,6 +282,7 @@ io::GeoRaster TrueRayCounts(const fs::path& sim_dir, const std::vector<std::stri
     LN_CHECK_INPUT(disparity.size() == xyz.pixels.size())
         << disparity_path.string() << ": not the size of " << xyz_path.string();
     auto& out = cells[k];
+    if (rocks != nullptr) top_rays[k].assign(rocks->size(), 0);
     for (int y = 0; y < xyz.pixels.rows; ++y) {
       const auto* v = xyz.pixels.ptr<cv::Vec3f>(y);
       const auto* d = disparity.ptr<float>(y);
@@ -255,9 +293,19 @@ io::GeoRaster TrueRayCounts(const fs::path& sim_dir, const std::vector<std::stri
         const Eigen::Vector3d w = world_from_vehicle * Eigen::Vector3d(v[x][0], v[x][1], v[x][2]);
         out.emplace_back(static_cast<std::int64_t>(std::floor(w.x() / cell_m)),
                          static_cast<std::int64_t>(std::floor(w.y() / cell_m)));
+        if (rocks == nullptr) continue;
+        const auto near = rocks_at.find({static_cast<std::int64_t>(std::floor(w.x())),
+                                         static_cast<std::int64_t>(std::floor(w.y()))});
+        if (near == rocks_at.end()) continue;
+        for (std::size_t r : near->second) top_rays[k][r] += (*rocks)[r].InUpperHalf(w.x(), w.y());
       }
     }
   });
+  if (rocks != nullptr) {
+    for (const auto& frame : top_rays) {
+      for (std::size_t r = 0; r < frame.size(); ++r) (*rocks)[r].top_rays += frame[r];
+    }
+  }
   std::int64_t i_lo = 0, i_hi = -1, j_lo = 0, j_hi = -1;
   bool any = false;
   for (const auto& frame : cells) {
@@ -349,15 +397,30 @@ MapEvalResult RunMapEvaluation(const fs::path& map_dir, const fs::path& sim_dir,
   util::Timer timer;
   const io::GeoRaster map = io::ReadGeoTiff(map_dir / "elevation.tif");
   const io::GeoRaster truth = io::ReadGeoTiff(sim_dir / "truth" / "terrain.tif");
-  const std::vector<TrueRock> rocks = ReadRocksCsv(sim_dir / "truth" / "rocks.csv");
+  std::vector<TrueRock> rocks = ReadRocksCsv(sim_dir / "truth" / "rocks.csv");
   std::vector<std::string> stems;
   for (const mapping::FramePose& p : mapping::ReadPosesCsv(map_dir / "frames.csv")) stems.push_back(p.stem);
-  const io::GeoRaster seen = TrueRayCounts(sim_dir, stems, map.cell_m, options, num_threads);
+  const io::GeoRaster seen = TrueRayCounts(sim_dir, stems, map.cell_m, options, num_threads, &rocks);
   const MapEvalResult result = EvaluateMap(map, truth, seen, rocks, options);
 
   io::CreateOutputDirectory(output_dir);
   const Table table = result.ToTable();
   WriteTable(output_dir, "map", table);
+  {
+    std::ostringstream csv;
+    csv.imbue(std::locale::classic());
+    csv << "# lunarnav evaluate map: the rocks at least " << options.rock_height_m
+        << " m tall; top_rays: true rays both cameras saw on the rock's upper half (-1: not counted); scored: "
+           "top_rays >= min points; found: a map obstacle cell within "
+        << options.rock_near_m << " m\n";
+    csv << "x_m,y_m,height_m,top_rays,scored,found\n";
+    csv << std::fixed << std::setprecision(4);
+    for (const MapEvalResult::Rock& k : result.rock_list) {
+      csv << k.x_m << "," << k.y_m << "," << k.height_m << "," << k.top_rays << "," << int{k.scored} << ","
+          << int{k.found} << "\n";
+    }
+    io::WriteFileAtomic(output_dir / "rocks.csv", csv.str());
+  }
   json j = util::SummaryHead("evaluate", invocation);
   j["subcommand"] = "map";
   j["inputs"] = {{"map", map_dir.string()}, {"truth", sim_dir.string()}, {"frames", stems.size()}};

@@ -40,9 +40,17 @@ struct MapEvalOptions {
   nlohmann::json ToJson() const;
 };
 
-/// A rock of the simulated terrain (truth/rocks.csv).
+/// A rock of the simulated terrain (truth/rocks.csv): surface height_m (1 - q)^2 above the
+/// relief, q the squared elliptical radius about (x_m, y_m) (major axis at angle_deg from x
+/// towards y).
 struct TrueRock {
-  double x_m = 0, y_m = 0, height_m = 0, semi_major_m = 0;
+  double x_m = 0, y_m = 0, height_m = 0, semi_major_m = 0, semi_minor_m = 0, angle_deg = 0;
+  /// The true rays both cameras see that land on the rock's upper half (q <= 1 - 1/sqrt(2),
+  /// where the rock stands at least half its height): TrueRayCounts fills it; -1 = not counted
+  /// (EvaluateMap then asks only that the rock's centre cell was seen).
+  long top_rays = -1;
+  /// True when (x, y) lies where the rock stands at least half its height.
+  bool InUpperHalf(double x, double y) const;
 };
 /// Reads truth/rocks.csv. @throws InputError naming file and line.
 std::vector<TrueRock> ReadRocksCsv(const std::filesystem::path& path);
@@ -58,8 +66,17 @@ struct MapEvalResult {
   long obstacle_map = 0, obstacle_true = 0;
   long obstacle_tp = 0, obstacle_fp = 0, obstacle_found = 0;
   double precision = 0, recall = 0;  ///< NaN when undefined.
-  long rocks = 0, rocks_found = 0;   ///< Rocks of >= rock_height_m whose centre cell was seen.
+  /// Rocks of >= rock_height_m whose upper half both cameras saw (TrueRock::top_rays >=
+  /// min_points; or, uncounted, whose centre cell was seen).
+  long rocks = 0, rocks_found = 0;
   double rock_recall = 0;
+  /// Each rock of >= rock_height_m, scored or not (RunMapEvaluation writes them to rocks.csv).
+  struct Rock {
+    double x_m = 0, y_m = 0, height_m = 0;
+    long top_rays = -1;  ///< TrueRock::top_rays.
+    bool scored = false, found = false;
+  };
+  std::vector<Rock> rock_list;
   nlohmann::json ToJson() const;
   Table ToTable() const;
   std::string BriefReport() const;
@@ -82,8 +99,10 @@ MapEvalResult EvaluateMap(const io::GeoRaster& map, const io::GeoRaster& truth, 
 /// seen_max_y_m ahead (sim_dir/truth/xyz/<stem>.exr, vehicle frame, placed by
 /// sim_dir/truth/poses.csv with the simulator's pose convention), counted per world-anchored
 /// cell of `cell_m`, as a one-band raster ("count"). Code of its own: not the mapper's binning.
+/// With `rocks`, also each rock's top_rays: those points that land on its upper half.
 io::GeoRaster TrueRayCounts(const std::filesystem::path& sim_dir, const std::vector<std::string>& stems,
-                            double cell_m, const MapEvalOptions& options, int num_threads);
+                            double cell_m, const MapEvalOptions& options, int num_threads,
+                            std::vector<TrueRock>* rocks = nullptr);
 
 /// `evaluate map`: reads MAP_DIR/elevation.tif and frames.csv and the simulated run's truth,
 /// writes OUT_DIR/map.{csv,json,md} and summary.json. Returns the result.

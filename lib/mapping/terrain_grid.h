@@ -102,10 +102,11 @@ struct TerrainMapOptions {
   /// error (default_sigma_m) are kept at any range.
   double max_horizontal_sigma_cells = 1.0;
   /// Cells that fewer pairs saw are left out of the map's layers (kept in its sums, so that a
-  /// later pair, a resumed run or a merged map confirms them), >= 1. One pair's view of a cell
-  /// has no second opinion: at the fringes of the ground seen (the field of view's edges, far
-  /// ahead at a traverse's end) a few wrong matches of one pair made whole cells 30-50 cm off.
-  int min_frames = 2;
+  /// later pair, a resumed run or a merged map confirms them), >= 1. 1 (every cell): the ground
+  /// at the common view's edges is often seen by one pair only (a rock 3 m to the side, seen
+  /// once before it leaves the view); 2 was the default while wrong matches of one pair made
+  /// fringe cells 30-50 cm off, which the border rule and the far guard now remove.
+  int min_frames = 1;
   /// Side of the square window centred at the vehicle that the map keeps (the navigation
   /// map of sec. 3), metres; nothing = the whole traverse.
   std::optional<double> window_m;

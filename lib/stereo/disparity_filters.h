@@ -36,8 +36,9 @@ inline double ParabolicPeakOffset(double c_prev, double c_best, double c_next) {
 /// match left of the bound is an ordinary occlusion (the background beside a thin post: on
 /// real street pairs, the rule without this condition rejected hundreds of correct pixels per
 /// pair) and stays. The advance carries the bound across the pixels next to the edge that
-/// other filters rejected; the matchers run the rule after their other filters, so that only
-/// matches that survive them set the bound. Pixels whose range is complete are never touched;
+/// other filters rejected. The matchers run the rule after their median filter (the quality
+/// preset before its speckle filter, which then removes what the rule leaves of a wrong
+/// region). Pixels whose range is complete are never touched;
 /// in the cut zone, the ground right of a rock near the edge is rejected for up to 1.18 times
 /// the width it is hidden.
 /// @param reach_px  per grid row: its d_max plus the half-width of the window the target is

@@ -348,7 +348,7 @@ TEST(SelectGroundWindow, StartsAtTheNearestGroundBothImagesHoldAndBoundsEveryRow
         return coin(rng) ? (coin(rng) ? u.a() : u.b()) : u(rng);
       };
       std::vector<double> lo(g.height_px, kInf), hi(g.height_px, -kInf);
-      int seen = 0, outside = 0, guard_seen = 0, guard_outside = 0, guard_below = 0;
+      int seen = 0, outside = 0, guard_seen = 0, guard_outside = 0, guard_below = 0, sunk_seen = 0, sunk_outside = 0;
       EXPECT_LE(gw.guard_min_disparity_px, gw.window.min_disparity_px);
       ASSERT_EQ(gw.row_accept_min_px.size(), gw.row_disparity_px.size());
       for (int r = 0; r < g.height_px; ++r) {
@@ -391,10 +391,26 @@ TEST(SelectGroundWindow, StartsAtTheNearestGroundBothImagesHoldAndBoundsEveryRow
             ++guard_seen;
           }
         }
+        // Below the heights: ground sunk under Z_min by up to tan(guard_tilt) per metre of Y (a
+        // vehicle pitched up), out to guard_y_max_m, lies in the searched band too.
+        const double y_sunk = gw.region.y_min_m + (gw.guard_y_max_m - gw.region.y_min_m) * (i % 89) / 88.0;
+        const double z_sunk = options.z_min_m - std::tan(options.guard_tilt_deg * M_PI / 180.0) * y_sunk * (i % 7) / 6.0;
+        const Eigen::Vector3d s0 = proj.vehicle_from_rect.transpose() * (Eigen::Vector3d(0, y_sunk, z_sunk) - proj.centre);
+        const double Xs = (proj.f * s0.x() - (x - proj.c_x) * s0.z()) / ((x - proj.c_x) * e.z() - proj.f * e.x());
+        const auto ps = proj.Project(Eigen::Vector3d(Xs, y_sunk, z_sunk));
+        if (ps.depth > 0 && ps.row >= -0.5 && ps.row <= g.height_px - 0.5) {
+          const auto [sunk_lo, sunk_hi] = gw.row_disparity_px[static_cast<int>(std::lround(ps.row))];
+          if (sunk_lo <= sunk_hi && ps.disparity <= sunk_hi) {
+            sunk_outside += !(ps.disparity >= sunk_lo);
+            ++sunk_seen;
+          }
+        }
         lo[row] = std::min(lo[row], p.disparity);
         hi[row] = std::max(hi[row], p.disparity);
       }
       ASSERT_GT(seen, 20000);
+      EXPECT_GT(sunk_seen, 1000);
+      EXPECT_EQ(sunk_outside, 0);
       EXPECT_EQ(outside, 0);
       EXPECT_GT(guard_seen, 100);
       EXPECT_EQ(guard_outside, 0);

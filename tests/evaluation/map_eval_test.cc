@@ -97,6 +97,44 @@ TEST(EvaluateMap, AMissedRockLowersRecallEvenWhereTheMapIsEmpty) {
   EXPECT_TRUE(std::isnan(r.precision));  // no obstacle mapped
 }
 
+// A rock counts when both cameras saw its upper half (TrueRayCounts's top_rays), not merely a
+// sliver of its foot in its centre cell: with fewer than min_points rays on its top it is not
+// scored, found or not; with them, a map that misses it loses recall.
+TEST(EvaluateMap, ARockCountsWhenItsTopWasSeen) {
+  Scene s;
+  s.obstacle.at<float>(4, 6) = 0;  // the map misses the rock
+  s.rocks[0].top_rays = 2;
+  MapEvalResult r = s.Evaluate();
+  EXPECT_EQ(r.rocks, 0);
+  EXPECT_TRUE(std::isnan(r.rock_recall));
+  s.rocks[0].top_rays = 3;
+  r = s.Evaluate();
+  EXPECT_EQ(r.rocks, 1);
+  EXPECT_EQ(r.rocks_found, 0);
+  // Uncounted (-1): the centre cell's rays decide, as without top_rays.
+  s.rocks[0].top_rays = -1;
+  EXPECT_EQ(s.Evaluate().rocks, 1);
+  s.seen.at<float>(4, 6) = 0;
+  EXPECT_EQ(s.Evaluate().rocks, 0);
+}
+
+// The upper half of a rock is where h (1 - q)^2 >= h / 2: q <= 1 - 1 / sqrt(2) = 0.293, along
+// its rotated axes.
+TEST(TrueRock, UpperHalfFollowsTheRotatedEllipse) {
+  TrueRock rock;
+  rock.x_m = 1.0;
+  rock.y_m = 2.0;
+  rock.height_m = 0.3;
+  rock.semi_major_m = 0.2;
+  rock.semi_minor_m = 0.1;
+  rock.angle_deg = 90;  // the major axis along y
+  EXPECT_TRUE(rock.InUpperHalf(1.0, 2.0));
+  EXPECT_TRUE(rock.InUpperHalf(1.0, 2.1));    // q = 0.25
+  EXPECT_FALSE(rock.InUpperHalf(1.0, 2.11));  // q = 0.3025
+  EXPECT_FALSE(rock.InUpperHalf(1.1, 2.0));   // q = 1 across the minor axis
+  EXPECT_TRUE(rock.InUpperHalf(1.05, 2.0));   // q = 0.25
+}
+
 TEST(EvaluateMap, APhantomCellRaisesTheLargestErrorAndIsCounted) {
   Scene s;
   s.z.at<float>(8, 2) = -3.0f;  // three metres below the ground

@@ -103,20 +103,20 @@ TEST(TerrainMapTool, WritesAGeoTiffOfThePlaneWithTheBoxAsTheOnlyObstacle) {
     }
   }
   EXPECT_EQ(obstacles, 4);  // 0.5 m x 0.5 m = 2 x 2 cells
-  // 6 m wide; the cells two pairs saw (--min-frames 2): from 2 m ahead of the second pose
-  // (0.48 m after the first) to 10 m ahead of the third (0.96 m after the first).
-  EXPECT_EQ(mapped, 24 * static_cast<int>(std::lround((10 + 0.96 - (2 + 0.48)) / 0.25)));
+  // 6 m wide; every cell a pair saw (--min-frames 1): from 2 m ahead of the first pose to 10 m
+  // ahead of the last (1.44 m further).
+  EXPECT_EQ(mapped, 24 * static_cast<int>(std::lround((8 + 1.44) / 0.25)));
   {
-    // With --min-frames 1, every cell a pair saw: from 2 m ahead of the first pose to 10 m
-    // ahead of the last (1.44 m further).
-    const fs::path all = tmp.path() / "map_all";
-    const auto one = RunTool("terrain-map", {(tmp.path() / "stereo").string(), "--poses",
-                                             (tmp.path() / "poses.csv").string(), "-o", all.string(), "-q",
-                                             "--support-rise", "inf", "--min-frames", "1", "--no-preview"},
+    // With --min-frames 2, the cells two pairs saw: from 2 m ahead of the second pose (0.48 m
+    // after the first) to 10 m ahead of the third (0.96 m after the first).
+    const fs::path two = tmp.path() / "map_two";
+    const auto run = RunTool("terrain-map", {(tmp.path() / "stereo").string(), "--poses",
+                                             (tmp.path() / "poses.csv").string(), "-o", two.string(), "-q",
+                                             "--support-rise", "inf", "--min-frames", "2", "--no-preview"},
                              tmp.path());
-    ASSERT_EQ(one.exit_code, 0) << one.stderr_text;
-    const cv::Mat e1 = Band(io::ReadGeoTiff(all / "elevation.tif"), "elevation_m");
-    EXPECT_EQ(cv::countNonZero(e1 == e1), 24 * static_cast<int>(std::lround((8 + 1.44) / 0.25)));
+    ASSERT_EQ(run.exit_code, 0) << run.stderr_text;
+    const cv::Mat e2 = Band(io::ReadGeoTiff(two / "elevation.tif"), "elevation_m");
+    EXPECT_EQ(cv::countNonZero(e2 == e2), 24 * static_cast<int>(std::lround((10 + 0.96 - (2 + 0.48)) / 0.25)));
   }
   EXPECT_TRUE(fs::is_regular_file(out / "preview.png"));
   const nlohmann::json summary = io::ReadJson(out / "summary.json");
