@@ -335,6 +335,7 @@ GroundWindow SelectGroundWindow(const StereoRig& rig, ReferenceImage reference, 
   const RowBands bands = SelectRowBands(rig, reference, out.region, out.window, options.guard_distance_factor,
                                         options.guard_tilt_deg, selection);
   out.guard_y_max_m = bands.guard_y_max_m;
+  out.guard_distance_factor = options.guard_distance_factor;
   out.guard_tilt_deg = options.guard_tilt_deg;
   out.row_disparity_px = bands.row_disparity_px;
   out.row_accept_min_px = bands.row_accept_min_px;

@@ -104,10 +104,12 @@ struct GroundWindowOptions {
   /// The guard also searches below the heights: its floor sinks below z_min_m by the tangent
   /// of this angle per metre of Y, degrees, in [0, 45). The region's heights are relative to
   /// the vehicle's base plane; a vehicle pitched up, or ground falling away beyond a crest,
-  /// puts the ground of the upper rows below z_min_m there (0.6 m below at 12 m for 2.8 deg
-  /// of pitch), where the band alone forced a false match at its far end: a wall of points
-  /// 20-30 cm tall (seed 7 of scripts/bench-terrain-map: 34 false obstacle cells of 56).
-  double guard_tilt_deg = 5.0;
+  /// puts the ground of the upper rows below z_min_m there (0.1-0.2 m below at 11-13 m, 2.8
+  /// deg of pitch on the way up to a crest), where the band alone forced a false match at its
+  /// far end: a wall of points 20-30 cm tall (seed 7 of scripts/bench-terrain-map: 34 false
+  /// obstacle cells of 56). Ground farther below is matched into the guard's lowest
+  /// disparities (nearer its own than the band's) and rejected there too.
+  double guard_tilt_deg = 2.0;
   void Validate() const;
 };
 
@@ -116,9 +118,10 @@ struct GroundWindow {
   /// Y from the nearest ground both cameras see (the flat ground Z = 0 in the vehicle frame)
   /// to the far limit, Z from the options.
   RegionOfInterest region;
-  double far_limit_depth_m = 0;  ///< Depth (rectified frame) at which the range error reaches the bound.
-  double guard_y_max_m = 0;      ///< The guard's far end, Y (guard_distance_factor times the region's reach).
-  double guard_tilt_deg = 0;     ///< How the guard's floor sinks below Z_min (GroundWindowOptions).
+  double far_limit_depth_m = 0;      ///< Depth (rectified frame) at which the range error reaches the bound.
+  double guard_y_max_m = 0;          ///< The guard's far end, Y (guard_distance_factor times the region's reach).
+  double guard_distance_factor = 1;  ///< The guard's reach (GroundWindowOptions).
+  double guard_tilt_deg = 0;         ///< How the guard's floor sinks below Z_min (GroundWindowOptions).
   /// SelectWindow over the region: the row band and the one disparity range that hold it
   /// (without the guard).
   ImageWindow window;

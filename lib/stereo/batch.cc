@@ -47,8 +47,8 @@ struct PairWindow {
   calib::RegionOfInterest region;
   calib::ImageWindow window;
   long request_line = 0;
-  std::vector<std::pair<int, int>> row_disparity_px;  // rig-ground: per-row bands (semi-global), guard included
-  std::vector<int> row_accept_min_px;                 // rig-ground: the far limit's disparity per row
+  std::vector<std::pair<int, int>> row_disparity_px;  // with a rig default: per-row bands (semi-global), guard included
+  std::vector<int> row_accept_min_px;                 // with a rig default: the far limit's disparity per row
   int guard_min_disparity_px = 0;
   nlohmann::json ToJson() const {
     nlohmann::json j = window.ToJson();
@@ -427,6 +427,18 @@ BatchSummary RunStereoBatch(const BatchOptions& options, const fs::path& input_d
         << options.requests_source << ":" << r.line << ": no point with Y in [" << r.y_min_m << ", "
         << r.y_max_m << "] m and Z in [" << w.region.z_min_m << ", " << w.region.z_max_m << "] m is seen by the "
         << ToString(options.matcher.reference) << " camera";
+    if (options.ground) {
+      // Per-row bands and the far guard, as the rig's default has them: in the requested rows
+      // the ground beyond the interval (the top rows) or below the heights would otherwise be
+      // matched inside the one range, points in the air within the interval.
+      const calib::RowBands bands =
+          calib::SelectRowBands(*options.rig, options.matcher.reference, w.region, w.window,
+                                options.ground->guard_distance_factor, options.ground->guard_tilt_deg,
+                                options.window_selection);
+      w.row_disparity_px = bands.row_disparity_px;
+      w.row_accept_min_px = bands.row_accept_min_px;
+      w.guard_min_disparity_px = bands.guard_min_disparity_px;
+    }
     requested.emplace(r.stem, w);
   }
   if (!options.requests.empty()) {
