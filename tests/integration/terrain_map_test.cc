@@ -9,7 +9,9 @@
 
 #include <gtest/gtest.h>
 #include <nlohmann/json.hpp>
+#include <opencv2/core.hpp>
 #include <opencv2/imgcodecs.hpp>
+#include <opencv2/imgproc.hpp>
 
 #include "integration/run_tool.h"
 #include "io/atomic_file.h"
@@ -118,7 +120,28 @@ TEST(TerrainMapTool, WritesAGeoTiffOfThePlaneWithTheBoxAsTheOnlyObstacle) {
     const cv::Mat e2 = Band(io::ReadGeoTiff(two / "elevation.tif"), "elevation_m");
     EXPECT_EQ(cv::countNonZero(e2 == e2), 24 * static_cast<int>(std::lround((10 + 0.96 - (2 + 0.48)) / 0.25)));
   }
-  EXPECT_TRUE(fs::is_regular_file(out / "preview.png"));
+  {
+    // The preview draws each obstacle cell as a square of scale x scale pixels in the
+    // obstacle red, and the legend's swatch (20 x 12 px) in the same red: the box's 2 x 2
+    // cells are the only red of the map, one square 2 scale wide.
+    const cv::Mat preview = cv::imread((out / "preview.png").string(), cv::IMREAD_COLOR);
+    ASSERT_FALSE(preview.empty());
+    const cv::Mat red = [&] {
+      cv::Mat m;
+      cv::inRange(preview, cv::Scalar(30, 30, 230), cv::Scalar(30, 30, 230), m);
+      return m;
+    }();
+    const int swatch = 20 * 12;
+    const int box_px = cv::countNonZero(red) - swatch;
+    const int scale = static_cast<int>(std::lround(std::sqrt(box_px / 4.0)));
+    ASSERT_GE(scale, 1);
+    EXPECT_EQ(box_px, 4 * scale * scale);
+    // The legend lies right of the map: the red of the map is the square's bounding box.
+    const cv::Mat map_red = red(cv::Rect(0, 0, preview.cols - 170, preview.rows));
+    const cv::Rect box = cv::boundingRect(map_red);
+    EXPECT_EQ(box.width, 2 * scale);
+    EXPECT_EQ(box.height, 2 * scale);
+  }
   const nlohmann::json summary = io::ReadJson(out / "summary.json");
   EXPECT_EQ(summary["tool"], "terrain-map");
   EXPECT_EQ(summary["counts"]["frames_fused"], 4);
