@@ -198,12 +198,14 @@ nlohmann::json GroundWindow::ToJson() const {
 
 RowBands SelectRowBands(const StereoRig& rig, ReferenceImage reference, const RegionOfInterest& region,
                         const ImageWindow& window, double guard_distance_factor, double guard_tilt_deg,
-                        const WindowSelectionOptions& selection) {
+                        double near_guard_factor, const WindowSelectionOptions& selection) {
   LN_CHECK_ARG(rig.rectified.has_value()) << "rig: not rectified (rectify the pair first)";
   LN_CHECK_ARG(std::isfinite(guard_distance_factor) && guard_distance_factor >= 1)
       << "far guard: the distance factor must be >= 1, got " << guard_distance_factor;
   LN_CHECK_ARG(guard_tilt_deg >= 0 && guard_tilt_deg < 45) << "far guard: the tilt must be in [0, 45) deg, got "
                                                            << guard_tilt_deg;
+  LN_CHECK_ARG(std::isfinite(near_guard_factor) && near_guard_factor >= 1)
+      << "near guard: the distance factor must be >= 1, got " << near_guard_factor;
   const RectifiedGeometry& g = *rig.rectified;
   const ReferenceGeometry geo(rig, reference);
   const double f = geo.f, c_x = geo.c_x, c_y = geo.c_y;
@@ -219,14 +221,17 @@ RowBands SelectRowBands(const StereoRig& rig, ReferenceImage reference, const Re
   const double tan_tilt = std::tan(guard_tilt_deg * M_PI / 180.0);
   out.row_disparity_px.assign(g.height_px, {0, -1});
   out.row_accept_min_px.assign(g.height_px, 0);
+  out.row_accept_max_px.assign(g.height_px, 0);
+  // The near guard: the same heights from y_min_m / near_guard_factor.
+  const double y_near = centre.y() + (region.y_min_m - centre.y()) / near_guard_factor;
   const double d_limit = width - 1;
   constexpr double kHair = 1e-9;
   auto floor_px = [&](double d) {
     return static_cast<int>(std::floor(std::max(d, -d_limit) - kHair)) - selection.disparity_margin_px;
   };
-  int guard_min = window.min_disparity_px;
+  int guard_min = window.min_disparity_px, guard_max = window.max_disparity_px;
   for (int y = 0; y < g.height_px; ++y) {
-    double d_lo = std::numeric_limits<double>::infinity(), d_hi = -d_lo, d_guard = d_lo;
+    double d_lo = std::numeric_limits<double>::infinity(), d_hi = -d_lo, d_guard = d_lo, d_near = d_hi;
     for (int x = 0; x < g.width_px; ++x) {
       const Eigen::Vector3d u = ray(x, y);
       // The depths along the ray within [lo, hi] of base + t rate, intersected into [t0, t1].
@@ -240,7 +245,7 @@ RowBands SelectRowBands(const StereoRig& rig, ReferenceImage reference, const Re
         *t0 = std::max(*t0, a);
         *t1 = std::min(*t1, b);
       };
-      double t0 = 1e-3, t1 = 1e5, g0 = 1e-3, g1 = 1e5;
+      double t0 = 1e-3, t1 = 1e5, g0 = 1e-3, g1 = 1e5, n0 = 1e-3, n1 = 1e5;
       clip(centre.y(), along_y.dot(u), region.y_min_m, region.y_max_m, &t0, &t1);
       clip(centre.z(), along_z.dot(u), region.z_min_m, region.z_max_m, &t0, &t1);
       if (!(t0 <= t1)) continue;
@@ -253,16 +258,25 @@ RowBands SelectRowBands(const StereoRig& rig, ReferenceImage reference, const Re
       clip(centre.z() + tan_tilt * centre.y(), along_z.dot(u) + tan_tilt * along_y.dot(u), region.z_min_m,
            std::numeric_limits<double>::infinity(), &g0, &g1);
       d_guard = std::min(d_guard, fb / g1 + dc);
+      clip(centre.y(), along_y.dot(u), y_near, region.y_max_m, &n0, &n1);
+      clip(centre.z(), along_z.dot(u), region.z_min_m, region.z_max_m, &n0, &n1);
+      if (n0 <= n1) d_near = std::max(d_near, fb / n0 + dc);
     }
     if (!(d_lo <= d_hi)) continue;
     const int lo = std::max(floor_px(d_lo), window.min_disparity_px);
     const int hi = static_cast<int>(std::ceil(std::min(d_hi, d_limit) + kHair)) + selection.disparity_margin_px;
     const int guard = std::min(lo, std::max(floor_px(d_guard), static_cast<int>(-d_limit)));
-    out.row_disparity_px[y] = {guard, std::min(hi, window.max_disparity_px)};
+    const int accept_max = std::min(hi, window.max_disparity_px);
+    const int near =
+        std::max(accept_max, static_cast<int>(std::ceil(std::min(d_near, d_limit) + kHair)) + selection.disparity_margin_px);
+    out.row_disparity_px[y] = {guard, near};
     out.row_accept_min_px[y] = lo;
+    out.row_accept_max_px[y] = accept_max;
+    guard_max = std::max(guard_max, near);
     guard_min = std::min(guard_min, guard);
   }
   out.guard_min_disparity_px = guard_min;
+  out.guard_max_disparity_px = guard_max;
   // A row of the window whose pixel centres' rays miss the region (the window's rows are
   // rounded outward) takes the band of the nearest row that has one.
   for (int pass = 0; pass < 2; ++pass) {
@@ -270,15 +284,17 @@ RowBands SelectRowBands(const StereoRig& rig, ReferenceImage reference, const Re
     const int begin = pass == 0 ? window.min_row : window.max_row;
     const int end = pass == 0 ? window.max_row + 1 : window.min_row - 1;
     std::pair<int, int> last{0, -1};
-    int last_accept = 0;
+    int last_accept = 0, last_accept_max = 0;
     for (int y = begin; window.visible && y != end; y += step) {
       auto& band = out.row_disparity_px[y];
       if (band.first <= band.second) {
         last = band;
         last_accept = out.row_accept_min_px[y];
+        last_accept_max = out.row_accept_max_px[y];
       } else if (last.first <= last.second) {
         band = last;
         out.row_accept_min_px[y] = last_accept;
+        out.row_accept_max_px[y] = last_accept_max;
       }
     }
   }
@@ -333,7 +349,7 @@ GroundWindow SelectGroundWindow(const StereoRig& rig, ReferenceImage reference, 
   out.window = SelectWindow(rig, out.region, reference, selection);
 
   const RowBands bands = SelectRowBands(rig, reference, out.region, out.window, options.guard_distance_factor,
-                                        options.guard_tilt_deg, selection);
+                                        options.guard_tilt_deg, 1.0, selection);
   out.guard_y_max_m = bands.guard_y_max_m;
   out.guard_distance_factor = options.guard_distance_factor;
   out.guard_tilt_deg = options.guard_tilt_deg;

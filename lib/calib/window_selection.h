@@ -144,20 +144,26 @@ struct GroundWindow {
 struct RowBands {
   double guard_y_max_m = 0;  ///< The guard's far end, Y.
   /// Per row (size: the image's height): the band searched, guard included, within
-  /// [guard_min_disparity_px, window.max_disparity_px]; {0, -1} = none (rows outside the window).
+  /// [guard_min_disparity_px, guard_max_disparity_px]; {0, -1} = none (rows outside the window).
   std::vector<std::pair<int, int>> row_disparity_px;
   /// Per row, the least disparity accepted (the region's far end); 0 for rows without a band.
   std::vector<int> row_accept_min_px;
+  /// Per row, the greatest disparity accepted (the region's near end); above it, up to the
+  /// band's end, the near guard.
+  std::vector<int> row_accept_max_px;
   int guard_min_disparity_px = 0;  ///< The least disparity of the bands.
+  int guard_max_disparity_px = 0;  ///< The greatest disparity of the bands.
 };
 /// The bands of `region` in `window` (SelectWindow's for that region): each column's ray
 /// crosses the slab (Y and Z within the region, depth > 0) along a segment whose ends bound its
 /// disparities; a row of the window whose pixel centres' rays miss the region takes the band of
 /// the nearest row that has one. guard_distance_factor >= 1 and guard_tilt_deg = 0 (1, 0 = no
-/// guard); guard_tilt_deg in [0, 45).
+/// far guard); guard_tilt_deg in [0, 45). near_guard_factor >= 1: above each band, a near
+/// guard, the heights from y_min_m / near_guard_factor (from the camera's Y) to the region
+/// (1 = none; a requested window's lower rows see ground nearer than its interval).
 RowBands SelectRowBands(const StereoRig& rig, ReferenceImage reference, const RegionOfInterest& region,
                         const ImageWindow& window, double guard_distance_factor, double guard_tilt_deg = 0.0,
-                        const WindowSelectionOptions& selection = {});
+                        double near_guard_factor = 1.0, const WindowSelectionOptions& selection = {});
 
 /// stereo-batch's default search with a rig (docs/stereo-batch.md): the region of the ground
 /// the rig sees, from the nearest ground point that projects inside both images to the far

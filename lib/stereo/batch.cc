@@ -49,7 +49,9 @@ struct PairWindow {
   long request_line = 0;
   std::vector<std::pair<int, int>> row_disparity_px;  // with a rig default: per-row bands (semi-global), guard included
   std::vector<int> row_accept_min_px;                 // with a rig default: the far limit's disparity per row
+  std::vector<int> row_accept_max_px;                 // requests: the near limit's disparity per row
   int guard_min_disparity_px = 0;
+  int guard_max_disparity_px = 0;
   nlohmann::json ToJson() const {
     nlohmann::json j = window.ToJson();
     j["source"] = source;
@@ -253,7 +255,9 @@ json ProcessPair(const BatchOptions& options, const PairFiles& pair, const PairO
     if (matcher.aggregation == Aggregation::kSemiGlobal && !window->row_disparity_px.empty()) {
       matcher.row_disparity_px = window->row_disparity_px;
       matcher.row_accept_min_px = window->row_accept_min_px;
+      matcher.row_accept_max_px = window->row_accept_max_px;
       matcher.min_disparity_px = window->guard_min_disparity_px;
+      matcher.max_disparity_px = std::max(matcher.max_disparity_px, window->guard_max_disparity_px);
     }
   }
   MatchStereoPair(matcher, left, right, result);
@@ -428,16 +432,19 @@ BatchSummary RunStereoBatch(const BatchOptions& options, const fs::path& input_d
         << r.y_max_m << "] m and Z in [" << w.region.z_min_m << ", " << w.region.z_max_m << "] m is seen by the "
         << ToString(options.matcher.reference) << " camera";
     if (options.ground) {
-      // Per-row bands and the far guard, as the rig's default has them: in the requested rows
-      // the ground beyond the interval (the top rows) or below the heights would otherwise be
-      // matched inside the one range, points in the air within the interval.
+      // Per-row bands with the far guard, as the rig's default has them, and a near guard: in
+      // the requested rows the ground beyond the interval (the top rows) or below the heights,
+      // and the ground nearer than it (the lower rows), would otherwise be matched inside the
+      // one range: points in the air, or below the ground, within the interval.
       const calib::RowBands bands =
           calib::SelectRowBands(*options.rig, options.matcher.reference, w.region, w.window,
                                 options.ground->guard_distance_factor, options.ground->guard_tilt_deg,
-                                options.window_selection);
+                                options.ground->guard_distance_factor, options.window_selection);
       w.row_disparity_px = bands.row_disparity_px;
       w.row_accept_min_px = bands.row_accept_min_px;
+      w.row_accept_max_px = bands.row_accept_max_px;
       w.guard_min_disparity_px = bands.guard_min_disparity_px;
+      w.guard_max_disparity_px = bands.guard_max_disparity_px;
     }
     requested.emplace(r.stem, w);
   }
@@ -470,7 +477,9 @@ BatchSummary RunStereoBatch(const BatchOptions& options, const fs::path& input_d
                    0,
                    options.ground->row_disparity_px,
                    options.ground->row_accept_min_px,
-                   options.ground->guard_min_disparity_px};
+                   {},
+                   options.ground->guard_min_disparity_px,
+                   options.ground->window.max_disparity_px};
   }
   auto window_for = [&](const std::string& stem) -> const PairWindow* {
     if (const auto it = requested.find(stem); it != requested.end()) return &it->second;

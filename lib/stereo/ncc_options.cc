@@ -24,6 +24,7 @@ std::string ToString(Rejection reason) {
     case Rejection::kSpeckle: return "speckle";
     case Rejection::kBeyondBorder: return "beyond_border";
     case Rejection::kBeyondFar: return "beyond_far";
+    case Rejection::kBeyondNear: return "beyond_near";
   }
   return "unknown";
 }
@@ -86,6 +87,8 @@ void NccOptions::Validate() const {
   }
   LN_CHECK_ARG(row_accept_min_px.empty() || row_accept_min_px.size() == row_disparity_px.size())
       << "per-row accepted disparities: " << row_accept_min_px.size() << " rows, the bands " << row_disparity_px.size();
+  LN_CHECK_ARG(row_accept_max_px.empty() || row_accept_max_px.size() == row_disparity_px.size())
+      << "per-row accepted disparities: " << row_accept_max_px.size() << " rows, the bands " << row_disparity_px.size();
   LN_CHECK_ARG(min_row.has_value() == max_row.has_value())
       << "rows: give both MIN and MAX";
   if (min_row) {
@@ -163,8 +166,10 @@ nlohmann::json NccOptions::ToJson() const {
       searched += hi - lo + 1;
       widest = std::max(widest, hi - lo + 1);
     }
-    for (const int v : row_accept_min_px) {
-      for (int b = 0; b < 4; ++b) fnv = (fnv ^ ((static_cast<std::uint32_t>(v) >> (8 * b)) & 0xffu)) * 1099511628211ull;
+    for (const std::vector<int>* accept : {&row_accept_min_px, &row_accept_max_px}) {
+      for (const int v : *accept) {
+        for (int b = 0; b < 4; ++b) fnv = (fnv ^ ((static_cast<std::uint32_t>(v) >> (8 * b)) & 0xffu)) * 1099511628211ull;
+      }
     }
     std::ostringstream hex;
     hex << std::hex << fnv;

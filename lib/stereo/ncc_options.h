@@ -37,9 +37,12 @@ enum class Rejection : std::uint8_t {
   kBeyondBorder = 10,
   /// The match lies below the row's accepted disparities (row_accept_min_px): in the guard
   /// band searched beyond the window's far limit, farther than the map wants it.
-  kBeyondFar = 11
+  kBeyondFar = 11,
+  /// The match lies above the row's accepted disparities (row_accept_max_px): in the guard
+  /// band searched nearer than a requested window's near limit.
+  kBeyondNear = 12
 };
-inline constexpr int kNumRejectionCodes = 12;
+inline constexpr int kNumRejectionCodes = 13;
 /// Short snake_case name of a code ("low_texture"), used in summaries.
 std::string ToString(Rejection reason);
 
@@ -115,6 +118,10 @@ struct NccOptions {
   /// beyond the far limit finds its match there instead of a false one inside the window, and
   /// such a match is rejected as kBeyondFar. Empty = every disparity of the band is accepted.
   std::vector<int> row_accept_min_px;
+  /// With row_disparity_px: per image row, the greatest disparity accepted (a requested
+  /// window's near limit); the band above it is a near guard (ground nearer than the window
+  /// seen in its lower rows), whose matches are rejected as kBeyondNear. Empty = no limit.
+  std::vector<int> row_accept_max_px;
   /// Inclusive band of reference-image rows [y_min, y_max] to process (window selection,
   /// sec. 3.3). Unset = the whole image.
   std::optional<int> min_row;

@@ -46,6 +46,7 @@ cv::Vec3b RejectionColour(Rejection reason) {
     case Rejection::kSpeckle: return {0, 100, 0};          // dark green
     case Rejection::kBeyondBorder: return {160, 0, 80};    // purple
     case Rejection::kBeyondFar: return {200, 160, 0};      // teal
+    case Rejection::kBeyondNear: return {130, 200, 120};   // sage
   }
   return {0, 0, 0};
 }

@@ -147,6 +147,7 @@ void MatchSemiGlobal(const NccOptions& options, const cv::Mat& left, const cv::M
   confidence_options.step_x_px = confidence_options.step_y_px = 1;
   // Winner-take-all, sub-pixel vertex, lobe-aware ambiguity and the correlation filter.
   const float nan = std::numeric_limits<float>::quiet_NaN();
+  const float inf = std::numeric_limits<float>::infinity();
   cv::Mat grid_disp(num_rows, num_cols, CV_32FC1, cv::Scalar(nan));
   cv::Mat grid_corr(num_rows, num_cols, CV_32FC1, cv::Scalar(nan));
   cv::Mat grid_reason(num_rows, num_cols, CV_8UC1, cv::Scalar(static_cast<int>(Rejection::kAccepted)));
@@ -229,16 +230,21 @@ void MatchSemiGlobal(const NccOptions& options, const cv::Mat& left, const cv::M
       }
     });
   }
-  if (banded && !options.row_accept_min_px.empty()) {
-    // Matches in the guard band below a row's accepted disparities lie beyond the far limit.
+  if (banded && (!options.row_accept_min_px.empty() || !options.row_accept_max_px.empty())) {
+    // Matches in the guard below a row's accepted disparities lie beyond the far limit; in the
+    // guard above them, nearer than the near limit.
     for (int j = 0; j < num_rows; ++j) {
-      const float accept = static_cast<float>(options.row_accept_min_px[grid_lo + j * dy]);
+      const int y = grid_lo + j * dy;
+      const float accept_min =
+          options.row_accept_min_px.empty() ? -inf : static_cast<float>(options.row_accept_min_px[y]);
+      const float accept_max =
+          options.row_accept_max_px.empty() ? inf : static_cast<float>(options.row_accept_max_px[y]);
       float* d = grid_disp.ptr<float>(j);
       auto* reason = grid_reason.ptr<std::uint8_t>(j);
       for (int i = 0; i < num_cols; ++i) {
-        if (d[i] < accept) {  // false for NaN
+        if (d[i] < accept_min || d[i] > accept_max) {  // false for NaN
+          reason[i] = static_cast<std::uint8_t>(d[i] < accept_min ? Rejection::kBeyondFar : Rejection::kBeyondNear);
           d[i] = nan;
-          reason[i] = static_cast<std::uint8_t>(Rejection::kBeyondFar);
         }
       }
     }

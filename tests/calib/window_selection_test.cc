@@ -429,4 +429,60 @@ TEST(SelectGroundWindow, StartsAtTheNearestGroundBothImagesHoldAndBoundsEveryRow
 }
 
 }  // namespace
+// A requested interval's bands with a near guard (stereo-batch --requests): the points of the
+// region lie in each row's accepted band, the points of the same heights nearer than the
+// interval, down to Y_min / 3, in the band searched above it.
+TEST(SelectRowBands, ANearGuardHoldsTheGroundNearerThanTheInterval) {
+  std::mt19937 rng(11);
+  for (const RigCase& rc : Rigs()) {
+    const RectifiedGeometry& g = *rc.rig.rectified;
+    for (ReferenceImage reference : {ReferenceImage::kRight, ReferenceImage::kLeft}) {
+      SCOPED_TRACE(std::string(rc.name) + ", " + ToString(reference));
+      const Projector proj(rc.rig, reference);
+      const RegionOfInterest region{5.0, 7.0, -0.5, 1.0};
+      const ImageWindow window = SelectWindow(rc.rig, region, reference);
+      ASSERT_TRUE(window.visible);
+      const RowBands b = SelectRowBands(rc.rig, reference, region, window, 3.0, 2.0, 3.0);
+      const RowBands plain = SelectRowBands(rc.rig, reference, region, window, 3.0, 2.0, 1.0);
+      const double y_near = proj.centre.y() + (region.y_min_m - proj.centre.y()) / 3.0;
+      std::uniform_real_distribution<double> X(-4, 4), Z(region.z_min_m, region.z_max_m),
+          Y(region.y_min_m, region.y_max_m), Y_near(y_near, region.y_min_m);
+      int inside = 0, inside_wrong = 0, near = 0, near_outside = 0, near_above = 0;
+      for (int i = 0; i < 200000; ++i) {
+        const bool in_region = i % 2 == 0;
+        const auto p = proj.Project(Eigen::Vector3d(X(rng), in_region ? Y(rng) : Y_near(rng), Z(rng)));
+        if (!(p.depth > 0) || p.row < -0.5 || p.row > g.height_px - 0.5 || p.column < -0.5 ||
+            p.column > g.width_px - 0.5) {
+          continue;
+        }
+        const int row = static_cast<int>(std::lround(p.row));
+        const auto [lo, hi] = b.row_disparity_px[row];
+        if (lo > hi) continue;
+        if (in_region) {
+          ++inside;
+          inside_wrong += !(p.disparity >= b.row_accept_min_px[row] && p.disparity <= b.row_accept_max_px[row]);
+        } else if (p.disparity <= g.width_px - 1) {
+          ++near;
+          near_outside += !(p.disparity <= hi);
+          near_above += p.disparity > b.row_accept_max_px[row] + 1;
+        }
+      }
+      EXPECT_GT(inside, 10000);
+      EXPECT_EQ(inside_wrong, 0);
+      EXPECT_GT(near, 10000);
+      EXPECT_EQ(near_outside, 0);
+      EXPECT_GT(near_above, near / 4);  // the guard searches above the accepted band
+      // Without the near guard the accepted bands are the same and nothing lies above them.
+      EXPECT_EQ(plain.row_accept_max_px, b.row_accept_max_px);
+      EXPECT_EQ(plain.row_accept_min_px, b.row_accept_min_px);
+      for (int r = 0; r < g.height_px; ++r) {
+        if (plain.row_disparity_px[r].first <= plain.row_disparity_px[r].second) {
+          EXPECT_EQ(plain.row_disparity_px[r].second, plain.row_accept_max_px[r]) << r;
+        }
+      }
+      EXPECT_GE(b.guard_max_disparity_px, plain.guard_max_disparity_px);
+    }
+  }
+}
+
 }  // namespace lunarnav::calib

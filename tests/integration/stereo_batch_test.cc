@@ -147,8 +147,9 @@ TEST(StereoBatch, TwelveBitPngPairUsesItsTrueBitDepth) {
 // does not have) is off: the CRC-32 of its disparity, confidence and rejection maps on the
 // testdata pairs, recorded when the median filter's neighbour count was corrected (filter 4
 // had missed the accepted neighbours whose own neighbourhood was fully accepted, and rejected
-// some matches as isolated that are not). With the rule, the maps differ only at the pixels it
-// rejects and their median neighbourhoods.
+// some matches as isolated that are not). With the rule (run after the median), the maps
+// differ only at the pixels it rejects, and no pixel whose true match lies beyond the left
+// image's edge (right reference: x + d > width - 1) is accepted.
 TEST(StereoBatch, PaperPresetKeepsThePaperMatchersOutputsBitForBit) {
   ScopedTempDir tmp;
   const fs::path out = tmp.path() / "out";
@@ -174,24 +175,32 @@ TEST(StereoBatch, PaperPresetKeepsThePaperMatchersOutputsBitForBit) {
                                                   "--preset", "paper"},
                                  tmp.path());
   ASSERT_EQ(with_rule.exit_code, 0) << with_rule.stderr_text;
-  int rejected = 0, changed_elsewhere = 0;
+  int changed_elsewhere = 0, beyond = 0, beyond_accepted = 0;
   for (const char* stem : kStems) {
     const cv::Mat off = io::ReadPfm(out / "disparity" / (std::string(stem) + ".pfm"));
     const cv::Mat on = io::ReadPfm(ruled / "disparity" / (std::string(stem) + ".pfm"));
     const cv::Mat codes = cv::imread((ruled / "rejections" / (std::string(stem) + ".png")).string(), cv::IMREAD_UNCHANGED);
-    cv::Mat rule = codes == 10;  // beyond_border (docs/formats.md)
-    rejected += cv::countNonZero(rule);
-    cv::dilate(rule, rule, cv::Mat::ones(3, 3, CV_8U));  // the paper's 3 x 3 median
+    const cv::Mat truth = cv::imread(
+        (TestDataPath("stereo_pairs") / "truth" / "disparity" / (std::string(stem) + ".png")).string(),
+        cv::IMREAD_UNCHANGED);
+    ASSERT_EQ(truth.size(), on.size());
+    const cv::Mat rule = codes == 10;  // beyond_border (docs/formats.md)
     for (int y = 0; y < off.rows; ++y) {
       for (int x = 0; x < off.cols; ++x) {
         const float a = off.at<float>(y, x), b = on.at<float>(y, x);
         const bool same = (std::isnan(a) && std::isnan(b)) || a == b;
         changed_elsewhere += !same && rule.at<std::uint8_t>(y, x) == 0;
+        const std::uint16_t t = truth.at<std::uint16_t>(y, x);
+        if (t > 0 && x + t / 256.0 > off.cols - 1) {  // KITTI's 16-bit scale; 0 = no truth
+          ++beyond;
+          beyond_accepted += std::isfinite(b);
+        }
       }
     }
   }
   EXPECT_EQ(changed_elsewhere, 0);
-  EXPECT_GT(rejected, 0);
+  EXPECT_GT(beyond, 1000);
+  EXPECT_EQ(beyond_accepted, 0);
 }
 
 // Headers claiming a million by a million pixels, or none: those pairs fail with one line

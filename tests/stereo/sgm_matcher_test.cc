@@ -301,6 +301,34 @@ TEST(SemiGlobal, TheFarGuardRejectsSurfacesBeyondTheBandInsteadOfMatchingThemFal
   EXPECT_GT(down.ShareWithin(0.5), 0.97);
 }
 
+// The near guard, the mirror of the far one: rows whose surface (disparity 32.7) lies nearer
+// than their accepted band [10, 25] match falsely inside it when only the band is searched;
+// searched up to 40 with 25 as the greatest accepted, they find it in the guard and reject it
+// as beyond_near. Rows whose accepted band holds the surface keep it.
+TEST(SemiGlobal, TheNearGuardRejectsSurfacesNearerThanTheBandInsteadOfMatchingThemFalsely) {
+  const auto pair = RenderLayeredPair(Scene({Plane(32.7)}));
+  const cv::Rect upper(8, 8, 280, 100), lower(8, 132, 280, 100);
+  NccOptions o = Quality(40);
+  o.min_disparity_px = 10;
+  o.row_disparity_px.assign(240, {10, 40});
+  for (int y = 0; y < 120; ++y) o.row_disparity_px[y] = {10, 25};
+  const NccResult unguarded = MatchStereoPair(o, pair.left, pair.right);
+  const Agreement false_matches = Compare(unguarded, pair.disparity_right_px, upper);
+  o.row_disparity_px.assign(240, {10, 40});
+  o.row_accept_max_px.assign(240, 36);
+  for (int y = 0; y < 120; ++y) o.row_accept_max_px[y] = 25;
+  const NccResult guarded = MatchStereoPair(o, pair.left, pair.right);
+  const Agreement up = Compare(guarded, pair.disparity_right_px, upper);
+  const Agreement down = Compare(guarded, pair.disparity_right_px, lower);
+  EXPECT_GT(false_matches.AcceptedShare(), 0.05);
+  EXPECT_EQ(false_matches.ShareWithin(1.0), 0.0);
+  EXPECT_EQ(up.errors.size(), 0u);
+  EXPECT_GT(guarded.summary.pixels_by_reason[static_cast<int>(Rejection::kBeyondNear)], 0.9 * 280 * 100);
+  EXPECT_EQ(guarded.summary.pixels_by_reason[static_cast<int>(Rejection::kBeyondFar)], 0);
+  EXPECT_GT(down.AcceptedShare(), 0.97);
+  EXPECT_GT(down.ShareWithin(0.5), 0.97);
+}
+
 TEST(SemiGlobal, SpeckleFilterRemovesSmallIslandsAndKeepsLargeRegions) {
   const auto pair = RenderLayeredPair(Scene({Plane(25.0, 0, 0, cv::Rect2d(60, 60, 6, 6), 3),
                                              Plane(25.0, 0, 0, cv::Rect2d(180, 60, 60, 60), 4), Plane(5.0)}));
