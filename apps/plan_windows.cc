@@ -39,6 +39,11 @@ int main(int argc, char** argv) {
   app.add_option("--horizon", opt.horizon_m, "map depth kept beyond the nearest distance needed, m")
       ->capture_default_str();
   app.add_option("--overlap", opt.overlap_m, "reach back into the previous request's ground, m")->capture_default_str();
+  app.add_option("--initial-speed", opt.initial_speed_mps,
+                 "speed assumed for the first pair, which has no earlier pose (the commanded speed), m/s")
+      ->capture_default_str();
+  app.add_option("--initial-cycle", opt.initial_cycle_s, "cycle time assumed for the first pair, s")
+      ->capture_default_str();
   app.add_option("--gravity", gravity, "earth or moon (braking distance)")->capture_default_str();
   app.add_option("-o,--output", output_dir, "output directory (created)")->required();
   util::AddCommonFlags(&app, &quiet);

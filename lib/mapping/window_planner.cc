@@ -13,12 +13,16 @@ void WindowPlannerOptions::Validate() const {
   LN_CHECK_ARG(std::isfinite(stereo_delay_s) && stereo_delay_s >= 0) << "stereo delay: must be >= 0 s";
   LN_CHECK_ARG(std::isfinite(horizon_m) && horizon_m > 0) << "horizon: must be > 0 m";
   LN_CHECK_ARG(std::isfinite(overlap_m) && overlap_m >= 0) << "overlap: must be >= 0 m";
+  LN_CHECK_ARG(std::isfinite(initial_speed_mps) && initial_speed_mps >= 0) << "initial speed: must be >= 0 m/s";
+  LN_CHECK_ARG(std::isfinite(initial_cycle_s) && initial_cycle_s >= 0) << "initial cycle: must be >= 0 s";
 }
 
 nlohmann::json WindowPlannerOptions::ToJson() const {
   return {{"stereo_delay_s", stereo_delay_s},
           {"horizon_m", horizon_m},
           {"overlap_m", overlap_m},
+          {"initial_speed_mps", initial_speed_mps},
+          {"initial_cycle_s", initial_cycle_s},
           {"gravity", calib::ToString(gravity)}};
 }
 
@@ -39,18 +43,18 @@ std::vector<PlannedWindow> PlanWindows(const std::vector<FramePose>& poses, cons
   std::vector<PlannedWindow> plan;
   const std::size_t n = poses.size();
   for (std::size_t k = 0; k < n; ++k) {
+    // Causal: only poses 0..k are known when pair k is requested.
     const FramePose& p = poses[k];
     PlannedWindow w;
     w.stem = p.stem;
     w.t_s = p.t_s;
-    if (n > 1) {
-      const std::size_t a = k == 0 ? 0 : k - 1, b = k + 1 < n ? k + 1 : k;
-      w.speed_mps = distance(a, b) / (poses[b].t_s - poses[a].t_s);
-    }
-    const double cycle_s = n > 1 ? (k + 1 < n ? poses[k + 1].t_s - p.t_s : p.t_s - poses[k - 1].t_s) : 0.0;
-    w.d_stop_m = calib::StoppingDistanceM(vehicle.stop_time_s, w.speed_mps, vehicle.sliding_friction, g);
+    w.cycle_s = k == 0 ? o.initial_cycle_s : p.t_s - poses[k - 1].t_s;
+    w.speed_mps = k == 0 ? o.initial_speed_mps : distance(k - 1, k) / w.cycle_s;
+    w.d_stop_m = w.speed_mps > 0  // standing still, the vehicle is stopped
+                     ? calib::StoppingDistanceM(vehicle.stop_time_s, w.speed_mps, vehicle.sliding_friction, g)
+                     : 0.0;
     w.y_need_m = vehicle.FrontOfWheelsY() + w.d_stop_m + w.speed_mps * o.stereo_delay_s;
-    w.y_max_m = w.y_need_m + o.horizon_m + w.speed_mps * cycle_s;
+    w.y_max_m = w.y_need_m + o.horizon_m + w.speed_mps * w.cycle_s;
     if (k == 0) {
       w.covered_to_m = std::numeric_limits<double>::quiet_NaN();
       w.y_min_m = w.y_need_m;
@@ -79,13 +83,14 @@ std::string RequestsCsv(const std::vector<PlannedWindow>& plan) {
 
 std::string PlanCsv(const std::vector<PlannedWindow>& plan) {
   std::string s =
-      "# lunarnav plan-windows: per pair, speed (m/s), stopping distance, nearest distance needed, far edge\n"
-      "# of the previous request in this pair's vehicle frame (nan for the first), and the request (m)\n"
-      "stem,t_s,speed_mps,d_stop_m,y_need_m,covered_to_m,y_min_m,y_max_m\n";
+      "# lunarnav plan-windows: per pair, from that pair's pose and the earlier ones only: speed (m/s), the\n"
+      "# last cycle (s), stopping distance, nearest distance needed, far edge of the previous request in\n"
+      "# this pair's vehicle frame (nan for the first), and the request (m)\n"
+      "stem,t_s,speed_mps,cycle_s,d_stop_m,y_need_m,covered_to_m,y_min_m,y_max_m\n";
   char buf[256];
   for (const PlannedWindow& w : plan) {
-    std::snprintf(buf, sizeof buf, ",%.3f,%.5f,%.4f,%.4f,%.4f,%.4f,%.4f\n", w.t_s, w.speed_mps, w.d_stop_m, w.y_need_m,
-                  w.covered_to_m, w.y_min_m, w.y_max_m);
+    std::snprintf(buf, sizeof buf, ",%.3f,%.5f,%.3f,%.4f,%.4f,%.4f,%.4f,%.4f\n", w.t_s, w.speed_mps, w.cycle_s,
+                  w.d_stop_m, w.y_need_m, w.covered_to_m, w.y_min_m, w.y_max_m);
     s += w.stem + buf;
   }
   return s;

@@ -25,6 +25,11 @@ struct WindowPlannerOptions {
   /// Each request reaches back this far into the ground the previous one covered, metres,
   /// >= 0 (tolerates errors in the speed and the pose).
   double overlap_m = 1.0;
+  /// The speed assumed for the first pair, which has no past pose to take it from (the
+  /// commanded speed), m/s, >= 0.
+  double initial_speed_mps = 0.0;
+  /// The cycle time assumed for the first pair (no previous pair), s, >= 0.
+  double initial_cycle_s = 0.0;
   calib::Gravity gravity = calib::Gravity::kEarth;
   void Validate() const;
   nlohmann::json ToJson() const;
@@ -34,16 +39,19 @@ struct WindowPlannerOptions {
 struct PlannedWindow {
   std::string stem;
   double t_s = 0;
-  double speed_mps = 0;      ///< From the poses (central difference of positions over time).
+  double speed_mps = 0;      ///< From this pose and the previous one (initial_speed_mps for the first).
+  double cycle_s = 0;        ///< Time since the previous pair (initial_cycle_s for the first).
   double d_stop_m = 0;       ///< Stopping distance at that speed (sec. 3.1).
   double y_need_m = 0;       ///< Front of the wheels + d_stop + speed x stereo delay.
   double covered_to_m = 0;   ///< Far edge of the previous request, moved into this frame; NaN for the first.
   double y_min_m = 0, y_max_m = 0;  ///< The request I_Y.
 };
 
-/// Plans the requests of `poses` (in time order, at least one):
+/// Plans the requests of `poses` (in time order, at least one), causally: pair k's request uses
+/// only poses 0..k, as a rover's planner would (v from poses k-1 and k, T the last cycle):
 ///   y_need = front of the wheels + d_stop(v) + v stereo_delay,
-///   y_max  = y_need + horizon + v T (T: time to the next pair, the last interval for the last),
+///   y_max  = y_need + horizon + v T (T: the time since the previous pair, the next cycle's
+///            expected length),
 ///   y_min  = clamp(covered_to - overlap, y_need, y_max - overlap), covered_to = the previous
 ///            y_max less the distance driven since (forward component), or y_need for the first.
 /// In steady state at speed v the request is [y_need + horizon - overlap, y_need + horizon + v T]:

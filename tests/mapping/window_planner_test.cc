@@ -57,6 +57,47 @@ TEST(PlanWindows, FirstRequestIsWiderThanTheSteadyOnes) {
   EXPECT_GT(first, steady);
 }
 
+// A rover's planner knows only the past: the requests of pairs 0..k are the same whether or
+// not the pairs after k are in the input (an uneven run: speeds, intervals and heading vary).
+TEST(PlanWindows, IsCausalThePlanOfAPairIgnoresLaterPairs) {
+  std::vector<FramePose> poses;
+  double x = 0, y = 0, heading = 0, t = 0;
+  for (int k = 0; k < 12; ++k) {
+    FramePose p;
+    p.stem = std::to_string(k);
+    p.t_s = t;
+    p.x_m = x;
+    p.y_m = y;
+    p.heading_rad = heading;
+    poses.push_back(p);
+    const double dt = 2.5 + 0.4 * (k % 3), v = 0.1 + 0.05 * (k % 4);
+    heading += 0.05 * ((k % 5) - 2);
+    x += v * dt * std::sin(heading);
+    y += v * dt * std::cos(heading);
+    t += dt;
+  }
+  WindowPlannerOptions o;
+  o.initial_speed_mps = 0.15;
+  o.initial_cycle_s = 3.2;
+  const auto full = PlanWindows(poses, calib::VehicleSpec(), o);
+  for (std::size_t k = 0; k < poses.size(); ++k) {
+    const auto part = PlanWindows(std::vector<FramePose>(poses.begin(), poses.begin() + k + 1), calib::VehicleSpec(), o);
+    ASSERT_EQ(part.size(), k + 1);
+    for (std::size_t i = 0; i <= k; ++i) {
+      EXPECT_EQ(part[i].speed_mps, full[i].speed_mps) << k << " " << i;
+      EXPECT_EQ(part[i].cycle_s, full[i].cycle_s) << k << " " << i;
+      EXPECT_EQ(part[i].y_min_m, full[i].y_min_m) << k << " " << i;
+      EXPECT_EQ(part[i].y_max_m, full[i].y_max_m) << k << " " << i;
+    }
+  }
+  // The speed is the last leg's (poses k-1 and k), the first pair's the assumed one.
+  EXPECT_EQ(full[0].speed_mps, 0.15);
+  EXPECT_EQ(full[0].cycle_s, 3.2);
+  const double leg = std::hypot(poses[5].x_m - poses[4].x_m, poses[5].y_m - poses[4].y_m);
+  EXPECT_NEAR(full[5].speed_mps, leg / (poses[5].t_s - poses[4].t_s), 1e-12);
+  EXPECT_NEAR(full[5].cycle_s, poses[5].t_s - poses[4].t_s, 1e-12);
+}
+
 TEST(PlanWindows, NonFinitePoseNamesTheStem) {
   auto poses = StraightRun(0.15, 3.2, 4);
   poses[2].x_m = std::nan("");
