@@ -2,6 +2,7 @@
 // from the vehicle's poses, speed, stopping distance and stereo delay, as the requests CSV that
 // `stereo-batch --requests` reads. docs/terrain-map.md#the-planner.
 #include <filesystem>
+#include <optional>
 #include <string>
 
 #include "calib/vehicle.h"
@@ -27,7 +28,7 @@ int main(int argc, char** argv) {
       "stereo-batch --requests), plan.csv (every term) and summary.json.\n"
       "Exit codes: 0 ok, 1 internal error, 2 usage, 3 bad input."};
   mapping::WindowPlannerOptions opt;  // defaults live in the library
-  fs::path poses, trajectory, frame_times, vehicle_path, output_dir;
+  fs::path poses, trajectory, frame_times, vehicle_path, map_dir, output_dir;
   std::string gravity = "earth";
   bool quiet = false;
   app.add_option("--poses", poses, "poses per pair (simulate stereo's truth/poses.csv)");
@@ -44,6 +45,9 @@ int main(int argc, char** argv) {
       ->capture_default_str();
   app.add_option("--initial-cycle", opt.initial_cycle_s, "cycle time assumed for the first pair, s")
       ->capture_default_str();
+  app.add_option("--map", map_dir,
+                 "terrain-map output so far: each request starts from the far edge of what the map holds in the "
+                 "vehicle's corridor ahead, not from the previous request (the closed loop)");
   app.add_option("--gravity", gravity, "earth or moon (braking distance)")->capture_default_str();
   app.add_option("-o,--output", output_dir, "output directory (created)")->required();
   util::AddCommonFlags(&app, &quiet);
@@ -58,13 +62,16 @@ int main(int argc, char** argv) {
     std::vector<mapping::FramePose> frames =
         poses.empty() ? mapping::InterpolateTrajectory(trajectory, mapping::ReadFrameTimes(frame_times))
                       : mapping::ReadPosesCsv(poses);
-    const std::vector<mapping::PlannedWindow> plan = mapping::PlanWindows(frames, vehicle, opt);
+    std::optional<mapping::MappedGround> map;
+    if (!map_dir.empty()) map = mapping::ReadMappedGround(map_dir);
+    const std::vector<mapping::PlannedWindow> plan = mapping::PlanWindows(frames, vehicle, opt, map ? &*map : nullptr);
     io::CreateOutputDirectory(output_dir);
     io::WriteFileAtomic(output_dir / "requests.csv", mapping::RequestsCsv(plan));
     io::WriteFileAtomic(output_dir / "plan.csv", mapping::PlanCsv(plan));
     nlohmann::json j = util::SummaryHead("plan-windows", util::CommandLineJson(argc, argv));
     j["inputs"] = {{"poses", poses.string()}, {"trajectory", trajectory.string()},
-                   {"frame_times", frame_times.string()}, {"vehicle", vehicle_path.string()}};
+                   {"frame_times", frame_times.string()}, {"vehicle", vehicle_path.string()},
+                   {"map", map_dir.string()}};
     j["vehicle"] = calib::VehicleSpecToJson(vehicle);
     j["options"] = opt.ToJson();
     j["counts"] = {{"pairs", plan.size()}};

@@ -4,10 +4,12 @@
 // getting the result from stereo", and the part of the map already covered.
 #pragma once
 
+#include <filesystem>
 #include <string>
 #include <vector>
 
 #include <nlohmann/json.hpp>
+#include <opencv2/core.hpp>
 
 #include "calib/rig_check.h"
 #include "calib/vehicle.h"
@@ -35,6 +37,21 @@ struct WindowPlannerOptions {
   nlohmann::json ToJson() const;
 };
 
+/// What a terrain map holds, for the planner (the closed loop of sec. 3.3: the next request
+/// follows what the map actually has, so a failed or blank pair is asked for again).
+struct MappedGround {
+  double x_west_m = 0, y_north_m = 0, cell_m = 0.25;
+  cv::Mat elevation_m;  ///< CV_32F, north row first; NaN = unmapped (terrain-map's layer).
+  bool Mapped(double x_m, double y_m) const;
+  /// The far edge of the mapped ground ahead of `pose`, in the corridor of `width_m` centred on
+  /// its forward axis: walking out from from_y_m (vehicle frame) in half-cell steps, the
+  /// distance of the first step whose cross-section (samples half a cell apart) is less than
+  /// half mapped; to_y_m when every step up to it is mapped.
+  double ReachAhead(const FramePose& pose, double from_y_m, double to_y_m, double width_m) const;
+};
+/// The elevation layer of a terrain-map output (DIR/elevation.tif). @throws InputError.
+MappedGround ReadMappedGround(const std::filesystem::path& map_dir);
+
 /// One pair's request and how it came about (vehicle frame at the pair's time, metres).
 struct PlannedWindow {
   std::string stem;
@@ -43,7 +60,9 @@ struct PlannedWindow {
   double cycle_s = 0;        ///< Time since the previous pair (initial_cycle_s for the first).
   double d_stop_m = 0;       ///< Stopping distance at that speed (sec. 3.1).
   double y_need_m = 0;       ///< Front of the wheels + d_stop + speed x stereo delay.
-  double covered_to_m = 0;   ///< Far edge of the previous request, moved into this frame; NaN for the first.
+  /// Far edge of the ground already covered: the previous request's, moved into this frame
+  /// (NaN for the first pair); with a map, the far edge of what the map holds ahead.
+  double covered_to_m = 0;
   double y_min_m = 0, y_max_m = 0;  ///< The request I_Y.
 };
 
@@ -56,9 +75,12 @@ struct PlannedWindow {
 ///            y_max less the distance driven since (forward component), or y_need for the first.
 /// In steady state at speed v the request is [y_need + horizon - overlap, y_need + horizon + v T]:
 /// the ground driven over in one cycle plus the overlap; it moves out with v as d_stop does.
+/// With `map` (the map so far, for the pair to plan next), covered_to is the far edge of what
+/// the map holds in the vehicle's corridor ahead (MappedGround::ReachAhead from y_need), for
+/// every pair: ground a failed or blank pair left unmapped is requested again.
 /// @throws InputError naming the stem for a non-finite pose or time stamps that do not increase.
 std::vector<PlannedWindow> PlanWindows(const std::vector<FramePose>& poses, const calib::VehicleSpec& vehicle,
-                                       const WindowPlannerOptions& options);
+                                       const WindowPlannerOptions& options, const MappedGround* map = nullptr);
 
 /// The requests as `stereo-batch --requests` reads them (docs/formats.md, "Window requests").
 std::string RequestsCsv(const std::vector<PlannedWindow>& plan);

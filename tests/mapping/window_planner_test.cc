@@ -1,6 +1,7 @@
 #include "mapping/window_planner.h"
 
 #include <cmath>
+#include <limits>
 
 #include <gtest/gtest.h>
 
@@ -96,6 +97,41 @@ TEST(PlanWindows, IsCausalThePlanOfAPairIgnoresLaterPairs) {
   const double leg = std::hypot(poses[5].x_m - poses[4].x_m, poses[5].y_m - poses[4].y_m);
   EXPECT_NEAR(full[5].speed_mps, leg / (poses[5].t_s - poses[4].t_s), 1e-12);
   EXPECT_NEAR(full[5].cycle_s, poses[5].t_s - poses[4].t_s, 1e-12);
+}
+
+// The closed loop: with the map so far, a request starts from the far edge of what the map
+// holds in the corridor ahead. A map mapped 0-20 m north over the corridor but for a gap at
+// 8-9 m (a blank pair) makes the request reach back to the gap; without the gap the request
+// is the least one (its far end less the overlap). The corridor's width is the vehicle's: a
+// gap off to the side, beyond it, changes nothing.
+TEST(PlanWindows, WithAMapTheRequestReachesBackToItsFirstGap) {
+  MappedGround map;
+  map.x_west_m = -5;
+  map.y_north_m = 20;
+  map.cell_m = 0.25;
+  map.elevation_m = cv::Mat(80, 40, CV_32FC1, cv::Scalar(0));  // x -5..5, y 0..20
+  const calib::VehicleSpec vehicle;
+  WindowPlannerOptions o;
+  o.horizon_m = 10;
+  const auto poses = StraightRun(0.15, 3.2, 3);
+  const auto full = PlanWindows(poses, vehicle, o, &map);
+  EXPECT_NEAR(full[2].y_min_m, full[2].y_max_m - o.overlap_m, 1e-9);
+  cv::Mat side = map.elevation_m.clone();
+  side(cv::Rect(0, 44, 10, 4)).setTo(std::numeric_limits<float>::quiet_NaN());  // x -5..-2.5, y 8-9
+  std::swap(side, map.elevation_m);
+  const auto off_corridor = PlanWindows(poses, vehicle, o, &map);
+  EXPECT_EQ(off_corridor[2].y_min_m, full[2].y_min_m);
+  map.elevation_m = side.clone();
+  map.elevation_m.rowRange(44, 48).setTo(std::numeric_limits<float>::quiet_NaN());  // y 8-9, all across
+  const auto gap = PlanWindows(poses, vehicle, o, &map);
+  for (const PlannedWindow& w : gap) {
+    SCOPED_TRACE(w.stem);
+    const double gap_at = 8.0 - poses[std::stoi(w.stem)].y_m;  // in this pair's vehicle frame
+    EXPECT_NEAR(w.covered_to_m, gap_at, 0.5 * map.cell_m + 1e-9);
+    EXPECT_NEAR(w.y_min_m, std::max(w.y_need_m, w.covered_to_m - o.overlap_m), 1e-9);
+    EXPECT_LT(w.y_min_m, gap_at);
+    EXPECT_GT(w.y_max_m, gap_at + 1.0);
+  }
 }
 
 TEST(PlanWindows, NonFinitePoseNamesTheStem) {
