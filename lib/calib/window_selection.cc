@@ -268,7 +268,10 @@ RowBands SelectRowBands(const StereoRig& rig, ReferenceImage reference, const Re
     const int guard = std::min(lo, std::max(floor_px(d_guard), static_cast<int>(-d_limit)));
     const int accept_max = std::min(hi, window.max_disparity_px);
     const int near =
-        std::max(accept_max, static_cast<int>(std::ceil(std::min(d_near, d_limit) + kHair)) + selection.disparity_margin_px);
+        near_guard_factor > 1
+            ? std::max(accept_max, static_cast<int>(std::ceil(std::min(d_near, d_limit) + kHair)) +
+                                       selection.disparity_margin_px)
+            : accept_max;
     out.row_disparity_px[y] = {guard, near};
     out.row_accept_min_px[y] = lo;
     out.row_accept_max_px[y] = accept_max;
