@@ -62,8 +62,8 @@ int main(int argc, char** argv) {
     std::vector<mapping::FramePose> frames =
         poses.empty() ? mapping::InterpolateTrajectory(trajectory, mapping::ReadFrameTimes(frame_times))
                       : mapping::ReadPosesCsv(poses);
-    std::optional<mapping::MappedGround> map;
-    if (!map_dir.empty()) map = mapping::ReadMappedGround(map_dir);
+    std::optional<mapping::MapLayers> map;
+    if (!map_dir.empty()) map = mapping::ReadMapElevation(map_dir);
     const std::vector<mapping::PlannedWindow> plan = mapping::PlanWindows(frames, vehicle, opt, map ? &*map : nullptr);
     io::CreateOutputDirectory(output_dir);
     io::WriteFileAtomic(output_dir / "requests.csv", mapping::RequestsCsv(plan));

@@ -104,11 +104,11 @@ struct GroundWindowOptions {
   /// The guard also searches below the heights: its floor sinks below z_min_m by the tangent
   /// of this angle per metre of Y, degrees, in [0, 45). The region's heights are relative to
   /// the vehicle's base plane; a vehicle pitched up, or ground falling away beyond a crest,
-  /// puts the ground of the upper rows below z_min_m there (0.1-0.2 m below at 11-13 m, 2.8
-  /// deg of pitch on the way up to a crest), where the band alone forced a false match at its
-  /// far end: a wall of points 20-30 cm tall (seed 7 of scripts/bench-terrain-map: 34 false
-  /// obstacle cells of 56). Ground farther below is matched into the guard's lowest
-  /// disparities (nearer its own than the band's) and rejected there too.
+  /// puts the ground of the upper rows below z_min_m there (2.8 deg of pitch on the way up to
+  /// a crest), where the band alone forced a false match at its far end: a wall of points
+  /// 20-30 cm tall (seed 7 of scripts/bench-terrain-map: 34 false obstacle cells of 56).
+  /// Ground farther below is matched into the guard's lowest disparities (nearer its own than
+  /// the band's) and rejected there too.
   double guard_tilt_deg = 2.0;
   void Validate() const;
 };

@@ -28,42 +28,40 @@ nlohmann::json WindowPlannerOptions::ToJson() const {
           {"gravity", calib::ToString(gravity)}};
 }
 
-bool MappedGround::Mapped(double x_m, double y_m) const {
-  const double c = std::floor((x_m - x_west_m) / cell_m), r = std::floor((y_north_m - y_m) / cell_m);
-  if (!(c >= 0 && r >= 0 && c < elevation_m.cols && r < elevation_m.rows)) return false;
-  return std::isfinite(elevation_m.at<float>(static_cast<int>(r), static_cast<int>(c)));
-}
-
-double MappedGround::ReachAhead(const FramePose& pose, double from_y_m, double to_y_m, double width_m) const {
-  const double step = 0.5 * cell_m, s = std::sin(pose.heading_rad), c = std::cos(pose.heading_rad);
+double MappedReachAhead(const MapLayers& map, const FramePose& pose, double from_y_m, double to_y_m, double width_m) {
+  const double step = 0.5 * map.cell_m, s = std::sin(pose.heading_rad), c = std::cos(pose.heading_rad);
   const int across = std::max(1, static_cast<int>(std::floor(width_m / step)));
+  auto mapped = [&](double x_m, double y_m) {
+    int col = 0, row = 0;
+    return map.CellOf(x_m, y_m, &col, &row) && std::isfinite(map.elevation_m.at<float>(row, col));
+  };
   for (double y = from_y_m; y < to_y_m; y += step) {
-    int mapped = 0;
+    int count = 0;
     for (int k = 0; k <= across; ++k) {
       const double x = -0.5 * width_m + width_m * k / across;  // vehicle X (right)
-      mapped += Mapped(pose.x_m + x * c + y * s, pose.y_m - x * s + y * c);
+      count += mapped(pose.x_m + x * c + y * s, pose.y_m - x * s + y * c);
     }
-    if (2 * mapped < across + 1) return y;
+    if (2 * count < across + 1) return y;
   }
   return to_y_m;
 }
 
-MappedGround ReadMappedGround(const std::filesystem::path& map_dir) {
+MapLayers ReadMapElevation(const std::filesystem::path& map_dir) {
   const std::filesystem::path path = map_dir / "elevation.tif";
   const io::GeoRaster r = io::ReadGeoTiff(path);
-  MappedGround g;
-  g.x_west_m = r.x_west_m;
-  g.y_north_m = r.y_north_m;
-  g.cell_m = r.cell_m;
+  MapLayers l;
+  l.x_west_m = r.x_west_m;
+  l.y_north_m = r.y_north_m;
+  l.cell_m = r.cell_m;
   for (const io::RasterBand& b : r.bands) {
-    if (b.description == "elevation_m") b.pixels.convertTo(g.elevation_m, CV_32F);
+    if (b.description == "elevation_m") b.pixels.convertTo(l.elevation_m, CV_32F);
   }
-  LN_CHECK_INPUT(!g.elevation_m.empty()) << path.string() << ": no elevation_m band (not a terrain-map output)";
-  return g;
+  LN_CHECK_INPUT(!l.elevation_m.empty()) << path.string() << ": no elevation_m band (not a terrain-map output)";
+  return l;
 }
 
 std::vector<PlannedWindow> PlanWindows(const std::vector<FramePose>& poses, const calib::VehicleSpec& vehicle,
-                                       const WindowPlannerOptions& o, const MappedGround* map) {
+                                       const WindowPlannerOptions& o, const MapLayers* map) {
   o.Validate();
   LN_CHECK_INPUT(!poses.empty()) << "no pairs to plan";
   for (std::size_t k = 0; k < poses.size(); ++k) {
@@ -93,7 +91,7 @@ std::vector<PlannedWindow> PlanWindows(const std::vector<FramePose>& poses, cons
     w.y_max_m = w.y_need_m + o.horizon_m + w.speed_mps * w.cycle_s;
     if (map != nullptr) {
       // The closed loop: what the map holds ahead, whatever was requested before.
-      w.covered_to_m = map->ReachAhead(p, w.y_need_m, w.y_max_m, vehicle.width_m);
+      w.covered_to_m = MappedReachAhead(*map, p, w.y_need_m, w.y_max_m, vehicle.width_m);
       w.y_min_m = std::clamp(w.covered_to_m - o.overlap_m, w.y_need_m, std::max(w.y_need_m, w.y_max_m - o.overlap_m));
     } else if (k == 0) {
       w.covered_to_m = std::numeric_limits<double>::quiet_NaN();

@@ -9,11 +9,11 @@
 #include <vector>
 
 #include <nlohmann/json.hpp>
-#include <opencv2/core.hpp>
 
 #include "calib/rig_check.h"
 #include "calib/vehicle.h"
 #include "mapping/frame_poses.h"
+#include "mapping/terrain_grid.h"
 
 namespace lunarnav::mapping {
 
@@ -37,20 +37,16 @@ struct WindowPlannerOptions {
   nlohmann::json ToJson() const;
 };
 
-/// What a terrain map holds, for the planner (the closed loop of sec. 3.3: the next request
-/// follows what the map actually has, so a failed or blank pair is asked for again).
-struct MappedGround {
-  double x_west_m = 0, y_north_m = 0, cell_m = 0.25;
-  cv::Mat elevation_m;  ///< CV_32F, north row first; NaN = unmapped (terrain-map's layer).
-  bool Mapped(double x_m, double y_m) const;
-  /// The far edge of the mapped ground ahead of `pose`, in the corridor of `width_m` centred on
-  /// its forward axis: walking out from from_y_m (vehicle frame) in half-cell steps, the
-  /// distance of the first step whose cross-section (samples half a cell apart) is less than
-  /// half mapped; to_y_m when every step up to it is mapped.
-  double ReachAhead(const FramePose& pose, double from_y_m, double to_y_m, double width_m) const;
-};
-/// The elevation layer of a terrain-map output (DIR/elevation.tif). @throws InputError.
-MappedGround ReadMappedGround(const std::filesystem::path& map_dir);
+/// The far edge of the mapped ground ahead of `pose` in `map` (its elevation layer, NaN =
+/// unmapped), in the corridor of `width_m` centred on the pose's forward axis: walking out
+/// from from_y_m (vehicle frame) in half-cell steps, the distance of the first step whose
+/// cross-section (samples half a cell apart) is less than half mapped; to_y_m when every step
+/// up to it is mapped. The closed loop of sec. 3.3: the next request follows what the map
+/// actually holds, so ground a failed or blank pair left unmapped is asked for again.
+double MappedReachAhead(const MapLayers& map, const FramePose& pose, double from_y_m, double to_y_m, double width_m);
+/// The elevation layer (and its lattice) of a terrain-map output, DIR/elevation.tif.
+/// @throws InputError.
+MapLayers ReadMapElevation(const std::filesystem::path& map_dir);
 
 /// One pair's request and how it came about (vehicle frame at the pair's time, metres).
 struct PlannedWindow {
@@ -76,11 +72,11 @@ struct PlannedWindow {
 /// In steady state at speed v the request is [y_need + horizon - overlap, y_need + horizon + v T]:
 /// the ground driven over in one cycle plus the overlap; it moves out with v as d_stop does.
 /// With `map` (the map so far, for the pair to plan next), covered_to is the far edge of what
-/// the map holds in the vehicle's corridor ahead (MappedGround::ReachAhead from y_need), for
-/// every pair: ground a failed or blank pair left unmapped is requested again.
+/// the map holds in the vehicle's corridor ahead (MappedReachAhead from y_need), for every
+/// pair: ground a failed or blank pair left unmapped is requested again.
 /// @throws InputError naming the stem for a non-finite pose or time stamps that do not increase.
 std::vector<PlannedWindow> PlanWindows(const std::vector<FramePose>& poses, const calib::VehicleSpec& vehicle,
-                                       const WindowPlannerOptions& options, const MappedGround* map = nullptr);
+                                       const WindowPlannerOptions& options, const MapLayers* map = nullptr);
 
 /// The requests as `stereo-batch --requests` reads them (docs/formats.md, "Window requests").
 std::string RequestsCsv(const std::vector<PlannedWindow>& plan);

@@ -105,7 +105,7 @@ TEST(PlanWindows, IsCausalThePlanOfAPairIgnoresLaterPairs) {
 // is the least one (its far end less the overlap). The corridor's width is the vehicle's: a
 // gap off to the side, beyond it, changes nothing.
 TEST(PlanWindows, WithAMapTheRequestReachesBackToItsFirstGap) {
-  MappedGround map;
+  MapLayers map;  // the elevation layer is all the planner reads
   map.x_west_m = -5;
   map.y_north_m = 20;
   map.cell_m = 0.25;
