@@ -12,6 +12,7 @@
 #include "evaluation/correlation_study.h"
 #include "evaluation/disparity_eval.h"
 #include "evaluation/map_eval.h"
+#include "stereo/window_requests.h"
 #include "evaluation/request_study.h"
 #include "evaluation/timing_study.h"
 #include "evaluation/trajectory_eval.h"
@@ -188,6 +189,7 @@ Subcommand AddMap(CLI::App* app) {
     std::filesystem::path map, truth, output_dir;
     evaluation::MapEvalOptions options;
     std::string seen_y = "2:10";
+    std::filesystem::path requests;
     int threads = 0;
   };
   auto c = std::make_shared<MapArgs>();
@@ -216,11 +218,21 @@ Subcommand AddMap(CLI::App* app) {
   cmd->add_option("--seen-y", c->seen_y,
                   "the ground scored for coverage and recall: true points both cameras see MIN:MAX m ahead")
       ->capture_default_str();
+  cmd->add_option("--requests", c->requests,
+                  "the requests the pairs were matched with (map-loop's requests.csv): score only each pair's "
+                  "requested ground, over every listed pair, and measure the corridor's gaps");
+  cmd->add_option("--corridor-width", c->options.corridor_width_m, "width of the corridor whose gaps are measured, m")
+      ->capture_default_str();
   cmd->add_option("-j,--threads", c->threads, "threads (0 = all cores)")->capture_default_str();
   cmd->add_option("-o,--output", c->output_dir, "output directory (created)")->required();
   return {cmd, [c](const json& head) {
             std::tie(c->options.seen_min_y_m, c->options.seen_max_y_m) =
                 util::ParseDoublePair(c->seen_y, ':', "--seen-y");
+            if (!c->requests.empty()) {
+              for (const stereo::WindowRequest& r : stereo::ReadWindowRequests(c->requests)) {
+                c->options.requested_y_m[r.stem] = {r.y_min_m, r.y_max_m};
+              }
+            }
             const evaluation::MapEvalResult r = evaluation::RunMapEvaluation(
                 c->map, c->truth, c->options, c->output_dir, c->threads, head.at("invocation"));
             LN_LOG(Info) << "evaluate map: " << r.BriefReport() << "; " << (c->output_dir / "map.md").string();

@@ -5,6 +5,7 @@
 #include <optional>
 #include <string>
 
+#include "apps/mapping_cli.h"
 #include "calib/vehicle.h"
 #include "io/atomic_file.h"
 #include "io/json_io.h"
@@ -35,20 +36,10 @@ int main(int argc, char** argv) {
   app.add_option("--trajectory", trajectory, "posfilter's trajectory.csv or TUM, interpolated at --frame-times");
   app.add_option("--frame-times", frame_times, "stem,t_s per pair (with --trajectory)");
   app.add_option("--vehicle", vehicle_path, "vehicle file (speed limits, braking, wheels; default: the paper's Ratler)");
-  app.add_option("--stereo-delay", opt.stereo_delay_s, "time from a pair to its points in the map, s")
-      ->capture_default_str();
-  app.add_option("--horizon", opt.horizon_m, "map depth kept beyond the nearest distance needed, m")
-      ->capture_default_str();
-  app.add_option("--overlap", opt.overlap_m, "reach back into the previous request's ground, m")->capture_default_str();
-  app.add_option("--initial-speed", opt.initial_speed_mps,
-                 "speed assumed for the first pair, which has no earlier pose (the commanded speed), m/s")
-      ->capture_default_str();
-  app.add_option("--initial-cycle", opt.initial_cycle_s, "cycle time assumed for the first pair, s")
-      ->capture_default_str();
+  apps::AddPlannerOptions(&app, &opt, &gravity);
   app.add_option("--map", map_dir,
                  "terrain-map output so far: each request starts from the far edge of what the map holds in the "
                  "vehicle's corridor ahead, not from the previous request (the closed loop)");
-  app.add_option("--gravity", gravity, "earth or moon (braking distance)")->capture_default_str();
   app.add_option("-o,--output", output_dir, "output directory (created)")->required();
   util::AddCommonFlags(&app, &quiet);
   if (const auto exit_code = util::ParseCommandLine(&app, argc, argv, quiet)) return *exit_code;

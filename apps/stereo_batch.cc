@@ -5,6 +5,7 @@
 #include <sstream>
 #include <string>
 
+#include "apps/matcher_cli.h"
 #include "calib/stereo_rig_io.h"
 #include "stereo/batch.h"
 #include "stereo/window_requests.h"
@@ -28,93 +29,21 @@ int main(int argc, char** argv) {
       "Exit codes: 0 ok, 1 internal error, 2 usage, 3 bad input, 4 some pairs failed."};
   stereo::BatchOptions opt;  // defaults (the paper's) live in the library
   fs::path input_dir, output_dir;
-  std::string window = "25x17", step = "1x1", disparity = "0:127", rows, shard, reference = "right";
+  std::string disparity = "0:127", rows, shard;
   std::string rig_path, range_y, z_range, requests_path;
   double xyz_sigma = 1.0;
   bool quiet = false;
   app.add_option("INPUT_DIR", input_dir, "directory holding left/ and right/")->required();
   app.add_option("-o,--output", output_dir, "output directory (created)")->required();
-  // Options that a preset sets: bound to their own variables and applied over the preset only
-  // when given (an explicit option overrides the preset).
-  std::string preset = "quality";
-  const stereo::NccOptions paper = stereo::PresetOptions("paper");
-  const stereo::NccOptions quality = stereo::PresetOptions("quality");
-  stereo::NccOptions given = paper;
-  std::string census = "4x3", aggregation = "semi-global";
-  auto preset_default = [&](auto paper_value, auto quality_value) {
-    std::ostringstream s;
-    s << "paper " << paper_value << ", quality " << quality_value;
-    return s.str();
-  };
-  app.add_option("--preset", preset,
-                 "named defaults: quality (semi-global census matching with the paper's confidence and "
-                 "filters, left-right and speckle checks) or paper (exactly the paper's matcher, sec. 3.2-3.4)")
-      ->check(CLI::IsMember(stereo::PresetNames()))
-      ->capture_default_str();
-  app.add_option("--aggregation", aggregation, "window (the paper's) or semi-global")
-      ->check(CLI::IsMember({"window", "semi-global"}))
-      ->default_str("from the preset");
-  app.add_option("--window", window,
-                 "half-sizes WXxWY of the correlation window (quality: of the confidence C)")
-      ->default_str(preset_default("25x17", "3x3"));
-  app.add_option("--sigma-min", given.min_sigma,
-                 "filter 1: min std dev of the reference window, 8-bit grey levels (scaled by the bit depth)")
-      ->default_str(preset_default(paper.min_sigma, quality.min_sigma));
-  app.add_option("--c-min", given.min_correlation, "filter 2: min best correlation C")
-      ->default_str(preset_default(paper.min_correlation, quality.min_correlation));
-  app.add_option("--ambiguity", given.ambiguity,
-                 "filter 3: M, reject when (C - C')/C < M (0.1 = 10 %); window aggregation only")
-      ->default_str(preset_default(paper.ambiguity, quality.ambiguity));
-  app.add_option("--median", given.median_size, "filter 4: median size k (odd; 0 = off)")
-      ->default_str(preset_default(paper.median_size, quality.median_size));
-  app.add_option("--census", census, "semi-global: census window half-sizes XxY ((2X+1)(2Y+1)-1 <= 64)")
-      ->capture_default_str();
-  app.add_option("--p1", given.semi_global.penalty_small,
-                 "semi-global: penalty of a 1-px disparity change between neighbours (census bits)")
-      ->default_str(std::to_string(quality.semi_global.penalty_small));
-  app.add_option("--p2", given.semi_global.penalty_large,
-                 "semi-global: penalty of a larger disparity change (census bits)")
-      ->default_str(std::to_string(quality.semi_global.penalty_large));
-  app.add_option("--p2-edge", given.semi_global.edge_levels,
-                 "semi-global: P2 falls to P2 E / (E + g) across a grey-level step g (8-bit levels); 0 = constant")
-      ->default_str(std::to_string(quality.semi_global.edge_levels));
-  app.add_option("--paths", given.semi_global.num_paths, "semi-global: aggregation directions, 4 or 8")
-      ->default_str(std::to_string(quality.semi_global.num_paths));
-  app.add_option("--uniqueness", given.semi_global.uniqueness,
-                 "semi-global: reject when the best cost outside the minimum's lobe is within this "
-                 "fraction of the best (0 = off)")
-      ->default_str(std::to_string(quality.semi_global.uniqueness));
-  app.add_option("--lr-check", given.semi_global.left_right_max_diff_px,
-                 "semi-global: max left-right disagreement, px (-1 = off)")
-      ->default_str(std::to_string(quality.semi_global.left_right_max_diff_px));
-  app.add_option("--speckle-size", given.semi_global.speckle_max_size_px,
-                 "semi-global: reject disconnected regions of at most this many pixels (0 = off)")
-      ->default_str(std::to_string(quality.semi_global.speckle_max_size_px));
-  app.add_option("--speckle-range", given.semi_global.speckle_range_px,
-                 "semi-global: disparity step, px, that disconnects a region")
-      ->default_str(std::to_string(quality.semi_global.speckle_range_px));
-  app.add_option("--border-tolerance", given.border_tolerance_px,
-                 "border rule: reject a pixel whose search runs past the other image when its match lies this many "
-                 "px left of the surface's to its left (-1 = off)")
-      ->default_str(preset_default(paper.border_tolerance_px, quality.border_tolerance_px));
-  app.add_option("--bit-depth", given.bit_depth,
-                 "significant bits of 16-bit images (default: a PNG's sBIT, else 16)");
+  // The matcher's options: a preset, and every option given over it.
+  apps::MatcherCommandLine matcher_cl;
+  apps::AddMatcherOptions(&app, &matcher_cl, &opt.frame_check);
   CLI::Option* disparity_option =
       app.add_option("--disparity", disparity,
                      "disparity range MIN:MAX, pixels, inclusive (default with --rig: the ground the rig sees)")
           ->capture_default_str();
   CLI::Option* rows_option =
       app.add_option("--rows", rows, "row band MIN:MAX of the reference image (default: all rows)");
-  app.add_option("--step", step, "partial subsampling steps DXxDY")->capture_default_str();
-  app.add_option("--reference", reference, "image the disparity map is referenced to")
-      ->check(CLI::IsMember({"right", "left"}))
-      ->capture_default_str();
-  app.add_option("--blank-sigma", opt.frame_check.blank_max_sigma,
-                 "a frame with intensity std dev below this (8-bit grey levels) is blank")
-      ->capture_default_str();
-  app.add_option("--saturation-fraction", opt.frame_check.saturated_max_fraction,
-                 "a frame with more than this fraction of pixels at full scale is saturated")
-      ->capture_default_str();
   CLI::Option* rig_option = app.add_option(
       "--rig", rig_path, "rectified rig file (rectify's rig.json): also write xyz/<stem>.exr, vehicle frame");
   app.add_flag("--ply", opt.write_ply, "also write cloud/<stem>.ply (needs --rig)");
@@ -150,36 +79,8 @@ int main(int argc, char** argv) {
 
   return util::RunMain([&] {
     io::SetMaxImagePixels(max_pixels);
-    opt.matcher = stereo::PresetOptions(preset);
-    stereo::NccOptions& m = opt.matcher;
+    opt.matcher = apps::MatcherFromCommandLine(app, matcher_cl);
     auto given_option = [&](const char* name) { return app.get_option(name)->count() > 0; };
-    if (given_option("--aggregation")) {
-      m.aggregation = aggregation == "window" ? stereo::Aggregation::kWindow : stereo::Aggregation::kSemiGlobal;
-    }
-    if (given_option("--sigma-min")) m.min_sigma = given.min_sigma;
-    if (given_option("--c-min")) m.min_correlation = given.min_correlation;
-    if (given_option("--ambiguity")) m.ambiguity = given.ambiguity;
-    if (given_option("--median")) m.median_size = given.median_size;
-    if (given_option("--census")) {
-      std::tie(m.semi_global.census_half_x_px, m.semi_global.census_half_y_px) =
-          util::ParseIntPair(census, 'x', "--census");
-    }
-    if (given_option("--p1")) m.semi_global.penalty_small = given.semi_global.penalty_small;
-    if (given_option("--p2")) m.semi_global.penalty_large = given.semi_global.penalty_large;
-    if (given_option("--paths")) m.semi_global.num_paths = given.semi_global.num_paths;
-    if (given_option("--p2-edge")) m.semi_global.edge_levels = given.semi_global.edge_levels;
-    if (given_option("--uniqueness")) m.semi_global.uniqueness = given.semi_global.uniqueness;
-    if (given_option("--lr-check")) m.semi_global.left_right_max_diff_px = given.semi_global.left_right_max_diff_px;
-    if (given_option("--speckle-size")) m.semi_global.speckle_max_size_px = given.semi_global.speckle_max_size_px;
-    if (given_option("--speckle-range")) m.semi_global.speckle_range_px = given.semi_global.speckle_range_px;
-    if (given_option("--bit-depth")) m.bit_depth = given.bit_depth;
-    if (given_option("--border-tolerance")) m.border_tolerance_px = given.border_tolerance_px;
-    if (!given_option("--window")) {
-      window = std::to_string(m.half_window_x_px) + "x" + std::to_string(m.half_window_y_px);
-    }
-    std::tie(opt.matcher.half_window_x_px, opt.matcher.half_window_y_px) =
-        util::ParseIntPair(window, 'x', "--window");
-    std::tie(opt.matcher.step_x_px, opt.matcher.step_y_px) = util::ParseIntPair(step, 'x', "--step");
     std::tie(opt.matcher.min_disparity_px, opt.matcher.max_disparity_px) =
         util::ParseIntPair(disparity, ':', "--disparity");
     if (!rows.empty()) {
@@ -188,7 +89,6 @@ int main(int argc, char** argv) {
       opt.matcher.max_row = hi;
     }
     util::ApplyShard(shard, &opt.shard_index, &opt.shard_count);
-    opt.matcher.reference = stereo::ReferenceImageFromString(reference);
     opt.show_progress = !quiet;
     if (!rig_path.empty()) {
       opt.rig = calib::ReadStereoRig(rig_path);

@@ -4,6 +4,7 @@
 #include <string>
 #include <vector>
 
+#include "apps/mapping_cli.h"
 #include "calib/vehicle.h"
 #include "mapping/terrain_map_run.h"
 #include "util/cli.h"
@@ -38,45 +39,11 @@ int main(int argc, char** argv) {
   app.add_option("--sigma-d", opt.sigma_d_px, "disparity error for --rig's error model, px")->capture_default_str();
   app.add_option("--requests", opt.requests, "the requests the pairs were matched with (stereo-batch --requests): "
                                              "points outside a pair's Y interval are left out");
-  app.add_option("--cell", opt.map.cell_m, "cell size, m")->capture_default_str();
-  app.add_option("--gate", opt.map.gate_k, "gate: reject points farther than this many combined sigmas from the "
-                                           "cell's median in their frame (inf: off)")->capture_default_str();
-  app.add_option("--gate-floor", opt.map.gate_floor_m, "floor of the gate's sigma, m")->capture_default_str();
-  app.add_option("--visibility", opt.map.visibility_k,
-                 "visibility: reject a point when a ray of its image column to a farther point passes beneath it, "
-                 "by this many sigmas of distance plus --visibility-floor (inf: off)")
-      ->capture_default_str();
-  app.add_option("--visibility-floor", opt.map.visibility_floor_m, "the visibility rule's margin, m")
-      ->capture_default_str();
-  app.add_option("--support-rise", opt.map.support_rise_m,
-                 "support: reject a point risen more than this above the last point below it in its image column, "
-                 "steeper than 30 deg, with no face seen between (inf: off), m")
-      ->capture_default_str();
-  app.add_option("--min-frames", opt.map.min_frames,
-                 "cells fewer pairs saw are left out of the layers (kept in the sums)")
-      ->capture_default_str();
-  app.add_option("--frame-floor", opt.map.frame_floor_m,
-                 "least error of one frame's estimate of a cell (its points' errors are correlated), m")
-      ->capture_default_str();
-  app.add_option("--default-sigma", opt.map.default_sigma_m, "elevation error of points without xyz_sigma, m")
-      ->capture_default_str();
-  app.add_option("--max-sigma-cells", opt.map.max_horizontal_sigma_cells,
-                 "ignore points whose predicted horizontal error (xyz_sigma or --rig) exceeds this many cells")
-      ->capture_default_str();
-  app.add_option("--max-range", opt.map.max_range_m, "ignore points farther from the mast base, m")
-      ->capture_default_str();
+  apps::AddFusionOptions(&app, &opt.map);
   app.add_option("--window-m", window_m, "keep only a square window of this side centred at the vehicle, m "
                                          "(default: the whole traverse)");
   app.add_option("--vehicle", vehicle, "vehicle file: obstacle height (requirements.obstacle_height_m) and "
                                        "max_slope_deg (default: 0.2 m, 30 deg)");
-  app.add_option("--obstacle-min-points", opt.map.obstacles.min_points, "cells with fewer points are not judged")
-      ->capture_default_str();
-  app.add_option("--step-tolerance", opt.map.obstacles.step_tolerance_m,
-                 "flag a step when it exceeds the obstacle height minus this, m")
-      ->capture_default_str();
-  app.add_option("--obstacle-extremes", opt.map.obstacles.extreme_k,
-                 "the step rule's extremes of a cell: within this many roughnesses of its mean (inf: raw)")
-      ->capture_default_str();
   app.add_option("--merge", opt.merge_maps, "terrain-map output directory of other frames to merge in "
                                             "(repeatable)");
   app.add_flag("--no-preview", no_preview, "do not write preview.png");
@@ -92,9 +59,7 @@ int main(int argc, char** argv) {
   return util::RunMain([&] {
     if (window_m > 0) opt.map.window_m = window_m;
     if (!vehicle.empty()) {
-      const calib::VehicleSpec v = calib::ReadVehicleSpec(vehicle);
-      opt.map.obstacles.step_height_m = v.requirements.obstacle_height_m;
-      opt.map.obstacles.max_slope_deg = v.max_slope_deg;
+      apps::ApplyVehicleLimits(calib::ReadVehicleSpec(vehicle), &opt.map);
     }
     util::ApplyShard(shard, &opt.shard_index, &opt.shard_count);
     if (opt.shard_count > 1) {

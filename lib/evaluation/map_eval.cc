@@ -5,6 +5,7 @@
 #include <cstdint>
 #include <fstream>
 #include <iomanip>
+#include <limits>
 #include <map>
 #include <mutex>
 #include <sstream>
@@ -69,6 +70,7 @@ void MapEvalOptions::Validate() const {
   LN_CHECK_ARG(std::isfinite(large_error_m) && large_error_m > 0) << "large error: must be > 0 m";
   LN_CHECK_ARG(std::isfinite(seen_min_y_m) && std::isfinite(seen_max_y_m) && seen_min_y_m < seen_max_y_m)
       << "seen range: need finite MIN < MAX, got " << seen_min_y_m << ":" << seen_max_y_m << " m";
+  LN_CHECK_ARG(std::isfinite(corridor_width_m) && corridor_width_m > 0) << "corridor width: must be > 0 m";
 }
 
 json MapEvalOptions::ToJson() const {
@@ -79,7 +81,9 @@ json MapEvalOptions::ToJson() const {
           {"relief_height_m", relief_height_m},
           {"relief_slope_deg", relief_slope_deg},
           {"large_error_m", large_error_m},
-          {"seen_y_m", {seen_min_y_m, seen_max_y_m}}};
+          {"seen_y_m", {seen_min_y_m, seen_max_y_m}},
+          {"requested_pairs", requested_y_m.size()},
+          {"corridor_width_m", corridor_width_m}};
 }
 
 bool TrueRock::InUpperHalf(double x, double y) const {
@@ -283,13 +287,18 @@ io::GeoRaster TrueRayCounts(const fs::path& sim_dir, const std::vector<std::stri
         << disparity_path.string() << ": not the size of " << xyz_path.string();
     auto& out = cells[k];
     if (rocks != nullptr) top_rays[k].assign(rocks->size(), 0);
+    double y_lo = options.seen_min_y_m, y_hi = options.seen_max_y_m;
+    if (const auto it = options.requested_y_m.find(stems[k]); it != options.requested_y_m.end()) {
+      y_lo = std::max(y_lo, it->second.first);
+      y_hi = std::min(y_hi, it->second.second);
+    }
     for (int y = 0; y < xyz.pixels.rows; ++y) {
       const auto* v = xyz.pixels.ptr<cv::Vec3f>(y);
       const auto* d = disparity.ptr<float>(y);
       for (int x = 0; x < xyz.pixels.cols; ++x) {
         // Both cameras see it (a finite true disparity), within the range ahead.
         if (!std::isfinite(d[x]) || !std::isfinite(v[x][1])) continue;
-        if (v[x][1] < options.seen_min_y_m || v[x][1] > options.seen_max_y_m) continue;
+        if (v[x][1] < y_lo || v[x][1] > y_hi) continue;
         const Eigen::Vector3d w = world_from_vehicle * Eigen::Vector3d(v[x][0], v[x][1], v[x][2]);
         out.emplace_back(static_cast<std::int64_t>(std::floor(w.x() / cell_m)),
                          static_cast<std::int64_t>(std::floor(w.y() / cell_m)));
@@ -358,7 +367,9 @@ json MapEvalResult::ToJson() const {
           {"obstacle_recall", Number(recall)},
           {"rocks", rocks},
           {"rocks_found", rocks_found},
-          {"rock_recall", Number(rock_recall)}};
+          {"rock_recall", Number(rock_recall)},
+          {"corridor_gap_m", Number(corridor_gap_m)},
+          {"corridor_gap_stem", corridor_gap_stem}};
 }
 
 Table MapEvalResult::ToTable() const {
@@ -378,6 +389,10 @@ Table MapEvalResult::ToTable() const {
             Cell::NumberOr(100 * bias_m, "no cell"), Cell::NumberOr(100 * p90_abs_m, "no cell"),
             pct(coverage, "nothing seen"), pct(precision, "no obstacle mapped"), pct(recall, "no true obstacle"),
             Cell::Number(static_cast<double>(rocks)), pct(rock_recall, "no rock")});
+  if (std::isfinite(corridor_gap_m)) {
+    t.columns.push_back({"corridor_gap", "cm", "longest corridor gap (cm)", 1});
+    t.rows.back().push_back(Cell::Number(100 * corridor_gap_m));
+  }
   return t;
 }
 
@@ -388,7 +403,76 @@ std::string MapEvalResult::BriefReport() const {
   s << "elevation RMSE " << 100 * rmse_m << " cm (bias " << 100 * bias_m << " cm) over " << cells_compared
     << " cells; coverage " << 100 * coverage << " %; obstacles precision " << 100 * precision << " %, recall "
     << 100 * recall << " %; rocks " << rocks_found << "/" << rocks;
+  if (std::isfinite(corridor_gap_m)) s << "; longest corridor gap " << 100 * corridor_gap_m << " cm";
   return s.str();
+}
+
+namespace {
+
+// A raster's band by name; nullptr when it has none.
+const io::RasterBand* FindBand(const io::GeoRaster& r, const std::string& name) {
+  for (const io::RasterBand& b : r.bands) {
+    if (b.description == name) return &b;
+  }
+  return nullptr;
+}
+
+// The value of `band` at world (x, y), 0 outside or NaN.
+double BandAt(const io::GeoRaster& r, const io::RasterBand& band, double x, double y) {
+  const double col = std::floor((x - r.x_west_m) / r.cell_m), row = std::floor((r.y_north_m - y) / r.cell_m);
+  if (col < 0 || row < 0 || col >= band.pixels.cols || row >= band.pixels.rows) return 0;
+  cv::Mat v;
+  band.pixels(cv::Rect(static_cast<int>(col), static_cast<int>(row), 1, 1)).convertTo(v, CV_64F);
+  const double value = v.at<double>(0, 0);
+  return std::isfinite(value) ? value : 0;
+}
+
+}  // namespace
+
+void MeasureCorridorGaps(const io::GeoRaster& map, const io::GeoRaster& seen, const fs::path& sim_dir,
+                         const MapEvalOptions& options, MapEvalResult* result) {
+  result->corridor_gap_m = std::numeric_limits<double>::quiet_NaN();
+  result->corridor_gap_stem.clear();
+  if (options.requested_y_m.empty()) return;
+  const io::RasterBand* count = FindBand(map, "count");
+  LN_CHECK_INPUT(count != nullptr) << "the map has no count band (not a terrain-map elevation.tif)";
+  const io::RasterBand& rays = seen.bands.at(0);
+  const fs::path poses_path = sim_dir / "truth" / "poses.csv";
+  const auto poses = mapping::IndexByStem(mapping::ReadPosesCsv(poses_path));
+  const double step = 0.5 * map.cell_m;
+  const int across = std::max(1, static_cast<int>(std::floor(options.corridor_width_m / step)));
+  result->corridor_gap_m = 0;
+  for (const auto& [stem, interval] : options.requested_y_m) {
+    const auto it = poses.find(stem);
+    LN_CHECK_INPUT(it != poses.end()) << "stem " << stem << ": no pose in " << poses_path.string();
+    const mapping::FramePose& p = it->second;
+    sim::VehiclePose pose;  // the simulator's convention, with which it wrote the truth
+    pose.x_m = p.x_m;
+    pose.y_m = p.y_m;
+    pose.z_m = p.z_m;
+    pose.heading_rad = p.heading_rad;
+    pose.pitch_rad = p.pitch_rad;
+    pose.roll_rad = p.roll_rad;
+    const Eigen::Isometry3d world_from_vehicle = pose.WorldFromVehicle();
+    const double y_lo = std::max(options.seen_min_y_m, interval.first);
+    const double y_hi = std::min(options.seen_max_y_m, interval.second);
+    int run = 0;
+    for (double y = y_lo; y <= y_hi; y += step) {
+      int seen_samples = 0, mapped_samples = 0;
+      for (int k = 0; k <= across; ++k) {
+        const double x = -0.5 * options.corridor_width_m + options.corridor_width_m * k / across;
+        const Eigen::Vector3d w = world_from_vehicle * Eigen::Vector3d(x, y, 0.0);
+        seen_samples += BandAt(seen, rays, w.x(), w.y()) >= options.min_points;
+        mapped_samples += BandAt(map, *count, w.x(), w.y()) >= options.min_points;
+      }
+      const bool seen_step = 2 * seen_samples >= across + 1, mapped_step = 2 * mapped_samples >= across + 1;
+      run = seen_step && !mapped_step ? run + 1 : 0;
+      if (run * step > result->corridor_gap_m) {
+        result->corridor_gap_m = run * step;
+        result->corridor_gap_stem = stem;
+      }
+    }
+  }
 }
 
 MapEvalResult RunMapEvaluation(const fs::path& map_dir, const fs::path& sim_dir, const MapEvalOptions& options,
@@ -399,9 +483,14 @@ MapEvalResult RunMapEvaluation(const fs::path& map_dir, const fs::path& sim_dir,
   const io::GeoRaster truth = io::ReadGeoTiff(sim_dir / "truth" / "terrain.tif");
   std::vector<TrueRock> rocks = ReadRocksCsv(sim_dir / "truth" / "rocks.csv");
   std::vector<std::string> stems;
-  for (const mapping::FramePose& p : mapping::ReadPosesCsv(map_dir / "frames.csv")) stems.push_back(p.stem);
+  if (options.requested_y_m.empty()) {
+    for (const mapping::FramePose& p : mapping::ReadPosesCsv(map_dir / "frames.csv")) stems.push_back(p.stem);
+  } else {
+    for (const auto& entry : options.requested_y_m) stems.push_back(entry.first);  // mapped or not
+  }
   const io::GeoRaster seen = TrueRayCounts(sim_dir, stems, map.cell_m, options, num_threads, &rocks);
-  const MapEvalResult result = EvaluateMap(map, truth, seen, rocks, options);
+  MapEvalResult result = EvaluateMap(map, truth, seen, rocks, options);
+  MeasureCorridorGaps(map, seen, sim_dir, options, &result);
 
   io::CreateOutputDirectory(output_dir);
   const Table table = result.ToTable();

@@ -4,7 +4,10 @@
 #pragma once
 
 #include <filesystem>
+#include <map>
 #include <string>
+#include <utility>
+#include <limits>
 #include <vector>
 
 #include <nlohmann/json.hpp>
@@ -36,6 +39,14 @@ struct MapEvalOptions {
   /// The ground scored for coverage, obstacle and rock recall: the true points both cameras
   /// saw (a finite true disparity) this far ahead of the vehicle (vehicle-frame Y), metres.
   double seen_min_y_m = 2.0, seen_max_y_m = 10.0;
+  /// The requests the pairs were matched with (a window-selection run, map-loop's
+  /// requests.csv), by stem: when given, the ground scored is each listed pair's true points
+  /// with Y in its interval (within the seen range), over the listed pairs whether the map
+  /// holds them or not (a failed pair's ground counts against coverage), and the corridor
+  /// gaps are measured. Empty: every pair of the map, the whole seen range.
+  std::map<std::string, std::pair<double, double>> requested_y_m;
+  /// Width of the vehicle's corridor in which gaps are measured, m (the Ratler's 4/3 m).
+  double corridor_width_m = 1.3333;
   void Validate() const;
   nlohmann::json ToJson() const;
 };
@@ -77,6 +88,11 @@ struct MapEvalResult {
     bool scored = false, found = false;
   };
   std::vector<Rock> rock_list;
+  /// With requests: the longest run, along a requested interval in its pair's true vehicle
+  /// frame, of ground the cameras saw but the map left empty across the corridor (NaN without
+  /// requests), m; and the pair where it lies.
+  double corridor_gap_m = std::numeric_limits<double>::quiet_NaN();
+  std::string corridor_gap_stem;
   nlohmann::json ToJson() const;
   Table ToTable() const;
   std::string BriefReport() const;
@@ -103,6 +119,16 @@ MapEvalResult EvaluateMap(const io::GeoRaster& map, const io::GeoRaster& truth, 
 io::GeoRaster TrueRayCounts(const std::filesystem::path& sim_dir, const std::vector<std::string>& stems,
                             double cell_m, const MapEvalOptions& options, int num_threads,
                             std::vector<TrueRock>* rocks = nullptr);
+
+/// The longest corridor gap (MapEvalResult::corridor_gap_m) of `map` (terrain-map's layers;
+/// a cell is mapped with >= min_points) over the requested intervals: per pair, walking out
+/// along its interval (within the seen range) in half-cell steps in its true vehicle frame
+/// (sim_dir/truth/poses.csv), a step is a gap when at least half of its cross-section of
+/// corridor_width_m (samples half a cell apart) was seen (`seen`, >= min_points true rays) and
+/// less than half is mapped; the longest run of gap steps, each half a cell. Steps not seen
+/// (occluded) end a run. Sets result->corridor_gap_m and corridor_gap_stem.
+void MeasureCorridorGaps(const io::GeoRaster& map, const io::GeoRaster& seen, const std::filesystem::path& sim_dir,
+                         const MapEvalOptions& options, MapEvalResult* result);
 
 /// `evaluate map`: reads MAP_DIR/elevation.tif and frames.csv and the simulated run's truth,
 /// writes OUT_DIR/map.{csv,json,md} and summary.json. Returns the result.

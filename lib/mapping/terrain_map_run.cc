@@ -193,8 +193,17 @@ TerrainMapRunSummary RunTerrainMap(const TerrainMapRunOptions& options, const fs
   std::vector<FramePose> todo;
   bool has_sigma = false;
   if (!options.stereo_dir.empty()) {
-    const std::vector<std::string> all_stems = ListStems(options.stereo_dir / "xyz");
+    std::vector<std::string> all_stems = ListStems(options.stereo_dir / "xyz");
     LN_CHECK_INPUT(!all_stems.empty()) << (options.stereo_dir / "xyz").string() << ": no <stem>.exr arrays";
+    if (!options.stems.empty()) {
+      const std::set<std::string> present(all_stems.begin(), all_stems.end());
+      for (const std::string& stem : options.stems) {
+        LN_CHECK_INPUT(present.count(stem) > 0)
+            << (options.stereo_dir / "xyz" / (stem + ".exr")).string() << ": no such array";
+      }
+      all_stems = options.stems;
+      std::sort(all_stems.begin(), all_stems.end());
+    }
     std::vector<std::string> stems;
     for (const std::string* stem : io::SelectShard(all_stems, options.shard_index, options.shard_count)) {
       stems.push_back(*stem);

@@ -18,6 +18,9 @@ struct TerrainMapRunOptions {
   /// stereo-batch's output directory (xyz/<stem>.exr, xyz_sigma/<stem>.exr when present);
   /// empty: no new frames (only --merge).
   std::filesystem::path stereo_dir;
+  /// Only these stems of the stereo directory (each must be there); empty: every one. The
+  /// closed loop (map-loop) adds its pairs one at a time.
+  std::vector<std::string> stems;
   /// Poses: the simulator's truth/poses.csv, or a trajectory with a frame-times file.
   std::filesystem::path poses_csv, trajectory, frame_times;
   /// Rectified rig of the run (rectify's rig.json): the points' predicted errors from its

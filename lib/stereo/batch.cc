@@ -6,7 +6,9 @@
 #include <exception>
 #include <limits>
 #include <map>
+#include <memory>
 #include <mutex>
+#include <optional>
 #include <sstream>
 
 #include <opencv2/core.hpp>
@@ -406,20 +408,30 @@ std::string BatchSummary::BriefReport() const {
   return s.str();
 }
 
-BatchSummary RunStereoBatch(const BatchOptions& options, const fs::path& input_dir,
-                            const fs::path& output_dir, const json& invocation) {
-  options.Validate();
+// The state of a run: the listing, the windows, the outcomes so far.
+struct StereoBatchRun::Impl {
+  BatchOptions options;
+  fs::path input_dir, output_dir;
   util::Timer total_timer;
-  const std::vector<PairFiles> listing = ListStereoPairs(input_dir);
-  LN_CHECK_INPUT(!listing.empty())
-      << input_dir.string() << ": no image pairs in left/ and right/ (PNG, PGM, TIFF or JPEG)";
-  const std::vector<const PairFiles*> shard =
-      io::SelectShard(listing, options.shard_index, options.shard_count);
-
-  // Window selection: each requested pair's window (a request the camera cannot see is bad
-  // input, named by its line), and the window of every other pair when a range is given.
+  std::vector<PairFiles> listing;
+  std::vector<const PairFiles*> shard;
+  std::vector<PairFiles> shard_pairs;
   std::map<std::string, PairWindow> requested;
-  for (const WindowRequest& r : options.requests) {
+  std::optional<PairWindow> range_window;
+  std::vector<std::string> subdirectories;
+  json options_json;
+  std::vector<PairOutcome> outcomes;
+  std::vector<char> processed;
+  std::vector<PairTimings> timings;
+  tbb::enumerable_thread_specific<NccResult> results;  // reused buffers, one per thread
+
+  const PairWindow* WindowFor(const std::string& stem) const {
+    if (const auto it = requested.find(stem); it != requested.end()) return &it->second;
+    return range_window ? &*range_window : nullptr;
+  }
+
+  // The window of one request (a request the camera cannot see is bad input, named by its line).
+  PairWindow RequestWindow(const WindowRequest& r) const {
     PairWindow w;
     w.source = "requests";
     w.region = options.requests_region;
@@ -428,8 +440,8 @@ BatchSummary RunStereoBatch(const BatchOptions& options, const fs::path& input_d
     w.request_line = r.line;
     w.window = calib::SelectWindow(*options.rig, w.region, options.matcher.reference, options.window_selection);
     LN_CHECK_INPUT(w.window.visible)
-        << options.requests_source << ":" << r.line << ": no point with Y in [" << r.y_min_m << ", "
-        << r.y_max_m << "] m and Z in [" << w.region.z_min_m << ", " << w.region.z_max_m << "] m is seen by the "
+        << options.requests_source << ":" << r.line << ": no point with Y in [" << r.y_min_m << ", " << r.y_max_m
+        << "] m and Z in [" << w.region.z_min_m << ", " << w.region.z_max_m << "] m is seen by the "
         << ToString(options.matcher.reference) << " camera";
     if (options.ground) {
       // Per-row bands with the far guard, as the rig's default has them, and a near guard: in
@@ -446,14 +458,33 @@ BatchSummary RunStereoBatch(const BatchOptions& options, const fs::path& input_d
       w.guard_min_disparity_px = bands.guard_min_disparity_px;
       w.guard_max_disparity_px = bands.guard_max_disparity_px;
     }
-    requested.emplace(r.stem, w);
+    return w;
   }
+};
+
+StereoBatchRun::StereoBatchRun(const BatchOptions& options, const fs::path& input_dir, const fs::path& output_dir)
+    : impl_(std::make_unique<Impl>()) {
+  options.Validate();
+  Impl& run = *impl_;
+  run.options = options;
+  run.input_dir = input_dir;
+  run.output_dir = output_dir;
+  run.listing = ListStereoPairs(input_dir);
+  LN_CHECK_INPUT(!run.listing.empty())
+      << input_dir.string() << ": no image pairs in left/ and right/ (PNG, PGM, TIFF or JPEG)";
+  run.shard = io::SelectShard(run.listing, options.shard_index, options.shard_count);
+  for (const PairFiles* p : run.shard) run.shard_pairs.push_back(*p);
+
+  // Window selection: each requested pair's window, and the window of every other pair when a
+  // range is given.
+  for (const WindowRequest& r : options.requests) run.requested.emplace(r.stem, run.RequestWindow(r));
   if (!options.requests.empty()) {
     int unknown = 0;
     std::string example;
-    for (const auto& entry : requested) {
+    for (const auto& entry : run.requested) {
       const std::string& stem = entry.first;  // not a structured binding: clang 14 cannot capture one
-      const bool listed = std::any_of(listing.begin(), listing.end(), [&](const PairFiles& p) { return p.stem == stem; });
+      const bool listed =
+          std::any_of(run.listing.begin(), run.listing.end(), [&](const PairFiles& p) { return p.stem == stem; });
       if (!listed && unknown++ == 0) example = stem;
     }
     if (unknown > 0) {
@@ -462,81 +493,93 @@ BatchSummary RunStereoBatch(const BatchOptions& options, const fs::path& input_d
                       << input_dir.string();
     }
   }
-  std::optional<PairWindow> range_window;
   if (options.region) {
-    range_window.emplace();
-    range_window->source = "range-y";
-    range_window->region = *options.region;
-    range_window->window =
+    run.range_window.emplace();
+    run.range_window->source = "range-y";
+    run.range_window->region = *options.region;
+    run.range_window->window =
         calib::SelectWindow(*options.rig, *options.region, options.matcher.reference, options.window_selection);
   } else if (options.ground) {
-    range_window =
-        PairWindow{"rig-ground",
-                   options.ground->region,
-                   options.ground->window,
-                   0,
-                   options.ground->row_disparity_px,
-                   options.ground->row_accept_min_px,
-                   {},
-                   options.ground->guard_min_disparity_px,
-                   options.ground->window.max_disparity_px};
+    run.range_window = PairWindow{"rig-ground",
+                                  options.ground->region,
+                                  options.ground->window,
+                                  0,
+                                  options.ground->row_disparity_px,
+                                  options.ground->row_accept_min_px,
+                                  {},
+                                  options.ground->guard_min_disparity_px,
+                                  options.ground->window.max_disparity_px};
   }
-  auto window_for = [&](const std::string& stem) -> const PairWindow* {
-    if (const auto it = requested.find(stem); it != requested.end()) return &it->second;
-    return range_window ? &*range_window : nullptr;
-  };
 
-  std::vector<std::string> subdirectories = {"disparity", "confidence", "rejections"};
-  if (options.rig) subdirectories.push_back("xyz");
-  if (options.write_ply) subdirectories.push_back("cloud");
-  if (options.xyz_sigma_px) subdirectories.push_back("xyz_sigma");
-  if (options.write_preview) subdirectories.push_back("preview");
-  for (const std::string& sub : subdirectories) {
+  run.subdirectories = {"disparity", "confidence", "rejections"};
+  if (options.rig) run.subdirectories.push_back("xyz");
+  if (options.write_ply) run.subdirectories.push_back("cloud");
+  if (options.xyz_sigma_px) run.subdirectories.push_back("xyz_sigma");
+  if (options.write_preview) run.subdirectories.push_back("preview");
+  for (const std::string& sub : run.subdirectories) {
     io::CreateOutputDirectory(output_dir / sub);
     io::RemoveStaleTempFiles(output_dir / sub);
   }
   io::RemoveStaleTempFiles(output_dir);
+  run.options_json = options.ToJson();
+  run.outcomes.resize(run.shard.size());
+  run.processed.assign(run.shard.size(), 0);
+  run.timings.resize(run.shard.size());
+}
 
-  const json options_json = options.ToJson();
-  BatchSummary summary;
-  summary.pairs_listed = static_cast<int>(listing.size());
-  summary.pairs_in_shard = static_cast<int>(shard.size());
-  summary.pairs.resize(shard.size());
-  std::vector<PairTimings> timings(shard.size());
-  tbb::enumerable_thread_specific<NccResult> results;  // reused buffers, one per thread
-  util::ProgressBar progress(shard.size(), "stereo-batch", options.show_progress);
+StereoBatchRun::~StereoBatchRun() = default;
 
-  auto process = [&](std::size_t k) {
-    const PairFiles& pair = *shard[k];
-    PairOutcome& outcome = summary.pairs[k];
-    outcome.stem = pair.stem;
-    const PairOutputPaths out = OutputPathsFor(output_dir, pair.stem);
-    const PairWindow* window = window_for(pair.stem);
-    json pair_options = options_json;
-    if (window != nullptr) pair_options["window"] = window->ToJson();
-    json sidecar;
-    if (options.resume && OutputsComplete(options, out, pair_options, &sidecar)) {
-      outcome.status = PairOutcome::Status::kResumed;
-      outcome.result = sidecar["result"];
-    } else {
-      try {
-        outcome.result =
-            ProcessPair(options, pair, out, pair_options, window, &results.local(), &timings[k]);
-        outcome.status = PairOutcome::Status::kOk;
-      } catch (const InputError& e) {
-        outcome.status = PairOutcome::Status::kFailed;
-        outcome.error = util::BoundedMessage(e.what());
-        LN_LOG(Error) << "pair " << pair.stem << ": " << e.what();
-      }
+const std::vector<PairFiles>& StereoBatchRun::Pairs() const { return impl_->shard_pairs; }
+
+void StereoBatchRun::Request(const WindowRequest& request) {
+  LN_CHECK_ARG(impl_->options.rig.has_value()) << "window requests need a rig";
+  impl_->requested.insert_or_assign(request.stem, impl_->RequestWindow(request));
+}
+
+const PairOutcome& StereoBatchRun::Process(std::size_t k) {
+  Impl& run = *impl_;
+  LN_CHECK(k < run.shard.size()) << "pair index " << k << " of " << run.shard.size();
+  const PairFiles& pair = *run.shard[k];
+  PairOutcome& outcome = run.outcomes[k];
+  outcome = PairOutcome{};
+  outcome.stem = pair.stem;
+  run.timings[k] = PairTimings{};
+  const PairOutputPaths out = OutputPathsFor(run.output_dir, pair.stem);
+  const PairWindow* window = run.WindowFor(pair.stem);
+  json pair_options = run.options_json;
+  if (window != nullptr) pair_options["window"] = window->ToJson();
+  json sidecar;
+  if (run.options.resume && OutputsComplete(run.options, out, pair_options, &sidecar)) {
+    outcome.status = PairOutcome::Status::kResumed;
+    outcome.result = sidecar["result"];
+  } else {
+    try {
+      outcome.result = ProcessPair(run.options, pair, out, pair_options, window, &run.results.local(), &run.timings[k]);
+      outcome.status = PairOutcome::Status::kOk;
+    } catch (const InputError& e) {
+      outcome.status = PairOutcome::Status::kFailed;
+      outcome.error = util::BoundedMessage(e.what());
+      LN_LOG(Error) << "pair " << pair.stem << ": " << e.what();
     }
-    progress.Increment();
-  };
-  util::ParallelForEachItem(shard.size(), options.num_threads, process);
+  }
+  outcome.seconds = run.timings[k].read_s + run.timings[k].match_s + run.timings[k].write_s + run.timings[k].xyz_s;
+  outcome.match_seconds = run.timings[k].match_s;
+  run.processed[k] = 1;
+  return outcome;
+}
 
+BatchSummary StereoBatchRun::Finish(const json& invocation) {
+  Impl& run = *impl_;
+  const BatchOptions& options = run.options;
+  BatchSummary summary;
+  summary.pairs_listed = static_cast<int>(run.listing.size());
+  summary.pairs_in_shard = static_cast<int>(run.shard.size());
   json pairs_json = json::array();
   json failed_json = json::array();
-  for (std::size_t k = 0; k < shard.size(); ++k) {
-    const PairOutcome& outcome = summary.pairs[k];
+  for (std::size_t k = 0; k < run.shard.size(); ++k) {
+    if (!run.processed[k]) continue;
+    const PairOutcome& outcome = run.outcomes[k];
+    summary.pairs.push_back(outcome);
     json entry = {{"stem", outcome.stem}};
     switch (outcome.status) {
       case PairOutcome::Status::kOk: ++summary.pairs_ok; entry["status"] = "ok"; break;
@@ -551,22 +594,22 @@ BatchSummary RunStereoBatch(const BatchOptions& options, const fs::path& input_d
       summary.pixels_evaluated += outcome.result.value("pixels_evaluated", 0LL);
       summary.pixels_accepted += outcome.result.value("pixels_accepted", 0LL);
     }
-    summary.read_seconds += timings[k].read_s;
-    summary.match_seconds += timings[k].match_s;
-    summary.write_seconds += timings[k].write_s;
-    summary.xyz_seconds += timings[k].xyz_s;
+    summary.read_seconds += run.timings[k].read_s;
+    summary.match_seconds += run.timings[k].match_s;
+    summary.write_seconds += run.timings[k].write_s;
+    summary.xyz_seconds += run.timings[k].xyz_s;
     if (outcome.status != PairOutcome::Status::kFailed) {
       summary.points += outcome.result.value("points", 0LL);
     }
     pairs_json.push_back(std::move(entry));
   }
-  summary.seconds = total_timer.ElapsedSeconds();
+  summary.seconds = run.total_timer.ElapsedSeconds();
 
   json j = util::SummaryHead("stereo-batch", invocation);
-  j["input_dir"] = input_dir.string();
-  j["output_dir"] = output_dir.string();
-  j["listing"] = io::ListingRecord("stereo-pairs", "pairs", io::PairStems(listing));  // shard-merge's check
-  j["options"] = options_json;
+  j["input_dir"] = run.input_dir.string();
+  j["output_dir"] = run.output_dir.string();
+  j["listing"] = io::ListingRecord("stereo-pairs", "pairs", io::PairStems(run.listing));  // shard-merge's check
+  j["options"] = run.options_json;
   j["shard"] = {options.shard_index, options.shard_count};
   j["threads"] = util::EffectiveThreadCount(options.num_threads);
   j["kernel"] = ActiveKernelName();
@@ -587,23 +630,34 @@ BatchSummary RunStereoBatch(const BatchOptions& options, const fs::path& input_d
     j["geometry"] = {{"rig_file", options.rig_source},
                      {"rig_notes", options.rig->notes},  // what reading the rig changed (printed precision)
                      {"frame", kVehicleFrame},
-                     {"outputs", subdirectories}};
-    if (options.region) j["geometry"]["window_range_y"] = range_window->ToJson();
+                     {"outputs", run.subdirectories}};
+    if (options.region) j["geometry"]["window_range_y"] = run.range_window->ToJson();
     if (options.ground && !options.region) {
       // stereo-batch's default with a rig: what the rig sees, and why (docs/stereo-batch.md).
       j["geometry"]["window_from_rig"] = options.ground->ToJson();
     }
-    if (!options.requests.empty()) {
-      j["geometry"]["requests"] = {{"file", options.requests_source},
-                                   {"count", options.requests.size()}};
+    if (!run.requested.empty()) {
+      j["geometry"]["requests"] = {{"file", options.requests_source}, {"count", run.requested.size()}};
     }
   }
   j["peak_memory_mib"] = util::PeakResidentMemoryMiB();
   j["failed"] = failed_json;
   j["pairs"] = pairs_json;
-  summary.summary_path = output_dir / SummaryFileName(options);
+  summary.summary_path = run.output_dir / SummaryFileName(options);
   io::WriteJsonAtomic(summary.summary_path, j);
   return summary;
+}
+
+BatchSummary RunStereoBatch(const BatchOptions& options, const fs::path& input_dir, const fs::path& output_dir,
+                            const json& invocation) {
+  StereoBatchRun run(options, input_dir, output_dir);
+  const std::size_t n = run.Pairs().size();
+  util::ProgressBar progress(n, "stereo-batch", options.show_progress);
+  util::ParallelForEachItem(n, options.num_threads, [&](std::size_t k) {
+    run.Process(k);
+    progress.Increment();
+  });
+  return run.Finish(invocation);
 }
 
 }  // namespace lunarnav::stereo

@@ -3,6 +3,7 @@
 #pragma once
 
 #include <filesystem>
+#include <memory>
 #include <optional>
 #include <string>
 #include <vector>
@@ -69,6 +70,8 @@ struct PairOutcome {
   Status status = Status::kFailed;
   std::string error;        ///< For kFailed: "<file>: <reason>".
   nlohmann::json result;    ///< For kOk and kResumed: counts and timings (the sidecar's).
+  double seconds = 0;       ///< This run's time on the pair: reading, matching, writing (0 when resumed).
+  double match_seconds = 0; ///< Of which matching.
 };
 
 /// Totals of a run.
@@ -95,6 +98,35 @@ PairOutputPaths OutputPathsFor(const std::filesystem::path& output_dir, const st
 
 /// Name of the run summary: summary.json, or summary.shard-K-of-N.json for a shard.
 std::string SummaryFileName(const BatchOptions& options);
+
+/// A run driven pair by pair: the closed loop of sec. 3.3, where a pair's request is known only
+/// once the pairs before it are in the map. RunStereoBatch is this over every pair of the shard.
+class StereoBatchRun {
+ public:
+  /// Lists INPUT_DIR's pairs, selects the windows (of options.requests, of a range or of the
+  /// rig's default) and creates the output directories. Throws as RunStereoBatch.
+  StereoBatchRun(const BatchOptions& options, const std::filesystem::path& input_dir,
+                 const std::filesystem::path& output_dir);
+  ~StereoBatchRun();
+  StereoBatchRun(const StereoBatchRun&) = delete;
+  StereoBatchRun& operator=(const StereoBatchRun&) = delete;
+
+  /// The pairs of the shard, in name order.
+  const std::vector<PairFiles>& Pairs() const;
+  /// Sets the window of `request.stem` (as a line of --requests; BatchOptions::requests_region
+  /// gives the heights). @throws InputError when the camera sees no point of the interval.
+  void Request(const WindowRequest& request);
+  /// Matches pair k of Pairs() in its window and writes its outputs (or, with resume, keeps
+  /// complete ones). A bad pair is logged and returned as kFailed. Calls for different k may
+  /// run concurrently; Request may not run beside them.
+  const PairOutcome& Process(std::size_t k);
+  /// Writes the run summary over the pairs processed so far and returns the totals.
+  BatchSummary Finish(const nlohmann::json& invocation = nullptr);
+
+ private:
+  struct Impl;
+  std::unique_ptr<Impl> impl_;
+};
 
 /// Matches every pair of the shard, writes OUT_DIR/{disparity,confidence,rejections}/<stem>.*
 /// (and, with a rig, xyz/<stem>.exr, cloud/<stem>.ply, xyz_sigma/<stem>.exr as enabled) and

@@ -5,14 +5,19 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <filesystem>
 #include <limits>
 #include <string>
 #include <vector>
 
+#include "io/atomic_file.h"
 #include "util/errors.h"
+#include "util/testing.h"
 
 namespace lunarnav::evaluation {
 namespace {
+
+namespace fs = std::filesystem;
 
 constexpr float kNaN = std::numeric_limits<float>::quiet_NaN();
 
@@ -192,6 +197,38 @@ TEST(EvaluateMap, RefusesRastersOffTheLattice) {
                                               {"relief_m", s.truth_relief}, {"slope_deg", s.truth_slope}});
   const io::GeoRaster seen = Raster(0, 2.5, {{"count", s.seen}});
   EXPECT_THROW(EvaluateMap(map, truth, seen, s.rocks, MapEvalOptions{}), InputError);
+}
+
+
+// A straight corridor north from (2.5, 0): the map holds every cell but a strip 0.5 m deep
+// across the whole corridor at 5-5.5 m ahead, and a strip nobody saw at 7-7.25 m (occluded:
+// no gap). The longest gap is the strip's depth, found in its pair's frame.
+TEST(CorridorGaps, TheLongestGapIsTheDepthOfTheStripSeenButNotMapped) {
+  util::ScopedTempDir tmp;
+  fs::create_directories(tmp.path() / "truth");
+  io::WriteFileAtomic(tmp.path() / "truth" / "poses.csv",
+                      "stem,t_s,x_m,y_m,z_m,heading_deg,pitch_deg,roll_deg\n000000,0,2.5,0,0,0,0,0\n"
+                      "000001,3.2,2.5,0.5,0,0,0,0\n");
+  cv::Mat count(40, 20, CV_32FC1, cv::Scalar(5)), seen(40, 20, CV_32FC1, cv::Scalar(20));
+  auto row_of = [](double y) { return static_cast<int>(std::floor((10.0 - y) / 0.25)); };  // north edge 10 m
+  for (double y = 5.0; y < 5.5; y += 0.25) count.row(row_of(y)).setTo(0);
+  count.row(row_of(7.0)).setTo(0);
+  seen.row(row_of(7.0)).setTo(0);
+  const io::GeoRaster map = Raster(0, 10, {{"count", count}});
+  const io::GeoRaster seen_raster = Raster(0, 10, {{"count", seen}});
+  MapEvalOptions options;
+  options.requested_y_m = {{"000000", {2.0, 6.0}}, {"000001", {6.0, 8.0}}};
+  MapEvalResult result;
+  MeasureCorridorGaps(map, seen_raster, tmp.path(), options, &result);
+  EXPECT_DOUBLE_EQ(result.corridor_gap_m, 0.5);
+  EXPECT_EQ(result.corridor_gap_stem, "000000");
+
+  // Mapped again: no gap; without requests: not measured.
+  count.setTo(5);
+  MeasureCorridorGaps(Raster(0, 10, {{"count", count}}), seen_raster, tmp.path(), options, &result);
+  EXPECT_DOUBLE_EQ(result.corridor_gap_m, 0.0);
+  MeasureCorridorGaps(map, seen_raster, tmp.path(), MapEvalOptions{}, &result);
+  EXPECT_TRUE(std::isnan(result.corridor_gap_m));
 }
 
 }  // namespace

@@ -1,0 +1,63 @@
+#include "apps/mapping_cli.h"
+
+namespace lunarnav::apps {
+
+void AddFusionOptions(CLI::App* app, mapping::TerrainMapOptions* map) {
+  app->add_option("--cell", map->cell_m, "cell size, m")->capture_default_str();
+  app->add_option("--gate", map->gate_k,
+                  "gate: reject points farther than this many combined sigmas from the cell's median in their frame "
+                  "(inf: off)")
+      ->capture_default_str();
+  app->add_option("--gate-floor", map->gate_floor_m, "floor of the gate's sigma, m")->capture_default_str();
+  app->add_option("--visibility", map->visibility_k,
+                  "visibility: reject a point when a ray of its image column to a farther point passes beneath it, "
+                  "by this many sigmas of distance plus --visibility-floor (inf: off)")
+      ->capture_default_str();
+  app->add_option("--visibility-floor", map->visibility_floor_m, "the visibility rule's margin, m")
+      ->capture_default_str();
+  app->add_option("--support-rise", map->support_rise_m,
+                  "support: reject a point risen more than this above the last point below it in its image column, "
+                  "steeper than 30 deg, with no face seen between (inf: off), m")
+      ->capture_default_str();
+  app->add_option("--min-frames", map->min_frames, "cells fewer pairs saw are left out of the layers (kept in the sums)")
+      ->capture_default_str();
+  app->add_option("--frame-floor", map->frame_floor_m,
+                  "least error of one frame's estimate of a cell (its points' errors are correlated), m")
+      ->capture_default_str();
+  app->add_option("--default-sigma", map->default_sigma_m, "elevation error of points without xyz_sigma, m")
+      ->capture_default_str();
+  app->add_option("--max-sigma-cells", map->max_horizontal_sigma_cells,
+                  "ignore points whose predicted horizontal error (xyz_sigma or --rig) exceeds this many cells")
+      ->capture_default_str();
+  app->add_option("--max-range", map->max_range_m, "ignore points farther from the mast base, m")
+      ->capture_default_str();
+  app->add_option("--obstacle-min-points", map->obstacles.min_points, "cells with fewer points are not judged")
+      ->capture_default_str();
+  app->add_option("--step-tolerance", map->obstacles.step_tolerance_m,
+                  "flag a step when it exceeds the obstacle height minus this, m")
+      ->capture_default_str();
+  app->add_option("--obstacle-extremes", map->obstacles.extreme_k,
+                  "the step rule's extremes of a cell: within this many roughnesses of its mean (inf: raw)")
+      ->capture_default_str();
+}
+
+void ApplyVehicleLimits(const calib::VehicleSpec& vehicle, mapping::TerrainMapOptions* map) {
+  map->obstacles.step_height_m = vehicle.requirements.obstacle_height_m;
+  map->obstacles.max_slope_deg = vehicle.max_slope_deg;
+}
+
+void AddPlannerOptions(CLI::App* app, mapping::WindowPlannerOptions* planner, std::string* gravity) {
+  app->add_option("--stereo-delay", planner->stereo_delay_s, "time from a pair to its points in the map, s")
+      ->capture_default_str();
+  app->add_option("--horizon", planner->horizon_m, "map depth kept beyond the nearest distance needed, m")
+      ->capture_default_str();
+  app->add_option("--overlap", planner->overlap_m, "reach back into the covered ground, m")->capture_default_str();
+  app->add_option("--initial-speed", planner->initial_speed_mps,
+                  "speed assumed for the first pair, which has no earlier pose (the commanded speed), m/s")
+      ->capture_default_str();
+  app->add_option("--initial-cycle", planner->initial_cycle_s, "cycle time assumed for the first pair, s")
+      ->capture_default_str();
+  app->add_option("--gravity", *gravity, "earth or moon (braking distance)")->capture_default_str();
+}
+
+}  // namespace lunarnav::apps

@@ -1,0 +1,30 @@
+// The matcher's command-line options (preset, aggregation, window, filters, semi-global
+// penalties, border rule, bit depth, subsampling, reference, frame checks), shared by the tools
+// that match pairs: stereo-batch and map-loop. docs/stereo-batch.md describes each.
+#pragma once
+
+#include <string>
+
+#include <CLI/CLI.hpp>
+
+#include "stereo/frame_check.h"
+#include "stereo/ncc_options.h"
+
+namespace lunarnav::apps {
+
+/// What the options are bound to until MatcherFromCommandLine reads them.
+struct MatcherCommandLine {
+  std::string preset = "quality";
+  std::string aggregation = "semi-global", census = "4x3", window, step = "1x1", reference = "right";
+  stereo::NccOptions given = stereo::PresetOptions("paper");  ///< Explicit values, applied over the preset.
+};
+
+/// Adds the matcher's options to `app`, bound to `cl`, and the frame checks' to `frame_check`.
+void AddMatcherOptions(CLI::App* app, MatcherCommandLine* cl, stereo::FrameCheckOptions* frame_check);
+
+/// The matcher after parsing: the preset's options with every option given on the command line
+/// over them (an explicit option overrides the preset). @throws std::invalid_argument for a
+/// malformed pair (WXxWY, DXxDY).
+stereo::NccOptions MatcherFromCommandLine(const CLI::App& app, const MatcherCommandLine& cl);
+
+}  // namespace lunarnav::apps

@@ -1,0 +1,228 @@
+// map-loop end to end on a small simulated traverse with one blank pair: the closed loop asks
+// again for the ground the blank pair lost (the open loop does not), its map is terrain-map's
+// map of its own stereo outputs and requests, and a resumed loop makes the same map.
+#include <cmath>
+#include <filesystem>
+#include <fstream>
+#include <map>
+#include <memory>
+#include <sstream>
+#include <string>
+#include <utility>
+#include <vector>
+
+#include <gtest/gtest.h>
+#include <nlohmann/json.hpp>
+#include <opencv2/core.hpp>
+
+#include "integration/run_tool.h"
+#include "io/geotiff_io.h"
+#include "io/json_io.h"
+#include "util/testing.h"
+
+namespace lunarnav {
+namespace {
+namespace fs = std::filesystem;
+using testing::ReadFileBytes;
+using testing::RunTool;
+
+constexpr int kFrames = 8;
+constexpr int kBlank = 4;
+
+// A CSV with '#' comments and a header, as rows of named cells.
+std::vector<std::map<std::string, std::string>> ReadCsv(const fs::path& path) {
+  std::ifstream in(path);
+  std::vector<std::string> header;
+  std::vector<std::map<std::string, std::string>> rows;
+  for (std::string line; std::getline(in, line);) {
+    if (line.empty() || line[0] == '#') continue;
+    std::vector<std::string> cells;
+    std::stringstream s(line);
+    for (std::string cell; std::getline(s, cell, ',');) cells.push_back(cell);
+    if (header.empty()) {
+      header = cells;
+      continue;
+    }
+    std::map<std::string, std::string> row;
+    for (std::size_t k = 0; k < cells.size() && k < header.size(); ++k) row[header[k]] = cells[k];
+    rows.push_back(row);
+  }
+  return rows;
+}
+
+double Number(const std::map<std::string, std::string>& row, const std::string& key) {
+  return std::stod(row.at(key));
+}
+
+cv::Mat Band(const fs::path& tif, const std::string& name) {
+  const io::GeoRaster r = io::ReadGeoTiff(tif);
+  const int i = r.BandIndex(name);
+  EXPECT_GE(i, 0) << name;
+  return i >= 0 ? r.bands[i].pixels : cv::Mat();
+}
+
+// Equal, NaN where the other is NaN.
+bool SameLayer(const cv::Mat& a, const cv::Mat& b) {
+  if (a.size() != b.size() || a.type() != b.type()) return false;
+  for (int y = 0; y < a.rows; ++y) {
+    for (int x = 0; x < a.cols; ++x) {
+      const float u = a.at<float>(y, x), v = b.at<float>(y, x);
+      if (!(u == v || (std::isnan(u) && std::isnan(v)))) return false;
+    }
+  }
+  return true;
+}
+
+class MapLoopTool : public ::testing::Test {
+ protected:
+  // One small traverse for every test (rendering is the slow part): the paper's rig at half
+  // size, a pair every 3.2 s at 0.15 m/s, pair kBlank blank; and the loop over it.
+  static void SetUpTestSuite() {
+    tmp_ = std::make_unique<util::ScopedTempDir>();
+    const fs::path sim = Dir() / "sim", rect = Dir() / "rect";
+    const auto simulate = RunTool("simulate",
+                                  {"stereo", "--preset", "terrain", "--frames", std::to_string(kFrames), "--width", "320",
+                                   "--height", "240", "--focal", "370", "--fault", std::to_string(kBlank) + ":blank",
+                                   "-o", sim.string(), "-q"},
+                                  Dir());
+    ASSERT_EQ(simulate.exit_code, 0) << simulate.stderr_text;
+    const auto rectify =
+        RunTool("rectify", {sim.string(), "-o", rect.string(), "--rig", (sim / "rig.json").string(), "-q"}, Dir());
+    ASSERT_EQ(rectify.exit_code, 0) << rectify.stderr_text;
+    const auto loop = Loop(Dir() / "loop", {});
+    ASSERT_EQ(loop.exit_code, 4) << loop.stderr_text;  // the blank pair failed, the others went on
+  }
+  static void TearDownTestSuite() { tmp_.reset(); }
+
+  static fs::path Dir() { return tmp_->path(); }
+  static testing::ToolRun Loop(const fs::path& out, std::vector<std::string> extra, const fs::path& rect = fs::path()) {
+    std::vector<std::string> args = {(rect.empty() ? Dir() / "rect" : rect).string(),
+                                     "--rig",
+                                     (Dir() / "rect" / "rig.json").string(),
+                                     "--poses",
+                                     (Dir() / "sim" / "truth" / "poses.csv").string(),
+                                     "--initial-speed",
+                                     "0.15",
+                                     "--initial-cycle",
+                                     "3.2",
+                                     "-o",
+                                     out.string(),
+                                     "-q"};
+    args.insert(args.end(), extra.begin(), extra.end());
+    return RunTool("map-loop", args, Dir());
+  }
+
+  static std::unique_ptr<util::ScopedTempDir> tmp_;
+};
+std::unique_ptr<util::ScopedTempDir> MapLoopTool::tmp_;
+
+TEST_F(MapLoopTool, TheClosedLoopAsksAgainForTheGroundOfABlankPairAndTheOpenLoopDoesNot) {
+  // No overlap between requests: only reading the map brings the lost ground back.
+  const auto closed = Loop(Dir() / "closed", {"--overlap", "0"});
+  ASSERT_EQ(closed.exit_code, 4) << closed.stderr_text;
+  EXPECT_EQ(closed.ErrorLines(), 1) << closed.stderr_text;
+  EXPECT_NE(closed.stderr_text.find("00000" + std::to_string(kBlank)), std::string::npos) << closed.stderr_text;
+  const auto open = Loop(Dir() / "open", {"--overlap", "0", "--open-loop"});
+  ASSERT_EQ(open.exit_code, 4) << open.stderr_text;
+
+  const auto poses = ReadCsv(Dir() / "sim" / "truth" / "poses.csv");
+  // The distance driven from the blank pair to the next one (a straight traverse).
+  const double driven = std::hypot(Number(poses[kBlank + 1], "x_m") - Number(poses[kBlank], "x_m"),
+                                   Number(poses[kBlank + 1], "y_m") - Number(poses[kBlank], "y_m"));
+  ASSERT_GT(driven, 0.3);
+  for (const char* mode : {"closed", "open"}) {
+    const auto rows = ReadCsv(Dir() / mode / "loop.csv");
+    ASSERT_EQ(rows.size(), static_cast<std::size_t>(kFrames)) << mode;
+    EXPECT_EQ(rows[kBlank].at("status"), "failed") << mode;
+    EXPECT_EQ(rows[kBlank + 1].at("status"), "ok") << mode;
+  }
+  const auto closed_rows = ReadCsv(Dir() / "closed" / "loop.csv");
+  const auto open_rows = ReadCsv(Dir() / "open" / "loop.csv");
+  // The lost ground in the next pair's frame: the blank pair's interval less the distance driven.
+  auto lost = [&](const std::vector<std::map<std::string, std::string>>& rows) {
+    return std::make_pair(Number(rows[kBlank], "y_min_m") - driven, Number(rows[kBlank], "y_max_m") - driven);
+  };
+  // Closed: the next request covers it (to the map's resolution, one cell).
+  EXPECT_LE(Number(closed_rows[kBlank + 1], "y_min_m"), lost(closed_rows).first + 0.25);
+  EXPECT_GE(Number(closed_rows[kBlank + 1], "y_max_m"), lost(closed_rows).second);
+  // Open: it starts where the lost request ended, as if that pair had been mapped.
+  EXPECT_GT(Number(open_rows[kBlank + 1], "y_min_m"), lost(open_rows).first + 0.3);
+
+  // The closed loop's map against the truth over the requested ground: accurate, no gap in the
+  // corridor longer than one cell.
+  const fs::path eval = Dir() / "closed-eval";
+  const auto evaluate = RunTool("evaluate",
+                                {"map", (Dir() / "closed" / "map").string(), "--truth", (Dir() / "sim").string(),
+                                 "--requests", (Dir() / "closed" / "requests.csv").string(), "-o", eval.string(), "-q"},
+                                Dir());
+  ASSERT_EQ(evaluate.exit_code, 0) << evaluate.stderr_text;
+  const nlohmann::json r = io::ReadJson(eval / "summary.json").at("result");
+  EXPECT_LE(r.at("corridor_gap_m").get<double>(), 0.25);
+  EXPECT_LT(r.at("elevation_rmse_m").get<double>(), 0.03);
+  EXPECT_EQ(r.at("cells_large_error").get<long>(), 0);
+  EXPECT_GT(r.at("coverage").get<double>(), 0.9);
+}
+
+TEST_F(MapLoopTool, ItsMapIsTerrainMapOfItsOwnStereoOutputsAndRequests) {
+  const fs::path loop = Dir() / "loop";
+  const auto requests = ReadCsv(loop / "requests.csv");
+  ASSERT_EQ(requests.size(), static_cast<std::size_t>(kFrames));
+  // Each pair was matched in its requested window.
+  for (const auto& row : requests) {
+    const fs::path sidecar = loop / "stereo" / "disparity" / (row.at("stem") + ".json");
+    if (row.at("stem") == "00000" + std::to_string(kBlank)) {
+      EXPECT_FALSE(fs::exists(sidecar));
+      continue;
+    }
+    const nlohmann::json y = io::ReadJson(sidecar).at("result").at("window").at("region").at("y_m");
+    EXPECT_DOUBLE_EQ(y.at(0).get<double>(), Number(row, "y_min_m")) << row.at("stem");
+    EXPECT_DOUBLE_EQ(y.at(1).get<double>(), Number(row, "y_max_m")) << row.at("stem");
+  }
+  const nlohmann::json stereo = io::ReadJson(loop / "stereo" / "summary.json");
+  EXPECT_EQ(stereo.at("counts").at("pairs_ok").get<int>(), kFrames - 1);
+  EXPECT_EQ(stereo.at("counts").at("pairs_failed").get<int>(), 1);
+
+  // terrain-map over the same outputs in one run: the same map as the loop's pair by pair.
+  const fs::path remap = Dir() / "remap";
+  const auto map = RunTool("terrain-map",
+                           {(loop / "stereo").string(), "--poses", (Dir() / "sim" / "truth" / "poses.csv").string(),
+                            "--rig", (Dir() / "rect" / "rig.json").string(), "--requests",
+                            (loop / "requests.csv").string(), "-o", remap.string(), "-q"},
+                           Dir());
+  ASSERT_EQ(map.exit_code, 0) << map.stderr_text;
+  for (const char* band : {"elevation_m", "count", "frames", "obstacle"}) {
+    EXPECT_TRUE(SameLayer(Band(loop / "map" / "elevation.tif", band), Band(remap / "elevation.tif", band))) << band;
+  }
+  EXPECT_EQ(ReadFileBytes(loop / "map" / "frames.csv"), ReadFileBytes(remap / "frames.csv"));
+}
+
+TEST_F(MapLoopTool, AResumedLoopMakesTheMapOfAnUninterruptedOne) {
+  // A loop stopped after the first pairs (only they were there), then resumed over all.
+  const fs::path part = Dir() / "rect-part", out = Dir() / "resumed";
+  for (const char* side : {"left", "right"}) {
+    fs::create_directories(part / side);
+    for (int k = 0; k <= kBlank; ++k) {
+      const std::string name = "00000" + std::to_string(k) + ".png";
+      fs::copy_file(Dir() / "rect" / side / name, part / side / name);
+    }
+  }
+  ASSERT_EQ(Loop(out, {}, part).exit_code, 4);
+  EXPECT_EQ(ReadCsv(out / "requests.csv").size(), static_cast<std::size_t>(kBlank + 1));
+  const auto again = Loop(out, {});
+  EXPECT_EQ(again.exit_code, 2) << "a map is there: continuing it needs --resume";
+  const auto resumed = Loop(out, {"--resume"});
+  ASSERT_EQ(resumed.exit_code, 4) << resumed.stderr_text;
+  EXPECT_EQ(ReadFileBytes(out / "requests.csv"), ReadFileBytes(Dir() / "loop" / "requests.csv"));
+  for (const char* band : {"elevation_m", "count", "frames"}) {
+    EXPECT_TRUE(SameLayer(Band(out / "map" / "elevation.tif", band), Band(Dir() / "loop" / "map" / "elevation.tif", band)))
+        << band;
+  }
+  // The resumed pairs were kept, not matched again.
+  const auto rows = ReadCsv(out / "loop.csv");
+  ASSERT_EQ(rows.size(), static_cast<std::size_t>(kFrames));
+  EXPECT_EQ(rows[0].at("status"), "resumed");
+  EXPECT_EQ(rows[kBlank + 1].at("status"), "ok");
+}
+
+}  // namespace
+}  // namespace lunarnav
