@@ -224,5 +224,37 @@ TEST_F(MapLoopTool, AResumedLoopMakesTheMapOfAnUninterruptedOne) {
   EXPECT_EQ(rows[kBlank + 1].at("status"), "ok");
 }
 
+TEST_F(MapLoopTool, BadInputsHaveTheirExitCodesAndWriteNoMap) {
+  EXPECT_EQ(RunTool("map-loop", {"--help"}, Dir()).exit_code, 0);
+  const fs::path rect = Dir() / "rect", rig = rect / "rig.json";
+  // Usage: no poses.
+  const auto no_poses = RunTool("map-loop", {rect.string(), "--rig", rig.string(), "-o", (Dir() / "x").string()}, Dir());
+  EXPECT_EQ(no_poses.exit_code, 2) << no_poses.stderr_text;
+  // Bad input: a pair without a pose, named; nothing mapped.
+  const fs::path poses = Dir() / "short-poses.csv";
+  {
+    std::ifstream in(Dir() / "sim" / "truth" / "poses.csv");
+    std::ofstream out(poses);
+    std::string line;
+    for (int rows = 0; rows < 3 && std::getline(in, line);) {  // the comments, the header and pairs 0 and 1
+      out << line << "\n";
+      rows += !line.empty() && line[0] != '#';
+    }
+  }
+  const fs::path out = Dir() / "short";
+  const auto missing = RunTool("map-loop", {rect.string(), "--rig", rig.string(), "--poses", poses.string(), "-o",
+                                            out.string()},
+                               Dir());
+  EXPECT_EQ(missing.exit_code, 3) << missing.stderr_text;
+  EXPECT_EQ(missing.ErrorLines(), 1) << missing.stderr_text;
+  EXPECT_NE(missing.stderr_text.find("no pose in"), std::string::npos) << missing.stderr_text;
+  EXPECT_FALSE(fs::exists(out / "map"));
+  const auto no_dir = RunTool("map-loop", {(Dir() / "nowhere").string(), "--rig", rig.string(), "--poses",
+                                           (Dir() / "sim" / "truth" / "poses.csv").string(), "-o", out.string()},
+                              Dir());
+  EXPECT_EQ(no_dir.exit_code, 3) << no_dir.stderr_text;
+  EXPECT_EQ(no_dir.ErrorLines(), 1) << no_dir.stderr_text;
+}
+
 }  // namespace
 }  // namespace lunarnav

@@ -321,6 +321,53 @@ TEST(StereoBatchRig, RequestsGiveEachPairItsOwnBand) {
   EXPECT_EQ(summary["pairs"][0]["result"]["window"]["request_line"], 3);
 }
 
+// A requested interval on flat ground: the window's rows, which hold the heights -0.5 to 1 m
+// over 3-4 m, see in their top rows the ground beyond 4 m and in their bottom rows the ground
+// nearer than 3 m. The quality preset searches each row's band with a far and a near guard:
+// every point it accepts lies on the ground within the interval, and the rest is rejected as
+// beyond_far or beyond_near. The paper's matcher searches the window's one range, as the paper
+// does: some of the far ground matches falsely inside it, points in the air (what the guards
+// are for; that it happens here shows the scene tests them).
+TEST(StereoBatchRig, EveryPointOfARequestedWindowLiesInsideItsIntervalWithTheGuards) {
+  Fixture fx;
+  const fs::path requests = fx.tmp.path() / "requests.csv";
+  std::ofstream(requests) << "stem,y_min_m,y_max_m\na,3.0,4.0\nb,3.0,4.0\n";
+  // The pixels whose ground lies in the interval.
+  long inside = 0;
+  for (int y = 0; y < 120; ++y) {
+    for (int x = 0; x < 160; ++x) {
+      const Eigen::Vector3d p = GroundPoint(fx.rig, x, y);
+      inside += p.y() >= 3.0 && p.y() <= 4.0;
+    }
+  }
+  ASSERT_GT(inside, 1000);
+  for (const char* preset : {"quality", "paper"}) {
+    const fs::path out = fx.tmp.path() / (std::string("out-") + preset);
+    const auto run = RunTool("stereo-batch", fx.Args(out, {"--preset", preset, "--requests", requests.string()}),
+                             fx.tmp.path());
+    ASSERT_EQ(run.exit_code, 0) << preset << ": " << run.stderr_text;
+    const cv::Mat xyz = io::ReadExr(out / "xyz" / "a.exr").pixels;
+    long accepted = 0, outside = 0;
+    for (int y = 0; y < xyz.rows; ++y) {
+      for (int x = 0; x < xyz.cols; ++x) {
+        const cv::Vec3f p = xyz.at<cv::Vec3f>(y, x);
+        if (!std::isfinite(p[0])) continue;
+        ++accepted;
+        outside += p[1] < 2.75 || p[1] > 4.25 || std::abs(p[2]) > 0.15;
+      }
+    }
+    EXPECT_GT(accepted, inside / 2) << preset;
+    const nlohmann::json rejected = io::ReadJson(out / "disparity" / "a.json")["result"]["pixels_rejected"];
+    if (std::string(preset) == "quality") {
+      EXPECT_EQ(outside, 0) << accepted << " points";
+      EXPECT_GT(rejected.value("beyond_far", 0), 0) << rejected.dump();
+      EXPECT_GT(rejected.value("beyond_near", 0), 0) << rejected.dump();
+    } else {
+      EXPECT_GT(outside, 0) << "the paper's matcher, without guards, kept no point in the air: the scene does not test them";
+    }
+  }
+}
+
 TEST(StereoBatchRig, ShardsAndResumeWriteTheSameGeometryAsOneRun) {
   Fixture fx;
   const fs::path single = fx.tmp.path() / "single", sharded = fx.tmp.path() / "sharded";
