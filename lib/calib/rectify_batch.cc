@@ -6,6 +6,7 @@
 #include "calib/rectify.h"
 #include "calib/stereo_rig_io.h"
 #include "io/atomic_file.h"
+#include "io/grey_depth.h"
 #include "io/image_io.h"
 #include "io/json_io.h"
 #include "io/shard_merge.h"
@@ -55,11 +56,15 @@ void ProcessPair(const Rectifier& rectifier, const StereoRig& rig, const io::Pai
   outcome->rectify_s = timer.ElapsedSeconds();
 
   timer.Restart();
-  // The input's bit depth is kept: 16-bit stays 16-bit, and a PNG's significant bits (a 12-bit
-  // camera's) are written again as sBIT.
-  const int bits = std::max(left_bits.bits, right_bits.bits);
-  io::WriteImageAtomic(out.left, left_rect, bits);
-  io::WriteImageAtomic(out.right, right_rect, bits);  // last: both files present = pair complete
+  // The input's bit depth is kept: 16-bit stays 16-bit, and the significant bits of a 12-bit
+  // camera's data, declared (a PNG's sBIT) or told from the data when the files say nothing
+  // (io::InferSignificantBits), are written as sBIT, so that the next tool needs no guess.
+  const io::SignificantBits bits =
+      io::InferSignificantBits(left, right, left_bits.bits >= right_bits.bits ? left_bits : right_bits);
+  outcome->bits = bits.bits;
+  outcome->bits_source = bits.source;
+  io::WriteImageAtomic(out.left, left_rect, bits.bits);
+  io::WriteImageAtomic(out.right, right_rect, bits.bits);  // last: both files present = pair complete
   outcome->write_s = timer.ElapsedSeconds();
 }
 
@@ -171,6 +176,8 @@ RectifyBatchSummary RunRectifyBatch(const RectifyBatchOptions& options, const St
       case RectifyPairOutcome::Status::kOk:
         ++summary.pairs_ok;
         entry["status"] = "ok";
+        entry["bit_depth"] = outcome.bits;
+        entry["bit_depth_source"] = outcome.bits_source;
         entry["timings_ms"] = {{"read", 1e3 * outcome.read_s},
                                {"rectify", 1e3 * outcome.rectify_s},
                                {"write", 1e3 * outcome.write_s}};

@@ -35,6 +35,8 @@ struct RectifyPairOutcome {
   Status status = Status::kFailed;
   std::string error;  ///< For kFailed: "<file>: <reason>".
   double read_s = 0, rectify_s = 0, write_s = 0;
+  int bits = 0;              ///< For kOk: the grey levels' significant bits written (sBIT below 16).
+  std::string bits_source;   ///< Where they came from (io::SignificantBits::source).
 };
 
 struct RectifyBatchSummary {

@@ -12,7 +12,7 @@ namespace lunarnav::io {
 /// camera's 0..4095 stored in 16-bit words has 12 ("PNG sBIT" when the file says so);
 /// otherwise the container's 8 or 16 ("image type"). A TIFF of 12 bits per sample is read
 /// rescaled to 0..65535, so it counts as 16. Data stored without either (0..4095 in a plain
-/// 16-bit file) needs the user's word (stereo-batch --bit-depth).
+/// 16-bit file) is told from its values and noise by io::InferSignificantBits.
 struct SignificantBits {
   int bits = 8;
   std::string source = "image type";

@@ -34,8 +34,8 @@ struct ShardFile {
 
 // Keys of a summary that describe the run itself rather than the batch; every other key
 // (tool, version, input_dir, options, rig, geometry, ...) must be the same in every shard.
-const std::set<std::string> kRunKeys = {"invocation", "output_dir", "shard",           "threads", "kernel",
-                                        "counts",     "timings_s",  "peak_memory_mib", "failed",  "listing"};
+const std::set<std::string> kRunKeys = {"invocation", "output_dir",      "shard",  "threads", "kernel",    "counts",
+                                        "timings_s",  "peak_memory_mib", "failed", "listing", "bit_depths"};
 
 // The first difference between two JSON values, as "at /path (a vs b)".
 std::string FirstDifference(const json& a, const json& b) {
@@ -337,6 +337,17 @@ ShardMergeResult MergeShardSummaries(const fs::path& output_dir, const ShardMerg
     }
   }
   merged["counts"] = counts;
+  if (first.summary.contains("bit_depths")) {
+    // stereo-batch's pairs per grey-level depth, from the merged pairs' results.
+    std::map<std::string, long> depths;
+    for (const json& e : merged_items) {
+      const json r = e.value("result", json());
+      if (e["status"] != "failed" && r.is_object() && r.contains("bit_depth") && r["bit_depth"].is_number_integer()) {
+        ++depths[std::to_string(r["bit_depth"].get<int>())];
+      }
+    }
+    merged["bit_depths"] = depths;
+  }
   json timings = json::object();
   double peak_mib = 0;
   json shards = json::array();

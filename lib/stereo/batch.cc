@@ -19,6 +19,7 @@
 #include "calib/triangulation.h"
 #include "io/atomic_file.h"
 #include "io/float_array_io.h"
+#include "io/grey_depth.h"
 #include "io/image_io.h"
 #include "io/json_io.h"
 #include "io/ply_io.h"
@@ -217,9 +218,14 @@ json ProcessPair(const BatchOptions& options, const PairFiles& pair, const PairO
       });
   if (left_error) std::rethrow_exception(left_error);
   if (right_error) std::rethrow_exception(right_error);
-  // The grey levels' depth: --bit-depth, else what the files say (the deeper of the two).
+  // The grey levels' depth: --bit-depth, else what the files say (the deeper of the two), and for
+  // 16-bit files that say nothing, what the data say (io::InferSignificantBits).
   io::SignificantBits bits = left_bits.bits >= right_bits.bits ? left_bits : right_bits;
-  if (options.matcher.bit_depth > 0) bits = {options.matcher.bit_depth, "--bit-depth"};
+  if (options.matcher.bit_depth > 0) {
+    bits = {options.matcher.bit_depth, "--bit-depth"};
+  } else {
+    bits = io::InferSignificantBits(left, right, bits);  // 16-bit files that declare nothing
+  }
   if (auto bad = CheckFrame(options.frame_check, left, bits.bits)) {
     throw InputError(pair.left.string() + ": " + *bad);
   }
@@ -604,6 +610,25 @@ BatchSummary StereoBatchRun::Finish(const json& invocation) {
     pairs_json.push_back(std::move(entry));
   }
   summary.seconds = run.total_timer.ElapsedSeconds();
+  // The grey levels' depth of each pair: one batch is one camera, so pairs that differ (a
+  // depth told from the data of some, an sBIT in others) are worth a warning.
+  std::map<int, std::vector<std::string>> depths;
+  for (const PairOutcome& outcome : summary.pairs) {
+    if (outcome.status != PairOutcome::Status::kFailed && outcome.result.contains("bit_depth")) {
+      depths[outcome.result["bit_depth"].get<int>()].push_back(outcome.stem);
+    }
+  }
+  json depths_json = json::object();
+  for (const auto& [bits, stems] : depths) depths_json[std::to_string(bits)] = stems.size();
+  if (depths.size() > 1) {
+    std::ostringstream s;
+    for (const auto& [bits, stems] : depths) {
+      s << (s.tellp() > 0 ? ", " : "") << bits << " bits (" << stems.size() << " pair" << (stems.size() == 1 ? "" : "s")
+        << ", e.g. " << stems.front() << ")";
+    }
+    LN_LOG(Warning) << "the pairs' grey levels have different depths: " << s.str()
+                    << "; their thresholds differ (each sidecar's result.bit_depth_source says why; --bit-depth sets one)";
+  }
 
   json j = util::SummaryHead("stereo-batch", invocation);
   j["input_dir"] = run.input_dir.string();
@@ -640,6 +665,7 @@ BatchSummary StereoBatchRun::Finish(const json& invocation) {
       j["geometry"]["requests"] = {{"file", options.requests_source}, {"count", run.requested.size()}};
     }
   }
+  j["bit_depths"] = depths_json;
   j["peak_memory_mib"] = util::PeakResidentMemoryMiB();
   j["failed"] = failed_json;
   j["pairs"] = pairs_json;

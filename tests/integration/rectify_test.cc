@@ -102,6 +102,35 @@ TEST(Rectify, ThenStereoBatchRecoversTheTrueDisparity) {
   }
 }
 
+// A 12-bit camera's raw pairs in 16-bit PNGs without sBIT: rectify tells the depth from the
+// data and writes it as sBIT, so that stereo-batch reads it from the file.
+TEST(Rectify, WritesTheDepthToldFromTwelveBitDataAsSbit) {
+  ScopedTempDir tmp;
+  const RawSequence seq = MakeRawSequence(tmp.path());
+  const fs::path raw16 = tmp.path() / "raw16", rect = tmp.path() / "rect16";
+  for (const char* side : {"left", "right"}) {
+    fs::create_directories(raw16 / side);
+    for (const auto& entry : fs::directory_iterator(seq.dir / side)) {
+      cv::Mat deep;
+      cv::imread(entry.path().string(), cv::IMREAD_GRAYSCALE).convertTo(deep, CV_16U, 4095.0 / 255.0);
+      io::WriteImageAtomic(raw16 / side / entry.path().filename(), deep);  // no sBIT
+      EXPECT_EQ(io::PngSignificantBits(raw16 / side / entry.path().filename()), 0);
+    }
+  }
+  const auto run = RunTool("rectify", {raw16.string(), "-o", rect.string(), "--rig", seq.rig.string(), "-q"},
+                           tmp.path());
+  ASSERT_EQ(run.exit_code, 0) << run.stderr_text;
+  const nlohmann::json summary = io::ReadJson(rect / "summary.json");
+  ASSERT_EQ(summary["pairs"].size(), 2u);
+  EXPECT_EQ(summary["pairs"][0]["bit_depth"], 12);
+  EXPECT_EQ(summary["pairs"][0]["bit_depth_source"].get<std::string>().rfind("data (no sBIT)", 0), 0u);
+  EXPECT_EQ(io::PngSignificantBits(rect / "left" / "frame0.png"), 12);
+  EXPECT_EQ(io::PngSignificantBits(rect / "right" / "frame1.png"), 12);
+  const fs::path disp = tmp.path() / "disp16";
+  ASSERT_EQ(RunTool("stereo-batch", {rect.string(), "-o", disp.string(), "-q"}, tmp.path()).exit_code, 0);
+  EXPECT_EQ(io::ReadJson(disp / "disparity" / "frame0.json")["result"]["bit_depth_source"], "PNG sBIT");
+}
+
 TEST(Rectify, ReportsBadPairsAndUsageErrorsWithTheirExitCodes) {
   ScopedTempDir tmp;
   const RawSequence seq = MakeRawSequence(tmp.path());

@@ -143,6 +143,67 @@ TEST(StereoBatch, TwelveBitPngPairUsesItsTrueBitDepth) {
   EXPECT_NE(as16.stderr_text.find("blank frame"), std::string::npos) << as16.stderr_text;
 }
 
+// The same camera without an sBIT chunk, as most machine-vision and planetary cameras write
+// 12-bit data: the depth is told from the data (values up to 4095, a camera's noise at 12
+// bits), and the disparities are those of --bit-depth 12, byte for byte. A dark 16-bit
+// exposure of the same scene with a 16-bit camera's noise (values under 4096) stays 16. An
+// 8-bit pair is untouched.
+TEST(StereoBatch, TwelveBitPairWithoutSbitIsToldFromItsData) {
+  ScopedTempDir tmp;
+  const fs::path twelve = tmp.path() / "twelve", dark = tmp.path() / "dark";
+  cv::RNG rng(3);
+  for (const char* side : {"left", "right"}) {
+    fs::create_directories(twelve / side);
+    fs::create_directories(dark / side);
+    const cv::Mat image = cv::imread((TestDataPath("stereo_pairs") / side / "frame0000.png").string(),
+                                     cv::IMREAD_GRAYSCALE);
+    cv::Mat deep, noise(image.size(), CV_32F), dim;
+    image.convertTo(deep, CV_16U, 4095.0 / 255.0);  // 0..4095, no sBIT
+    io::WriteImageAtomic(twelve / side / "p.png", deep);
+    rng.fill(noise, cv::RNG::NORMAL, 0.0, 150.0);  // a 16-bit sensor's noise
+    image.convertTo(dim, CV_32F, 3000.0 / 255.0 * 0.8);
+    cv::Mat(cv::max(dim + noise, 0.0)).convertTo(dim, CV_16U);
+    io::WriteImageAtomic(dark / side / "p.png", dim);
+  }
+  auto run = [&](const fs::path& in, const std::string& name, std::vector<std::string> extra,
+                 const std::string& stem = "p") {
+    std::vector<std::string> args = {in.string(), "-o", (tmp.path() / name).string(), "-q"};
+    args.insert(args.end(), extra.begin(), extra.end());
+    const auto result = RunTool("stereo-batch", args, tmp.path());
+    EXPECT_EQ(result.exit_code, 0) << result.stderr_text;
+    return io::ReadJson(tmp.path() / name / "disparity" / (stem + ".json"))["result"];
+  };
+  for (const char* preset : {"quality", "paper"}) {
+    const std::string p = preset;
+    const nlohmann::json told = run(twelve, "told-" + p, {"--preset", p});
+    const nlohmann::json given = run(twelve, "given-" + p, {"--preset", p, "--bit-depth", "12"});
+    EXPECT_EQ(told["bit_depth"], 12) << p;
+    EXPECT_EQ(told["bit_depth_source"].get<std::string>().rfind("data (no sBIT)", 0), 0u) << told["bit_depth_source"];
+    EXPECT_GT(told["pixels_accepted"].get<double>(), 0.3 * told["pixels_evaluated"].get<double>()) << p;
+    EXPECT_EQ(testing::ReadFileBytes(tmp.path() / ("told-" + p) / "disparity" / "p.pfm"),
+              testing::ReadFileBytes(tmp.path() / ("given-" + p) / "disparity" / "p.pfm"))
+        << p;
+  }
+  // (At 16 bits its contrast is under the blank-frame check's one level of 8 bits: the check is
+  // off here to read the depth in the sidecar.)
+  const nlohmann::json dark_result = run(dark, "dark", {"--blank-sigma", "0"});
+  EXPECT_EQ(dark_result["bit_depth"], 16);
+  EXPECT_NE(dark_result["bit_depth_source"].get<std::string>().find("dark 16-bit image"), std::string::npos)
+      << dark_result["bit_depth_source"];
+  const nlohmann::json eight = run(TestDataPath("stereo_pairs"), "eight", {"--disparity", "0:63"}, "frame0000");
+  EXPECT_EQ(eight["bit_depth"], 8);
+  EXPECT_EQ(eight["bit_depth_source"], "image type");
+  // One batch, two depths: a warning naming both.
+  for (const char* side : {"left", "right"}) fs::copy_file(dark / side / "p.png", twelve / side / "q.png");
+  const auto mixed = RunTool("stereo-batch", {twelve.string(), "-o", (tmp.path() / "mixed").string(), "--blank-sigma", "0"},
+                             tmp.path());
+  EXPECT_EQ(mixed.exit_code, 0) << mixed.stderr_text;
+  EXPECT_NE(mixed.stderr_text.find("different depths: 12 bits (1 pair, e.g. p), 16 bits (1 pair, e.g. q)"),
+            std::string::npos)
+      << mixed.stderr_text;
+  EXPECT_EQ(io::ReadJson(tmp.path() / "mixed" / "summary.json")["bit_depths"], nlohmann::json({{"12", 1}, {"16", 1}}));
+}
+
 // The paper preset is the paper's matcher, bit for bit, once the border rule (which the paper
 // does not have) is off: the CRC-32 of its disparity, confidence and rejection maps on the
 // testdata pairs, recorded when the median filter's neighbour count was corrected (filter 4
