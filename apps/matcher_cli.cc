@@ -66,7 +66,7 @@ void AddMatcherOptions(CLI::App* app, MatcherCommandLine* cl, stereo::FrameCheck
                   "border rule: reject a pixel whose search runs past the other image when its match lies this many "
                   "px left of the surface's to its left (-1 = off)")
       ->default_str(preset_default(paper.border_tolerance_px, quality.border_tolerance_px));
-  app->add_option("--bit-depth", given.bit_depth, "significant bits of 16-bit images (default: a PNG's sBIT, else 16)");
+  app->add_option("--bit-depth", given.bit_depth, "significant bits of 16-bit images (default: a PNG's sBIT, else told from the data's values and noise)");
   app->add_option("--step", cl->step, "partial subsampling steps DXxDY")->capture_default_str();
   app->add_option("--reference", cl->reference, "image the disparity map is referenced to")
       ->check(CLI::IsMember({"right", "left"}))

@@ -3,7 +3,10 @@
 #include <algorithm>
 #include <charconv>
 #include <cmath>
+#include <cstdlib>
 #include <fstream>
+#include <initializer_list>
+#include <optional>
 #include <sstream>
 
 #include <Eigen/Geometry>
@@ -139,8 +142,62 @@ ErrorStats ErrorStats::Of(std::vector<double> values) {
   return s;
 }
 
+// A position track: a CSV whose header names time, east (x) and north (y), optionally up (z);
+// nullopt when the header is not one.
+std::optional<std::vector<StampedPose>> ReadPositionTrack(const fs::path& path) {
+  std::ifstream in(path);
+  LN_CHECK_INPUT(in.good()) << path.string() << ": cannot open";
+  std::string line;
+  long number = 0;
+  while (std::getline(in, line)) {
+    ++number;
+    if (!line.empty() && line.back() == '\r') line.pop_back();
+    if (!line.empty() && line[0] != '#') break;
+  }
+  std::vector<std::string> names;
+  {
+    std::stringstream header(line);
+    for (std::string cell; std::getline(header, cell, ',');) names.push_back(cell);
+  }
+  auto is = [&](std::size_t k, std::initializer_list<const char*> options) {
+    return k < names.size() && std::any_of(options.begin(), options.end(), [&](const char* o) { return names[k] == o; });
+  };
+  if (!(is(0, {"t", "t_s"}) && is(1, {"east", "x", "x_m"}) && is(2, {"north", "y", "y_m"}))) return std::nullopt;
+  if (names.size() > 3 && names[3] == "z_m" && names.size() > 4 && names[4] == "heading_deg") return std::nullopt;
+  const bool has_up = is(3, {"up", "z", "z_m"});
+  std::vector<StampedPose> poses;
+  const long header_line = number;
+  while (std::getline(in, line)) {
+    ++number;
+    if (!line.empty() && line.back() == '\r') line.pop_back();
+    if (line.empty() || line[0] == '#') continue;
+    std::stringstream row(line);
+    row.imbue(std::locale::classic());
+    double v[4] = {0, 0, 0, 0};
+    const int wanted = has_up ? 4 : 3;
+    for (int k = 0; k < wanted; ++k) {
+      std::string cell;
+      std::getline(row, cell, ',');
+      char* end = nullptr;
+      v[k] = std::strtod(cell.c_str(), &end);
+      LN_CHECK_INPUT(!cell.empty() && end != cell.c_str() && std::isfinite(v[k]))
+          << path.string() << ":" << number << ": '" << cell << "' is not a number (" << names[k] << ")";
+    }
+    LN_CHECK_INPUT(poses.empty() || v[0] > poses.back().t_s)
+        << path.string() << ":" << number << ": time stamps must increase";
+    StampedPose p;
+    p.t_s = v[0];
+    p.world_from_body.translation() = Eigen::Vector3d(v[1], v[2], v[3]);
+    p.has_attitude = false;
+    poses.push_back(p);
+  }
+  LN_CHECK_INPUT(!poses.empty()) << path.string() << ":" << header_line << ": a position track without rows";
+  return poses;
+}
+
 std::vector<StampedPose> ReadPoses(const fs::path& path) {
   if (path.extension() != ".csv") return ReadTum(path);
+  if (auto track = ReadPositionTrack(path)) return *std::move(track);
   std::vector<StampedPose> poses;
   for (const auto& sample : positioning::ReadTrajectoryCsv(path)) {
     StampedPose p;
@@ -183,6 +240,10 @@ TrajectoryErrors EvaluateTrajectory(const std::vector<StampedPose>& estimate,
                                   << " estimated poses fall inside the truth's time span";
   TrajectoryErrors errors;
   errors.poses_matched = static_cast<long>(est.size());
+  errors.truth_has_attitude =
+      std::all_of(truth.begin(), truth.end(), [](const StampedPose& p) { return p.has_attitude; });
+  const bool attitude = errors.truth_has_attitude;
+  const bool horizontal = options.alignment == Alignment::kRigid2d;
 
   // Alignment, then APE.
   Eigen::Isometry3d align = Eigen::Isometry3d::Identity();
@@ -204,7 +265,7 @@ TrajectoryErrors EvaluateTrajectory(const std::vector<StampedPose>& estimate,
     ape_r.push_back(AngleDeg(e.linear()));
   }
   errors.ape_translation_m = ErrorStats::Of(std::move(ape_t));
-  errors.ape_rotation_deg = ErrorStats::Of(std::move(ape_r));
+  if (attitude) errors.ape_rotation_deg = ErrorStats::Of(std::move(ape_r));
 
   // RPE over consecutive pairs rpe_delta_m apart along the true path.
   const std::vector<double> s = PathLengths(ref);
@@ -213,17 +274,28 @@ TrajectoryErrors EvaluateTrajectory(const std::vector<StampedPose>& estimate,
   auto relative_error = [&](std::size_t i, std::size_t j) {
     return (ref[i].inverse() * ref[j]).inverse() * (est[i].inverse() * est[j]);
   };
+  // Without the truth's attitude: the aligned estimate's displacement against the truth's
+  // (horizontal with the 2-D alignment).
+  auto displacement_error = [&](std::size_t i, std::size_t j) {
+    const Eigen::Vector3d d = (align * est[j]).translation() - (align * est[i]).translation() -
+                              (ref[j].translation() - ref[i].translation());
+    return horizontal ? d.head<2>().norm() : d.norm();
+  };
   for (std::size_t i = 0; i < est.size();) {
     const auto j = static_cast<std::size_t>(std::lower_bound(s.begin() + i, s.end(), s[i] + options.rpe_delta_m) -
                                             s.begin());
     if (j >= est.size()) break;
-    const Eigen::Isometry3d e = relative_error(i, j);
-    rpe_t.push_back(e.translation().norm());
-    rpe_r.push_back(AngleDeg(e.linear()));
+    if (attitude) {
+      const Eigen::Isometry3d e = relative_error(i, j);
+      rpe_t.push_back(e.translation().norm());
+      rpe_r.push_back(AngleDeg(e.linear()));
+    } else {
+      rpe_t.push_back(displacement_error(i, j));
+    }
     i = j;
   }
   errors.rpe_translation_m = ErrorStats::Of(std::move(rpe_t));
-  errors.rpe_rotation_deg = ErrorStats::Of(std::move(rpe_r));
+  if (attitude) errors.rpe_rotation_deg = ErrorStats::Of(std::move(rpe_r));
 
   // KITTI drift.
   double sum_t = 0, sum_r = 0;
@@ -231,15 +303,19 @@ TrajectoryErrors EvaluateTrajectory(const std::vector<StampedPose>& estimate,
     for (double length : options.drift_segments_m) {
       const auto j = static_cast<std::size_t>(std::lower_bound(s.begin() + i, s.end(), s[i] + length) - s.begin());
       if (j >= est.size()) continue;
-      const Eigen::Isometry3d e = relative_error(i, j);
-      sum_t += e.translation().norm() / length;
-      sum_r += AngleDeg(e.linear()) / length;
+      if (attitude) {
+        const Eigen::Isometry3d e = relative_error(i, j);
+        sum_t += e.translation().norm() / length;
+        sum_r += AngleDeg(e.linear()) / length;
+      } else {
+        sum_t += displacement_error(i, j) / length;
+      }
       ++errors.drift_segments;
     }
   }
   if (errors.drift_segments > 0) {
     errors.drift_translation_pct = 100.0 * sum_t / errors.drift_segments;
-    errors.drift_rotation_deg_per_m = sum_r / errors.drift_segments;
+    if (attitude) errors.drift_rotation_deg_per_m = sum_r / errors.drift_segments;
   }
   return errors;
 }

@@ -15,9 +15,13 @@ namespace lunarnav::evaluation {
 struct StampedPose {
   double t_s = 0;
   Eigen::Isometry3d world_from_body = Eigen::Isometry3d::Identity();
+  /// False for a position track (a GPS log): the rotation is the identity and means nothing.
+  bool has_attitude = true;
 };
 
-/// Reads a trajectory: lunarnav's trajectory CSV (`.csv`, docs/formats.md) or TUM
+/// Reads a trajectory: lunarnav's trajectory CSV (`.csv`, docs/formats.md), a position track
+/// (`.csv` with the header `t,east,north[,up]` or `t_s,x_m,y_m[,z_m]`: a GPS log in a local
+/// east-north-up frame, metres; further columns ignored; poses without attitude) or TUM
 /// ("t x y z qx qy qz qw", any other extension). @throws InputError with file:line.
 std::vector<StampedPose> ReadPoses(const std::filesystem::path& path);
 
@@ -61,6 +65,10 @@ struct TrajectoryErrors {
   /// averaged over all segments; NaN when the path is shorter than every segment.
   double drift_translation_pct = NAN, drift_rotation_deg_per_m = NAN;
   long drift_segments = 0;
+  /// False when the truth is a position track: the rotation errors are not defined (NaN), and
+  /// the relative errors compare displacements (the aligned estimate's against the truth's)
+  /// instead of relative poses.
+  bool truth_has_attitude = true;
 };
 
 /// The truth interpolated at the estimate's time stamps (linear in position, slerp in

@@ -233,12 +233,18 @@ Table TrajectoryErrorsTable(const std::vector<std::pair<std::string, TrajectoryE
                    {"drift", "pct", "drift (%)", 2},
                    {"drift_rot", "deg_per_m", "drift rot. (deg/m)", 4},
                    {"drift_segments", "", "segments", 0}};
+  bool positions_only = false;
   for (const auto& [name, e] : sets) {
+    const char* no_rotation = e.truth_has_attitude ? nullptr : "truth without attitude";
+    positions_only = positions_only || !e.truth_has_attitude;
     table.AddRow({Cell::Text(name), Cell::Number(e.poses_matched), Cell::Number(e.path_length_m),
                   Num(e.ape_translation_m.rmse, "no poses"), Num(e.ape_translation_m.max, "no poses"),
-                  Num(e.ape_rotation_deg.rmse, "no poses"), Num(e.rpe_translation_m.rmse, "path too short"),
-                  Num(e.rpe_rotation_deg.rmse, "path too short"), Num(e.drift_translation_pct, "path too short"),
-                  Num(e.drift_rotation_deg_per_m, "path too short"), Cell::Number(e.drift_segments)});
+                  Num(e.ape_rotation_deg.rmse, no_rotation ? no_rotation : "no poses"),
+                  Num(e.rpe_translation_m.rmse, "path too short"),
+                  Num(e.rpe_rotation_deg.rmse, no_rotation ? no_rotation : "path too short"),
+                  Num(e.drift_translation_pct, "path too short"),
+                  Num(e.drift_rotation_deg_per_m, no_rotation ? no_rotation : "path too short"),
+                  Cell::Number(e.drift_segments)});
   }
   std::ostringstream rpe, segments;
   rpe << options.rpe_delta_m;
@@ -249,6 +255,10 @@ Table TrajectoryErrorsTable(const std::vector<std::pair<std::string, TrajectoryE
                      "pairs " + rpe.str() + " m apart along the true path).",
                  "Drift as the KITTI odometry benchmark defines it, averaged over segments of " + segments.str() +
                      " m starting every " + std::to_string(options.drift_step) + " poses."};
+  if (positions_only) {
+    table.notes.push_back("The truth is a position track (no attitude): RPE and drift compare the aligned estimate's "
+                          "displacements with the truth's; rotation errors are not defined.");
+  }
   return table;
 }
 

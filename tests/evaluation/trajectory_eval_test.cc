@@ -168,6 +168,46 @@ TEST(EvaluateTrajectory, TwoDimensionalAlignmentComparesAFlatTrajectoryHorizonta
   EXPECT_EQ(AlignmentFromString("rigid-2d"), Alignment::kRigid2d);
 }
 
+// A GPS log as truth: positions only (t,east,north). The estimate, the drive turned 0.5 rad
+// and 5 % long, is aligned in 2-D; its relative errors compare displacements (each 1 m pair 5 cm
+// too long), its drift is 5 %, and no rotation error is claimed.
+TEST(EvaluateTrajectory, APositionTrackAsTruthScoresPositionsAndDisplacementsOnly) {
+  util::ScopedTempDir tmp;
+  auto samples = Drive();
+  samples.resize(401);  // the 20 m straight line
+  {
+    std::ofstream track(tmp.path() / "gps.csv");
+    track << "# a GPS track, local ENU\r\nt,east,north,sats\r\n";
+    for (const auto& p : samples) track << p.t_s << "," << p.x_m << "," << p.y_m << ",9\r\n";
+  }
+  const std::vector<StampedPose> truth = ReadPoses(tmp.path() / "gps.csv");
+  ASSERT_EQ(truth.size(), samples.size());
+  EXPECT_FALSE(truth[0].has_attitude);
+  EXPECT_DOUBLE_EQ(truth[200].world_from_body.translation().y(), samples[200].y_m);
+  auto estimate = Poses(samples, tmp);
+  const Eigen::Isometry3d turn(Eigen::AngleAxisd(0.5, Eigen::Vector3d::UnitZ()));
+  for (StampedPose& p : estimate) {
+    p.world_from_body.translation() *= 1.05;
+    p.world_from_body = turn * p.world_from_body;
+  }
+  TrajectoryEvalOptions options;
+  options.alignment = Alignment::kRigid2d;
+  const TrajectoryErrors e = EvaluateTrajectory(estimate, truth, options);
+  EXPECT_FALSE(e.truth_has_attitude);
+  EXPECT_NEAR(e.rpe_translation_m.mean, 0.05, 1e-3);
+  EXPECT_NEAR(e.drift_translation_pct, 5.0, 0.05);
+  // The best 2-D fit of a 5 % long line to the line: centred, the ends 0.5 m off.
+  EXPECT_NEAR(e.ape_translation_m.max, 0.5, 0.01);
+  EXPECT_EQ(e.ape_rotation_deg.count, 0);
+  EXPECT_TRUE(std::isnan(e.rpe_rotation_deg.rmse));
+  EXPECT_TRUE(std::isnan(e.drift_rotation_deg_per_m));
+  // A header that is neither a trajectory nor a track, and a bad cell, are bad input.
+  std::ofstream(tmp.path() / "bad.csv") << "time,lat,lon\n1,2,3\n";
+  EXPECT_THROW(ReadPoses(tmp.path() / "bad.csv"), InputError);
+  std::ofstream(tmp.path() / "cell.csv") << "t,east,north\n0,0,0\n1,x,2\n";
+  EXPECT_THROW(ReadPoses(tmp.path() / "cell.csv"), InputError);
+}
+
 TEST(ReadPoses, CsvAndTumGiveTheSamePoses) {
   util::ScopedTempDir tmp;
   auto samples = Drive();
