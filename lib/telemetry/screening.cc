@@ -22,16 +22,20 @@ constexpr int kRebaselineAfter = 3;
 // level: long sequences are subsampled evenly to at most 65536 values (plenty for a robust
 // level, and linear time), and only those values are computed.
 template <typename Value>
-double SubsampledMedian(std::size_t count, Value value) {
+double SubsampledQuantile(std::size_t count, double fraction, Value value) {
   constexpr std::size_t kMaxSamples = 65536;
   const std::size_t stride = count > kMaxSamples ? (count + kMaxSamples - 1) / kMaxSamples : 1;
   std::vector<double> v;
   v.reserve(count / stride + 1);
   for (std::size_t i = 0; i < count; i += stride) v.push_back(value(i));
   if (v.empty()) return kNaN;
-  const std::size_t mid = v.size() / 2;
-  std::nth_element(v.begin(), v.begin() + mid, v.end());
-  return v[mid];
+  const auto at = static_cast<std::size_t>(fraction * static_cast<double>(v.size() - 1) + 0.5);
+  std::nth_element(v.begin(), v.begin() + static_cast<std::ptrdiff_t>(at), v.end());
+  return v[at];
+}
+template <typename Value>
+double SubsampledMedian(std::size_t count, Value value) {
+  return SubsampledQuantile(count, 0.5, value);
 }
 
 // A channel's white-noise sigma from `count` second differences d2(q) of its samples,
@@ -40,6 +44,19 @@ double SubsampledMedian(std::size_t count, Value value) {
 template <typename SecondDifference>
 double NoiseOfSecondDifferences(std::size_t count, SecondDifference d2) {
   return 1.4826 * SubsampledMedian(count, [&](std::size_t q) { return std::abs(d2(q)); }) / std::sqrt(6.0);
+}
+
+// The noise as the rate limit needs it: the larger of the sigma above and the sigma that the
+// 90th percentile of |d2| implies for Gaussian noise (1.645 sqrt(6) sigma). For Gaussian noise
+// both agree; a real accelerometer's tilt, whose vibration comes in bursts while driving (heavy
+// tails: on a real rover's log the 99th percentile of its sample-to-sample change is 8 times the
+// median), gets the scale of its bursts, so the rate limit rejects under 1 % of its samples
+// rather than 2 %, and faults up to a tenth of the samples do not move it.
+template <typename SecondDifference>
+double RateNoiseOfSecondDifferences(std::size_t count, SecondDifference d2) {
+  const double tail = SubsampledQuantile(count, 0.9, [&](std::size_t q) { return std::abs(d2(q)); }) /
+                      (1.6449 * std::sqrt(6.0));
+  return std::max(NoiseOfSecondDifferences(count, d2), tail);
 }
 
 // The spike test's shortcut for the interior samples q in [b, e) of a channel's queue (see
@@ -398,7 +415,7 @@ class ScreeningStream::Impl {
       value.push_back(s.radians_at_zero + s.radians_per_count * r);
     }
     if (value.size() < 8) return;  // too few: the slack stays the counts' alone
-    const double noise = NoiseOfSecondDifferences(value.size() - 2, [&](std::size_t q) {
+    const double noise = RateNoiseOfSecondDifferences(value.size() - 2, [&](std::size_t q) {
       const double d2 = value[q + 2] - 2.0 * value[q + 1] + value[q];
       return s.kind == kCompassKind ? std::remainder(d2, 2.0 * M_PI) : d2;  // across +-180 deg
     });

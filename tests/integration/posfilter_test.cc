@@ -152,5 +152,26 @@ TEST(Posfilter, BadInputGetsOneErrorLineAndNoOutput) {
   EXPECT_FALSE(fs::exists(out / "trajectory.csv"));
 }
 
+// A real rover's log (the development data beside the project, ../shared/realdata/rover;
+// skipped with a message when absent): posfilter runs as a user runs it, and no screening rule
+// rejects 1 % of a channel's samples (good data, an accelerometer's tilt vibrating while
+// driving included), so it warns of nothing.
+TEST(Posfilter, OnARealRoverLogNoRuleRejectsOnePercentOfAChannel) {
+  const fs::path log = fs::weakly_canonical(util::TestDataPath(".") / ".." / ".." / "shared" / "realdata" / "rover" /
+                                            "pathfinder-test17");
+  if (!fs::is_regular_file(log / "telemetry.csv")) GTEST_SKIP() << log.string() << " not present: real-data check skipped";
+  util::ScopedTempDir tmp;
+  const auto run = RunTool("posfilter", {(log / "telemetry.csv").string(), "--sensors", (log / "sensors.json").string(),
+                                         "-o", (tmp.path() / "pf").string(), "-q"},
+                           tmp.path());
+  ASSERT_EQ(run.exit_code, 0) << run.stderr_text;
+  EXPECT_EQ(run.stderr_text.find("warning:"), std::string::npos) << run.stderr_text;
+  const nlohmann::json summary = io::ReadJson(tmp.path() / "pf" / "summary.json");
+  ASSERT_FALSE(summary["screening"]["rejection_shares"].empty());  // the log's real spikes
+  for (const nlohmann::json& share : summary["screening"]["rejection_shares"]) {
+    EXPECT_LT(share["share"].get<double>(), 0.01) << share.dump();
+  }
+}
+
 }  // namespace
 }  // namespace lunarnav
