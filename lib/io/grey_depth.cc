@@ -8,6 +8,8 @@
 
 #include <opencv2/imgproc.hpp>
 
+#include "util/format.h"
+
 namespace lunarnav::io {
 
 double EstimateNoiseSigma(const cv::Mat& grey) {
@@ -70,23 +72,17 @@ SignificantBits InferSignificantBits(const cv::Mat& left, const cv::Mat& right, 
   cv::minMaxLoc(right.reshape(1), nullptr, &max_right);
   const auto largest = static_cast<unsigned>(std::max(max_left, max_right));
   const int needed = std::max(8, static_cast<int>(std::bit_width(largest)));
-  char text[256];
-  if (needed >= 16) {
-    std::snprintf(text, sizeof text, "image type (values up to %u use all 16 bits)", largest);
-    return {16, text};
-  }
+  if (needed >= 16) return {16, util::Format("image type (values up to %u use all 16 bits)", largest)};
   const double noise = std::min(EstimateNoiseSigma(Grey(left)), EstimateNoiseSigma(Grey(right)));
   const double noise_grey8 = noise / std::ldexp(1.0, needed - 8);
   if (noise_grey8 > kMaxCameraNoiseGrey8) {
-    std::snprintf(text, sizeof text,
+    return {16, util::Format(
                   "image type (values up to %u would fit %d bits, but their noise, %.1f levels = %.1f levels of 8 "
                   "bits at %d bits, is more than a camera's at that depth: a dark 16-bit image)",
-                  largest, needed, noise, noise_grey8, needed);
-    return {16, text};
+                  largest, needed, noise, noise_grey8, needed)};
   }
-  std::snprintf(text, sizeof text, "data (no sBIT): values up to %u need %d bits, noise %.1f levels = %.2f levels of 8 bits",
-                largest, needed, noise, noise_grey8);
-  return {needed, text};
+  return {needed, util::Format("data (no sBIT): values up to %u need %d bits, noise %.1f levels = %.2f levels of 8 bits",
+                               largest, needed, noise, noise_grey8)};
 }
 
 }  // namespace lunarnav::io

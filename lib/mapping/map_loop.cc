@@ -17,6 +17,7 @@
 #include "stereo/window_requests.h"
 #include "util/check.h"
 #include "util/errors.h"
+#include "util/format.h"
 #include "util/log.h"
 #include "util/parse.h"
 #include "util/progress.h"
@@ -32,11 +33,7 @@ namespace {
 
 // A request's bounds as requests.csv holds them (4 decimals): the stereo window, the map's
 // interval and a resumed loop all use the same numbers.
-double AsWritten(double v) {
-  char buf[64];
-  std::snprintf(buf, sizeof buf, "%.4f", v);
-  return std::strtod(buf, nullptr);
-}
+double AsWritten(double v) { return std::strtod(util::Format("%.4f", v).c_str(), nullptr); }
 
 // The rows of a plan.csv this loop wrote (a resumed loop's earlier pairs), by stem.
 std::map<std::string, PlannedWindow> ReadPlanCsv(const fs::path& path) {
@@ -105,14 +102,12 @@ std::string MapLoopCsv(const std::vector<MapLoopPair>& pairs) {
       "# the pairs before it; m, m/s, s), what stereo and the map did with it, and the times (s)\n"
       "stem,t_s,speed_mps,cycle_s,d_stop_m,y_need_m,covered_to_m,y_min_m,y_max_m,status,pixels_evaluated,"
       "pixels_accepted,points_fused,stereo_s,match_s,map_s\n";
-  char buf[512];
   for (const MapLoopPair& p : pairs) {
     const PlannedWindow& w = p.plan;
-    std::snprintf(buf, sizeof buf, ",%.3f,%.5f,%.3f,%.4f,%.4f,%.4f,%.4f,%.4f,%s,%ld,%ld,%ld,%.4f,%.4f,%.4f\n", w.t_s,
-                  w.speed_mps, w.cycle_s, w.d_stop_m, w.y_need_m, w.covered_to_m, w.y_min_m, w.y_max_m,
-                  p.status.c_str(), p.pixels_evaluated, p.pixels_accepted, p.points_fused, p.stereo_seconds,
-                  p.match_seconds, p.map_seconds);
-    s += w.stem + buf;
+    s += w.stem + util::Format(",%.3f,%.5f,%.3f,%.4f,%.4f,%.4f,%.4f,%.4f,%s,%ld,%ld,%ld,%.4f,%.4f,%.4f\n", w.t_s,
+                               w.speed_mps, w.cycle_s, w.d_stop_m, w.y_need_m, w.covered_to_m, w.y_min_m, w.y_max_m,
+                               p.status.c_str(), p.pixels_evaluated, p.pixels_accepted, p.points_fused,
+                               p.stereo_seconds, p.match_seconds, p.map_seconds);
   }
   return s;
 }

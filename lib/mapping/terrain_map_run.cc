@@ -22,6 +22,7 @@
 #include "stereo/window_requests.h"
 #include "util/check.h"
 #include "util/errors.h"
+#include "util/format.h"
 #include "util/log.h"
 #include "util/parallel.h"
 #include "util/progress.h"
@@ -47,12 +48,11 @@ std::string FramesCsv(const std::vector<FusedFrame>& frames) {
       "# lunarnav terrain-map: the frames fused into this map and the vehicle pose used for each (world x east,\n"
       "# y north, z up, m; heading clockwise from north, pitch nose up, roll right side down, deg)\n"
       "stem,t_s,x_m,y_m,z_m,heading_deg,pitch_deg,roll_deg,points_fused,points_rejected\n";
-  char buf[320];
   for (const FusedFrame& f : frames) {
     const FramePose& p = f.pose;
-    std::snprintf(buf, sizeof buf, ",%.6f,%.6f,%.6f,%.6f,%.6f,%.6f,%.6f,%ld,%ld\n", p.t_s, p.x_m, p.y_m, p.z_m,
-                  p.heading_rad * kDeg, p.pitch_rad * kDeg, p.roll_rad * kDeg, f.points_fused, f.points_rejected);
-    s += p.stem + buf;
+    s += p.stem + util::Format(",%.6f,%.6f,%.6f,%.6f,%.6f,%.6f,%.6f,%ld,%ld\n", p.t_s, p.x_m, p.y_m, p.z_m,
+                               p.heading_rad * kDeg, p.pitch_rad * kDeg, p.roll_rad * kDeg, f.points_fused,
+                               f.points_rejected);
   }
   return s;
 }

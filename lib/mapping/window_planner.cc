@@ -8,6 +8,7 @@
 #include "io/geotiff_io.h"
 #include "util/check.h"
 #include "util/errors.h"
+#include "util/format.h"
 
 namespace lunarnav::mapping {
 
@@ -111,11 +112,7 @@ std::vector<PlannedWindow> PlanWindows(const std::vector<FramePose>& poses, cons
 
 std::string RequestsCsv(const std::vector<PlannedWindow>& plan) {
   std::string s = "stem,y_min_m,y_max_m\n";
-  char buf[96];
-  for (const PlannedWindow& w : plan) {
-    std::snprintf(buf, sizeof buf, ",%.4f,%.4f\n", w.y_min_m, w.y_max_m);
-    s += w.stem + buf;
-  }
+  for (const PlannedWindow& w : plan) s += w.stem + util::Format(",%.4f,%.4f\n", w.y_min_m, w.y_max_m);
   return s;
 }
 
@@ -125,11 +122,9 @@ std::string PlanCsv(const std::vector<PlannedWindow>& plan) {
       "# last cycle (s), stopping distance, nearest distance needed, far edge of the previous request in\n"
       "# this pair's vehicle frame (nan for the first), and the request (m)\n"
       "stem,t_s,speed_mps,cycle_s,d_stop_m,y_need_m,covered_to_m,y_min_m,y_max_m\n";
-  char buf[256];
   for (const PlannedWindow& w : plan) {
-    std::snprintf(buf, sizeof buf, ",%.3f,%.5f,%.3f,%.4f,%.4f,%.4f,%.4f,%.4f\n", w.t_s, w.speed_mps, w.cycle_s,
-                  w.d_stop_m, w.y_need_m, w.covered_to_m, w.y_min_m, w.y_max_m);
-    s += w.stem + buf;
+    s += w.stem + util::Format(",%.3f,%.5f,%.3f,%.4f,%.4f,%.4f,%.4f,%.4f\n", w.t_s, w.speed_mps, w.cycle_s, w.d_stop_m,
+                               w.y_need_m, w.covered_to_m, w.y_min_m, w.y_max_m);
   }
   return s;
 }
