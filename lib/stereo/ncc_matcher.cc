@@ -17,6 +17,7 @@
 #include "stereo/ncc_kernel.h"
 #include "stereo/sgm_matcher.h"
 #include "util/check.h"
+#include "util/parallel.h"
 #include "util/timer.h"
 
 namespace lunarnav::stereo {
@@ -341,7 +342,7 @@ void MatchStereoPair(const NccOptions& options, const cv::Mat& left, const cv::M
     match();
     return;
   }
-  tbb::task_arena arena(options.num_threads);
+  tbb::task_arena arena(util::EffectiveThreadCount(options.num_threads));
   arena.execute(match);
 }
 

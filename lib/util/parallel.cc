@@ -1,5 +1,7 @@
 #include "util/parallel.h"
 
+#include <algorithm>
+
 #include <tbb/blocked_range.h>
 #include <tbb/info.h>
 #include <tbb/parallel_for.h>
@@ -8,7 +10,7 @@
 namespace lunarnav::util {
 
 void ParallelForEachItem(std::size_t n, int num_threads, const std::function<void(std::size_t)>& fn) {
-  tbb::task_arena arena(num_threads > 0 ? num_threads : tbb::task_arena::automatic);
+  tbb::task_arena arena(EffectiveThreadCount(num_threads));
   arena.execute([&] {
     tbb::parallel_for(tbb::blocked_range<std::size_t>(0, n, 1),
                       [&](const tbb::blocked_range<std::size_t>& range) {
@@ -25,7 +27,10 @@ void ParallelForEachItem(std::size_t n, int num_threads, const std::function<voi
 }
 
 int EffectiveThreadCount(int num_threads) {
-  return num_threads > 0 ? num_threads : tbb::info::default_concurrency();
+  // More threads than cores only share them, and TBB, asked for many more, warns on stderr
+  // (past --quiet) or fails: every tool's -j stops at the cores.
+  const int cores = std::max(1, tbb::info::default_concurrency());
+  return num_threads > 0 ? std::min(num_threads, cores) : cores;
 }
 
 }  // namespace lunarnav::util
