@@ -282,8 +282,10 @@ TrajectoryErrors EvaluateTrajectory(const std::vector<StampedPose>& estimate,
     return horizontal ? d.head<2>().norm() : d.norm();
   };
   for (std::size_t i = 0; i < est.size();) {
-    const auto j = static_cast<std::size_t>(std::lower_bound(s.begin() + i, s.end(), s[i] + options.rpe_delta_m) -
-                                            s.begin());
+    // From the next pose on: a step too small to move s[i] (1e-17 m) still advances.
+    const auto j = static_cast<std::size_t>(
+        std::lower_bound(s.begin() + static_cast<std::ptrdiff_t>(i) + 1, s.end(), s[i] + options.rpe_delta_m) -
+        s.begin());
     if (j >= est.size()) break;
     if (attitude) {
       const Eigen::Isometry3d e = relative_error(i, j);
@@ -301,7 +303,8 @@ TrajectoryErrors EvaluateTrajectory(const std::vector<StampedPose>& estimate,
   double sum_t = 0, sum_r = 0;
   for (std::size_t i = 0; i < est.size(); i += static_cast<std::size_t>(options.drift_step)) {
     for (double length : options.drift_segments_m) {
-      const auto j = static_cast<std::size_t>(std::lower_bound(s.begin() + i, s.end(), s[i] + length) - s.begin());
+      const auto j = static_cast<std::size_t>(
+          std::lower_bound(s.begin() + static_cast<std::ptrdiff_t>(i) + 1, s.end(), s[i] + length) - s.begin());
       if (j >= est.size()) continue;
       if (attitude) {
         const Eigen::Isometry3d e = relative_error(i, j);

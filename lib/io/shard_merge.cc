@@ -69,6 +69,11 @@ std::vector<ShardFile> FindShardFiles(const fs::path& dir) {
     } catch (const std::exception&) {
       throw InputError(f.path.string() + ": shard number out of range");
     }
+    // Shard K of N is 0 <= K < N (N = 0 once divided by zero), and a summary is a file.
+    LN_CHECK_INPUT(f.count >= 1 && f.index < f.count)
+        << f.path.string() << ": shard " << f.index << " of " << f.count << " is no shard (K < N, N >= 1)";
+    std::error_code file_ec;
+    LN_CHECK_INPUT(fs::is_regular_file(f.path, file_ec)) << f.path.string() << ": not a file";
     files.push_back(std::move(f));
   }
   LN_CHECK_INPUT(!ec) << dir.string() << ": cannot list (" << ec.message() << ")";

@@ -208,6 +208,21 @@ TEST(EvaluateTrajectory, APositionTrackAsTruthScoresPositionsAndDisplacementsOnl
   EXPECT_THROW(ReadPoses(tmp.path() / "cell.csv"), InputError);
 }
 
+// A relative-error step too small to move along the path (1e-17 m) still advances pose by
+// pose: the evaluation ends, with one pair per consecutive poses.
+TEST(EvaluateTrajectory, ATinyRpeStepEndsWithOnePairPerConsecutivePoses) {
+  util::ScopedTempDir tmp;
+  auto samples = Drive();
+  samples.resize(101);
+  const auto truth = Poses(samples, tmp);
+  TrajectoryEvalOptions options;
+  options.rpe_delta_m = 1e-17;
+  options.drift_segments_m = {1e-17};
+  const TrajectoryErrors e = EvaluateTrajectory(truth, truth, options);
+  EXPECT_EQ(e.rpe_translation_m.count, 100);
+  EXPECT_NEAR(e.rpe_translation_m.max, 0.0, 1e-9);
+}
+
 TEST(ReadPoses, CsvAndTumGiveTheSamePoses) {
   util::ScopedTempDir tmp;
   auto samples = Drive();

@@ -166,6 +166,16 @@ TEST(MergeShardSummaries, RefusesOtherOptionsOtherInputsAndEditedSummaries) {
             }).find("is not the one its name says"),
             std::string::npos);
   EXPECT_NE(refusal([](const fs::path&) {}).find("no shard summaries"), std::string::npos);
+  // A shard of zero shards (once a division by zero) and a directory named like a summary.
+  EXPECT_NE(refusal([](const fs::path& d) { Write(d, 0, 0, ShardSummary(0, 1)); }).find("is no shard"),
+            std::string::npos);
+  EXPECT_NE(refusal([](const fs::path& d) { Write(d, 3, 2, ShardSummary(0, 1)); }).find("is no shard"),
+            std::string::npos);
+  EXPECT_NE(refusal([](const fs::path& d) {
+              Write(d, 0, 2, ShardSummary(0, 2));
+              fs::create_directory(d / "summary.shard-1-of-2.json");
+            }).find("summary.shard-1-of-2.json: not a file"),
+            std::string::npos);
 }
 
 }  // namespace
