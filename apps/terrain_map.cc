@@ -57,7 +57,8 @@ int main(int argc, char** argv) {
   if (const auto exit_code = util::ParseCommandLine(&app, argc, argv, quiet)) return *exit_code;
 
   return util::RunMain([&] {
-    if (window_m > 0) opt.map.window_m = window_m;
+    // Given, it is a window (0, a negative size or nan are refused by the options' check).
+    if (app.get_option("--window-m")->count() > 0) opt.map.window_m = window_m;
     if (!vehicle.empty()) {
       apps::ApplyVehicleLimits(calib::ReadVehicleSpec(vehicle), &opt.map);
     }

@@ -81,7 +81,7 @@ void TerrainMapOptions::Validate() const {
   LN_CHECK_ARG(max_horizontal_sigma_cells > 0) << "max horizontal sigma: must be > 0 cells";
   LN_CHECK_ARG(min_frames >= 1) << "min frames: must be >= 1";
   LN_CHECK_ARG(!window_m || (std::isfinite(*window_m) && *window_m >= 4 * cell_m))
-      << "window: must be at least 4 cells";
+      << "window-m: must be a finite size of at least 4 cells (" << 4 * cell_m << " m), got " << *window_m;
   obstacles.Validate();
 }
 

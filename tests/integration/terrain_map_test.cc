@@ -184,6 +184,23 @@ TEST(TerrainMapTool, BadInputsNameTheStemExitThreeAndWriteNothing) {
   }
 }
 
+// A window of no size is a usage error naming the option (it was taken for "no window").
+TEST(TerrainMapTool, AWindowOfNoSizeIsAUsageError) {
+  util::ScopedTempDir tmp;
+  WriteStereoDir(tmp.path() / "stereo", 0, 2);
+  WritePoses(tmp.path() / "poses.csv", 2);
+  for (const char* size : {"0", "-5", "nan", "0.5"}) {
+    const fs::path out = tmp.path() / "map";
+    const auto run = RunTool("terrain-map", {(tmp.path() / "stereo").string(), "--poses",
+                                             (tmp.path() / "poses.csv").string(), "--window-m", size, "-o",
+                                             out.string(), "-q"},
+                             tmp.path());
+    EXPECT_EQ(run.exit_code, 2) << size << ": " << run.stderr_text;
+    EXPECT_NE(run.stderr_text.find("window-m"), std::string::npos) << run.stderr_text;
+    EXPECT_FALSE(fs::exists(out)) << size;
+  }
+}
+
 // The state band by band: equal within rounding of the sums.
 void ExpectSameState(const fs::path& a, const fs::path& b) {
   const io::GeoRaster ra = io::ReadGeoTiff(a / "state.tif"), rb = io::ReadGeoTiff(b / "state.tif");
