@@ -11,6 +11,7 @@
 #include "io/atomic_file.h"
 #include "io/json_io.h"
 #include "util/check.h"
+#include "util/parse.h"
 #include "util/log.h"
 #include "util/summary.h"
 #include "util/timer.h"
@@ -150,6 +151,7 @@ std::map<std::string, TextEntry> ReadKeyValues(const fs::path& path, char separa
   std::map<std::string, TextEntry> entries;
   std::string text;
   for (int line = 1; std::getline(in, text); ++line) {
+    if (line == 1) util::DropUtf8Bom(&text);
     if (!text.empty() && text.back() == '\r') text.pop_back();
     if (text.find_first_not_of(" \t") == std::string::npos) continue;
     const std::size_t at = text.find(separator);

@@ -21,6 +21,7 @@
 #include "util/check.h"
 #include "util/errors.h"
 #include "util/log.h"
+#include "util/parse.h"
 #include "util/timer.h"
 
 namespace lunarnav::evaluation {
@@ -150,7 +151,7 @@ std::optional<std::vector<StampedPose>> ReadPositionTrack(const fs::path& path) 
   std::string line;
   long number = 0;
   while (std::getline(in, line)) {
-    ++number;
+    if (++number == 1) util::DropUtf8Bom(&line);
     if (!line.empty() && line.back() == '\r') line.pop_back();
     if (!line.empty() && line[0] != '#') break;
   }

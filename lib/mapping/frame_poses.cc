@@ -9,6 +9,7 @@
 #include "positioning/trajectory_io.h"
 #include "util/check.h"
 #include "util/errors.h"
+#include "util/parse.h"
 
 namespace lunarnav::mapping {
 namespace fs = std::filesystem;
@@ -53,6 +54,7 @@ void ForEachRow(const fs::path& path, const std::vector<std::string>& columns, F
   std::string line;
   bool header = false;
   for (long number = 1; std::getline(in, line); ++number) {
+    if (number == 1) util::DropUtf8Bom(&line);
     const std::string t = Trim(line);
     if (t.empty() || t[0] == '#') continue;
     const std::string where = path.string() + ":" + std::to_string(number);

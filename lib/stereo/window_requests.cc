@@ -7,6 +7,7 @@
 
 #include "util/check.h"
 #include "util/errors.h"
+#include "util/parse.h"
 
 namespace lunarnav::stereo {
 namespace {
@@ -53,7 +54,7 @@ std::vector<WindowRequest> ReadWindowRequests(const std::filesystem::path& path)
   bool have_header = false;
   long line_number = 0;
   for (std::string line; std::getline(in, line);) {
-    ++line_number;
+    if (++line_number == 1) util::DropUtf8Bom(&line);
     const std::string trimmed = Trim(line);
     if (trimmed.empty() || trimmed[0] == '#') continue;
     const std::string where = source + ":" + std::to_string(line_number);

@@ -58,4 +58,8 @@ std::pair<double, double> ParseDoublePair(const std::string& text, char separato
   return {ParseDouble(text.substr(0, pos), what), ParseDouble(text.substr(pos + 1), what)};
 }
 
+void DropUtf8Bom(std::string* first_line) {
+  if (first_line->compare(0, 3, "\xEF\xBB\xBF") == 0) first_line->erase(0, 3);
+}
+
 }  // namespace lunarnav::util

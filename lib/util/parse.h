@@ -19,4 +19,8 @@ std::pair<double, double> ParseDoublePair(const std::string& text, char separato
 int ParseInt(const std::string& text, const std::string& what);
 double ParseDouble(const std::string& text, const std::string& what);
 
+/// Removes a UTF-8 byte-order mark from the start of `first_line` (spreadsheets write one
+/// before a CSV's first line): the text readers call it on a file's first line.
+void DropUtf8Bom(std::string* first_line);
+
 }  // namespace lunarnav::util

@@ -173,6 +173,9 @@ TEST(ReadMiddleburyCalib, IsARectifiedRigWhoseXyzHonoursDoffs) {
   WriteText(tmp.path() / "calib.txt", kMiddleburyCalib);
   const StereoRig rig = ReadMiddleburyCalib(tmp.path() / "calib.txt", MastPose{});
   EXPECT_EQ(rig.width_px, 718);
+  // The same file with a byte-order mark, as an editor may save it.
+  WriteText(tmp.path() / "bom.txt", std::string("\xEF\xBB\xBF") + kMiddleburyCalib);
+  EXPECT_EQ(ReadMiddleburyCalib(tmp.path() / "bom.txt", MastPose{}).width_px, 718);
   EXPECT_EQ(rig.height_px, 496);
   EXPECT_NEAR(rig.BaselineM(), 0.176252, 1e-12);
   ASSERT_TRUE(rig.rectified.has_value());

@@ -28,6 +28,9 @@ TEST(ReadPosesCsv, ReadsTheSimulatorsColumnsAndKeepsNonFiniteValuesForLater) {
   // Heading 90 deg (east): the vehicle's forward axis (Y) points along world x.
   const Eigen::Vector3d forward = poses[0].WorldFromVehicle().linear() * Eigen::Vector3d::UnitY();
   EXPECT_NEAR(forward.x(), std::cos(M_PI / 180), 1e-9);
+  // A spreadsheet's byte-order mark before the header.
+  io::WriteFileAtomic(path, "\xEF\xBB\xBFstem,t_s,x_m,y_m,z_m,heading_deg,pitch_deg,roll_deg\n000000,0,1,2,0,0,0,0\n");
+  ASSERT_EQ(ReadPosesCsv(path).size(), 1u);
 }
 
 TEST(ReadPosesCsv, NamesFileAndLineOfABadRow) {

@@ -30,6 +30,10 @@ TEST(ReadWindowRequests, ReadsStemsIntervalsAndLines) {
   EXPECT_EQ(requests[1].stem, "frame0002");
   EXPECT_EQ(requests[1].line, 5);
   EXPECT_TRUE(ReadWindowRequests(Write(tmp, "stem,y_min_m,y_max_m\n")).empty());
+  // A spreadsheet's byte-order mark before the header.
+  const auto bom = ReadWindowRequests(Write(tmp, "\xEF\xBB\xBFstem,y_min_m,y_max_m\na,2,3\n"));
+  ASSERT_EQ(bom.size(), 1u);
+  EXPECT_EQ(bom[0].stem, "a");
 }
 
 TEST(ReadWindowRequests, BadFilesNameTheLineAndTheReason) {
