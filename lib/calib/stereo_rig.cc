@@ -20,8 +20,10 @@ void CheckRotation(const Eigen::Matrix3d& r, const std::string& where) {
       << where << ": not a rotation matrix (R^T R = I and det R = 1 within 1e-6)";
 }
 
-void CheckCamera(const CameraIntrinsics& c, int width, int height, const std::string& where) {
-  const Eigen::Matrix3d& k = c.K;
+}  // namespace
+
+void CameraIntrinsics::Validate(int width, int height, const std::string& where) const {
+  const Eigen::Matrix3d& k = K;
   LN_CHECK_INPUT(k.allFinite()) << where << ".K: not finite";
   LN_CHECK_INPUT(k(0, 0) > 0 && k(1, 1) > 0) << where << ".K: focal lengths must be positive, got fx "
                                               << k(0, 0) << ", fy " << k(1, 1);
@@ -30,13 +32,11 @@ void CheckCamera(const CameraIntrinsics& c, int width, int height, const std::st
   LN_CHECK_INPUT(k(0, 2) > -width && k(0, 2) < 2.0 * width && k(1, 2) > -height && k(1, 2) < 2.0 * height)
       << where << ".K: principal point (" << k(0, 2) << ", " << k(1, 2) << ") far outside the "
       << width << "x" << height << " image";
-  const std::size_t n = c.distortion.size();
+  const std::size_t n = distortion.size();
   LN_CHECK_INPUT(n == 0 || n == 4 || n == 5 || n == 8)
       << where << ".distortion: expected 0, 4, 5 or 8 coefficients (OpenCV order), got " << n;
-  for (double d : c.distortion) LN_CHECK_INPUT(std::isfinite(d)) << where << ".distortion: not finite";
+  for (double d : distortion) LN_CHECK_INPUT(std::isfinite(d)) << where << ".distortion: not finite";
 }
-
-}  // namespace
 
 Eigen::Matrix3d NearestRotation(const Eigen::Matrix3d& m) {
   const Eigen::JacobiSVD<Eigen::Matrix3d> svd(m, Eigen::ComputeFullU | Eigen::ComputeFullV);
@@ -130,8 +130,8 @@ Eigen::Isometry3d StereoRig::VehicleFromRight() const {
 void StereoRig::Validate(const std::string& source) const {
   LN_CHECK_INPUT(width_px > 0 && height_px > 0 && width_px <= 100000 && height_px <= 100000)
       << source << ".image_size_px: must be positive";
-  CheckCamera(left, width_px, height_px, source + ".left");
-  CheckCamera(right, width_px, height_px, source + ".right");
+  left.Validate(width_px, height_px, source + ".left");
+  right.Validate(width_px, height_px, source + ".right");
   CheckRotation(right_from_left_R, source + ".right_from_left.R");
   LN_CHECK_INPUT(right_from_left_t_m.allFinite() && BaselineM() > 1e-6)
       << source << ".right_from_left.t_m: the baseline must be positive";

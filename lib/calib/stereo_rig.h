@@ -22,6 +22,10 @@ struct CameraIntrinsics {
   Eigen::Matrix3d K = Eigen::Matrix3d::Identity();  ///< [fx 0 cx; 0 fy cy; 0 0 1], pixels.
   /// OpenCV order: k1 k2 p1 p2 [k3 [k4 k5 k6]]; empty = no distortion.
   std::vector<double> distortion;
+  /// @throws InputError naming `where` (e.g. "rig.json.left"): K not finite or not
+  /// [[fx, s, cx], [0, fy, cy], [0, 0, 1]] with positive focal lengths and a principal point
+  /// near the width x height image, or not 0, 4, 5 or 8 distortion coefficients (finite).
+  void Validate(int width, int height, const std::string& where) const;
 };
 
 /// Where the stereo head sits on the mast, in the vehicle frame.

@@ -238,6 +238,7 @@ StereoRig ReadOpenCvCalibration(const std::filesystem::path& intrinsics,
     CameraIntrinsics c;
     cv::cv2eigen(m, c.K);
     for (int i = 0; i < static_cast<int>(d.total()); ++i) c.distortion.push_back(d.at<double>(i));
+    c.Validate(width_px, height_px, in_name + ": " + m_name);  // named where it was read
     return c;
   };
   rig.left = camera("M1", "D1");

@@ -142,6 +142,17 @@ TEST(ReadOpenCvCalibration, AgreesWithTheJsonItProduces) {
   EXPECT_THROW(ReadOpenCvCalibration(tmp.path() / "missing.yml", tmp.path() / "extrinsics.yml", 640, 480, 0.1,
                                      truth.mast),
                InputError);
+  // A zero focal length is the intrinsics file's fault, and its message names that file.
+  StereoRig flat = truth;
+  flat.right.K(0, 0) = 0;
+  testing::WriteOpenCvCalibration(tmp.path(), flat, 0.1);
+  try {
+    ReadOpenCvCalibration(tmp.path() / "intrinsics.yml", tmp.path() / "extrinsics.yml", 640, 480, 0.1, truth.mast);
+    ADD_FAILURE() << "accepted a zero focal length";
+  } catch (const InputError& e) {
+    EXPECT_NE(std::string(e.what()).find("intrinsics.yml: M2.K: focal lengths must be positive"), std::string::npos)
+        << e.what();
+  }
 }
 
 TEST(ReadOpenCvCalibration, ReadsTheXmlFormToo) {
