@@ -86,6 +86,23 @@ json MapEvalOptions::ToJson() const {
           {"corridor_width_m", corridor_width_m}};
 }
 
+namespace {
+
+// A pose of truth/poses.csv placed with the simulator's convention, with which it wrote the
+// truth (code of the evaluation's own, not the mapper's).
+Eigen::Isometry3d TrueWorldFromVehicle(const mapping::FramePose& p) {
+  sim::VehiclePose pose;
+  pose.x_m = p.x_m;
+  pose.y_m = p.y_m;
+  pose.z_m = p.z_m;
+  pose.heading_rad = p.heading_rad;
+  pose.pitch_rad = p.pitch_rad;
+  pose.roll_rad = p.roll_rad;
+  return pose.WorldFromVehicle();
+}
+
+}  // namespace
+
 bool TrueRock::InUpperHalf(double x, double y) const {
   const double a = angle_deg * M_PI / 180.0, dx = x - x_m, dy = y - y_m;
   const double u = (std::cos(a) * dx + std::sin(a) * dy) / semi_major_m;
@@ -270,14 +287,7 @@ io::GeoRaster TrueRayCounts(const fs::path& sim_dir, const std::vector<std::stri
   std::vector<std::vector<std::pair<std::int64_t, std::int64_t>>> cells(stems.size());
   util::ParallelForEachItem(stems.size(), num_threads, [&](std::size_t k) {
     const mapping::FramePose& p = poses.at(stems[k]);
-    sim::VehiclePose pose;  // the simulator's convention, with which it wrote the truth
-    pose.x_m = p.x_m;
-    pose.y_m = p.y_m;
-    pose.z_m = p.z_m;
-    pose.heading_rad = p.heading_rad;
-    pose.pitch_rad = p.pitch_rad;
-    pose.roll_rad = p.roll_rad;
-    const Eigen::Isometry3d world_from_vehicle = pose.WorldFromVehicle();
+    const Eigen::Isometry3d world_from_vehicle = TrueWorldFromVehicle(p);
     const fs::path xyz_path = sim_dir / "truth" / "xyz" / (stems[k] + ".exr");
     const fs::path disparity_path = sim_dir / "truth" / "disparity" / (stems[k] + ".pfm");
     const io::ExrImage xyz = io::ReadExr(xyz_path);
@@ -446,14 +456,7 @@ void MeasureCorridorGaps(const io::GeoRaster& map, const io::GeoRaster& seen, co
     const auto it = poses.find(stem);
     LN_CHECK_INPUT(it != poses.end()) << "stem " << stem << ": no pose in " << poses_path.string();
     const mapping::FramePose& p = it->second;
-    sim::VehiclePose pose;  // the simulator's convention, with which it wrote the truth
-    pose.x_m = p.x_m;
-    pose.y_m = p.y_m;
-    pose.z_m = p.z_m;
-    pose.heading_rad = p.heading_rad;
-    pose.pitch_rad = p.pitch_rad;
-    pose.roll_rad = p.roll_rad;
-    const Eigen::Isometry3d world_from_vehicle = pose.WorldFromVehicle();
+    const Eigen::Isometry3d world_from_vehicle = TrueWorldFromVehicle(p);
     const double y_lo = std::max(options.seen_min_y_m, interval.first);
     const double y_hi = std::min(options.seen_max_y_m, interval.second);
     int run = 0;
