@@ -232,14 +232,15 @@ TrajectoryErrors EvaluateTrajectory(const std::vector<StampedPose>& estimate,
                                     const TrajectoryEvalOptions& options) {
   options.Validate();
   std::vector<Eigen::Isometry3d> est, ref;
+  TrajectoryErrors errors;
   for (const StampedPose& p : estimate) {
     if (truth.empty() || p.t_s < truth.front().t_s || p.t_s > truth.back().t_s) continue;
     est.push_back(p.world_from_body);
     ref.push_back(InterpolatePose(truth, p.t_s));
+    errors.matched_t_s.push_back(p.t_s);
   }
   LN_CHECK_INPUT(est.size() >= 2) << "only " << est.size()
                                   << " estimated poses fall inside the truth's time span";
-  TrajectoryErrors errors;
   errors.poses_matched = static_cast<long>(est.size());
   errors.truth_has_attitude =
       std::all_of(truth.begin(), truth.end(), [](const StampedPose& p) { return p.has_attitude; });
@@ -255,6 +256,7 @@ TrajectoryErrors EvaluateTrajectory(const std::vector<StampedPose>& estimate,
     case Alignment::kRigid: align = RigidAlignment(est, ref); break;
     case Alignment::kRigid2d: align = RigidAlignment2d(est, ref); break;
   }
+  errors.alignment = align;
   std::vector<double> ape_t, ape_r;
   for (std::size_t i = 0; i < est.size(); ++i) {
     const Eigen::Isometry3d e = ref[i].inverse() * (align * est[i]);
@@ -324,6 +326,26 @@ TrajectoryErrors EvaluateTrajectory(const std::vector<StampedPose>& estimate,
   return errors;
 }
 
+double MeanPositionErrorAt(const std::vector<StampedPose>& estimate, const TrajectoryErrors& errors,
+                           const std::vector<StampedPose>& truth, const TrajectoryEvalOptions& options,
+                           const std::vector<double>& t_s, long* count) {
+  const bool horizontal = options.alignment == Alignment::kRigid2d;
+  double sum = 0;
+  long n = 0;
+  for (double t : t_s) {
+    if (estimate.empty() || truth.empty() || t < estimate.front().t_s || t > estimate.back().t_s ||
+        t < truth.front().t_s || t > truth.back().t_s) {
+      continue;
+    }
+    const Eigen::Vector3d d =
+        (errors.alignment * InterpolatePose(estimate, t)).translation() - InterpolatePose(truth, t).translation();
+    sum += horizontal ? d.head<2>().norm() : d.norm();
+    ++n;
+  }
+  *count = n;
+  return n > 0 ? sum / static_cast<double>(n) : NAN;
+}
+
 int RunTrajectoryCommand(const TrajectoryCommand& command, const nlohmann::json& summary_head) {
   util::Timer timer;
   TrajectoryEvalOptions options = command.options;
@@ -340,9 +362,11 @@ int RunTrajectoryCommand(const TrajectoryCommand& command, const nlohmann::json&
   io::CreateOutputDirectory(command.output_dir);
   const auto truth = ReadPoses(command.truth);
   std::vector<std::pair<std::string, TrajectoryErrors>> errors;
+  std::vector<std::vector<StampedPose>> estimates;
   nlohmann::json inputs = nlohmann::json::array();
   for (const auto& [name, path] : specs) {
-    errors.emplace_back(name, EvaluateTrajectory(ReadPoses(path), truth, options));
+    estimates.push_back(ReadPoses(path));
+    errors.emplace_back(name, EvaluateTrajectory(estimates.back(), truth, options));
     inputs.push_back({{"name", name}, {"trajectory", path.string()}});
   }
   const Table table = TrajectoryErrorsTable(errors, options);
@@ -354,30 +378,52 @@ int RunTrajectoryCommand(const TrajectoryCommand& command, const nlohmann::json&
                         {"rpe_delta_m", options.rpe_delta_m},
                         {"drift_segments_m", options.drift_segments_m}};
   summary["table"] = table.ToJson();
-  const TrajectoryErrors* reference = nullptr;
-  for (const auto& [name, e] : errors) {
-    if (name == command.reference) reference = &e;
+  std::size_t reference = errors.size();
+  for (std::size_t i = 0; i < errors.size(); ++i) {
+    if (errors[i].first == command.reference) reference = i;
+  }
+  // The ratio to the reference: both means at the same instants, the reference's own time
+  // stamps (an estimate written every row and a reference written once a second are
+  // otherwise averaged over different instants), those inside both spans.
+  std::vector<double> ratios(errors.size(), NAN);
+  std::vector<long> ratio_instants(errors.size(), 0);
+  if (reference < errors.size()) {
+    const TrajectoryErrors& ref = errors[reference].second;
+    for (std::size_t i = 0; i < errors.size(); ++i) {
+      std::vector<double> common;
+      const auto& est = estimates[i];
+      for (double t : ref.matched_t_s) {
+        if (t >= est.front().t_s && t <= est.back().t_s) common.push_back(t);
+      }
+      long n_est = 0, n_ref = 0;
+      const double mean_est = MeanPositionErrorAt(est, errors[i].second, truth, options, common, &n_est);
+      const double mean_ref = MeanPositionErrorAt(estimates[reference], ref, truth, options, common, &n_ref);
+      ratios[i] = mean_est / mean_ref;
+      ratio_instants[i] = n_est;
+    }
   }
   nlohmann::json per = nlohmann::json::object();
-  for (const auto& [name, e] : errors) {
+  for (std::size_t i = 0; i < errors.size(); ++i) {
+    const auto& [name, e] = errors[i];
     per[name] = {{"ape_mean_m", e.ape_translation_m.mean},
                  {"ape_rmse_m", e.ape_translation_m.rmse},
                  {"ape_max_m", e.ape_translation_m.max},
                  {"poses_matched", e.poses_matched}};
-    if (reference != nullptr) {
-      per[name]["ape_mean_ratio"] = e.ape_translation_m.mean / reference->ape_translation_m.mean;
+    if (reference < errors.size()) {
+      per[name]["ape_mean_ratio"] = ratios[i];
+      per[name]["ratio_instants"] = ratio_instants[i];
     }
   }
   summary["estimates"] = per;
   summary["timings_s"] = {{"total", timer.ElapsedSeconds()}};
   io::WriteJsonAtomic(command.output_dir / "summary.json", summary);
-  for (const auto& [name, e] : errors) {
+  for (std::size_t i = 0; i < errors.size(); ++i) {
+    const auto& [name, e] = errors[i];
     std::ostringstream line;
     line << "evaluate trajectory: " << name << ": mean position error " << e.ape_translation_m.mean << " m ("
          << command.alignment << " alignment)";
-    if (reference != nullptr && name != command.reference) {
-      line << ", " << e.ape_translation_m.mean / reference->ape_translation_m.mean << " x " << command.reference
-           << "'s";
+    if (reference < errors.size() && i != reference) {
+      line << ", " << ratios[i] << " x " << command.reference << "'s (at its " << ratio_instants[i] << " time stamps)";
     }
     LN_LOG(Info) << line.str();
   }

@@ -69,6 +69,10 @@ struct TrajectoryErrors {
   /// the relative errors compare displacements (the aligned estimate's against the truth's)
   /// instead of relative poses.
   bool truth_has_attitude = true;
+  /// The alignment applied to the estimate (world_from_estimate_world), and the time stamps
+  /// of the estimate's matched poses.
+  Eigen::Isometry3d alignment = Eigen::Isometry3d::Identity();
+  std::vector<double> matched_t_s;
 };
 
 /// The truth interpolated at the estimate's time stamps (linear in position, slerp in
@@ -80,6 +84,15 @@ TrajectoryErrors EvaluateTrajectory(const std::vector<StampedPose>& estimate,
 
 /// The truth's pose at time t (t inside its span), interpolated.
 Eigen::Isometry3d InterpolatePose(const std::vector<StampedPose>& truth, double t_s);
+
+/// The mean position error of `estimate`, aligned by `errors.alignment` (its own, from
+/// EvaluateTrajectory), at the instants `t_s` that lie inside both its span and the truth's
+/// (estimate and truth interpolated there; horizontal with the 2-D alignment); sets `count`
+/// to their number (NaN when none). Two estimates written at different rates are compared
+/// at the same instants so (`evaluate trajectory`'s ape_mean_ratio).
+double MeanPositionErrorAt(const std::vector<StampedPose>& estimate, const TrajectoryErrors& errors,
+                           const std::vector<StampedPose>& truth, const TrajectoryEvalOptions& options,
+                           const std::vector<double>& t_s, long* count);
 
 /// The inputs and options of `evaluate trajectory` (docs/evaluate.md).
 struct TrajectoryCommand {

@@ -6,6 +6,7 @@
 #include <cmath>
 #include <fstream>
 
+#include "io/json_io.h"
 #include "positioning/trajectory_io.h"
 #include "util/errors.h"
 #include "util/testing.h"
@@ -221,6 +222,44 @@ TEST(EvaluateTrajectory, ATinyRpeStepEndsWithOnePairPerConsecutivePoses) {
   const TrajectoryErrors e = EvaluateTrajectory(truth, truth, options);
   EXPECT_EQ(e.rpe_translation_m.count, 100);
   EXPECT_NEAR(e.rpe_translation_m.max, 0.0, 1e-9);
+}
+
+// Two estimates written at different rates are compared at the same instants: a 10 Hz
+// estimate whose error is 0.1 m at every whole second and up to 0.2 m between, against a
+// 1 Hz reference of the same poses at the whole seconds. Averaged over their own instants the
+// 10 Hz estimate looked 1.6 x worse; at the reference's instants it is the same trajectory
+// (ratio 1). A 10 Hz estimate 0.2 m off everywhere is 2 x the reference.
+TEST(EvaluateTrajectoryCommand, TheRatioComparesEstimatesOfDifferentRatesAtTheReferencesInstants) {
+  util::ScopedTempDir tmp;
+  auto truth = Drive();
+  truth.resize(401);  // the 20 m straight line, 0-40 s
+  auto wobbly = truth, coarse = truth, offset = truth;
+  coarse.clear();
+  for (std::size_t i = 0; i < wobbly.size(); ++i) {
+    wobbly[i].x_m += 0.1 + 0.1 * std::abs(std::sin(M_PI * wobbly[i].t_s));
+    offset[i].x_m += 0.2;
+    if (i % 10 == 0) coarse.push_back(wobbly[i]);
+  }
+  positioning::WriteTrajectoryTum(tmp.path() / "truth.tum", truth);
+  positioning::WriteTrajectoryTum(tmp.path() / "wobbly.tum", wobbly);
+  positioning::WriteTrajectoryTum(tmp.path() / "coarse.tum", coarse);
+  positioning::WriteTrajectoryTum(tmp.path() / "offset.tum", offset);
+  TrajectoryCommand command;
+  command.estimates = {"wobbly=" + (tmp.path() / "wobbly.tum").string(),
+                       "coarse=" + (tmp.path() / "coarse.tum").string(),
+                       "offset=" + (tmp.path() / "offset.tum").string()};
+  command.truth = tmp.path() / "truth.tum";
+  command.output_dir = tmp.path() / "ev";
+  command.alignment = "none";
+  command.reference = "coarse";
+  RunTrajectoryCommand(command, nlohmann::json::object());
+  const nlohmann::json e = io::ReadJson(tmp.path() / "ev" / "summary.json")["estimates"];
+  EXPECT_NEAR(e["coarse"]["ape_mean_m"].get<double>(), 0.1, 1e-9);
+  EXPECT_NEAR(e["wobbly"]["ape_mean_m"].get<double>(), 0.1 + 0.2 / M_PI, 2e-3);  // its own instants
+  EXPECT_NEAR(e["wobbly"]["ape_mean_ratio"].get<double>(), 1.0, 1e-9);
+  EXPECT_EQ(e["wobbly"]["ratio_instants"].get<long>(), 41);
+  EXPECT_NEAR(e["offset"]["ape_mean_ratio"].get<double>(), 2.0, 1e-9);
+  EXPECT_NEAR(e["coarse"]["ape_mean_ratio"].get<double>(), 1.0, 1e-12);
 }
 
 TEST(ReadPoses, CsvAndTumGiveTheSamePoses) {
