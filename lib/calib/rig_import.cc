@@ -10,6 +10,7 @@
 #include "calib/stereo_rig_io.h"
 #include "io/atomic_file.h"
 #include "io/json_io.h"
+#include "io/nesting.h"
 #include "util/check.h"
 #include "util/parse.h"
 #include "util/log.h"
@@ -25,10 +26,9 @@ namespace {
 // ---- YAML (ROS, Kalibr) ----
 
 YAML::Node LoadYaml(const fs::path& path) {
-  std::error_code ec;
-  LN_CHECK_INPUT(fs::is_regular_file(path, ec)) << path.string() << ": no such file";
+  const std::string text = io::ReadConfigText(path);  // size and nesting bounded first
   try {
-    YAML::Node root = YAML::LoadFile(path.string());
+    YAML::Node root = YAML::Load(text);
     LN_CHECK_INPUT(root.IsMap()) << path.string() << ": expected a YAML mapping at the top";
     return root;
   } catch (const YAML::Exception& e) {

@@ -7,6 +7,7 @@
 #include <opencv2/core/eigen.hpp>
 
 #include "io/json_io.h"
+#include "io/nesting.h"
 #include "util/check.h"
 #include "util/log.h"
 
@@ -213,11 +214,12 @@ StereoRig ReadOpenCvCalibration(const std::filesystem::path& intrinsics,
                                 int height_px, double metres_per_unit, const MastPose& mast) {
   LN_CHECK_ARG(metres_per_unit > 0) << "metres per unit: must be > 0";
   auto open = [](const std::filesystem::path& p) {
-    std::error_code ec;
-    LN_CHECK_INPUT(std::filesystem::is_regular_file(p, ec)) << p.string() << ": no such file";
+    // Read whole and checked first: OpenCV's parsers recurse once per nesting level (a file
+    // nested 50,000 deep overflowed the stack) and size their buffers from the file.
+    const std::string text = io::ReadConfigText(p);
     cv::FileStorage fs;
     try {
-      fs.open(p.string(), cv::FileStorage::READ);
+      fs.open(text, cv::FileStorage::READ | cv::FileStorage::MEMORY);
     } catch (const cv::Exception& e) {
       throw InputError(p.string() + ": not an OpenCV YAML/XML file (" + e.msg + ")");
     } catch (const std::exception& e) {  // e.g. std::length_error from the parser's buffers

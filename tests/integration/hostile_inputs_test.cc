@@ -289,6 +289,27 @@ std::vector<Case> Cases() {
       {"calibrate: an unknown option", "calibrate",
        [](const Workspace& w) { return std::vector<std::string>{w.Pairs(), "-o", w.At("out/rig.json"), "--frobnicate"}; },
        2, {"--frobnicate"}, {}},
+      // Signal deaths: a calibration nested 50,000 deep (100 KB) overflowed the stack of
+      // OpenCV's recursive parser. Every importer bounds a file's size and nesting before
+      // parsing it: bad input (exit 3) naming the file, the line and the limit.
+      {"calibrate --from opencv: a YAML file nested 50,000 deep", "calibrate",
+       [](const Workspace& w) {
+         WriteText(w.root / "deep.yml",
+                   "%YAML:1.0\n---\nM1: " + std::string(50000, '[') + std::string(50000, ']') + "\n");
+         const std::string deep = (w.root / "deep.yml").string();
+         return std::vector<std::string>{"--from", "opencv", deep, deep, "--image-size", "640x480",
+                                         "--square", "0.01", "-o", w.At("out/rig.json")};
+       },
+       3, {"deep.yml", "line 3", "nested deeper than 64"}, {}},
+      {"calibrate --from ros: a YAML mapping nested 5,000 levels by indentation", "calibrate",
+       [](const Workspace& w) {
+         std::string text;
+         for (int i = 0; i < 5000; ++i) text += std::string(static_cast<std::size_t>(i), ' ') + "k:\n";
+         WriteText(w.root / "deep.yaml", text + std::string(5000, ' ') + "1\n");
+         const std::string deep = (w.root / "deep.yaml").string();
+         return std::vector<std::string>{"--from", "ros", deep, deep, "-o", w.At("out/rig.json")};
+       },
+       3, {"deep.yaml", "line 65", "nested deeper than 64"}, {}},
       {"simulate: an unknown preset", "simulate",
        [](const Workspace& w) {
          return std::vector<std::string>{"telemetry", "--preset", "mars", "-o", w.Out()};
