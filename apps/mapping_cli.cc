@@ -39,6 +39,10 @@ void AddFusionOptions(CLI::App* app, mapping::TerrainMapOptions* map) {
   app->add_option("--obstacle-extremes", map->obstacles.extreme_k,
                   "the step rule's extremes of a cell: within this many roughnesses of its mean (inf: raw)")
       ->capture_default_str();
+  app->add_option("--max-map-cells", map->max_cells,
+                  "the largest map (width x height in cells); a pair that would make it larger is refused")
+      ->capture_default_str()
+      ->check(CLI::PositiveNumber);
 }
 
 void ApplyVehicleLimits(const calib::VehicleSpec& vehicle, mapping::TerrainMapOptions* map) {

@@ -55,7 +55,13 @@ int main(int argc, char** argv) {
                       : mapping::ReadPosesCsv(poses);
     std::optional<mapping::MapLayers> map;
     if (!map_dir.empty()) map = mapping::ReadMapElevation(map_dir);
-    const std::vector<mapping::PlannedWindow> plan = mapping::PlanWindows(frames, vehicle, opt, map ? &*map : nullptr);
+    const std::string source = poses.empty() ? trajectory.string() : poses.string();
+    std::vector<mapping::PlannedWindow> plan;
+    try {
+      plan = mapping::PlanWindows(frames, vehicle, opt, map ? &*map : nullptr);
+    } catch (const InputError& e) {  // about a pose: named by the file it came from
+      throw InputError(source + ": " + e.what());
+    }
     io::CreateOutputDirectory(output_dir);
     io::WriteFileAtomic(output_dir / "requests.csv", mapping::RequestsCsv(plan));
     io::WriteFileAtomic(output_dir / "plan.csv", mapping::PlanCsv(plan));

@@ -100,6 +100,18 @@ bool FramePose::IsFinite() const {
          std::isfinite(heading_rad) && std::isfinite(pitch_rad) && std::isfinite(roll_rad);
 }
 
+void FramePose::Validate(const std::string& source) const {
+  const std::string from = source.empty() ? "" : " (" + source + ")";
+  LN_CHECK_INPUT(IsFinite()) << "stem " << stem << ": the pose is not finite" << from;
+  const double far = std::max({std::abs(x_m), std::abs(y_m), std::abs(z_m)});
+  LN_CHECK_INPUT(far <= kMaxWorldCoordinateM)
+      << "stem " << stem << ": the pose (" << x_m << ", " << y_m << ", " << z_m << ") m lies beyond "
+      << kMaxWorldCoordinateM / 1000 << " km of the world origin, the maps' limit" << from;
+  const double turn = std::max({std::abs(heading_rad), std::abs(pitch_rad), std::abs(roll_rad)}) / kDeg;
+  LN_CHECK_INPUT(turn <= kMaxPoseAngleDeg)
+      << "stem " << stem << ": an angle of " << turn << " deg, beyond " << kMaxPoseAngleDeg << from;
+}
+
 std::vector<FramePose> ReadPosesCsv(const fs::path& path) {
   std::vector<FramePose> poses;
   std::set<std::string> seen;

@@ -32,7 +32,19 @@ struct FramePose {
   Eigen::Isometry3d WorldFromVehicle() const;
   /// True when all six values and the time are finite.
   bool IsFinite() const;
+  /// Throws InputError "stem S: ..." (`source`, when given, in brackets: the file the pose came from) when a
+  /// value is not finite, the position is farther than kMaxWorldCoordinateM from the origin
+  /// along an axis, or an angle exceeds kMaxPoseAngleDeg.
+  void Validate(const std::string& source) const;
 };
+
+/// The farthest a pose (and a mapped point) may lie from the world origin along x, y or z,
+/// metres: 1,000 km, beyond any traverse in one local frame, and within the maps' integer
+/// cell indices at the smallest cell (1 cm). docs/reliability.md.
+inline constexpr double kMaxWorldCoordinateM = 1e6;
+/// The largest heading, pitch or roll a pose may give (an unwrapped heading of many turns is
+/// fine; 1e300 deg is no angle), degrees.
+inline constexpr double kMaxPoseAngleDeg = 1e6;
 
 /// Reads the simulator's poses file (docs/formats.md, "Simulated poses"): '#' lines, a header
 /// starting `stem,t_s,x_m,y_m,z_m,heading_deg,pitch_deg,roll_deg` (more columns allowed), one

@@ -145,7 +145,7 @@ MapLoopSummary RunMapLoop(const MapLoopOptions& options, const fs::path& rect_di
   }
   if (!mo.trajectory.empty()) listed = InterpolateTrajectory(mo.trajectory, listed);
   for (const FramePose& p : listed) {
-    LN_CHECK_INPUT(p.IsFinite()) << "stem " << p.stem << ": the pose is not finite (" << pose_file.string() << ")";
+    p.Validate(pose_file.string());
   }
   std::stable_sort(listed.begin(), listed.end(), [](const FramePose& a, const FramePose& b) { return a.t_s < b.t_s; });
   const std::vector<FramePose> poses = std::move(listed);

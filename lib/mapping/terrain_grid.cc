@@ -5,6 +5,7 @@
 #include <cmath>
 #include <tuple>
 
+#include "mapping/frame_poses.h"
 #include "util/check.h"
 #include "util/errors.h"
 
@@ -82,6 +83,7 @@ void TerrainMapOptions::Validate() const {
   LN_CHECK_ARG(min_frames >= 1) << "min frames: must be >= 1";
   LN_CHECK_ARG(!window_m || (std::isfinite(*window_m) && *window_m >= 4 * cell_m))
       << "window-m: must be a finite size of at least 4 cells (" << 4 * cell_m << " m), got " << *window_m;
+  LN_CHECK_ARG(max_cells >= 1) << "max map cells: must be >= 1";
   obstacles.Validate();
 }
 
@@ -100,6 +102,7 @@ nlohmann::json TerrainMapOptions::ToJson() const {
           {"max_horizontal_sigma_cells", number(max_horizontal_sigma_cells)},
           {"min_frames", min_frames},
           {"window_m", window_m ? nlohmann::json(*window_m) : nlohmann::json(nullptr)},
+          {"max_cells", max_cells},
           {"obstacles", obstacles.ToJson()}};
 }
 
@@ -225,6 +228,11 @@ FrameContribution BinFrame(const cv::Mat& xyz, const cv::Mat& sigma, const Eigen
       const double wx = r(0, 0) * x + r(0, 1) * y + r(0, 2) * z + t.x();
       const double wy = r(1, 0) * x + r(1, 1) * y + r(1, 2) * z + t.y();
       const double wz = r(2, 0) * x + r(2, 1) * y + r(2, 2) * z + t.z();
+      if (!(std::abs(wx) <= kMaxWorldCoordinateM && std::abs(wy) <= kMaxWorldCoordinateM &&
+            std::abs(wz) <= kMaxWorldCoordinateM)) {  // off any map (and off the int32 cell indices)
+        ++out.points_out_of_range;
+        continue;
+      }
       const auto i = static_cast<std::int32_t>(std::floor(wx * inv_cell));
       const auto j = static_cast<std::int32_t>(std::floor(wy * inv_cell));
       i0 = std::min(i0, i);

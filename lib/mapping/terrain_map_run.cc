@@ -87,6 +87,55 @@ json FusionJson(const TerrainMapRunOptions& options, const std::string& errors) 
           {"errors", errors}};
 }
 
+// The map's size against TerrainMapOptions::max_cells: the bounding box of what was added,
+// kept as a union (recomputed from the grid when it outgrows the limit, since a window may
+// have dropped tiles since), so that the check costs nothing per pair until a map nears it.
+class ExtentGuard {
+ public:
+  ExtentGuard(std::int64_t max_cells, double cell_m) : max_cells_(max_cells), cell_m_(cell_m) {}
+  /// After `grid` gained cells inside `box` ({i0, j0, i1, j1}): InputError "WHAT: ..." when the
+  /// grid's mapped bounds now exceed the limit.
+  void Check(const TerrainGrid& grid, const std::optional<std::array<std::int64_t, 4>>& box, const std::string& what) {
+    if (!box) return;
+    if (!union_) {
+      union_ = box;
+    } else {
+      for (int k = 0; k < 2; ++k) (*union_)[k] = std::min((*union_)[k], (*box)[k]);
+      for (int k = 2; k < 4; ++k) (*union_)[k] = std::max((*union_)[k], (*box)[k]);
+    }
+    if (Cells(*union_) <= static_cast<double>(max_cells_)) return;
+    union_ = grid.MappedBounds();
+    if (!union_ || Cells(*union_) <= static_cast<double>(max_cells_)) return;
+    const double w = static_cast<double>((*union_)[2] - (*union_)[0] + 1), h = static_cast<double>((*union_)[3] - (*union_)[1] + 1);
+    throw InputError(util::Format("%s: the map would span %.0f x %.0f cells (%.3g x %.3g km), more than the largest map's "
+                                  "%lld cells (--max-map-cells; a pose or points far from the others? --window-m "
+                                  "keeps a window around the rover)",
+                                  what.c_str(), w, h, w * cell_m_ / 1000, h * cell_m_ / 1000,
+                                  static_cast<long long>(max_cells_)));
+  }
+
+ private:
+  static double Cells(const std::array<std::int64_t, 4>& b) {
+    return static_cast<double>(b[2] - b[0] + 1) * static_cast<double>(b[3] - b[1] + 1);
+  }
+  std::int64_t max_cells_;
+  double cell_m_;
+  std::optional<std::array<std::int64_t, 4>> union_;
+};
+
+// The cell box of a frame's contribution, or nothing when it added no cell.
+std::optional<std::array<std::int64_t, 4>> ContributionBox(const FrameContribution& c) {
+  std::optional<std::array<std::int64_t, 4>> b;
+  for (const auto& [index, stats] : c.cells) {
+    if (!b) b = std::array<std::int64_t, 4>{index.i, index.j, index.i, index.j};
+    (*b)[0] = std::min((*b)[0], index.i);
+    (*b)[1] = std::min((*b)[1], index.j);
+    (*b)[2] = std::max((*b)[2], index.i);
+    (*b)[3] = std::max((*b)[3], index.j);
+  }
+  return b;
+}
+
 // A map directory written by an earlier run: its grid, frames and fusion record.
 struct StoredMap {
   TerrainGrid grid{1.0};
@@ -221,7 +270,7 @@ TerrainMapRunSummary RunTerrainMap(const TerrainMapRunOptions& options, const fs
                  listed.end());
     if (!options.trajectory.empty()) listed = InterpolateTrajectory(options.trajectory, listed);
     for (const FramePose& p : listed) {
-      LN_CHECK_INPUT(p.IsFinite()) << "stem " << p.stem << ": the pose is not finite (" << pose_file.string() << ")";
+      p.Validate(pose_file.string());
     }
     std::stable_sort(listed.begin(), listed.end(), [](const FramePose& a, const FramePose& b) { return a.t_s < b.t_s; });
     todo = std::move(listed);
@@ -240,6 +289,7 @@ TerrainMapRunSummary RunTerrainMap(const TerrainMapRunOptions& options, const fs
   summary.frames_total = static_cast<long>(todo.size());
 
   TerrainGrid grid(mo.cell_m);
+  ExtentGuard extent(mo.max_cells, mo.cell_m);
   std::vector<FusedFrame> fused;
   std::set<std::string> known;
   const std::string errors_source = has_sigma      ? "xyz_sigma arrays"
@@ -270,6 +320,7 @@ TerrainMapRunSummary RunTerrainMap(const TerrainMapRunOptions& options, const fs
       fused.push_back(f);
     }
     grid.Merge(m.grid);
+    extent.Check(grid, grid.MappedBounds(), what);
     for (const auto& [key, value] : m.fusion.items()) {
       if (!fusion.contains(key)) fusion[key] = value;
     }
@@ -338,6 +389,7 @@ TerrainMapRunSummary RunTerrainMap(const TerrainMapRunOptions& options, const fs
       const FrameContribution& c = parts[k];
       grid.Add(c);
       if (mo.window_m) grid.KeepWindow(pose.x_m, pose.y_m, *mo.window_m);
+      extent.Check(grid, ContributionBox(c), "stem " + pose.stem);
       summary.points_in += c.points_in;
       summary.points_fused += c.points_fused;
       summary.points_rejected += c.points_rejected;

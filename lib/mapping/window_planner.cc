@@ -13,11 +13,18 @@
 namespace lunarnav::mapping {
 
 void WindowPlannerOptions::Validate() const {
-  LN_CHECK_ARG(std::isfinite(stereo_delay_s) && stereo_delay_s >= 0) << "stereo delay: must be >= 0 s";
-  LN_CHECK_ARG(std::isfinite(horizon_m) && horizon_m > 0) << "horizon: must be > 0 m";
-  LN_CHECK_ARG(std::isfinite(overlap_m) && overlap_m >= 0) << "overlap: must be >= 0 m";
-  LN_CHECK_ARG(std::isfinite(initial_speed_mps) && initial_speed_mps >= 0) << "initial speed: must be >= 0 m/s";
-  LN_CHECK_ARG(std::isfinite(initial_cycle_s) && initial_cycle_s >= 0) << "initial cycle: must be >= 0 s";
+  // Finite, and within what a rover's planner can mean (docs/reliability.md): a delay of
+  // 1e308 s made requests of 1e307 m.
+  LN_CHECK_ARG(std::isfinite(stereo_delay_s) && stereo_delay_s >= 0 && stereo_delay_s <= kMaxPlannerTimeS)
+      << "stereo delay: must be in [0, " << kMaxPlannerTimeS << "] s, got " << stereo_delay_s;
+  LN_CHECK_ARG(std::isfinite(horizon_m) && horizon_m > 0 && horizon_m <= kMaxRequestDistanceM)
+      << "horizon: must be in (0, " << kMaxRequestDistanceM << "] m, got " << horizon_m;
+  LN_CHECK_ARG(std::isfinite(overlap_m) && overlap_m >= 0 && overlap_m <= kMaxRequestDistanceM)
+      << "overlap: must be in [0, " << kMaxRequestDistanceM << "] m, got " << overlap_m;
+  LN_CHECK_ARG(std::isfinite(initial_speed_mps) && initial_speed_mps >= 0 && initial_speed_mps <= kMaxPlannerSpeedMps)
+      << "initial speed: must be in [0, " << kMaxPlannerSpeedMps << "] m/s, got " << initial_speed_mps;
+  LN_CHECK_ARG(std::isfinite(initial_cycle_s) && initial_cycle_s >= 0 && initial_cycle_s <= kMaxPlannerTimeS)
+      << "initial cycle: must be in [0, " << kMaxPlannerTimeS << "] s, got " << initial_cycle_s;
 }
 
 nlohmann::json WindowPlannerOptions::ToJson() const {
@@ -66,7 +73,7 @@ std::vector<PlannedWindow> PlanWindows(const std::vector<FramePose>& poses, cons
   o.Validate();
   LN_CHECK_INPUT(!poses.empty()) << "no pairs to plan";
   for (std::size_t k = 0; k < poses.size(); ++k) {
-    LN_CHECK_INPUT(poses[k].IsFinite()) << "stem " << poses[k].stem << ": the pose is not finite";
+    poses[k].Validate("");
     LN_CHECK_INPUT(k == 0 || poses[k].t_s > poses[k - 1].t_s)
         << "stem " << poses[k].stem << ": time " << poses[k].t_s << " s does not follow " << poses[k - 1].stem
         << "'s " << poses[k - 1].t_s << " s";
@@ -105,6 +112,12 @@ std::vector<PlannedWindow> PlanWindows(const std::vector<FramePose>& poses, cons
       w.covered_to_m = plan.back().y_max_m - forward;
       w.y_min_m = std::clamp(w.covered_to_m - o.overlap_m, w.y_need_m, std::max(w.y_need_m, w.y_max_m - o.overlap_m));
     }
+    // A request stereo can serve: finite and within kMaxRequestDistanceM (poses far apart in
+    // a short time made a speed, and a request, of any size).
+    LN_CHECK_INPUT(std::isfinite(w.y_min_m) && std::isfinite(w.y_max_m) && w.y_max_m <= kMaxRequestDistanceM)
+        << "stem " << p.stem << ": the request reaches " << w.y_max_m << " m (speed " << w.speed_mps
+        << " m/s over the last " << w.cycle_s << " s), beyond the " << kMaxRequestDistanceM
+        << " m a request may reach: poses far apart in a short time?";
     plan.push_back(w);
   }
   return plan;

@@ -17,6 +17,13 @@
 
 namespace lunarnav::mapping {
 
+/// The farthest a request may reach ahead of the vehicle, metres: far beyond any stereo rig's
+/// useful range; the planner's horizon and overlap are bounded by it too.
+inline constexpr double kMaxRequestDistanceM = 1000.0;
+/// The largest stereo delay and initial cycle, seconds (an hour), and initial speed, m/s.
+inline constexpr double kMaxPlannerTimeS = 3600.0;
+inline constexpr double kMaxPlannerSpeedMps = 100.0;
+
 struct WindowPlannerOptions {
   /// Time from taking a pair to its points being in the map, s, >= 0 (the paper: 0.7 s of
   /// matching per pair with the Figure 3 windows, sec. 3.4).

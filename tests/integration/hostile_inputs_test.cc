@@ -310,6 +310,24 @@ std::vector<Case> Cases() {
          return std::vector<std::string>{"--from", "ros", deep, deep, "-o", w.At("out/rig.json")};
        },
        3, {"deep.yaml", "line 65", "nested deeper than 64"}, {}},
+      // Values beyond any meaning: a stereo delay of 1e308 s made requests of 1e307 m, and two
+      // poses 1e-300 s apart made an infinite one (rows stereo-batch then refused). The planner's
+      // options are bounded (usage, exit 2, naming the option) and every request must reach less
+      // than 1000 m (bad input, exit 3, naming the file and the stem).
+      {"plan-windows: a stereo delay of 1e308 s", "plan-windows",
+       [](const Workspace& w) {
+         WriteText(w.root / "poses.csv",
+                   "stem,t_s,x_m,y_m,z_m,heading_deg,pitch_deg,roll_deg\n000000,0,0,0,0,0,0,0\n000001,3.2,0,0.48,0,0,0,0\n");
+         return std::vector<std::string>{"--poses", w.At("poses.csv"), "--stereo-delay", "1e308", "-o", w.Out()};
+       },
+       2, {"stereo delay", "3600"}, {}},
+      {"plan-windows: two poses 1e-300 s apart", "plan-windows",
+       [](const Workspace& w) {
+         WriteText(w.root / "poses.csv",
+                   "stem,t_s,x_m,y_m,z_m,heading_deg,pitch_deg,roll_deg\n000000,0,0,0,0,0,0,0\n000001,1e-300,0,0.48,0,0,0,0\n");
+         return std::vector<std::string>{"--poses", w.At("poses.csv"), "-o", w.Out()};
+       },
+       3, {"poses.csv", "stem 000001", "1000 m"}, {}},
       {"simulate: an unknown preset", "simulate",
        [](const Workspace& w) {
          return std::vector<std::string>{"telemetry", "--preset", "mars", "-o", w.Out()};

@@ -24,6 +24,7 @@
 #include "sim/layered_scene.h"
 #include "stereo/window_requests.h"
 #include "positioning/trajectory_io.h"
+#include "util/format.h"
 #include "util/testing.h"
 
 namespace lunarnav {
@@ -180,6 +181,43 @@ TEST(TerrainMapTool, BadInputsNameTheStemExitThreeAndWriteNothing) {
     EXPECT_EQ(run.exit_code, 3) << c.name << ": " << run.stderr_text;
     EXPECT_EQ(run.ErrorLines(), 1) << c.name << ": " << run.stderr_text;
     EXPECT_NE(run.stderr_text.find("stem " + c.stem), std::string::npos) << c.name << ": " << run.stderr_text;
+    EXPECT_FALSE(fs::exists(out)) << c.name;
+  }
+}
+
+// Giant grids: one pose 200 km from the others made a 2.2 GB raster (exit 0), one at 1e12 m
+// left files under their final names. A pair that would make the map larger than its limit
+// (2^24 cells, --max-map-cells) and a pose beyond 1,000 km of the origin are bad input naming
+// the stem and the limit, refused before anything is written, in moments.
+TEST(TerrainMapTool, APoseFarFromTheOthersIsRefusedBeforeAGiantMapIsMade) {
+  util::ScopedTempDir tmp;
+  WriteStereoDir(tmp.path() / "stereo", 0, 4);
+  struct Far {
+    const char* name;
+    double x_m;
+    std::vector<std::string> extra;
+    std::string words;
+  };
+  for (const Far& c : {Far{"200 km east", 2e5, {}, "more than the largest map's 16777216 cells"},
+                       Far{"1e12 m east", 1e12, {}, "beyond 1000 km of the world origin"},
+                       Far{"a small limit", 0, {"--max-map-cells", "100"}, "more than the largest map's 100 cells"}}) {
+    std::string poses = "stem,t_s,x_m,y_m,z_m,heading_deg,pitch_deg,roll_deg\n";
+    for (int k = 0; k < 4; ++k) {
+      const mapping::FramePose p = PoseOf(k);
+      poses += p.stem + "," + std::to_string(p.t_s) + "," + (k == 2 ? util::Format("%.17g", c.x_m) : "0") + "," +
+               std::to_string(p.y_m) + "," + std::to_string(p.z_m) + ",0,0,0\n";
+    }
+    io::WriteFileAtomic(tmp.path() / "poses.csv", poses);
+    const fs::path out = tmp.path() / "map";
+    std::vector<std::string> args = {(tmp.path() / "stereo").string(), "--poses", (tmp.path() / "poses.csv").string(),
+                                     "-o", out.string(), "-q"};
+    args.insert(args.end(), c.extra.begin(), c.extra.end());
+    const auto run = RunTool("terrain-map", args, tmp.path());
+    EXPECT_EQ(run.exit_code, 3) << c.name << ": " << run.stderr_text;
+    EXPECT_EQ(run.ErrorLines(), 1) << c.name << ": " << run.stderr_text;
+    EXPECT_NE(run.stderr_text.find(c.x_m > 0 ? "stem 000002" : "stem 00000"), std::string::npos)
+        << c.name << ": " << run.stderr_text;
+    EXPECT_NE(run.stderr_text.find(c.words), std::string::npos) << c.name << ": " << run.stderr_text;
     EXPECT_FALSE(fs::exists(out)) << c.name;
   }
 }
