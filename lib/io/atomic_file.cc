@@ -75,6 +75,15 @@ bool IsTempFileName(const fs::path& path) {
 }
 
 void CommitTempFile(const fs::path& temp, const fs::path& path) {
+  // Fault injection for the kill-and-resume tests (docs/reliability.md): with
+  // LUNARNAV_TEST_EXIT_BEFORE_COMMIT=k the process ends at once, as if killed, just before its
+  // k-th commit, leaving the temporary file behind.
+  static const long exit_before = [] {
+    const char* v = std::getenv("LUNARNAV_TEST_EXIT_BEFORE_COMMIT");
+    return v != nullptr ? std::atol(v) : 0L;
+  }();
+  static std::atomic<long> commits{0};
+  if (exit_before > 0 && ++commits == exit_before) std::_Exit(kTestKilledExitCode);
   std::error_code ec;
   fs::rename(temp, path, ec);
   if (ec) {

@@ -18,7 +18,13 @@ void WriteFileAtomic(const std::filesystem::path& path, std::string_view bytes);
 /// call): `.<name>.<host>-<pid>.<n>.lunarnav-tmp`.
 std::filesystem::path TempPathFor(const std::filesystem::path& path);
 
+/// The exit code of a process ended by LUNARNAV_TEST_EXIT_BEFORE_COMMIT (see CommitTempFile).
+inline constexpr int kTestKilledExitCode = 86;
+
 /// Renames a finished temporary file onto its final name (atomic on POSIX file systems).
+/// Every output file of every tool is committed here. For tests: with the environment variable
+/// LUNARNAV_TEST_EXIT_BEFORE_COMMIT=k the process ends (kTestKilledExitCode, no clean-up, as if
+/// killed) just before its k-th commit.
 void CommitTempFile(const std::filesystem::path& temp, const std::filesystem::path& path);
 
 /// A file written piece by piece under a temporary name and renamed by Commit(); destroyed

@@ -305,6 +305,59 @@ std::string FileText(const fs::path& path) {
   return std::string(std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>());
 }
 
+// A run killed at any moment leaves the old state or the new one: killed just before each of
+// its commits in turn (every rename of an output file, LUNARNAV_TEST_EXIT_BEFORE_COMMIT), first
+// while making a map of three pairs and then while continuing it with a fourth, and run again
+// with --resume, the map directory is byte for byte the uninterrupted runs' (summary.json
+// aside: timings), with no temporary file left.
+TEST(TerrainMapTool, AKillAtEveryCommitPointThenResumeGivesTheUninterruptedMap) {
+  util::ScopedTempDir tmp;
+  // Pairs 0-2, then 0-3 (the same three and a fourth).
+  const fs::path three = tmp.path() / "three", four = tmp.path() / "four";
+  WriteStereoDir(three, 0, 3);
+  WritePoses(three / "poses.csv", 3);
+  WriteStereoDir(four, 0, 4);
+  WritePoses(four / "poses.csv", 4);
+  auto run = [&](const fs::path& stereo, const fs::path& out, long exit_before_commit) {
+    if (exit_before_commit > 0) {
+      ::setenv("LUNARNAV_TEST_EXIT_BEFORE_COMMIT", std::to_string(exit_before_commit).c_str(), 1);
+    }
+    const auto r = RunTool("terrain-map", {stereo.string(), "--poses", (stereo / "poses.csv").string(), "--resume",
+                                           "-o", out.string(), "-q", "-j", "1"},
+                           tmp.path());
+    ::unsetenv("LUNARNAV_TEST_EXIT_BEFORE_COMMIT");
+    return r;
+  };
+  // The uninterrupted runs: three pairs, then the fourth.
+  const fs::path first = tmp.path() / "first", second = tmp.path() / "second";
+  ASSERT_EQ(run(three, first, 0).exit_code, 0);
+  fs::copy(first, second, fs::copy_options::recursive);
+  ASSERT_EQ(run(four, second, 0).exit_code, 0);
+  const std::vector<std::string> files = testing::DataFiles(second);
+  ASSERT_EQ(files, (std::vector<std::string>{"elevation.tif", "frames.csv", "preview.png", "state.tif"}));
+  for (const bool continuing : {false, true}) {
+    const fs::path& expected = continuing ? second : first;
+    int killed = 0;
+    for (long k = 1; k < 20; ++k) {
+      SCOPED_TRACE((continuing ? "continuing, killed before commit " : "first run, killed before commit ") +
+                   std::to_string(k));
+      const fs::path out = tmp.path() / ("killed-" + std::to_string(continuing) + "-" + std::to_string(k));
+      if (continuing) fs::copy(first, out, fs::copy_options::recursive);
+      const auto r = run(continuing ? four : three, out, k);
+      if (r.exit_code == 0) break;  // fewer commits than k: done
+      ASSERT_EQ(r.exit_code, io::kTestKilledExitCode) << r.stderr_text;
+      ++killed;
+      const auto resumed = run(continuing ? four : three, out, 0);
+      ASSERT_EQ(resumed.exit_code, 0) << resumed.stderr_text;
+      ASSERT_EQ(testing::DataFiles(out), files);
+      for (const std::string& f : files) {
+        EXPECT_TRUE(testing::ReadFileBytes(out / f) == testing::ReadFileBytes(expected / f)) << f;
+      }
+    }
+    EXPECT_GE(killed, 5);  // elevation.tif, state.tif, frames.csv, preview.png, summary.json
+  }
+}
+
 TEST(TerrainMapTool, ResumeAndMergeCannotDoubleCountOrMixFusions) {
   util::ScopedTempDir tmp;
   const fs::path all = tmp.path() / "all", first = tmp.path() / "first";
