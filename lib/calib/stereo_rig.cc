@@ -135,6 +135,16 @@ void StereoRig::Validate(const std::string& source) const {
   CheckRotation(right_from_left_R, source + ".right_from_left.R");
   LN_CHECK_INPUT(right_from_left_t_m.allFinite() && BaselineM() > 1e-6)
       << source << ".right_from_left.t_m: the baseline must be positive";
+  LN_CHECK_INPUT(BaselineM() <= kMaxBaselineM)
+      << source << ".right_from_left.t_m: a baseline of " << BaselineM() << " m, more than the " << kMaxBaselineM
+      << " m of any stereo rig (units: metres?)";
+  // Side by side: lunarnav matches along rows (horizontal stereo). The right camera's centre
+  // in the left camera's frame must lie more along x than along y and z.
+  const Eigen::Vector3d right_centre = -right_from_left_R.transpose() * right_from_left_t_m;
+  LN_CHECK_INPUT(std::abs(right_centre.x()) >= std::sqrt(0.5) * right_centre.norm())
+      << source << ".right_from_left: the right camera sits at (" << right_centre.x() << ", " << right_centre.y()
+      << ", " << right_centre.z() << ") m from the left one, not beside it: lunarnav matches along image rows "
+      << "(a vertical rig's images are turned 90 degrees and calibrated so)";
   LN_CHECK_INPUT(std::isfinite(mast.height_m) && std::isfinite(mast.lateral_offset_m) &&
                  std::isfinite(mast.forward_offset_m))
       << source << ".mast: not finite";

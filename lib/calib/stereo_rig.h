@@ -46,6 +46,10 @@ struct RectifiedGeometry {
   int width_px = 0, height_px = 0;  ///< Rectified image size.
 };
 
+/// The longest baseline a rig file may give, metres: beyond any stereo rig (a value in
+/// millimetres read as metres trips it).
+inline constexpr double kMaxBaselineM = 100.0;
+
 struct StereoRig {
   int width_px = 640, height_px = 480;  ///< Size of the raw images.
   CameraIntrinsics left, right;

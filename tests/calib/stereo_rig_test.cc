@@ -55,6 +55,22 @@ TEST(StereoRig, ValidateNamesImpossibleValues) {
   rig = testing::PaperRig();
   rig.mast.tilt_deg = 95;
   expect_invalid(rig, "tilt_deg");
+  // Silent acceptance, refused now: a baseline in millimetres read as metres (120 m), a vertical
+  // rig (the right camera 0.12 m below the left), and one 50 deg off the row direction; a rig
+  // toed 30 deg about the vertical, its right camera still beside the left, is a rig.
+  rig = testing::PaperRig();
+  rig.right_from_left_t_m = Eigen::Vector3d(-120, 0, 0);
+  expect_invalid(rig, "a baseline of 120 m, more than the 100 m");
+  rig = testing::PaperRig();
+  rig.right_from_left_t_m = Eigen::Vector3d(0, -0.12, 0);
+  expect_invalid(rig, "rig.json.right_from_left: the right camera sits at (0, 0.12, 0) m");
+  rig = testing::PaperRig();
+  rig.right_from_left_t_m = Eigen::Vector3d(-std::cos(50 * kDeg), -std::sin(50 * kDeg), 0) * 0.5;
+  expect_invalid(rig, "not beside it");
+  rig = testing::PaperRig();
+  rig.right_from_left_R = Eigen::AngleAxisd(30 * kDeg, Eigen::Vector3d::UnitY()).toRotationMatrix();
+  rig.right_from_left_t_m = -rig.right_from_left_R * Eigen::Vector3d(0.5, 0, 0);  // centre at +0.5 m x
+  EXPECT_NO_THROW(rig.Validate("rig.json"));
 }
 
 }  // namespace
