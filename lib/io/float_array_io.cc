@@ -54,8 +54,13 @@ std::string ExrHeaderProblem(const fs::path& path) {
   const auto file_size = static_cast<std::int64_t>(fs::file_size(path, ec));
   if (!in || ec) return "cannot read";
   unsigned char head[8];
-  if (!in.read(reinterpret_cast<char*>(head), 8)) return "";  // too short: OpenImageIO says so
-  if (!(head[0] == 0x76 && head[1] == 0x2f && head[2] == 0x31 && head[3] == 0x01)) return "";  // not EXR
+  if (!in.read(reinterpret_cast<char*>(head), 8)) return "shorter than its 8-byte header";
+  // OpenEXR's magic number: another format under an .exr name (a PNG) is not read as one.
+  if (!(head[0] == 0x76 && head[1] == 0x2f && head[2] == 0x31 && head[3] == 0x01)) {
+    const bool png = head[0] == 0x89 && head[1] == 'P' && head[2] == 'N' && head[3] == 'G';
+    const bool tiff = (head[0] == 'I' && head[1] == 'I') || (head[0] == 'M' && head[1] == 'M');
+    return std::string("not an OpenEXR file: no OpenEXR magic number") + (png ? ", a PNG's" : tiff ? ", a TIFF's" : "");
+  }
   const bool multipart = (head[5] & 0x10) != 0;
   auto read_string = [&](std::string* s) {
     s->clear();
@@ -95,7 +100,8 @@ ExrImage ReadExr(const fs::path& path) {
   std::error_code ec;
   LN_CHECK_INPUT(fs::is_regular_file(path, ec)) << path.string() << ": no such file";
   const std::string problem = ExrHeaderProblem(path);
-  LN_CHECK_INPUT(problem.empty()) << path.string() << ": corrupt OpenEXR file (" << problem << ")";
+  LN_CHECK_INPUT(problem.empty()) << path.string() << ": "
+                                  << (problem.rfind("not an", 0) == 0 ? problem : "corrupt OpenEXR file (" + problem + ")");
   ExrImage result;
   std::string error;
   if (!internal::Oiio().ReadFloat(path.string(), MaxImagePixels(), &result.pixels, &result.channel_names,

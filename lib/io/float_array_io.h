@@ -37,8 +37,9 @@ void WriteExrAtomic(const std::filesystem::path& path, const cv::Mat& image,
 /// @throws std::runtime_error when it cannot be loaded.
 void PreloadExrReader();
 
-/// Reads an OpenEXR (or any float image OpenImageIO reads) as float32.
-/// @throws InputError naming the file when it is missing, unreadable or not 2-D.
+/// Reads an OpenEXR file as float32 (through OpenImageIO).
+/// @throws InputError naming the file when it is missing, unreadable, not 2-D or not OpenEXR
+///         (another format under an .exr name, told by its magic number).
 ExrImage ReadExr(const std::filesystem::path& path);
 
 }  // namespace lunarnav::io

@@ -347,7 +347,7 @@ TerrainMapRunSummary RunTerrainMap(const TerrainMapRunOptions& options, const fs
   const int threads = util::EffectiveThreadCount(options.num_threads);
   const std::size_t block = static_cast<std::size_t>(2 * threads);
   cv::Size first_size;
-  std::string first_stem;
+  std::string first_stem, first_empty;
   for (std::size_t b0 = 0; b0 < todo.size(); b0 += block) {
     const std::size_t n = std::min(block, todo.size() - b0);
     std::vector<FrameContribution> parts(n);
@@ -398,6 +398,7 @@ TerrainMapRunSummary RunTerrainMap(const TerrainMapRunOptions& options, const fs
       summary.points_out_of_range += c.points_out_of_range;
       fused.push_back({pose, c.points_fused, c.points_rejected});
       ++summary.frames_fused;
+      if (c.points_in == 0 && summary.frames_without_points++ == 0) first_empty = pose.stem;
     }
   }
   summary.fuse_seconds = fuse_timer.ElapsedSeconds();
@@ -405,6 +406,17 @@ TerrainMapRunSummary RunTerrainMap(const TerrainMapRunOptions& options, const fs
   std::stable_sort(fused.begin(), fused.end(),
                    [](const FusedFrame& a, const FusedFrame& b) { return a.pose.t_s < b.pose.t_s; });
   if (mo.window_m && !fused.empty()) grid.KeepWindow(fused.back().pose.x_m, fused.back().pose.y_m, *mo.window_m);
+
+  // Silent emptiness is a warning: pairs whose XYZ arrays are all NaN (a blank pair, or the
+  // wrong directory), and a map with nothing in it (no elevation.tif).
+  if (summary.frames_without_points > 0) {
+    summary.warnings.push_back(util::Format("%ld of %ld pairs had no valid point in their XYZ arrays (all NaN; the first: stem %s)",
+                                            summary.frames_without_points, summary.frames_fused, first_empty.c_str()));
+  }
+  if (grid.MappedCells() == 0) {
+    summary.warnings.push_back("nothing was mapped: no point of any pair was fused, so no elevation.tif is written");
+  }
+  for (const std::string& w : summary.warnings) LN_LOG(Warning) << w;
 
   // Outputs.
   util::Timer write_timer;
@@ -464,7 +476,8 @@ TerrainMapRunSummary RunTerrainMap(const TerrainMapRunOptions& options, const fs
                  {"points_rejected", summary.points_rejected}, {"points_floating", summary.points_floating},
                  {"points_unsupported", summary.points_unsupported},
                  {"points_out_of_range", summary.points_out_of_range},
-                 {"mapped_cells", summary.mapped_cells},     {"obstacle_cells", summary.obstacle_cells}};
+                 {"mapped_cells", summary.mapped_cells},     {"obstacle_cells", summary.obstacle_cells},
+                 {"frames_without_points", summary.frames_without_points}};
   j["timings_s"] = {{"total", summary.seconds},
                     {"read_and_fuse", summary.fuse_seconds},
                     {"read_and_fuse_cpu", summary.fuse_cpu_seconds},
@@ -474,6 +487,7 @@ TerrainMapRunSummary RunTerrainMap(const TerrainMapRunOptions& options, const fs
   j["points_per_second"] = summary.fuse_seconds > 0 ? summary.points_in / summary.fuse_seconds : 0.0;
   j["points_per_cpu_second"] = summary.fuse_cpu_seconds > 0 ? summary.points_in / summary.fuse_cpu_seconds : 0.0;
   j["peak_memory_mib"] = summary.peak_memory_mib;
+  j["warnings"] = summary.warnings;
   io::WriteJsonAtomic(out / "summary.json", j);
   return summary;
 }

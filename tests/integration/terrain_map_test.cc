@@ -10,6 +10,8 @@
 #include <gtest/gtest.h>
 #include <nlohmann/json.hpp>
 #include <opencv2/core.hpp>
+#include <limits>
+
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
 
@@ -220,6 +222,39 @@ TEST(TerrainMapTool, APoseFarFromTheOthersIsRefusedBeforeAGiantMapIsMade) {
     EXPECT_NE(run.stderr_text.find(c.words), std::string::npos) << c.name << ": " << run.stderr_text;
     EXPECT_FALSE(fs::exists(out)) << c.name;
   }
+}
+
+// Silent acceptance: all-NaN XYZ arrays made an empty map with exit 0 and not a word, and a
+// PNG named .exr was read as XYZ. Now the empty map is said (a warning, in summary.json too)
+// and the PNG is bad input naming the file.
+TEST(TerrainMapTool, SaysWhenNothingIsMappedAndRefusesAnotherFormatNamedExr) {
+  util::ScopedTempDir tmp;
+  WriteStereoDir(tmp.path() / "stereo", 0, 2);
+  WritePoses(tmp.path() / "poses.csv", 2);
+  for (const char* stem : {"000000", "000001"}) {
+    io::WriteExrAtomic(tmp.path() / "stereo" / "xyz" / (std::string(stem) + ".exr"),
+                       cv::Mat(160, 240, CV_32FC3, cv::Scalar::all(std::numeric_limits<float>::quiet_NaN())));
+  }
+  const fs::path out = tmp.path() / "map";
+  const std::vector<std::string> args = {(tmp.path() / "stereo").string(), "--poses",
+                                         (tmp.path() / "poses.csv").string(), "-o", out.string(), "-q"};
+  const auto empty = RunTool("terrain-map", args, tmp.path());
+  EXPECT_EQ(empty.exit_code, 0) << empty.stderr_text;
+  EXPECT_NE(empty.stderr_text.find("warning: 2 of 2 pairs had no valid point"), std::string::npos) << empty.stderr_text;
+  EXPECT_NE(empty.stderr_text.find("nothing was mapped"), std::string::npos) << empty.stderr_text;
+  EXPECT_FALSE(fs::exists(out / "elevation.tif"));
+  const nlohmann::json summary = io::ReadJson(out / "summary.json");
+  EXPECT_EQ(summary["counts"]["frames_without_points"], 2);
+  EXPECT_EQ(summary["warnings"].size(), 2u);
+  // A PNG under an .exr name.
+  fs::remove_all(out);
+  cv::imwrite((tmp.path() / "stereo" / "xyz" / "000001.png").string(), cv::Mat(160, 240, CV_8UC3, cv::Scalar::all(9)));
+  fs::rename(tmp.path() / "stereo" / "xyz" / "000001.png", tmp.path() / "stereo" / "xyz" / "000001.exr");
+  const auto png = RunTool("terrain-map", args, tmp.path());
+  EXPECT_EQ(png.exit_code, 3) << png.stderr_text;
+  EXPECT_NE(png.stderr_text.find("000001.exr: not an OpenEXR file: no OpenEXR magic number, a PNG's"), std::string::npos)
+      << png.stderr_text;
+  EXPECT_FALSE(fs::exists(out));
 }
 
 // A window of no size is a usage error naming the option (it was taken for "no window").
