@@ -194,7 +194,10 @@ ShardMergeResult MergeShardSummaries(const fs::path& output_dir, const ShardMerg
   options.Validate();
   std::vector<ShardFile> files = FindShardFiles(output_dir);
   util::ParallelForEachItem(files.size(), options.num_threads,
-                            [&](std::size_t i) { files[i].summary = ReadJson(files[i].path); });
+                            [&](std::size_t i) {
+                              files[i].summary = ReadJsonBounded(files[i].path, kMaxShardSummaryBytes,
+                                                                 kMaxShardSummaryValues);
+                            });
   for (const ShardFile& f : files) CheckShardSummary(f);
   const ShardFile& first = files.front();
   for (const ShardFile& f : files) CheckSameBatch(first, f);

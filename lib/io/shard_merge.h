@@ -5,6 +5,7 @@
 // batch tool (stereo-batch, rectify, terrain-map); docs/cluster.md.
 #pragma once
 
+#include <cstdint>
 #include <filesystem>
 #include <functional>
 #include <optional>
@@ -30,6 +31,12 @@ std::string ListingDigest(const std::vector<std::string>& names);
 /// "stereo-pairs" (io::ListStereoPairs); used to name the items of missing shards.
 std::optional<std::vector<std::string>> RelistItems(const std::string& kind,
                                                     const std::filesystem::path& input_dir);
+
+/// The largest shard summary read: 256 MiB of text and 4 million JSON values (a stereo-batch
+/// summary holds about 60 values per pair: some 60,000 pairs per shard; a larger batch takes
+/// more shards). Beyond either, the file is bad input, refused before it costs gigabytes.
+inline constexpr std::uintmax_t kMaxShardSummaryBytes = std::uintmax_t{256} << 20;
+inline constexpr long kMaxShardSummaryValues = 4'000'000;
 
 struct ShardMergeOptions {
   /// Where the inputs are, to name the items of missing shards; empty = the `input_dir` the

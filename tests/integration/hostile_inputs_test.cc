@@ -260,6 +260,18 @@ std::vector<Case> Cases() {
          return std::vector<std::string>{w.Out(), "-q"};
        },
        3, {"summary.shard-0-of-2.json"}, {}},
+      // A shard summary of 4.5 million tiny values (9 MB here; 108 MB took 3.5 GB to refuse):
+      // refused once it holds more values than a shard summary may, naming the file and limit.
+      {"shard-merge: a shard summary of 4.5 million values", "shard-merge",
+       [](const Workspace& w) {
+         fs::create_directories(w.out);
+         std::string text = "{\"pairs\": [0";
+         text.reserve(9'100'000);
+         for (int i = 0; i < 4'500'000; ++i) text += ",0";
+         WriteText(w.out / "summary.shard-0-of-2.json", text + "]}");
+         return std::vector<std::string>{w.Out(), "-q"};
+       },
+       3, {"summary.shard-0-of-2.json", "more than 4000000 JSON values"}, {}},
       // evaluate: damaged disparity maps are those items' failures.
       {"evaluate: a PFM with a negative size and one cut short", "evaluate",
        [](const Workspace& w) {

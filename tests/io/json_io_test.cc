@@ -30,6 +30,25 @@ TEST(ReadJson, BadSyntaxAndOverflowingNumbersAreInputErrorsNamingTheFile) {
   EXPECT_DOUBLE_EQ(ReadJson(path)["focal_px"].get<double>(), 1e300);
 }
 
+// A file whose size its writer chose is refused from its size before reading, and once it
+// holds more values than allowed while parsing; within both it reads as ReadJson does.
+TEST(ReadJsonBounded, RefusesFilesAboveTheirSizeOrValueCountNamingTheLimit) {
+  util::ScopedTempDir tmp;
+  const auto path = tmp.path() / "summary.shard-0-of-2.json";
+  std::ofstream(path) << "{\"a\": [1, 2, 3], \"b\": {\"c\": \"x\"}}";  // 7 values: the object, [1, 2, 3] and its three, b's object and "x"
+  EXPECT_EQ(ReadJsonBounded(path, 1000, 7), ReadJson(path));
+  auto refused = [&](std::uintmax_t bytes, long values, const std::string& words) {
+    try {
+      ReadJsonBounded(path, bytes, values);
+      ADD_FAILURE() << "accepted: " << words;
+    } catch (const InputError& e) {
+      EXPECT_NE(std::string(e.what()).find(words), std::string::npos) << e.what();
+    }
+  };
+  refused(1000, 6, "summary.shard-0-of-2.json: more than 6 JSON values");
+  refused(20, 100, "summary.shard-0-of-2.json: 33 bytes, more than the 20");
+}
+
 // The nesting bound counts what a recursive parser descends, with hand-counted depths:
 // YAML flow collections, block levels by indentation and "- " entries, XML elements; brackets
 // inside quoted scalars and comments are text, not levels.
