@@ -11,6 +11,9 @@
 #include "calib/vehicle.h"
 #include "io/float_array_io.h"
 #include "io/image_io.h"
+#include "io/shard_merge.h"
+#include "mapping/frame_poses.h"
+#include "mapping/window_planner.h"
 #include "positioning/trajectory_io.h"
 #include "stereo/window_requests.h"
 #include "telemetry/screening.h"
@@ -174,11 +177,37 @@ bool TrajectoryCsv(const std::uint8_t* data, std::size_t size) {
   return Refusing([&] { positioning::ReadTrajectoryCsv(path); });
 }
 
+bool PosesCsv(const std::uint8_t* data, std::size_t size) {
+  if (size == 0) return false;
+  const fs::path path = WriteScratch("poses.csv", Bytes(data + 1, size - 1));
+  if (data[0] % 2 == 1) return Refusing([&] { mapping::ReadFrameTimes(path); });
+  return Refusing([&] {
+    std::vector<mapping::FramePose> poses = mapping::ReadPosesCsv(path);
+    if (poses.size() > 1000) poses.resize(1000);  // the planner's cost, not its checks, grows with more
+    mapping::PlanWindows(poses, calib::VehicleSpec(), mapping::WindowPlannerOptions{});
+  });
+}
+
+bool ShardSummary(const std::uint8_t* data, std::size_t size) {
+  const auto [first, second] = SplitTwo(Bytes(data, size));
+  const fs::path dir = ScratchDir() / "shards";
+  std::error_code ignored;
+  fs::remove_all(dir, ignored);
+  fs::create_directories(dir);
+  WriteScratch("shards/summary.shard-0-of-2.json", first);
+  WriteScratch("shards/summary.shard-1-of-2.json", second);
+  io::ShardMergeOptions options;
+  options.num_threads = 1;
+  options.relist = [](const std::string&, const fs::path&) { return std::optional<std::vector<std::string>>(); };
+  return Refusing([&] { io::MergeShardSummaries(dir, options, nlohmann::json::object()); });
+}
+
 const std::vector<NamedTarget>& AllTargets() {
   static const std::vector<NamedTarget> targets = {
       {"telemetry_csv", TelemetryCsv}, {"sensor_json", SensorJson},   {"rig_json", RigJson},
       {"vehicle_json", VehicleJson},   {"rig_import", RigImport},     {"image", Image},
-      {"requests_csv", RequestsCsv},   {"trajectory_csv", TrajectoryCsv}};
+      {"requests_csv", RequestsCsv},   {"trajectory_csv", TrajectoryCsv}, {"poses_csv", PosesCsv},
+      {"shard_summary", ShardSummary}};
   return targets;
 }
 

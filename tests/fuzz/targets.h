@@ -27,6 +27,11 @@ bool RigImport(const std::uint8_t* data, std::size_t size);
 bool Image(const std::uint8_t* data, std::size_t size);
 bool RequestsCsv(const std::uint8_t* data, std::size_t size);   ///< stereo-batch --requests
 bool TrajectoryCsv(const std::uint8_t* data, std::size_t size); ///< evaluate's trajectories
+/// terrain-map's and plan-windows' --poses (and a map's frames.csv), then the planner on the
+/// poses read; or (first byte odd) a frame-times file.
+bool PosesCsv(const std::uint8_t* data, std::size_t size);
+/// shard-merge: two shard summaries (split at the first NUL) merged.
+bool ShardSummary(const std::uint8_t* data, std::size_t size);
 
 struct NamedTarget {
   const char* name;  ///< also the folder of its corpus under testdata/fuzz
