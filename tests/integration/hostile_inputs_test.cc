@@ -17,6 +17,7 @@
 #include "integration/hostile_files.h"
 #include "integration/run_tool.h"
 #include "io/atomic_file.h"
+#include "io/float_array_io.h"
 #include "io/image_io.h"
 #include "util/testing.h"
 
@@ -340,6 +341,73 @@ std::vector<Case> Cases() {
          return std::vector<std::string>{"--poses", w.At("poses.csv"), "-o", w.Out()};
        },
        3, {"poses.csv", "stem 000001", "1000 m"}, {}},
+      // Signal deaths and endless loops of the first probe, kept: a thread count of 2^31 - 1
+      // (SIGSEGV inside the thread library), shard numbers [0, 0] (SIGFPE), an RPE step of
+      // 1e-17 m (a loop that never advanced). Each runs to its documented end.
+      {"rectify: -j 2147483647", "rectify",
+       [](const Workspace& w) {
+         return std::vector<std::string>{w.boxes.string(), "-o", w.Out(), "--rig", w.At("rig.json"), "-q", "-j",
+                                         "2147483647"};
+       },
+       0, {}, {"left/000000.png", "left/000001.png", "right/000001.png"}},
+      {"shard-merge: summaries of shard [0, 0]", "shard-merge",
+       [](const Workspace& w) {
+         const std::string both = ReadFileBytes(TestDataPath("fuzz") / "shard_summary" / "regression-shard-zero-of-zero.json");
+         fs::create_directories(w.out);
+         WriteText(w.out / "summary.shard-0-of-2.json", both.substr(0, both.find('\0')));
+         return std::vector<std::string>{w.Out(), "-q"};
+       },
+       3, {"summary.shard-0-of-2.json", "shard"}, {}},
+      {"evaluate trajectory: an RPE step of 1e-17 m", "evaluate",
+       [](const Workspace& w) {
+         const std::string truth = (TestDataPath("telemetry") / "trial-a" / "truth.csv").string();
+         return std::vector<std::string>{"trajectory", "same=" + truth, "--truth", truth, "--rpe-delta", "1e-17",
+                                         "-o", w.Out(), "-q"};
+       },
+       0, {}, {"summary.json", "trajectory_errors.csv"}},
+      // Giant grids: a pose 1e12 m away (an internal error from OpenCV that left files under
+      // their final names; with --no-preview, every point in one overflowed cell).
+      {"terrain-map: a pose 1e12 m away", "terrain-map",
+       [](const Workspace& w) {
+         const fs::path stereo = w.root / "stereo";
+         cv::Mat xyz(30, 40, CV_32FC3);
+         for (int r = 0; r < xyz.rows; ++r) {
+           for (int c = 0; c < xyz.cols; ++c) xyz.at<cv::Vec3f>(r, c) = cv::Vec3f(0.1f * c - 2, 2 + 0.1f * r, 0);
+         }
+         io::WriteExrAtomic(stereo / "xyz" / "000000.exr", xyz);
+         io::WriteExrAtomic(stereo / "xyz" / "000001.exr", xyz);
+         WriteText(w.root / "poses.csv",
+                   "stem,t_s,x_m,y_m,z_m,heading_deg,pitch_deg,roll_deg\n000000,0,0,0,0,0,0,0\n000001,3.2,1e12,0.48,0,0,0,0\n");
+         return std::vector<std::string>{stereo.string(), "--poses", w.At("poses.csv"), "--no-preview", "-o", w.Out(), "-q"};
+       },
+       3, {"poses.csv", "stem 000001", "1000 km"}, {}},
+      // Silent acceptance by the importers: a baseline of 1.8e299 m (Middlebury, in mm), the
+      // right camera 0.3 m above the left (Kalibr), a projection of 1e305 px baseline (KITTI).
+      {"calibrate --from middlebury: a baseline of 1.8e302 mm", "calibrate",
+       [](const Workspace& w) {
+         std::string text = ReadFileBytes(TestDataPath("fuzz") / "rig_import" / "middlebury").substr(1);
+         text.replace(text.find("baseline=176.252"), 16, "baseline=1.8e302");
+         WriteText(w.root / "calib.txt", text);
+         return std::vector<std::string>{"--from", "middlebury", w.At("calib.txt"), "-o", w.At("out/rig.json")};
+       },
+       3, {"calib.txt", "100 m"}, {}},
+      {"calibrate --from kalibr: the right camera above the left", "calibrate",
+       [](const Workspace& w) {
+         std::string text = ReadFileBytes(TestDataPath("fuzz") / "rig_import" / "kalibr").substr(1);
+         text.replace(text.find("[1.0, 0.0, 0.0, -0.3]"), 21, "[1.0, 0.0, 0.0, 0.0]");
+         text.replace(text.find("[0.0, 1.0, 0.0, 0.001]"), 22, "[0.0, 1.0, 0.0, -0.3]");
+         WriteText(w.root / "camchain.yaml", text);
+         return std::vector<std::string>{"--from", "kalibr", w.At("camchain.yaml"), "-o", w.At("out/rig.json")};
+       },
+       3, {"camchain.yaml", "not beside it"}, {}},
+      {"calibrate --from kitti: a baseline term of 1e305", "calibrate",
+       [](const Workspace& w) {
+         std::string text = ReadFileBytes(TestDataPath("fuzz") / "rig_import" / "kitti").substr(1);
+         text.replace(text.find("-3.395242e+02"), 13, "-3.395242e+305");
+         WriteText(w.root / "calib_cam_to_cam.txt", text);
+         return std::vector<std::string>{"--from", "kitti", w.At("calib_cam_to_cam.txt"), "-o", w.At("out/rig.json")};
+       },
+       3, {"calib_cam_to_cam.txt", "100 m"}, {}},
       {"simulate: an unknown preset", "simulate",
        [](const Workspace& w) {
          return std::vector<std::string>{"telemetry", "--preset", "mars", "-o", w.Out()};
