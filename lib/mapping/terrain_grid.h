@@ -110,11 +110,12 @@ struct TerrainMapOptions {
   /// Side of the square window centred at the vehicle that the map keeps (the navigation
   /// map of sec. 3), metres; nothing = the whole traverse.
   std::optional<double> window_m;
-  /// The largest map, in cells of its bounding box (its rasters' width x height): 2^24, about
-  /// 1 km x 1 km of 25 cm cells and 2 GB of layers, state and preview at most. A pair whose
+  /// The largest map, in cells of its bounding box (its rasters' width x height): 2^22, about
+  /// 512 m x 512 m of 25 cm cells and 1 GB of layers, state and preview at most (some 240
+  /// bytes a cell: 7.9 million cells took 1.9 GB). A pair whose
   /// points would make the map larger (a pose or points far from the others) is refused,
   /// named; a longer traverse keeps a window (window_m). >= 1.
-  std::int64_t max_cells = std::int64_t{1} << 24;
+  std::int64_t max_cells = std::int64_t{1} << 22;
   ObstacleOptions obstacles;
   void Validate() const;  ///< std::invalid_argument naming the field.
   nlohmann::json ToJson() const;

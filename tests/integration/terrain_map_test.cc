@@ -188,7 +188,7 @@ TEST(TerrainMapTool, BadInputsNameTheStemExitThreeAndWriteNothing) {
 
 // Giant grids: one pose 200 km from the others made a 2.2 GB raster (exit 0), one at 1e12 m
 // left files under their final names. A pair that would make the map larger than its limit
-// (2^24 cells, --max-map-cells) and a pose beyond 1,000 km of the origin are bad input naming
+// (2^22 cells, --max-map-cells) and a pose beyond 1,000 km of the origin are bad input naming
 // the stem and the limit, refused before anything is written, in moments.
 TEST(TerrainMapTool, APoseFarFromTheOthersIsRefusedBeforeAGiantMapIsMade) {
   util::ScopedTempDir tmp;
@@ -199,7 +199,7 @@ TEST(TerrainMapTool, APoseFarFromTheOthersIsRefusedBeforeAGiantMapIsMade) {
     std::vector<std::string> extra;
     std::string words;
   };
-  for (const Far& c : {Far{"200 km east", 2e5, {}, "more than the largest map's 16777216 cells"},
+  for (const Far& c : {Far{"200 km east", 2e5, {}, "more than the largest map's 4194304 cells"},
                        Far{"1e12 m east", 1e12, {}, "beyond 1000 km of the world origin"},
                        Far{"a small limit", 0, {"--max-map-cells", "100"}, "more than the largest map's 100 cells"}}) {
     std::string poses = "stem,t_s,x_m,y_m,z_m,heading_deg,pitch_deg,roll_deg\n";
