@@ -425,6 +425,14 @@ TEST(TerrainMapTool, ResumeAndMergeCannotDoubleCountOrMixFusions) {
   EXPECT_EQ(gate.exit_code, 2);
   EXPECT_NE(gate.stderr_text.find("gate_k"), std::string::npos) << gate.stderr_text;
   EXPECT_EQ(io::ReadJson(tmp.path() / "m_gate" / "summary.json")["counts"]["frames_fused"], 3);
+  // Another disparity error for --rig's error model: refused naming it (exit 2).
+  const std::string rig = util::TestDataPath("boxes").string() + "/rig.json";
+  const std::string m_rig = (tmp.path() / "m_rig").string();
+  ASSERT_EQ(run({first.string(), "--rig", rig, "--sigma-d", "1", "-o", m_rig}, poses).exit_code, 0);
+  const auto sigma = run({all.string(), "--rig", rig, "--sigma-d", "2", "--resume", "-o", m_rig}, poses);
+  EXPECT_EQ(sigma.exit_code, 2) << sigma.stderr_text;
+  EXPECT_NE(sigma.stderr_text.find("sigma_d 2"), std::string::npos) << sigma.stderr_text;
+  EXPECT_EQ(io::ReadJson(fs::path(m_rig) / "summary.json")["counts"]["frames_fused"], 3);
   // Other poses for the frames a map holds: refused naming the stem (exit 3).
   const std::string moved = (tmp.path() / "moved.csv").string();
   std::string text = FileText(poses);
