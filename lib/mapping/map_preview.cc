@@ -7,15 +7,13 @@
 
 #include <opencv2/imgproc.hpp>
 
+#include "util/format.h"
+
 namespace lunarnav::mapping {
 
 namespace {
 
-std::string Metres(double v) {
-  char buf[32];
-  std::snprintf(buf, sizeof buf, "%.2f m", v);
-  return buf;
-}
+std::string Metres(double v) { return util::Format("%.2f m", v); }
 
 // A "nice" length near `target`: 1, 2 or 5 times a power of ten.
 double NiceLength(double target) {

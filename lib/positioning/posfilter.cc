@@ -9,6 +9,7 @@
 #include "io/atomic_file.h"
 #include "positioning/baseline.h"
 #include "util/check.h"
+#include "util/format.h"
 
 namespace lunarnav::positioning {
 namespace {
@@ -423,14 +424,12 @@ PosfilterResult Run(ScreenedRows& input, const std::string& source, const teleme
       std::min(options.baseline_heading_drift_dps * M_PI / 180.0 * duration_s, M_PI / 2);
   r.baseline_expected_drift_m = path_m * (options.baseline_drift_fraction + 0.5 * heading_drift_rad);
   if (r.baseline_end_difference_m > r.baseline_expected_drift_m) {
-    char text[400];
-    std::snprintf(text, sizeof(text),
+    r.warnings.push_back(util::Format(
                   "the filtered trajectory ends %.2f m from the plain baseline's end, more than the %.2f m the two "
                   "may drift apart (%.0f %% of %.1f m, and %.1f deg of gyro drift in %.0f s): check the screening "
                   "counts and the heading filter's states (docs/posfilter.md, \"Baseline\")",
                   r.baseline_end_difference_m, r.baseline_expected_drift_m, 100 * options.baseline_drift_fraction,
-                  path_m, heading_drift_rad * 180 / M_PI, duration_s);
-    r.warnings.push_back(text);
+                  path_m, heading_drift_rad * 180 / M_PI, duration_s));
   }
   for (const telemetry::ScreenedLog::Share& w : r.screened.Warnings()) r.warnings.push_back(w.Message());
   // Which states were estimated.
@@ -440,8 +439,7 @@ PosfilterResult Run(ScreenedRows& input, const std::string& source, const teleme
                              : have_compass ? "held at prior 0 (no scale state configured)"
                                             : "held at prior 0 (no compass: the scale is not observable)";
     const long still = kalman->stationary_samples();
-    char bias_sigma[64];
-    std::snprintf(bias_sigma, sizeof(bias_sigma), "%.3f", kalman->gyro_bias_sigma_radps() * 180.0 / M_PI);
+    const std::string bias_sigma = util::Format("%.3f", kalman->gyro_bias_sigma_radps() * 180.0 / M_PI);
     r.states["gyro_bias"] =
         !options.kalman.estimate_gyro_bias ? "held at prior 0 (bias estimation off)"
         : still > 0 ? "estimated from " + std::to_string(kalman->stationary_periods()) + " stationary period(s), " +
@@ -511,25 +509,17 @@ HeadingStreamsWriter::~HeadingStreamsWriter() = default;
 void HeadingStreamsWriter::Add(const PoseOutput& row) {
   const double deg = 180.0 / M_PI;
   auto angle = [](double d) { d = std::fmod(d, 360.0); return d < 0 ? d + 360.0 : d; };
-  char buf[160];
+  // (util::Format: a sensor file's scale may make any value; a fixed buffer would cut the row.)
   std::string& text = impl_->text;
   text += std::to_string(row.pose.t_s);
   text += ',';
   if (!std::isnan(row.compass_count)) {
-    std::snprintf(buf, sizeof(buf), "%.4f", angle(impl_->compass.ToRadians(row.compass_count) * deg));
-    text += buf;
+    text += util::Format("%.4f", angle(impl_->compass.ToRadians(row.compass_count) * deg));
   }
-  std::snprintf(buf, sizeof(buf), ",%.4f,", angle(row.pose.heading_rad * deg));
-  text += buf;
-  if (!std::isnan(row.gyro_count)) {
-    std::snprintf(buf, sizeof(buf), "%.4f", impl_->gyro.ToRadians(row.gyro_count) * deg);
-    text += buf;
-  }
+  text += util::Format(",%.4f,", angle(row.pose.heading_rad * deg));
+  if (!std::isnan(row.gyro_count)) text += util::Format("%.4f", impl_->gyro.ToRadians(row.gyro_count) * deg);
   text += ',';
-  if (!std::isnan(row.heading_rate_radps)) {
-    std::snprintf(buf, sizeof(buf), "%.4f", row.heading_rate_radps * deg);
-    text += buf;
-  }
+  if (!std::isnan(row.heading_rate_radps)) text += util::Format("%.4f", row.heading_rate_radps * deg);
   text += '\n';
   if (text.size() >= (1 << 20)) {
     impl_->file.Write(text);
