@@ -12,19 +12,6 @@ void WriteJsonAtomic(const std::filesystem::path& path, const nlohmann::json& va
   WriteFileAtomic(path, value.dump(2) + "\n");
 }
 
-nlohmann::json ReadJson(const std::filesystem::path& path) {
-  std::ifstream in(path);
-  LN_CHECK_INPUT(in.good()) << path.string() << ": cannot open";
-  try {
-    return nlohmann::json::parse(in);
-  } catch (const nlohmann::json::parse_error& e) {
-    throw InputError(path.string() + ": invalid JSON (" + e.what() + ")");
-  } catch (const nlohmann::json::exception& e) {
-    // e.g. a number beyond a double's range ("1e999"): bad input, named by its file.
-    throw InputError(path.string() + ": unusable JSON (" + e.what() + ")");
-  }
-}
-
 nlohmann::json ReadJsonBounded(const std::filesystem::path& path, std::uintmax_t max_bytes, long max_values) {
   std::error_code ec;
   const std::uintmax_t size = std::filesystem::file_size(path, ec);
@@ -47,8 +34,22 @@ nlohmann::json ReadJsonBounded(const std::filesystem::path& path, std::uintmax_t
   } catch (const nlohmann::json::parse_error& e) {
     throw InputError(path.string() + ": invalid JSON (" + e.what() + ")");
   } catch (const nlohmann::json::exception& e) {
+    // e.g. a number beyond a double's range ("1e999"): bad input, named by its file.
     throw InputError(path.string() + ": unusable JSON (" + e.what() + ")");
   }
+}
+
+// Any JSON file a tool reads (rigs, sensor and vehicle files, sidecars, summaries, trials):
+// at most 256 MiB and 4 million values, far above any the tools write (a stereo-batch summary
+// holds some 60 values a pair), far below what costs 2 GB to hold (docs/reliability.md).
+constexpr std::uintmax_t kMaxJsonBytes = std::uintmax_t{256} << 20;
+constexpr long kMaxJsonValues = 4'000'000;
+
+nlohmann::json ReadJson(const std::filesystem::path& path) {
+  std::error_code ec;
+  LN_CHECK_INPUT(std::filesystem::is_regular_file(path, ec))
+      << path.string() << ": cannot open (" << (std::filesystem::exists(path, ec) ? "not a file" : "no such file") << ")";
+  return ReadJsonBounded(path, kMaxJsonBytes, kMaxJsonValues);
 }
 
 }  // namespace lunarnav::io

@@ -47,6 +47,19 @@ TEST(ReadJsonBounded, RefusesFilesAboveTheirSizeOrValueCountNamingTheLimit) {
   };
   refused(1000, 6, "summary.shard-0-of-2.json: more than 6 JSON values");
   refused(20, 100, "summary.shard-0-of-2.json: 33 bytes, more than the 20");
+  // ReadJson, for every JSON file a tool reads, holds 4 million values at most.
+  {
+    std::ofstream out(path);
+    out << "[0";
+    for (int i = 0; i < 4'000'000; ++i) out << ",0";
+    out << "]";
+  }
+  try {
+    ReadJson(path);
+    ADD_FAILURE() << "accepted 4,000,002 values";
+  } catch (const InputError& e) {
+    EXPECT_NE(std::string(e.what()).find("more than 4000000 JSON values"), std::string::npos) << e.what();
+  }
 }
 
 // The nesting bound counts what a recursive parser descends, with hand-counted depths:
