@@ -204,7 +204,8 @@ TEST(StereoBatchRig, LeftReferenceAndSubsampledMapsTriangulateToTheSameGround) {
 TEST(StereoBatchRig, RangeYRestrictsRowsAndDisparitiesToTheBand) {
   Fixture fx;
   const fs::path full = fx.tmp.path() / "full", band = fx.tmp.path() / "band";
-  ASSERT_EQ(RunTool("stereo-batch", fx.Args(full, {"--disparity", "0:100"}), fx.tmp.path()).exit_code, 0);
+  const auto full_run = RunTool("stereo-batch", fx.Args(full, {"--disparity", "0:100"}), fx.tmp.path());
+  ASSERT_EQ(full_run.exit_code, 0) << full_run.stderr_text;
   const auto run = RunTool("stereo-batch", fx.Args(band, {"--range-y", "4.2:7.5", "--z-range", "-0.5:1.0"}),
                            fx.tmp.path());
   ASSERT_EQ(run.exit_code, 0) << run.stderr_text;
