@@ -3,6 +3,7 @@
 #include <sstream>
 #include <tuple>
 
+#include "util/format.h"
 #include "util/parse.h"
 
 namespace lunarnav::apps {
@@ -47,6 +48,13 @@ void AddMatcherOptions(CLI::App* app, MatcherCommandLine* cl, stereo::FrameCheck
   app->add_option("--p2-edge", given.semi_global.edge_levels,
                   "semi-global: P2 falls to P2 E / (E + g) across a grey-level step g (8-bit levels); 0 = constant")
       ->default_str(std::to_string(quality.semi_global.edge_levels));
+  app->add_option("--gradient-weight", given.semi_global.gradient_weight,
+                  "semi-global: census bits added per grey level (8-bit) of horizontal-gradient difference "
+                  "between the matched pixels (0 = census only)")
+      ->default_str(util::Format("%g", quality.semi_global.gradient_weight));
+  app->add_option("--gradient-cap", given.semi_global.gradient_cap_levels,
+                  "semi-global: the gradient difference counts up to this many grey levels (8-bit)")
+      ->default_str(std::to_string(quality.semi_global.gradient_cap_levels));
   app->add_option("--paths", given.semi_global.num_paths, "semi-global: aggregation directions, 4 or 8")
       ->default_str(std::to_string(quality.semi_global.num_paths));
   app->add_option("--uniqueness", given.semi_global.uniqueness,
@@ -98,6 +106,8 @@ stereo::NccOptions MatcherFromCommandLine(const CLI::App& app, const MatcherComm
   if (given_option("--p2")) m.semi_global.penalty_large = given.semi_global.penalty_large;
   if (given_option("--paths")) m.semi_global.num_paths = given.semi_global.num_paths;
   if (given_option("--p2-edge")) m.semi_global.edge_levels = given.semi_global.edge_levels;
+  if (given_option("--gradient-weight")) m.semi_global.gradient_weight = given.semi_global.gradient_weight;
+  if (given_option("--gradient-cap")) m.semi_global.gradient_cap_levels = given.semi_global.gradient_cap_levels;
   if (given_option("--uniqueness")) m.semi_global.uniqueness = given.semi_global.uniqueness;
   if (given_option("--lr-check")) m.semi_global.left_right_max_diff_px = given.semi_global.left_right_max_diff_px;
   if (given_option("--speckle-size")) m.semi_global.speckle_max_size_px = given.semi_global.speckle_max_size_px;

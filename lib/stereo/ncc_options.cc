@@ -55,6 +55,8 @@ NccOptions PresetOptions(const std::string& name) {
   o.semi_global.penalty_small = 15;
   o.semi_global.penalty_large = 240;
   o.semi_global.edge_levels = 16;  // a grey-level step of 16 halves P2
+  o.semi_global.gradient_weight = 2.0;    // up to 16 census bits from the gradient difference
+  o.semi_global.gradient_cap_levels = 8;
   o.semi_global.uniqueness = 0.08;
   o.semi_global.left_right_max_diff_px = 3;
   o.semi_global.speckle_max_size_px = 100;
@@ -119,6 +121,13 @@ void NccOptions::Validate() const {
         << "penalties: need 0 <= P1 <= P2 <= 2000, got " << g.penalty_small << ", " << g.penalty_large;
     LN_CHECK_ARG(g.edge_levels >= 0 && g.edge_levels <= 255)
         << "p2-edge: must be in 0..255 grey levels, got " << g.edge_levels;
+    LN_CHECK_ARG(std::isfinite(g.gradient_weight) && g.gradient_weight >= 0 && g.gradient_weight <= 16)
+        << "gradient-weight: must be in [0, 16] census bits per grey level, got " << g.gradient_weight;
+    LN_CHECK_ARG(g.gradient_cap_levels >= 0 && g.gradient_cap_levels <= 64)
+        << "gradient-cap: must be in 0..64 grey levels, got " << g.gradient_cap_levels;
+    LN_CHECK_ARG(g.gradient_weight * g.gradient_cap_levels <= 64)
+        << "gradient-weight x gradient-cap: the gradient term may add at most 64 census bits, got "
+        << g.gradient_weight * g.gradient_cap_levels;
     LN_CHECK_ARG(g.num_paths == 4 || g.num_paths == 8) << "paths: must be 4 or 8, got " << g.num_paths;
     LN_CHECK_ARG(std::isfinite(g.uniqueness) && g.uniqueness >= 0 && g.uniqueness <= 1)
         << "uniqueness: must be in [0, 1], got " << g.uniqueness;
@@ -141,6 +150,8 @@ nlohmann::json NccOptions::ToJson() const {
                         {"p1", g.penalty_small},
                         {"p2", g.penalty_large},
                         {"p2_edge_levels", g.edge_levels},
+                        {"gradient_weight", g.gradient_weight},
+                        {"gradient_cap_levels", g.gradient_cap_levels},
                         {"paths", g.num_paths},
                         {"uniqueness", g.uniqueness},
                         {"left_right_max_diff_px", g.left_right_max_diff_px},

@@ -67,6 +67,17 @@ struct SemiGlobalOptions {
   /// max(P1 + 1, P2 e / (e + g)), e this many levels: depth edges, which mostly are intensity
   /// edges, cost less to cross. 0 = a constant P2.
   int edge_levels = 0;
+  /// Gradient term of the matching cost: to the census Hamming distance is added
+  /// gradient_weight * min(|gx_ref - gx_tgt|, gradient_cap_levels), gx the horizontal Sobel
+  /// derivative / 4 of the grey levels (8-bit scale): a step across two pixels, smoothed over
+  /// three rows. Census compares each neighbour with the centre only; at a depth edge both
+  /// surfaces' pixels vote alike, and the window's larger part wins (the nearer surface
+  /// spreads). The derivative at the pixel itself says on which side of an intensity edge it
+  /// lies. Truncated, it is robust to the cameras' gain and offset and to noise. Weight in
+  /// census bits per grey level (multiples of 1/16), in [0, 16]; cap in 0..64 levels; the term
+  /// adds at most 64 bits. 0 = census only.
+  double gradient_weight = 0.0;
+  int gradient_cap_levels = 0;
   /// Aggregation directions: 4 (horizontal, vertical) or 8 (and the diagonals).
   int num_paths = 8;
   /// Ambiguity on the aggregated cost S: reject when S2 < (1 + uniqueness) S1, S2 the lowest

@@ -106,6 +106,19 @@ inline __attribute__((always_inline)) void FillCosts(const SgmInput& in, int j, 
     const std::uint64_t r = ref[x];
     const std::uint64_t* t = tgt + x + d_min;
     for (int k = k_lo; k < k_hi; ++k) c[k] = static_cast<std::uint8_t>(__builtin_popcountll(r ^ t[k]));
+    if (in.ref_gradient != nullptr) {
+      // |gradient difference| <= 8160 and the term <= 64 bits: no int16 overflow.
+      const std::int16_t gr = in.ref_gradient[static_cast<std::size_t>(y) * width + x];
+      const std::int16_t* gt = in.tgt_gradient + static_cast<std::size_t>(y) * width + x + d_min;
+      const std::int16_t cap = static_cast<std::int16_t>(in.gradient_cap);
+      const int w16 = in.gradient_weight16;
+      for (int k = k_lo; k < k_hi; ++k) {
+        std::int16_t diff = static_cast<std::int16_t>(gr - gt[k]);
+        diff = diff < 0 ? static_cast<std::int16_t>(-diff) : diff;
+        diff = diff < cap ? diff : cap;
+        c[k] = static_cast<std::uint8_t>(c[k] + ((diff * w16) >> 8));
+      }
+    }
     // Beyond the image the nearest valid cost is repeated: a fixed high cost would push the
     // paths towards the disparities that stay inside and break the ties of repeated patterns
     // in favour of the wrong period.

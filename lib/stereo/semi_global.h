@@ -47,6 +47,15 @@ struct SgmInput {
   /// edges). Null or 0 = a constant P2.
   const std::int16_t* ref_grey = nullptr;
   int edge_levels = 0;
+  /// Gradient term of the cost (SemiGlobalOptions::gradient_weight): with both images'
+  /// horizontal derivatives (in sixteenths of an 8-bit grey level, so that data of any depth
+  /// gives nearly the same values; same layout as the census arrays), the cost of reference
+  /// pixel x at target x + d adds (min(|g_ref(x) - g_tgt(x + d)|, cap) w16) / 256 (integer
+  /// division). Null = census only. |g| <= 4080, w16 cap <= 16384.
+  const std::int16_t* ref_gradient = nullptr;
+  const std::int16_t* tgt_gradient = nullptr;
+  int gradient_weight16 = 0;  ///< The weight in sixteenths of a census bit per level.
+  int gradient_cap = 0;       ///< In sixteenths of a level.
   int num_paths = 8;       ///< 4 (horizontal and vertical) or 8 (and diagonals).
   /// Per-row bands (num_rows entries each), or null: every row searches all num_disp. A path
   /// from one row to the next carries each disparity it has in both rows; a disparity the

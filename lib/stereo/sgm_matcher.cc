@@ -131,6 +131,25 @@ void MatchSemiGlobal(const NccOptions& options, const cv::Mat& left, const cv::M
     in.ref_grey = grey8.ptr<std::int16_t>();
     in.edge_levels = g.edge_levels;
   }
+  cv::Mat ref_gradient, tgt_gradient;  // horizontal derivatives for the cost's gradient term
+  const int gradient_weight16 = static_cast<int>(std::lround(g.gradient_weight * 16));
+  if (gradient_weight16 > 0 && g.gradient_cap_levels > 0) {
+    // Sobel / 4 on the data's own scale, then in sixteenths of an 8-bit level (a 12-bit
+    // camera's data gives nearly what its 8-bit scaling gives; rounding to whole 8-bit
+    // levels first would move derivatives by a level in bright regions).
+    const double to_grey8_16ths = 16.0 * 255.0 / ((1u << bit_depth) - 1.0);
+    auto derivative = [&](const cv::Mat& image, cv::Mat* out) {
+      cv::Mat dx;
+      cv::Sobel(image, dx, CV_32F, 1, 0, 3, 0.25, 0, cv::BORDER_REPLICATE);
+      dx.convertTo(*out, CV_16S, to_grey8_16ths);
+    };
+    derivative(ref, &ref_gradient);
+    derivative(tgt, &tgt_gradient);
+    in.ref_gradient = ref_gradient.ptr<std::int16_t>();
+    in.tgt_gradient = tgt_gradient.ptr<std::int16_t>();
+    in.gradient_weight16 = gradient_weight16;
+    in.gradient_cap = 16 * g.gradient_cap_levels;
+  }
   SemiGlobalAggregate(in, &ws.cost);
 
   // Texture (filter 1) over the census window, on the true bit depth's scale.

@@ -2,11 +2,23 @@
 // StereoBM on real pairs with ground truth, in one run: accuracy (KITTI's D1, bad-N, density)
 // and time per pair. docs/performance.md and docs/stereo-matcher.md show its table.
 //
-//   stereo_realdata_benchmark [--stereo-batch PATH] [--threads N] [--repeat R] DIR...
+//   stereo_realdata_benchmark [--stereo-batch PATH] [--threads N] [--repeat R]
+//                             [--downscale K[,K...]] [--keep DIR] DIR...
 //
 // Each DIR is a KITTI 2015 layout (image_2/, image_3/, disp_noc_0/ with <stem>.png), a
-// Middlebury 2014 pair (im0.png, im1.png, disp0GT.pfm, mask0nocc.png, calib.txt), or a folder
-// of such sets (each subfolder is one). Inputs are read as 8-bit grey (Rec. 601 luma).
+// Middlebury 2014 pair (im0.png, im1.png, disp0GT.pfm, mask0nocc.png, calib.txt), a
+// Middlebury 2005/2006 pair (view1 and view5 .png or .jpg, disp1.png: 8-bit, the full-size
+// disparity, 0 = unknown), or a folder of such sets (each subfolder is one). Inputs are read as
+// 8-bit grey (Rec. 601 luma).
+//
+// --downscale scores every Middlebury pair at each listed integer factor (default 1): the
+// images are block averages (OpenCV's INTER_AREA); a block's truth is the mean of its pixels'
+// truths divided by K when every pixel of the block has a non-occluded truth and they span at
+// most K full-size pixels (1 px at the new size), none otherwise (depth edges are not scored
+// at a size where a block straddles them). The 2005/2006 sets give no occlusion mask: a pixel
+// is occluded when a pixel to its right with a greater disparity lands on or left of its
+// match (x - d) in the other view, by more than half a pixel. KITTI sets are scored as given.
+// --keep DIR keeps the prepared inputs and every method's disparity map (PFM) in DIR.
 //
 // stereo-batch runs as a separate process per pair (the whole process is timed: start-up,
 // decoding, matching, writing); OpenCV's matchers are timed on the decoded grey images. Times
@@ -16,15 +28,19 @@
 
 #include <algorithm>
 #include <chrono>
+#include <cmath>
 #include <cstdio>
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
 #include <iomanip>
 #include <iostream>
+#include <limits>
 #include <map>
 #include <sstream>
+#include <stdexcept>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include <opencv2/calib3d.hpp>
@@ -46,11 +62,19 @@ struct Pair {
 
 struct Dataset {
   std::string name;
-  std::string kind;  // "kitti" or "middlebury"
+  std::string kind;  // "kitti", "middlebury" (2014 layout) or "middlebury2006"
   std::vector<Pair> pairs;
   int num_disparities = 128;
   double png_truth_scale = 256.0;
 };
+
+// The first of DIR/STEM.png and DIR/STEM.jpg that exists, or "".
+fs::path FirstImage(const fs::path& dir, const std::string& stem) {
+  for (const char* ext : {".png", ".jpg"}) {
+    if (fs::is_regular_file(dir / (stem + ext))) return dir / (stem + ext);
+  }
+  return {};
+}
 
 int RoundUp16(int v) { return (v + 15) / 16 * 16; }
 
@@ -78,6 +102,14 @@ std::vector<Dataset> FindDatasets(const fs::path& dir) {
     }
     d.pairs.push_back({dir.filename().string(), dir / "im0.png", dir / "im1.png", dir / "disp0GT.pfm",
                        fs::is_regular_file(dir / "mask0nocc.png") ? dir / "mask0nocc.png" : fs::path()});
+    sets.push_back(d);
+    return sets;
+  }
+  if (!FirstImage(dir, "view1").empty() && !FirstImage(dir, "view5").empty() &&
+      fs::is_regular_file(dir / "disp1.png")) {
+    Dataset d{dir.filename().string(), "middlebury2006", {}, 128, 1.0};
+    d.pairs.push_back({dir.filename().string(), FirstImage(dir, "view1"), FirstImage(dir, "view5"),
+                       dir / "disp1.png", {}});
     sets.push_back(d);
     return sets;
   }
@@ -110,6 +142,106 @@ cv::Mat FromFixed(const cv::Mat& fixed16, int min_disparity) {
     for (int x = 0; x < fixed16.cols; ++x) {
       o[x] = in[x] < (min_disparity - 1) * 16 + 16 ? NAN : in[x] / 16.0f;
     }
+  }
+  return out;
+}
+
+// The truth (CV_32FC1, NaN = none) of a Middlebury 2005/2006 disp1.png: 8-bit, the full-size
+// disparity, 0 = unknown.
+cv::Mat ReadMiddlebury2006Truth(const fs::path& path) {
+  const cv::Mat raw = io::ReadGreyImage(path);
+  if (raw.type() != CV_8UC1) throw std::runtime_error(path.string() + ": an 8-bit disparity image expected");
+  cv::Mat truth;
+  raw.convertTo(truth, CV_32F);
+  truth.setTo(NAN, raw == 0);
+  return truth;
+}
+
+// 255 where the left view's truth is known and seen by the right view, 0 elsewhere: scanning
+// each row from the right, a pixel is occluded when a pixel right of it lands more than half a
+// pixel left of its own match x - d.
+cv::Mat NonOccludedMask(const cv::Mat& truth) {
+  cv::Mat mask(truth.size(), CV_8UC1, cv::Scalar(0));
+  for (int y = 0; y < truth.rows; ++y) {
+    const float* t = truth.ptr<float>(y);
+    std::uint8_t* m = mask.ptr<std::uint8_t>(y);
+    double least_match = std::numeric_limits<double>::infinity();
+    for (int x = truth.cols - 1; x >= 0; --x) {
+      if (!std::isfinite(t[x])) continue;
+      const double match = x - t[x];
+      if (match <= least_match + 0.5) m[x] = 255;
+      least_match = std::min(least_match, match);
+    }
+  }
+  return mask;
+}
+
+// The truth at 1/k size: a k x k block's mean / k where all its pixels are scored and span at
+// most k full-size pixels, NaN elsewhere.
+cv::Mat DownscaleTruth(const cv::Mat& truth, const cv::Mat& mask, int k) {
+  cv::Mat out(truth.rows / k, truth.cols / k, CV_32FC1, cv::Scalar(NAN));
+  for (int y = 0; y < out.rows; ++y) {
+    for (int x = 0; x < out.cols; ++x) {
+      double sum = 0, lo = std::numeric_limits<double>::infinity(), hi = -lo;
+      bool all = true;
+      for (int v = y * k; v < (y + 1) * k && all; ++v) {
+        for (int u = x * k; u < (x + 1) * k; ++u) {
+          const float t = truth.at<float>(v, u);
+          if (!std::isfinite(t) || (!mask.empty() && mask.at<std::uint8_t>(v, u) != 255)) {
+            all = false;
+            break;
+          }
+          sum += t;
+          lo = std::min<double>(lo, t);
+          hi = std::max<double>(hi, t);
+        }
+      }
+      if (all && hi - lo <= k) out.at<float>(y, x) = static_cast<float>(sum / (k * k) / k);
+    }
+  }
+  return out;
+}
+
+// Writes the pair of a Middlebury set at 1/k size in the 2014 layout under `dir` and returns
+// the set that reads it (KITTI sets and 2014 sets at k = 1 are returned as given).
+Dataset Prepare(const Dataset& d, int k, const fs::path& dir) {
+  if (d.kind == "kitti" || (d.kind == "middlebury" && k == 1)) return d;
+  Dataset out = d;
+  out.kind = "middlebury";
+  out.name = k == 1 ? d.name : d.name + " /" + std::to_string(k);
+  out.pairs.clear();
+  for (const Pair& p : d.pairs) {
+    const fs::path to = dir / (d.name + "_" + std::to_string(k));
+    fs::create_directories(to);
+    cv::Mat truth, mask;
+    if (d.kind == "middlebury2006") {
+      truth = ReadMiddlebury2006Truth(p.truth);
+      mask = NonOccludedMask(truth);
+    } else {
+      truth = evaluation::ReadTruthDisparity(p.truth, 1.0);
+      if (!p.mask.empty()) mask = io::ReadGreyImage(p.mask);
+    }
+    for (const auto& [from, name] : {std::pair{p.left, "im0.png"}, std::pair{p.right, "im1.png"}}) {
+      cv::Mat image = io::ReadImage(from), small;
+      if (k == 1) {
+        small = image;
+      } else {
+        cv::resize(image(cv::Rect(0, 0, image.cols / k * k, image.rows / k * k)), small,
+                   cv::Size(image.cols / k, image.rows / k), 0, 0, cv::INTER_AREA);
+      }
+      io::WriteImageAtomic(to / name, small);
+    }
+    const cv::Mat small_truth = k == 1 ? truth.clone() : DownscaleTruth(truth, mask, k);
+    cv::Mat small_mask = k == 1 && !mask.empty() ? mask : cv::Mat(small_truth == small_truth);  // NaN != NaN
+    double max_truth = 0;
+    cv::minMaxIdx(small_truth, nullptr, &max_truth, nullptr, nullptr, small_mask);
+    cv::Mat pfm_truth = small_truth.clone();
+    pfm_truth.setTo(std::numeric_limits<float>::infinity(), small_truth != small_truth);
+    io::WriteImageAtomic(to / "disp0GT.pfm", pfm_truth);
+    io::WriteImageAtomic(to / "mask0nocc.png", small_mask);
+    out.num_disparities = d.kind == "middlebury2006" ? RoundUp16(static_cast<int>(std::ceil(max_truth)) + 2)
+                                                     : RoundUp16((d.num_disparities + k - 1) / k);
+    out.pairs.push_back({k == 1 ? p.stem : p.stem + "_" + std::to_string(k), to / "im0.png", to / "im1.png", to / "disp0GT.pfm", to / "mask0nocc.png"});
   }
   return out;
 }
@@ -149,6 +281,8 @@ int main(int argc, char** argv) {
   std::string stereo_batch = "stereo-batch";
   int threads = 2, repeat = 3;
   std::vector<fs::path> dirs;
+  std::vector<int> downscales;
+  fs::path keep;
   for (int i = 1; i < argc; ++i) {
     const std::string a = argv[i];
     if (a == "--stereo-batch" && i + 1 < argc) {
@@ -157,8 +291,21 @@ int main(int argc, char** argv) {
       threads = std::atoi(argv[++i]);
     } else if (a == "--repeat" && i + 1 < argc) {
       repeat = std::max(1, std::atoi(argv[++i]));
+    } else if (a == "--downscale" && i + 1 < argc) {
+      std::stringstream list(argv[++i]);
+      for (std::string k; std::getline(list, k, ',');) {
+        const int v = std::atoi(k.c_str());
+        if (v < 1 || v > 16) {
+          std::cerr << "error: --downscale: " << k << " is not an integer factor in [1, 16]\n";
+          return 2;
+        }
+        downscales.push_back(v);
+      }
+    } else if (a == "--keep" && i + 1 < argc) {
+      keep = argv[++i];
     } else if (a == "-h" || a == "--help") {
-      std::cout << "usage: stereo_realdata_benchmark [--stereo-batch PATH] [--threads N] [--repeat R] DIR...\n";
+      std::cout << "usage: stereo_realdata_benchmark [--stereo-batch PATH] [--threads N] [--repeat R] "
+                   "[--downscale K[,K...]] [--keep DIR] DIR...\n";
       return 0;
     } else {
       dirs.emplace_back(a);
@@ -174,14 +321,23 @@ int main(int argc, char** argv) {
     if (fs::exists(self)) stereo_batch = self.string();
   }
   cv::setNumThreads(threads);
-  const fs::path work = fs::temp_directory_path() / ("lunarnav_realdata_bench_" + std::to_string(::getpid()));
-  std::vector<Dataset> sets;
+  if (downscales.empty()) downscales = {1};
+  const fs::path work =
+      keep.empty() ? fs::temp_directory_path() / ("lunarnav_realdata_bench_" + std::to_string(::getpid())) : keep;
+  std::vector<Dataset> found;
   for (const fs::path& d : dirs) {
     if (!fs::is_directory(d)) {
       std::cerr << "error: " << d.string() << ": not a directory\n";
       return 3;
     }
-    for (Dataset& s : FindDatasets(d)) sets.push_back(std::move(s));
+    for (Dataset& s : FindDatasets(d)) found.push_back(std::move(s));
+  }
+  std::vector<Dataset> sets;
+  for (const Dataset& d : found) {
+    for (const int k : downscales) {
+      if (d.kind == "kitti" && k != downscales.front()) continue;
+      sets.push_back(Prepare(d, k, work / "prepared"));
+    }
   }
   if (sets.empty()) {
     std::cerr << "error: no KITTI or Middlebury data found under the given directories\n";
@@ -213,6 +369,10 @@ int main(int argc, char** argv) {
         MethodScores& m = results[name];
         m.seconds.push_back(Median(times));
         Score(FromFixed(disp, 0), p, d, &m);
+        if (!keep.empty()) {
+          fs::create_directories(work / ("out_" + name));
+          io::WriteImageAtomic(work / ("out_" + name) / (p.stem + ".pfm"), FromFixed(disp, 0));
+        }
       };
       // StereoSGBM as the issue measures it; StereoBM with block 15.
       run_opencv(cv::StereoSGBM::create(0, nd, 5, 8 * 25, 32 * 25, 0, 0, 10, 100, 2, cv::StereoSGBM::MODE_HH),
@@ -261,6 +421,6 @@ int main(int argc, char** argv) {
                "D1: error > 3 px and > 5 % of the truth. Times: median per pair over "
             << repeat << " runs, " << threads
             << " threads; stereo-batch as a whole process per pair, OpenCV on decoded grey images.\n";
-  fs::remove_all(work);
+  if (keep.empty()) fs::remove_all(work);
   return 0;
 }
