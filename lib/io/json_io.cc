@@ -39,12 +39,6 @@ nlohmann::json ReadJsonBounded(const std::filesystem::path& path, std::uintmax_t
   }
 }
 
-// Any JSON file a tool reads (rigs, sensor and vehicle files, sidecars, summaries, trials):
-// at most 256 MiB and 4 million values, far above any the tools write (a stereo-batch summary
-// holds some 60 values a pair), far below what costs 2 GB to hold (docs/reliability.md).
-constexpr std::uintmax_t kMaxJsonBytes = std::uintmax_t{256} << 20;
-constexpr long kMaxJsonValues = 4'000'000;
-
 nlohmann::json ReadJson(const std::filesystem::path& path) {
   std::error_code ec;
   LN_CHECK_INPUT(std::filesystem::is_regular_file(path, ec))

@@ -195,8 +195,9 @@ ShardMergeResult MergeShardSummaries(const fs::path& output_dir, const ShardMerg
   std::vector<ShardFile> files = FindShardFiles(output_dir);
   util::ParallelForEachItem(files.size(), options.num_threads,
                             [&](std::size_t i) {
-                              files[i].summary = ReadJsonBounded(files[i].path, kMaxShardSummaryBytes,
-                                                                 kMaxShardSummaryValues);
+                              // At most io::kMaxJsonBytes and kMaxJsonValues (about 60,000
+                              // pairs a shard; a larger batch takes more shards).
+                              files[i].summary = ReadJson(files[i].path);
                             });
   for (const ShardFile& f : files) CheckShardSummary(f);
   const ShardFile& first = files.front();

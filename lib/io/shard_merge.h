@@ -32,12 +32,6 @@ std::string ListingDigest(const std::vector<std::string>& names);
 std::optional<std::vector<std::string>> RelistItems(const std::string& kind,
                                                     const std::filesystem::path& input_dir);
 
-/// The largest shard summary read: 256 MiB of text and 4 million JSON values (a stereo-batch
-/// summary holds about 60 values per pair: some 60,000 pairs per shard; a larger batch takes
-/// more shards). Beyond either, the file is bad input, refused before it costs gigabytes.
-inline constexpr std::uintmax_t kMaxShardSummaryBytes = std::uintmax_t{256} << 20;
-inline constexpr long kMaxShardSummaryValues = 4'000'000;
-
 struct ShardMergeOptions {
   /// Where the inputs are, to name the items of missing shards; empty = the `input_dir` the
   /// shards recorded (relative to the working directory when it is relative).
