@@ -326,10 +326,10 @@ TEST(StereoBatchRig, RequestsGiveEachPairItsOwnBand) {
 // over 3-4 m, see in their top rows the ground beyond 4 m and in their bottom rows the ground
 // nearer than 3 m. The quality preset searches each row's band with a far and a near guard:
 // every point it accepts is its pixel's ground within the interval (as far as each row's band
-// holds it), and the rest is rejected as
-// beyond_far or beyond_near. The paper's matcher searches the window's one range, as the paper
-// does: some of the far ground matches falsely inside it, points in the air (what the guards
-// are for; that it happens here shows the scene tests them).
+// holds it), and the rest is rejected as beyond_far or beyond_near. The paper's matcher
+// searches the window's one range, as the paper does: some of the far ground matches falsely
+// inside it, points in the air (what the guards are for; that it happens here shows the scene
+// tests them).
 TEST(StereoBatchRig, EveryPointOfARequestedWindowLiesInsideItsIntervalWithTheGuards) {
   Fixture fx;
   const fs::path requests = fx.tmp.path() / "requests.csv";
