@@ -1,6 +1,7 @@
 #include "evaluation/disparity_eval.h"
 
 #include <cmath>
+#include <cstdint>
 #include <limits>
 #include <map>
 #include <sstream>
@@ -160,6 +161,20 @@ DisparityScores ScoreDisparity(const cv::Mat& estimate, const cv::Mat& truth, co
     }
   }
   return s;
+}
+
+cv::Mat DisparityFromOpenCv(const cv::Mat& fixed16, int min_disparity) {
+  LN_CHECK_INPUT(fixed16.type() == CV_16SC1) << "an OpenCV disparity map (16-bit signed, x 16) expected";
+  cv::Mat out(fixed16.size(), CV_32FC1);
+  const int least = min_disparity * 16;  // OpenCV marks no match with (min_disparity - 1) x 16
+  for (int y = 0; y < fixed16.rows; ++y) {
+    const auto* in = fixed16.ptr<std::int16_t>(y);
+    auto* o = out.ptr<float>(y);
+    for (int x = 0; x < fixed16.cols; ++x) {
+      o[x] = in[x] < least ? std::numeric_limits<float>::quiet_NaN() : in[x] / 16.0f;
+    }
+  }
+  return out;
 }
 
 cv::Mat ReadTruthDisparity(const fs::path& path, double png_scale) {

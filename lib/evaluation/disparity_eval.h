@@ -77,6 +77,11 @@ inline bool IsD1Outlier(double abs_error_px, double truth_px) {
 DisparityScores ScoreDisparity(const cv::Mat& estimate, const cv::Mat& truth, const cv::Mat& mask,
                                const SampleGrid& grid, const DisparityEvalOptions& options);
 
+/// An OpenCV matcher's disparity map (StereoBM, StereoSGBM: CV_16SC1, disparity x 16, values
+/// below min_disparity x 16 = no match) as an estimate ScoreDisparity reads (CV_32FC1, NaN =
+/// no disparity). @throws InputError when the map is not CV_16SC1.
+cv::Mat DisparityFromOpenCv(const cv::Mat& fixed16, int min_disparity = 0);
+
 /// Reads ground-truth disparity: PFM (float; inf/NaN = none) or 16-bit PNG (value / scale,
 /// 0 = none). @throws InputError naming the file.
 cv::Mat ReadTruthDisparity(const std::filesystem::path& path, double png_scale);

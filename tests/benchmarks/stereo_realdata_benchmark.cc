@@ -38,7 +38,6 @@
 #include <limits>
 #include <map>
 #include <sstream>
-#include <stdexcept>
 #include <string>
 #include <utility>
 #include <vector>
@@ -49,6 +48,8 @@
 
 #include "evaluation/disparity_eval.h"
 #include "io/image_io.h"
+#include "util/check.h"
+#include "util/errors.h"
 
 namespace fs = std::filesystem;
 using namespace lunarnav;
@@ -133,24 +134,11 @@ double Now() {
   return std::chrono::duration<double>(std::chrono::steady_clock::now().time_since_epoch()).count();
 }
 
-// OpenCV's fixed-point disparity (x16, negative = invalid) to float with NaN.
-cv::Mat FromFixed(const cv::Mat& fixed16, int min_disparity) {
-  cv::Mat out(fixed16.size(), CV_32FC1);
-  for (int y = 0; y < fixed16.rows; ++y) {
-    const auto* in = fixed16.ptr<std::int16_t>(y);
-    auto* o = out.ptr<float>(y);
-    for (int x = 0; x < fixed16.cols; ++x) {
-      o[x] = in[x] < (min_disparity - 1) * 16 + 16 ? NAN : in[x] / 16.0f;
-    }
-  }
-  return out;
-}
-
 // The truth (CV_32FC1, NaN = none) of a Middlebury 2005/2006 disp1.png: 8-bit, the full-size
 // disparity, 0 = unknown.
 cv::Mat ReadMiddlebury2006Truth(const fs::path& path) {
   const cv::Mat raw = io::ReadGreyImage(path);
-  if (raw.type() != CV_8UC1) throw std::runtime_error(path.string() + ": an 8-bit disparity image expected");
+  LN_CHECK_INPUT(raw.type() == CV_8UC1) << path.string() << ": an 8-bit disparity image expected";
   cv::Mat truth;
   raw.convertTo(truth, CV_32F);
   truth.setTo(NAN, raw == 0);
@@ -211,7 +199,7 @@ Dataset Prepare(const Dataset& d, int k, const fs::path& dir) {
   out.name = k == 1 ? d.name : d.name + " /" + std::to_string(k);
   out.pairs.clear();
   for (const Pair& p : d.pairs) {
-    const fs::path to = dir / (d.name + "_" + std::to_string(k));
+    const fs::path to = dir / (p.stem + "_" + std::to_string(k));
     fs::create_directories(to);
     cv::Mat truth, mask;
     if (d.kind == "middlebury2006") {
@@ -241,7 +229,8 @@ Dataset Prepare(const Dataset& d, int k, const fs::path& dir) {
     io::WriteImageAtomic(to / "mask0nocc.png", small_mask);
     out.num_disparities = d.kind == "middlebury2006" ? RoundUp16(static_cast<int>(std::ceil(max_truth)) + 2)
                                                      : RoundUp16((d.num_disparities + k - 1) / k);
-    out.pairs.push_back({k == 1 ? p.stem : p.stem + "_" + std::to_string(k), to / "im0.png", to / "im1.png", to / "disp0GT.pfm", to / "mask0nocc.png"});
+    out.pairs.push_back({k == 1 ? p.stem : p.stem + "_" + std::to_string(k), to / "im0.png", to / "im1.png",
+                         to / "disp0GT.pfm", to / "mask0nocc.png"});
   }
   return out;
 }
@@ -277,7 +266,7 @@ std::string Fixed(double v, int digits) {
 
 }  // namespace
 
-int main(int argc, char** argv) {
+int Run(int argc, char** argv) {
   std::string stereo_batch = "stereo-batch";
   int threads = 2, repeat = 3;
   std::vector<fs::path> dirs;
@@ -368,10 +357,11 @@ int main(int argc, char** argv) {
         }
         MethodScores& m = results[name];
         m.seconds.push_back(Median(times));
-        Score(FromFixed(disp, 0), p, d, &m);
+        const cv::Mat estimate = evaluation::DisparityFromOpenCv(disp);
+        Score(estimate, p, d, &m);
         if (!keep.empty()) {
           fs::create_directories(work / ("out_" + name));
-          io::WriteImageAtomic(work / ("out_" + name) / (p.stem + ".pfm"), FromFixed(disp, 0));
+          io::WriteImageAtomic(work / ("out_" + name) / (p.stem + ".pfm"), estimate);
         }
       };
       // StereoSGBM as the issue measures it; StereoBM with block 15.
@@ -423,4 +413,16 @@ int main(int argc, char** argv) {
             << " threads; stereo-batch as a whole process per pair, OpenCV on decoded grey images.\n";
   if (keep.empty()) fs::remove_all(work);
   return 0;
+}
+
+int main(int argc, char** argv) {
+  try {
+    return Run(argc, argv);
+  } catch (const InputError& e) {
+    std::cerr << "error: " << e.what() << "\n";
+    return 3;
+  } catch (const std::exception& e) {
+    std::cerr << "error: internal: " << e.what() << "\n";
+    return 1;
+  }
 }

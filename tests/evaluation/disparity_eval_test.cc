@@ -3,6 +3,7 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <cstdint>
 #include <fstream>
 #include <limits>
 
@@ -16,6 +17,23 @@
 namespace lunarnav::evaluation {
 namespace {
 namespace fs = std::filesystem;
+
+// OpenCV's matchers write disparity x 16 and mark no match with (min_disparity - 1) x 16.
+TEST(DisparityFromOpenCv, DividesBySixteenAndMarksNoMatchWithNan) {
+  const cv::Mat fixed = (cv::Mat_<std::int16_t>(1, 4) << -16, 0, 37, 1600);
+  const cv::Mat d = DisparityFromOpenCv(fixed);
+  ASSERT_EQ(d.type(), CV_32FC1);
+  EXPECT_TRUE(std::isnan(d.at<float>(0, 0)));
+  EXPECT_EQ(d.at<float>(0, 1), 0.0f);
+  EXPECT_EQ(d.at<float>(0, 2), 2.3125f);
+  EXPECT_EQ(d.at<float>(0, 3), 100.0f);
+  // With a least disparity of 5 the marker is 64 and 80 the first disparity.
+  const cv::Mat shifted = DisparityFromOpenCv((cv::Mat_<std::int16_t>(1, 3) << 64, 79, 80), 5);
+  EXPECT_TRUE(std::isnan(shifted.at<float>(0, 0)));
+  EXPECT_TRUE(std::isnan(shifted.at<float>(0, 1)));
+  EXPECT_EQ(shifted.at<float>(0, 2), 5.0f);
+  EXPECT_THROW(DisparityFromOpenCv(cv::Mat(1, 1, CV_32FC1, cv::Scalar(1))), InputError);
+}
 
 TEST(ScoreDisparity, AMapAgainstItselfHasNoErrorAndFullDensity) {
   cv::Mat truth(30, 40, CV_32FC1);

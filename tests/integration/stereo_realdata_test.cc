@@ -4,9 +4,7 @@
 // the default worse on real imagery fails here.
 #include <gtest/gtest.h>
 
-#include <cstdint>
 #include <filesystem>
-#include <limits>
 #include <string>
 #include <utility>
 #include <vector>
@@ -77,14 +75,8 @@ TEST(StereoRealData, QualityPresetBeatsStereoBmIndoorsByAMargin) {
       evaluation::ScoreDisparity(io::ReadPfm(out / "disparity" / "pair.pfm"), truth, mask, {}, options);
   cv::Mat fixed;
   cv::StereoBM::create(80, 15)->compute(io::ReadGreyImage(dir / "im0.png"), io::ReadGreyImage(dir / "im1.png"), fixed);
-  cv::Mat bm(fixed.size(), CV_32FC1);
-  for (int y = 0; y < fixed.rows; ++y) {
-    for (int x = 0; x < fixed.cols; ++x) {
-      const std::int16_t v = fixed.at<std::int16_t>(y, x);
-      bm.at<float>(y, x) = v < 0 ? std::numeric_limits<float>::quiet_NaN() : v / 16.0f;  // 16ths, < 0 = none
-    }
-  }
-  const evaluation::DisparityScores block = evaluation::ScoreDisparity(bm, truth, mask, {}, options);
+  const evaluation::DisparityScores block =
+      evaluation::ScoreDisparity(evaluation::DisparityFromOpenCv(fixed), truth, mask, {}, options);
   EXPECT_LT(ours.BadPct(0), 0.85 * block.BadPct(0)) << "stereo-batch " << ours.BadPct(0) << " %, StereoBM "
                                                    << block.BadPct(0) << " %";
   EXPECT_GT(ours.DensityPct(), block.DensityPct() + 5.0);
