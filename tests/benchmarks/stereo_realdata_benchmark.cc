@@ -3,7 +3,7 @@
 // and time per pair. docs/performance.md and docs/stereo-matcher.md show its table.
 //
 //   stereo_realdata_benchmark [--stereo-batch PATH] [--threads N] [--repeat R]
-//                             [--downscale K[,K...]] [--keep DIR] DIR...
+//                             [--downscale K[,K...]] [--keep DIR] [--quality-args ARGS] DIR...
 //
 // Each DIR is a KITTI 2015 layout (image_2/, image_3/, disp_noc_0/ with <stem>.png), a
 // Middlebury 2014 pair (im0.png, im1.png, disp0GT.pfm, mask0nocc.png, calib.txt), a
@@ -19,6 +19,8 @@
 // is occluded when a pixel to its right with a greater disparity lands on or left of its
 // match (x - d) in the other view, by more than half a pixel. KITTI sets are scored as given.
 // --keep DIR keeps the prepared inputs and every method's disparity map (PFM) in DIR.
+// --quality-args ARGS appends ARGS (words for the shell, e.g. "--gradient-weight 0") to the
+// quality preset's stereo-batch command: a variant of the default measured in the same table.
 //
 // stereo-batch runs as a separate process per pair (the whole process is timed: start-up,
 // decoding, matching, writing); OpenCV's matchers are timed on the decoded grey images. Times
@@ -272,6 +274,7 @@ int Run(int argc, char** argv) {
   std::vector<fs::path> dirs;
   std::vector<int> downscales;
   fs::path keep;
+  std::string quality_args;
   for (int i = 1; i < argc; ++i) {
     const std::string a = argv[i];
     if (a == "--stereo-batch" && i + 1 < argc) {
@@ -292,9 +295,11 @@ int Run(int argc, char** argv) {
       }
     } else if (a == "--keep" && i + 1 < argc) {
       keep = argv[++i];
+    } else if (a == "--quality-args" && i + 1 < argc) {
+      quality_args = argv[++i];
     } else if (a == "-h" || a == "--help") {
       std::cout << "usage: stereo_realdata_benchmark [--stereo-batch PATH] [--threads N] [--repeat R] "
-                   "[--downscale K[,K...]] [--keep DIR] DIR...\n";
+                   "[--downscale K[,K...]] [--keep DIR] [--quality-args ARGS] DIR...\n";
       return 0;
     } else {
       dirs.emplace_back(a);
@@ -380,6 +385,7 @@ int Run(int argc, char** argv) {
         std::ostringstream cmd;
         cmd << "'" << stereo_batch << "' '" << in.string() << "' -o '" << out.string() << "' --preset " << preset
             << " --reference left --disparity 0:" << nd - 1 << " -j " << threads << " --quiet";
+        if (std::string(preset) == "quality" && !quality_args.empty()) cmd << " " << quality_args;
         std::vector<double> times;
         for (int r = 0; r < repeat; ++r) {
           fs::remove_all(out);
