@@ -15,7 +15,9 @@ namespace {
 
 constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
 constexpr int kRowSlot = kNumChannels;
-// A rate-limit rejection run this long means the signal really moved: accept it from there.
+// A rate-limit rejection run this long means the signal really moved: accept it from there
+// (and the run's samples too when they lead to it within the limit: the first samples of a
+// real jolt, rejected only while it was not yet confirmed).
 constexpr int kRebaselineAfter = 3;
 
 // Median of value(0), ..., value(count - 1), for estimates of a typical interval or noise
@@ -303,6 +305,10 @@ class ScreeningStream::Impl {
     bool have_last = false;
     double last_raw = 0, last_value = 0, last_t = 0;
     int rejected_run = 0;
+    // The run's rejected samples (rows, values, times), kept until the run is decided: their
+    // rows are not final before (hampel_end stops at the first).
+    std::array<std::size_t, kRebaselineAfter - 1> run_row{};
+    std::array<double, kRebaselineAfter - 1> run_value{}, run_t{};
     // Dropouts: silences longer than gap_factor x the channel's typical interval.
     Typical typical_state = Typical::kUnknown;
     double dropout_limit = 0;   // gap_factor x typical interval
@@ -349,6 +355,8 @@ class ScreeningStream::Impl {
       } else {
         s.hampel_end = s.pass_end;
       }
+      // A rate-limit run still open may yet be restored: its rows are not decided.
+      if (s.rejected_run > 0 && !finished_) s.hampel_end = std::min(s.hampel_end, s.run_row[0]);
     }
     final_end_ = out_.rows;
     for (Channel c : kAllChannels) {
@@ -470,7 +478,7 @@ class ScreeningStream::Impl {
     std::size_t accepted_in_window = s.accepted_in_window;
     long samples = 0;  // present in the rows passed
     if constexpr (kind != kEncoderKind) {
-      const std::size_t room = queued + (out_.rows - s.pass_end);
+      const std::size_t room = queued + (out_.rows - s.pass_end) + kRebaselineAfter;  // a run restored
       s.queue_value.resize(room);
       s.queue_t.resize(room);
       s.queue_row.resize(room);
@@ -515,11 +523,30 @@ class ScreeningStream::Impl {
           while (value - last_value < -M_PI) value += 2.0 * M_PI;
         }
       }
-      if (have_last && std::abs(value - last_value) > limit * (t[i] - last_t) + slack &&
-          rejected_run + 1 < kRebaselineAfter) {
+      const bool too_fast = have_last && std::abs(value - last_value) > limit * (t[i] - last_t) + slack;
+      if (too_fast && rejected_run + 1 < kRebaselineAfter) {
+        s.run_row[rejected_run] = k;
+        s.run_value[rejected_run] = value;
+        s.run_t[rejected_run] = t[i];
         ++rejected_run;
         Record(k, ch, ScreeningRule::kRateLimit, r);
         continue;
+      }
+      if (rejected_run > 0 && RunLeadsTo(s, rejected_run, last_value, value, t[i], limit, slack)) {
+        // The run went from the last accepted sample to this one, which holds its level: a
+        // real jolt, only faster than the limit, not a fault.
+        for (int j = 0; j < rejected_run; ++j) {
+          const std::size_t row = s.run_row[j];
+          Unrecord(row, ch, ScreeningRule::kRateLimit);
+          v[row - b] = s.run_value[j];
+          if constexpr (kind != kEncoderKind) {
+            queue_value[queued] = s.run_value[j];
+            queue_t[queued] = s.run_t[j];
+            queue_row[queued] = row;
+            ++queued;
+            accepted_in_window += row < window_rows_;
+          }
+        }
       }
       if (wrapped) Record(k, ch, ScreeningRule::kEncoderWrap, r);
       rejected_run = 0;
@@ -550,6 +577,32 @@ class ScreeningStream::Impl {
     s.last_present_t = last_present_t;
     s.pass_end = out_.rows;
     out_.samples[ch] += samples;
+  }
+
+  // Whether the rate limit's run of `run` rejected samples was the signal moving from
+  // `last_value` to `value` at `t_s` (a jolt, faster than the limit): the run lies between
+  // the two (within the slack) and `value` follows its last sample within the limit (the new
+  // level holds). A fault jumps out and back, or about: its samples stay rejected.
+  static bool RunLeadsTo(const ChannelState& s, int run, double last_value, double value, double t_s, double limit,
+                         double slack) {
+    const double low = std::min(last_value, value) - slack, high = std::max(last_value, value) + slack;
+    for (int j = 0; j < run; ++j) {
+      if (s.run_value[j] < low || s.run_value[j] > high) return false;
+    }
+    return std::abs(value - s.run_value[run - 1]) <= limit * (t_s - s.run_t[run - 1]) + slack;
+  }
+
+  // Takes back the event Record() made for row k (rare: a rate-limit run found to be real).
+  [[gnu::noinline, gnu::cold]] void Unrecord(std::size_t k, int channel, ScreeningRule rule) {
+    const long line = line_[k - base_];
+    for (auto e = out_.events.rbegin(); e != out_.events.rend(); ++e) {
+      if (e->channel == channel && e->rule == rule && e->line == line) {
+        out_.events.erase(std::next(e).base());
+        --out_.counts[static_cast<int>(rule)][channel];
+        return;
+      }
+    }
+    LN_CHECK(false) << "screening: no event to take back";
   }
 
   // A sample of a channel with fewer than three in the statistics window: its first three
