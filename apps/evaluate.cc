@@ -73,7 +73,7 @@ Subcommand AddTrials(CLI::App* app) {
   cmd->add_option("--min-distance", c->options.min_distance_m,
                   "trials shorter than this (m) get no distance error in percent")
       ->capture_default_str();
-  cmd->add_option("--align", c->alignment, "APE alignment: none, start, origin, rigid or rigid-2d")
+  cmd->add_option("--align", c->alignment, "APE alignment: none, start, origin, rigid, rigid-2d or similarity-2d")
       ->capture_default_str();
   cmd->add_option("--rpe-delta", c->trajectory_options.rpe_delta_m,
                   "RPE pose pairs this far apart along the true path (m)")
@@ -177,7 +177,7 @@ Subcommand AddTrajectory(CLI::App* app) {
       "as a multiple of the reference's (posfilter's trajectory.csv against its baseline.csv)");
   cmd->add_option("ESTIMATE", c->estimates, "NAME=TRAJECTORY (.csv: lunarnav; else TUM)")->required();
   cmd->add_option("--truth", c->truth, "ground truth (e.g. simulate's truth.csv)")->required();
-  cmd->add_option("--align", c->alignment, "alignment: none, start, origin, rigid or rigid-2d")->capture_default_str();
+  cmd->add_option("--align", c->alignment, "alignment: none, start, origin, rigid, rigid-2d or similarity-2d")->capture_default_str();
   cmd->add_option("--reference", c->reference, "the estimate the others are compared with")->capture_default_str();
   cmd->add_option("--rpe-delta", c->options.rpe_delta_m, "RPE pose pairs this far apart (m)")->capture_default_str();
   cmd->add_option("-o,--output", c->output_dir, "output directory (created)")->required();

@@ -71,9 +71,14 @@ Eigen::Isometry3d RigidAlignment(const std::vector<Eigen::Isometry3d>& from,
 
 // The same in the horizontal plane: rotation about z and translation in x and y, in closed
 // form (the angle that best turns the centred points onto each other is the atan2 of their
-// summed cross and dot products).
-Eigen::Isometry3d RigidAlignment2d(const std::vector<Eigen::Isometry3d>& from,
-                                   const std::vector<Eigen::Isometry3d>& to) {
+// summed cross and dot products). With `scale`, first the least-squares scale of `from`'s
+// positions (Umeyama's in 2-D: the length of that cross and dot vector over from's centred
+// sum of squares), which is then applied to `from`: the similarity's rotation and translation
+// are the rigid alignment of the scaled points (a scale changes neither the angle nor, once
+// applied, the centroids' relation).
+Eigen::Isometry3d RigidAlignment2d(std::vector<Eigen::Isometry3d>* from_poses, const std::vector<Eigen::Isometry3d>& to,
+                                   double* scale) {
+  std::vector<Eigen::Isometry3d>& from = *from_poses;
   Eigen::Vector2d from_mean = Eigen::Vector2d::Zero(), to_mean = Eigen::Vector2d::Zero();
   for (std::size_t i = 0; i < from.size(); ++i) {
     from_mean += from[i].translation().head<2>();
@@ -81,12 +86,18 @@ Eigen::Isometry3d RigidAlignment2d(const std::vector<Eigen::Isometry3d>& from,
   }
   from_mean /= static_cast<double>(from.size());
   to_mean /= static_cast<double>(to.size());
-  double cross = 0, dot = 0;
+  double cross = 0, dot = 0, squares = 0;
   for (std::size_t i = 0; i < from.size(); ++i) {
     const Eigen::Vector2d a = from[i].translation().head<2>() - from_mean;
     const Eigen::Vector2d b = to[i].translation().head<2>() - to_mean;
     cross += a.x() * b.y() - a.y() * b.x();
     dot += a.dot(b);
+    squares += a.squaredNorm();
+  }
+  if (scale != nullptr) {
+    *scale = squares > 0 ? std::hypot(cross, dot) / squares : 1.0;
+    for (Eigen::Isometry3d& pose : from) pose.translation() *= *scale;
+    from_mean *= *scale;
   }
   const Eigen::Rotation2Dd rotation(std::atan2(cross, dot));
   Eigen::Isometry3d t = Eigen::Isometry3d::Identity();
@@ -104,16 +115,21 @@ std::string ToString(Alignment alignment) {
     case Alignment::kOrigin: return "origin";
     case Alignment::kRigid: return "rigid";
     case Alignment::kRigid2d: return "rigid-2d";
+    case Alignment::kSimilarity2d: return "similarity-2d";
   }
   return "?";
 }
 
+bool IsHorizontal(Alignment alignment) {
+  return alignment == Alignment::kRigid2d || alignment == Alignment::kSimilarity2d;
+}
+
 Alignment AlignmentFromString(const std::string& text) {
-  for (Alignment a :
-       {Alignment::kNone, Alignment::kStart, Alignment::kOrigin, Alignment::kRigid, Alignment::kRigid2d}) {
+  for (Alignment a : {Alignment::kNone, Alignment::kStart, Alignment::kOrigin, Alignment::kRigid, Alignment::kRigid2d,
+                      Alignment::kSimilarity2d}) {
     if (text == ToString(a)) return a;
   }
-  throw std::invalid_argument("alignment: none, start, origin, rigid or rigid-2d, got '" + text + "'");
+  throw std::invalid_argument("alignment: none, start, origin, rigid, rigid-2d or similarity-2d, got '" + text + "'");
 }
 
 void TrajectoryEvalOptions::Validate() const {
@@ -245,7 +261,7 @@ TrajectoryErrors EvaluateTrajectory(const std::vector<StampedPose>& estimate,
   errors.truth_has_attitude =
       std::all_of(truth.begin(), truth.end(), [](const StampedPose& p) { return p.has_attitude; });
   const bool attitude = errors.truth_has_attitude;
-  const bool horizontal = options.alignment == Alignment::kRigid2d;
+  const bool horizontal = IsHorizontal(options.alignment);
 
   // Alignment, then APE.
   Eigen::Isometry3d align = Eigen::Isometry3d::Identity();
@@ -254,13 +270,14 @@ TrajectoryErrors EvaluateTrajectory(const std::vector<StampedPose>& estimate,
     case Alignment::kStart: align.translation() = ref[0].translation() - est[0].translation(); break;
     case Alignment::kOrigin: align = ref[0] * est[0].inverse(); break;
     case Alignment::kRigid: align = RigidAlignment(est, ref); break;
-    case Alignment::kRigid2d: align = RigidAlignment2d(est, ref); break;
+    case Alignment::kRigid2d: align = RigidAlignment2d(&est, ref, nullptr); break;
+    case Alignment::kSimilarity2d: align = RigidAlignment2d(&est, ref, &errors.scale); break;
   }
   errors.alignment = align;
   std::vector<double> ape_t, ape_r;
   for (std::size_t i = 0; i < est.size(); ++i) {
     const Eigen::Isometry3d e = ref[i].inverse() * (align * est[i]);
-    if (options.alignment == Alignment::kRigid2d) {  // horizontal error
+    if (horizontal) {  // horizontal error
       ape_t.push_back(((align * est[i]).translation() - ref[i].translation()).head<2>().norm());
     } else {
       ape_t.push_back(e.translation().norm());
@@ -329,7 +346,7 @@ TrajectoryErrors EvaluateTrajectory(const std::vector<StampedPose>& estimate,
 double MeanPositionErrorAt(const std::vector<StampedPose>& estimate, const TrajectoryErrors& errors,
                            const std::vector<StampedPose>& truth, const TrajectoryEvalOptions& options,
                            const std::vector<double>& t_s, long* count) {
-  const bool horizontal = options.alignment == Alignment::kRigid2d;
+  const bool horizontal = IsHorizontal(options.alignment);
   double sum = 0;
   long n = 0;
   for (double t : t_s) {
@@ -337,8 +354,9 @@ double MeanPositionErrorAt(const std::vector<StampedPose>& estimate, const Traje
         t < truth.front().t_s || t > truth.back().t_s) {
       continue;
     }
-    const Eigen::Vector3d d =
-        (errors.alignment * InterpolatePose(estimate, t)).translation() - InterpolatePose(truth, t).translation();
+    Eigen::Isometry3d pose = InterpolatePose(estimate, t);
+    pose.translation() *= errors.scale;
+    const Eigen::Vector3d d = (errors.alignment * pose).translation() - InterpolatePose(truth, t).translation();
     sum += horizontal ? d.head<2>().norm() : d.norm();
     ++n;
   }
@@ -409,6 +427,7 @@ int RunTrajectoryCommand(const TrajectoryCommand& command, const nlohmann::json&
                  {"ape_rmse_m", e.ape_translation_m.rmse},
                  {"ape_max_m", e.ape_translation_m.max},
                  {"poses_matched", e.poses_matched}};
+    if (options.alignment == Alignment::kSimilarity2d) per[name]["scale"] = e.scale;
     if (reference < errors.size()) {
       per[name]["ape_mean_ratio"] = ratios[i];
       per[name]["ratio_instants"] = ratio_instants[i];

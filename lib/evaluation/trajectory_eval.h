@@ -34,8 +34,15 @@ enum class Alignment {
   /// Least-squares rotation about the vertical and horizontal translation over all poses,
   /// and the errors horizontal (x, y) only: for 2-D trajectories and maps (a plain dead
   /// reckoning with z = 0, a GPS track).
-  kRigid2d
+  kRigid2d,
+  /// kRigid2d with a scale of the estimate's positions too (least squares, Umeyama; evo's
+  /// --correct_scale in the plane): what is left is the path's shape, without a distance
+  /// scale error (e.g. wheels whose rolling radius is not the one stated) that would
+  /// otherwise dominate every other error.
+  kSimilarity2d
 };
+/// Whether the alignment is in the plane (its errors horizontal).
+bool IsHorizontal(Alignment alignment);
 std::string ToString(Alignment alignment);
 Alignment AlignmentFromString(const std::string& text);  ///< std::invalid_argument if unknown.
 
@@ -72,6 +79,9 @@ struct TrajectoryErrors {
   /// The alignment applied to the estimate (world_from_estimate_world), and the time stamps
   /// of the estimate's matched poses.
   Eigen::Isometry3d alignment = Eigen::Isometry3d::Identity();
+  /// The scale applied to the estimate's positions before `alignment` (1 but with
+  /// kSimilarity2d): the aligned position is alignment * (scale x position).
+  double scale = 1;
   std::vector<double> matched_t_s;
 };
 
@@ -85,7 +95,7 @@ TrajectoryErrors EvaluateTrajectory(const std::vector<StampedPose>& estimate,
 /// The truth's pose at time t (t inside its span), interpolated.
 Eigen::Isometry3d InterpolatePose(const std::vector<StampedPose>& truth, double t_s);
 
-/// The mean position error of `estimate`, aligned by `errors.alignment` (its own, from
+/// The mean position error of `estimate`, aligned by `errors.scale` and `errors.alignment` (its own, from
 /// EvaluateTrajectory), at the instants `t_s` that lie inside both its span and the truth's
 /// (estimate and truth interpolated there; horizontal with the 2-D alignment); sets `count`
 /// to their number (NaN when none). Two estimates written at different rates are compared

@@ -202,6 +202,18 @@ TEST(EvaluateTrajectory, APositionTrackAsTruthScoresPositionsAndDisplacementsOnl
   EXPECT_EQ(e.ape_rotation_deg.count, 0);
   EXPECT_TRUE(std::isnan(e.rpe_rotation_deg.rmse));
   EXPECT_TRUE(std::isnan(e.drift_rotation_deg_per_m));
+  // The similarity alignment takes the 5 % out too: the path's shape is exact, the scale
+  // 1 / 1.05, and the mean error at given instants (the ratio's) is as exact.
+  options.alignment = Alignment::kSimilarity2d;
+  const TrajectoryErrors similar = EvaluateTrajectory(estimate, truth, options);
+  EXPECT_NEAR(similar.scale, 1 / 1.05, 1e-9);
+  EXPECT_NEAR(similar.ape_translation_m.max, 0.0, 1e-6);
+  EXPECT_NEAR(similar.rpe_translation_m.mean, 0.0, 1e-6);
+  long count = 0;
+  EXPECT_NEAR(MeanPositionErrorAt(estimate, similar, truth, options, {3.0, 7.5}, &count), 0.0, 1e-6);
+  EXPECT_EQ(count, 2);
+  EXPECT_DOUBLE_EQ(e.scale, 1.0);
+  EXPECT_EQ(AlignmentFromString("similarity-2d"), Alignment::kSimilarity2d);
   // A header that is neither a trajectory nor a track, and a bad cell, are bad input.
   std::ofstream(tmp.path() / "bad.csv") << "time,lat,lon\n1,2,3\n";
   EXPECT_THROW(ReadPoses(tmp.path() / "bad.csv"), InputError);
