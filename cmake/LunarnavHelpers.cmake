@@ -1,7 +1,8 @@
 # Helpers that give every target of the project the same shape:
 #   lunarnav_add_library(NAME SRCS ... PUBLIC_DEPS ... PRIVATE_DEPS ...)
 #   lunarnav_add_app(NAME SRCS ... DEPS ...)
-#   lunarnav_add_test(NAME SRCS ... DEPS ... [LABELS ...])
+#   lunarnav_add_test(NAME DIR dir SRCS ... DEPS ... [LABELS ...])
+#   lunarnav_add_test_module(DIR SRCS ... DEPS ... [LABELS ...])
 include_guard(GLOBAL)
 include(CheckCXXCompilerFlag)
 
@@ -48,15 +49,9 @@ function(lunarnav_add_app NAME)
   set_target_properties(${NAME} PROPERTIES RUNTIME_OUTPUT_DIRECTORY ${PROJECT_BINARY_DIR}/bin)
 endfunction()
 
-# A GoogleTest program registered with CTest as DIR/NAME (e.g. stereo/ncc_matcher_test).
-function(lunarnav_add_test NAME)
-  cmake_parse_arguments(ARG "" "DIR" "SRCS;DEPS;LABELS" ${ARGN})
-  string(REPLACE "/" "_" exe "${ARG_DIR}_${NAME}")
-  add_executable(${exe} ${ARG_SRCS})
-  target_link_libraries(${exe} PRIVATE ${ARG_DEPS} lunarnav::testing GTest::gtest GTest::gmock)
-  target_include_directories(${exe} PRIVATE ${PROJECT_SOURCE_DIR}/tests)
-  lunarnav_set_common_options(${exe})
-  add_test(NAME ${ARG_DIR}/${NAME} COMMAND ${exe})
+# The environment every test runs in: where the test data and the tools are, and the
+# sanitizer's options in the sanitized build.
+function(lunarnav_test_environment OUT)
   set(environment "LUNARNAV_TESTDATA=${PROJECT_SOURCE_DIR}/testdata;LUNARNAV_BIN=${PROJECT_BINARY_DIR}/bin")
   if(LUNARNAV_SANITIZE)
     # LeakSanitizer's check at exit walks each thread's dynamic TLS; clang 14's runtime reads a
@@ -65,5 +60,49 @@ function(lunarnav_add_test NAME)
     # Not tracking __tls_get_addr leaves that walk out; leaks are still checked.
     string(APPEND environment ";ASAN_OPTIONS=intercept_tls_get_addr=0")
   endif()
+  set(${OUT} "${environment}" PARENT_SCOPE)
+endfunction()
+
+function(lunarnav_test_executable exe)
+  cmake_parse_arguments(ARG "" "" "SRCS;DEPS" ${ARGN})
+  add_executable(${exe} ${ARG_SRCS})
+  target_link_libraries(${exe} PRIVATE ${ARG_DEPS} lunarnav::testing GTest::gtest GTest::gmock)
+  target_include_directories(${exe} PRIVATE ${PROJECT_SOURCE_DIR}/tests)
+  lunarnav_set_common_options(${exe})
+endfunction()
+
+# A GoogleTest program registered with CTest as DIR/NAME (e.g. integration/stereo_batch): for
+# a program that must run alone (RUN_SERIAL) or with tools built first.
+function(lunarnav_add_test NAME)
+  cmake_parse_arguments(ARG "" "DIR" "SRCS;DEPS;LABELS" ${ARGN})
+  string(REPLACE "/" "_" exe "${ARG_DIR}_${NAME}")
+  lunarnav_test_executable(${exe} SRCS ${ARG_SRCS} DEPS ${ARG_DEPS})
+  add_test(NAME ${ARG_DIR}/${NAME} COMMAND ${exe})
+  lunarnav_test_environment(environment)
   set_tests_properties(${ARG_DIR}/${NAME} PROPERTIES ENVIRONMENT "${environment}" LABELS "${ARG_DIR};${ARG_LABELS}")
+endfunction()
+
+# The unit tests of one module (tests/DIR): one GoogleTest program, DIR_tests, of all their
+# sources (one link instead of one per file); CTest lists each of its tests as
+# DIR/Suite.Name, found when ctest runs (gtest_discover_tests, PRE_TEST: the build does not
+# run the program), each run in its own process, labelled DIR, in the environment above.
+include(GoogleTest)
+function(lunarnav_add_test_module DIR)
+  cmake_parse_arguments(ARG "" "" "SRCS;DEPS;LABELS" ${ARGN})
+  set(exe ${DIR}_tests)
+  lunarnav_test_executable(${exe} SRCS ${ARG_SRCS} DEPS ${ARG_DEPS})
+  # (A sanitized program takes a while to list its tests on a loaded machine.)
+  gtest_discover_tests(${exe} TEST_PREFIX "${DIR}/" TEST_LIST ${exe}_TESTS DISCOVERY_MODE PRE_TEST
+                       DISCOVERY_TIMEOUT 300)
+  # The properties are set by a script of their own, run after the discovery's: through
+  # CMake 3.25 gtest_discover_tests' PROPERTIES split a list value (two ENVIRONMENT variables)
+  # into separate arguments.
+  lunarnav_test_environment(environment)
+  set(labels "${DIR};${ARG_LABELS}")
+  set(script ${CMAKE_CURRENT_BINARY_DIR}/${exe}_properties.cmake)
+  file(GENERATE OUTPUT ${script} CONTENT "if(${exe}_TESTS)
+  set_tests_properties(\${${exe}_TESTS} PROPERTIES ENVIRONMENT [==[${environment}]==] LABELS [==[${labels}]==])
+endif()
+")
+  set_property(DIRECTORY APPEND PROPERTY TEST_INCLUDE_FILES ${script})
 endfunction()
