@@ -216,7 +216,9 @@ TEST(BorderRule, NoPixelSeenBeyondTheEdgeIsMatchedInside) {
     EXPECT_GT(with_rule.rule, 0);
     // Without the rule pixels beyond the edge are matched inside (a wrong, smaller disparity:
     // points below the ground in the map).
-    if (k.fails_without_rule) EXPECT_GT(without.beyond_accepted, 100) << "of " << without.beyond;
+    if (k.fails_without_rule) {
+      EXPECT_GT(without.beyond_accepted, 100) << "of " << without.beyond;
+    }
     EXPECT_EQ(without.rule, 0);
     // Where the true match is inside, the cut range loses little and gains no error...
     EXPECT_GT(with_rule.cut_accepted, 0.9 * without.cut_accepted);
