@@ -8,10 +8,8 @@ include(CheckCXXCompilerFlag)
 
 set(LUNARNAV_WARNING_FLAGS -Wall -Wextra -Wpedantic -Wno-unused-parameter)
 if(CMAKE_CXX_COMPILER_ID STREQUAL "GNU" AND CMAKE_CXX_COMPILER_VERSION VERSION_GREATER_EQUAL 12)
-  # False positives inside libstdc++'s std::string with GCC 12 (GCC bug 105329); the
-  # memcpy-bound ones (-Wstringop-overflow) of the same code show once its headers come from a
-  # precompiled header, which does not keep them quiet as system headers.
-  list(APPEND LUNARNAV_WARNING_FLAGS -Wno-restrict -Wno-stringop-overflow)
+  # False positives inside libstdc++'s std::string with GCC 12 (GCC bug 105329).
+  list(APPEND LUNARNAV_WARNING_FLAGS -Wno-restrict)
 endif()
 if(LUNARNAV_WERROR)
   list(APPEND LUNARNAV_WARNING_FLAGS -Werror)
@@ -31,19 +29,23 @@ function(lunarnav_set_common_options target)
   endif()
 endfunction()
 
-# Precompiled headers. Most sources parse the same third-party headers (nlohmann/json,
-# OpenCV's core, Eigen, and GoogleTest in the tests or CLI11 in the tools: about 1 s each);
-# each kind of target reuses one precompiled set, built once by an object library of its own
-# with the same flags as every target (lunarnav_pch_lib, _app, _test). Sources with their own
-# instruction-set flags or macros before OpenCV's headers (the stereo kernels) skip it
-# (SKIP_PRECOMPILE_HEADERS). LUNARNAV_PCH=OFF builds without.
+# Precompiled headers for the tools and the tests. Their sources parse the same third-party
+# headers (nlohmann/json, OpenCV's core, Eigen, and CLI11 in the tools or GoogleTest in the
+# tests: about 1 s each); each kind reuses one precompiled set, built once by an object
+# library of its own with the flags of every target (lunarnav_pch_app, lunarnav_pch_test).
+# Measured (fresh Release builds, 2 cores): the tests' compile time fell by a fifth, the
+# tools' by 30 %, the libraries' by 3 % (their time is code generation), so the libraries
+# are built without one: with GCC 12 a precompiled header lets libstdc++'s false positives
+# through (-Warray-bounds, -Wstringop-overflow on std::string's copies, as if its headers
+# were not system headers), and the product's code keeps those warnings. LUNARNAV_PCH=OFF
+# builds without any.
 option(LUNARNAV_PCH "Precompile the third-party headers most sources parse" ON)
 set(LUNARNAV_PCH_HEADERS
     <algorithm> <array> <cmath> <cstdint> <cstdio> <filesystem> <fstream> <functional> <limits>
     <map> <memory> <optional> <sstream> <string> <string_view> <utility> <vector>
     <nlohmann/json.hpp> <opencv2/core.hpp> <Eigen/Core> <Eigen/Geometry>)
 
-# The precompiled set KIND (lib, app or test): the common headers and EXTRA ones.
+# The precompiled set KIND (app or test): the common headers and EXTRA ones.
 function(lunarnav_add_pch KIND)
   if(NOT LUNARNAV_PCH)
     return()
@@ -67,6 +69,9 @@ function(lunarnav_use_pch target KIND)
   target_precompile_headers(${target} REUSE_FROM lunarnav_pch_${KIND})
   target_link_libraries(${target} PRIVATE Eigen3::Eigen nlohmann_json::nlohmann_json)
   target_include_directories(${target} SYSTEM PRIVATE ${OpenCV_INCLUDE_DIRS})
+  if(CMAKE_CXX_COMPILER_ID STREQUAL "GNU" AND CMAKE_CXX_COMPILER_VERSION VERSION_GREATER_EQUAL 12)
+    target_compile_options(${target} PRIVATE -Wno-array-bounds -Wno-stringop-overflow)
+  endif()
 endfunction()
 
 # One library target per lib/ module: lunarnav_<NAME>, aliased lunarnav::<NAME>.
@@ -78,7 +83,6 @@ function(lunarnav_add_library NAME)
   target_include_directories(${target} PUBLIC ${PROJECT_SOURCE_DIR}/lib ${PROJECT_BINARY_DIR}/lib)
   target_link_libraries(${target} PUBLIC ${ARG_PUBLIC_DEPS} PRIVATE ${ARG_PRIVATE_DEPS})
   lunarnav_set_common_options(${target})
-  lunarnav_use_pch(${target} lib)
 endfunction()
 
 # A command-line tool; the executable is named NAME (e.g. stereo-batch).
