@@ -308,7 +308,8 @@ class ScreeningStream::Impl {
     // The run's rejected samples (rows, values, times), kept until the run is decided: their
     // rows are not final before (hampel_end stops at the first).
     std::array<std::size_t, kRebaselineAfter - 1> run_row{};
-    std::array<double, kRebaselineAfter - 1> run_value{}, run_t{};
+    std::array<double, kRebaselineAfter - 1> run_value{}, run_t{}, run_raw{};
+    std::array<bool, kRebaselineAfter - 1> run_wrapped{};  // an encoder's counter wrapped there
     // Dropouts: silences longer than gap_factor x the channel's typical interval.
     Typical typical_state = Typical::kUnknown;
     double dropout_limit = 0;   // gap_factor x typical interval
@@ -528,6 +529,8 @@ class ScreeningStream::Impl {
         s.run_row[rejected_run] = k;
         s.run_value[rejected_run] = value;
         s.run_t[rejected_run] = t[i];
+        s.run_raw[rejected_run] = r;
+        s.run_wrapped[rejected_run] = wrapped;
         ++rejected_run;
         Record(k, ch, ScreeningRule::kRateLimit, r);
         continue;
@@ -538,6 +541,7 @@ class ScreeningStream::Impl {
         for (int j = 0; j < rejected_run; ++j) {
           const std::size_t row = s.run_row[j];
           Unrecord(row, ch, ScreeningRule::kRateLimit);
+          if (s.run_wrapped[j]) Record(row, ch, ScreeningRule::kEncoderWrap, s.run_raw[j]);
           v[row - b] = s.run_value[j];
           if constexpr (kind != kEncoderKind) {
             queue_value[queued] = s.run_value[j];
