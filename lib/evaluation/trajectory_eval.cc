@@ -76,8 +76,8 @@ Eigen::Isometry3d RigidAlignment(const std::vector<Eigen::Isometry3d>& from,
 // sum of squares), which is then applied to `from`: the similarity's rotation and translation
 // are the rigid alignment of the scaled points (a scale changes neither the angle nor, once
 // applied, the centroids' relation).
-Eigen::Isometry3d RigidAlignment2d(std::vector<Eigen::Isometry3d>* from_poses, const std::vector<Eigen::Isometry3d>& to,
-                                   double* scale) {
+Eigen::Isometry3d HorizontalAlignment(std::vector<Eigen::Isometry3d>* from_poses,
+                                      const std::vector<Eigen::Isometry3d>& to, double* scale) {
   std::vector<Eigen::Isometry3d>& from = *from_poses;
   Eigen::Vector2d from_mean = Eigen::Vector2d::Zero(), to_mean = Eigen::Vector2d::Zero();
   for (std::size_t i = 0; i < from.size(); ++i) {
@@ -270,8 +270,8 @@ TrajectoryErrors EvaluateTrajectory(const std::vector<StampedPose>& estimate,
     case Alignment::kStart: align.translation() = ref[0].translation() - est[0].translation(); break;
     case Alignment::kOrigin: align = ref[0] * est[0].inverse(); break;
     case Alignment::kRigid: align = RigidAlignment(est, ref); break;
-    case Alignment::kRigid2d: align = RigidAlignment2d(&est, ref, nullptr); break;
-    case Alignment::kSimilarity2d: align = RigidAlignment2d(&est, ref, &errors.scale); break;
+    case Alignment::kRigid2d: align = HorizontalAlignment(&est, ref, nullptr); break;
+    case Alignment::kSimilarity2d: align = HorizontalAlignment(&est, ref, &errors.scale); break;
   }
   errors.alignment = align;
   std::vector<double> ape_t, ape_r;

@@ -95,10 +95,10 @@ TrajectoryErrors EvaluateTrajectory(const std::vector<StampedPose>& estimate,
 /// The truth's pose at time t (t inside its span), interpolated.
 Eigen::Isometry3d InterpolatePose(const std::vector<StampedPose>& truth, double t_s);
 
-/// The mean position error of `estimate`, aligned by `errors.scale` and `errors.alignment` (its own, from
-/// EvaluateTrajectory), at the instants `t_s` that lie inside both its span and the truth's
-/// (estimate and truth interpolated there; horizontal with the 2-D alignment); sets `count`
-/// to their number (NaN when none). Two estimates written at different rates are compared
+/// The mean position error of `estimate`, aligned by `errors.scale` and `errors.alignment`
+/// (its own, from EvaluateTrajectory), at the instants `t_s` that lie inside both its span
+/// and the truth's (estimate and truth interpolated there; horizontal with a 2-D alignment);
+/// sets `count` to their number (NaN when none). Two estimates written at different rates are compared
 /// at the same instants so (`evaluate trajectory`'s ape_mean_ratio).
 double MeanPositionErrorAt(const std::vector<StampedPose>& estimate, const TrajectoryErrors& errors,
                            const std::vector<StampedPose>& truth, const TrajectoryEvalOptions& options,
