@@ -372,7 +372,11 @@ PosfilterResult Run(ScreenedRows& input, const std::string& source, const teleme
       for (int w = 0; w < 4; ++w) counts[w] = have_wheel[w] ? rows.raw[wheel_index[w]][i] : kNaN;
       baseline.Step(tk, counts, have_gyro ? gyro_raw[i] : kNaN);
       out.baseline = nullptr;
-      if (tk >= next_baseline_t) {
+      // The baseline moves at the encoders' samples: its pose is written at one (between
+      // them it would be the last sample's position stamped later, up to an interval late).
+      bool encoder_row = false;
+      for (int w = 0; w < 4; ++w) encoder_row = encoder_row || !std::isnan(counts[w]);
+      if (encoder_row && tk >= next_baseline_t) {
         next_baseline_t = (next_baseline_t < tk - options.baseline_interval_s ? tk : next_baseline_t) +
                           options.baseline_interval_s;
         if (keep) r.baseline_trajectory.push_back(baseline.pose());

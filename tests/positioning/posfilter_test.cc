@@ -165,6 +165,27 @@ TEST(RunPosfilter, TheBaselineEndsNearTheFilteredTrajectoryAndPartingIsAWarning)
   EXPECT_TRUE(tight.SummaryJson()["baseline"]["parted"].get<bool>());
 }
 
+// The baseline moves at its encoders' samples, so its poses are written at them: once a
+// second, at the first encoder sample due (between samples its position would be the last
+// sample's, stamped up to an interval later: a real log's GPS then scores it as lagging).
+TEST(RunPosfilter, TheBaselineIsWrittenAtItsEncoderSamples) {
+  const SkidSteerDrive drive(7);  // encoders every 0.14 s: the whole seconds fall between samples
+  const PosfilterResult r = RunPosfilter(drive.log, drive.model, PosfilterOptions{});
+  const std::vector<double>& enc = drive.log.counts[static_cast<int>(telemetry::Channel::kEncoderFrontLeft)];
+  ASSERT_GT(r.baseline_trajectory.size(), 40u);
+  for (std::size_t j = 0; j + 1 < r.baseline_trajectory.size(); ++j) {  // the last: the log's last row
+    const double t = r.baseline_trajectory[j].t_s;
+    const auto row = std::lower_bound(drive.log.t_s.begin(), drive.log.t_s.end(), t) - drive.log.t_s.begin();
+    ASSERT_LT(row, static_cast<long>(enc.size()));
+    EXPECT_FALSE(std::isnan(enc[static_cast<std::size_t>(row)])) << "baseline pose " << j << " at " << t << " s";
+    if (j > 0) {
+      const double gap = t - r.baseline_trajectory[j - 1].t_s;
+      EXPECT_GE(gap, 1.0 - 0.14 - 1e-9) << j;
+      EXPECT_LE(gap, 1.0 + 0.14 + 1e-9) << j;
+    }
+  }
+}
+
 TEST(RunPosfilter, AGyroSampleRejectedMidTurnLeavesTheTurn) {
   // Row 50 * 10 is 2 s into the first arc (turning at 30 deg/s); row 50 * 14 + 10 is 0.2 s into
   // the first turn in place (45 deg/s).
