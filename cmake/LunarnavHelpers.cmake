@@ -105,6 +105,8 @@ function(lunarnav_test_environment OUT)
     # its tracer dies ("Tracer caught signal 11": a tool exiting 1 now and then under load).
     # Not tracking __tls_get_addr leaves that walk out; leaks are still checked.
     string(APPEND environment ";ASAN_OPTIONS=intercept_tls_get_addr=0")
+    # Leaks inside third-party libraries the project cannot free (each explained there).
+    string(APPEND environment ";LSAN_OPTIONS=suppressions=${PROJECT_SOURCE_DIR}/tests/sanitizers/lsan.supp")
   endif()
   set(${OUT} "${environment}" PARENT_SCOPE)
 endfunction()
