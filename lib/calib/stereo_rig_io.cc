@@ -217,6 +217,13 @@ StereoRig ReadOpenCvCalibration(const std::filesystem::path& intrinsics,
     // Read whole and checked first: OpenCV's parsers recurse once per nesting level (a file
     // nested 50,000 deep overflowed the stack) and size their buffers from the file.
     const std::string text = io::ReadConfigText(p);
+    // OpenCV 4.6's XML parser reads past the end of a file cut after an attribute's '='
+    // (`<?xml version=`: a null pointer, a crash). Every XML file OpenCV writes ends with its
+    // closing tag, so one that does not was cut short.
+    const std::size_t first = text.find_first_not_of(" \t\r\n\xEF\xBB\xBF");  // a UTF-8 byte-order mark too
+    const std::size_t last = text.find_last_not_of(" \t\r\n");
+    LN_CHECK_INPUT(first == std::string::npos || text[first] != '<' || text[last] == '>')
+        << p.string() << ": not an OpenCV XML file (it does not end with a closing tag: cut short?)";
     cv::FileStorage fs;
     try {
       fs.open(text, cv::FileStorage::READ | cv::FileStorage::MEMORY);

@@ -175,6 +175,44 @@ TEST(ReadOpenCvCalibration, ReadsTheXmlFormToo) {
   ExpectSameRig(xml, yml);
 }
 
+// An XML file cut short is refused with the file's name, wherever the cut falls: OpenCV's
+// parser crashed (a null pointer) on one cut just after an attribute's '=' (`<?xml
+// version=`, found by the rig_import fuzz target).
+TEST(ReadOpenCvCalibration, AnXmlFileCutShortIsRefusedWhereverTheCut) {
+  util::ScopedTempDir tmp;
+  const StereoRig truth = testing::PaperRig();
+  testing::WriteOpenCvCalibration(tmp.path(), truth, 0.1);
+  std::string whole;
+  {
+    cv::FileStorage yml((tmp.path() / "intrinsics.yml").string(), cv::FileStorage::READ);
+    cv::FileStorage xml(".xml", cv::FileStorage::WRITE | cv::FileStorage::MEMORY);
+    for (const char* key : {"M1", "D1", "M2", "D2"}) {
+      cv::Mat m;
+      yml[key] >> m;
+      xml << key << m;
+    }
+    whole = xml.releaseAndGetString();
+  }
+  ASSERT_EQ(whole.rfind("<?xml version=", 0), 0u) << whole.substr(0, 40);
+  const std::filesystem::path cut = tmp.path() / "cut.xml";
+  int refused = 0;
+  for (std::size_t n = 1; n < whole.size() - 2; n += (n < 200 ? 1 : 7)) {  // every byte of the head
+    if (whole.find_last_not_of(" \t\r\n", n - 1) == std::string::npos) continue;
+    std::FILE* f = std::fopen(cut.string().c_str(), "wb");
+    ASSERT_NE(f, nullptr);
+    std::fwrite(whole.data(), 1, n, f);
+    std::fclose(f);
+    try {
+      ReadOpenCvCalibration(cut, tmp.path() / "extrinsics.yml", 640, 480, 0.1, truth.mast);
+      ADD_FAILURE() << "accepted the file cut after " << n << " bytes";
+    } catch (const InputError& e) {
+      EXPECT_NE(std::string(e.what()).find("cut.xml"), std::string::npos) << e.what();
+      ++refused;
+    }
+  }
+  EXPECT_GT(refused, 200);
+}
+
 // Writes extrinsics.yml with R as given (a YAML opencv-matrix body) and a valid T.
 void WriteExtrinsics(const std::filesystem::path& dir, const std::string& r_body) {
   std::FILE* f = std::fopen((dir / "extrinsics.yml").string().c_str(), "w");
