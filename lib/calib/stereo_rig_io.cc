@@ -1,6 +1,7 @@
 #include "calib/stereo_rig_io.h"
 
 #include <set>
+#include <string_view>
 #include <tuple>
 
 #include <opencv2/core.hpp>
@@ -77,6 +78,60 @@ std::pair<int, int> SizeFrom(const nlohmann::json& v, const std::string& where) 
 // The largest matrix of a calibration file: 3x4 (P1, P2) or a distortion vector of up to 14
 // coefficients (OpenCV's rational, thin-prism and tilted models) in either orientation.
 constexpr int kMaxMatrixSide = 16;
+
+// What OpenCV 4.6's FileStorage parsers cannot be given (bad input they crash or hang on,
+// fuzz findings), checked on the whole text first:
+// - XML that does not end with a closing tag (cut short): the parser read past the end of a
+//   file cut just after an attribute's '=' (`<?xml version=`: a null pointer).
+// - YAML whose top-level mapping does not start at column 0, or with a line at column 0
+//   that is neither a key (`name: value`, the colon outside quotes) nor a comment, directive
+//   or document marker: keys written indented, then a line further left, sent the parser into
+//   an endless loop (`%YAML:1.0`, ` s: 0`, `Jan-x`, `c`; also with keys further left). OpenCV
+//   writes every top-level key at column 0 and indents everything else (a matrix's fields,
+//   the continuation lines of its data), and refuses a continuation at column 0 itself.
+void CheckForOpenCvParser(const std::string& text, const std::string& file) {
+  const std::size_t first = text.find_first_not_of(" \t\r\n\xEF\xBB\xBF");  // a UTF-8 byte-order mark too
+  if (first == std::string::npos) return;  // empty: OpenCV says so
+  if (text[first] == '<') {
+    LN_CHECK_INPUT(text[text.find_last_not_of(" \t\r\n")] == '>')
+        << file << ": not an OpenCV XML file (it does not end with a closing tag: cut short?)";
+    return;
+  }
+  long line = 0;
+  bool content = false;  // a key seen
+  for (std::size_t begin = 0; begin < text.size();) {
+    std::size_t end = text.find('\n', begin);
+    if (end == std::string::npos) end = text.size();
+    ++line;
+    const std::string_view row(text.data() + begin, end - begin);
+    begin = end + 1;
+    const std::size_t indent = row.find_first_not_of(" \t\r");
+    if (indent == std::string_view::npos || row[indent] == '#' || row[0] == '%' || row.substr(0, 3) == "---" ||
+        row.substr(0, 3) == "...") {
+      continue;  // blank, a comment, a directive, a document marker
+    }
+    LN_CHECK_INPUT(indent == 0 || content)
+        << file << ": line " << line << ": not an OpenCV YAML file (its first key is not at column 0)";
+    content = true;
+    if (indent > 0) continue;
+    bool key = false;
+    char quote = 0;
+    for (std::size_t i = 0; i < row.size() && !key; ++i) {
+      const char c = row[i];
+      if (quote != 0) {
+        if (c == quote) quote = 0;
+      } else if (c == '"' || c == '\'') {
+        quote = c;
+      } else if (c == '#') {
+        break;
+      } else {
+        key = c == ':';
+      }
+    }
+    LN_CHECK_INPUT(key) << file << ": line " << line
+                        << ": not an OpenCV YAML file (a line at column 0 that is not 'name: value')";
+  }
+}
 
 // Reads an OpenCV matrix node (`!!opencv-matrix` in YAML, `type_id="opencv-matrix"` in XML)
 // element by element: its header (rows, cols) is checked against kMaxMatrixSide and its data
@@ -217,13 +272,7 @@ StereoRig ReadOpenCvCalibration(const std::filesystem::path& intrinsics,
     // Read whole and checked first: OpenCV's parsers recurse once per nesting level (a file
     // nested 50,000 deep overflowed the stack) and size their buffers from the file.
     const std::string text = io::ReadConfigText(p);
-    // OpenCV 4.6's XML parser reads past the end of a file cut after an attribute's '='
-    // (`<?xml version=`: a null pointer, a crash). Every XML file OpenCV writes ends with its
-    // closing tag, so one that does not was cut short.
-    const std::size_t first = text.find_first_not_of(" \t\r\n\xEF\xBB\xBF");  // a UTF-8 byte-order mark too
-    const std::size_t last = text.find_last_not_of(" \t\r\n");
-    LN_CHECK_INPUT(first == std::string::npos || text[first] != '<' || text[last] == '>')
-        << p.string() << ": not an OpenCV XML file (it does not end with a closing tag: cut short?)";
+    CheckForOpenCvParser(text, p.string());
     cv::FileStorage fs;
     try {
       fs.open(text, cv::FileStorage::READ | cv::FileStorage::MEMORY);

@@ -213,6 +213,43 @@ TEST(ReadOpenCvCalibration, AnXmlFileCutShortIsRefusedWhereverTheCut) {
   EXPECT_GT(refused, 200);
 }
 
+// A YAML file whose top level is not a mapping from the first column is refused, naming the
+// line: OpenCV's parser looped forever on `%YAML:1.0`, ` s: 0`, `Jan-x`, `c` (the rig_import
+// fuzz target). Files as OpenCV writes them, with a matrix's data over several lines, pass.
+TEST(ReadOpenCvCalibration, AYamlTopLevelLineThatIsNoKeyIsRefused) {
+  util::ScopedTempDir tmp;
+  const StereoRig truth = testing::PaperRig();
+  testing::WriteOpenCvCalibration(tmp.path(), truth, 0.1);
+  const std::filesystem::path bad = tmp.path() / "bad.yml";
+  for (const char* text : {"%YAML:1.0\n s: 0\nJan-x\nc\n", "%YAML:1.0\n---\nM1: 3\nstray words\n"}) {
+    std::FILE* f = std::fopen(bad.string().c_str(), "w");
+    ASSERT_NE(f, nullptr);
+    std::fputs(text, f);
+    std::fclose(f);
+    try {
+      ReadOpenCvCalibration(bad, tmp.path() / "extrinsics.yml", 640, 480, 0.1, truth.mast);
+      ADD_FAILURE() << "accepted " << text;
+    } catch (const InputError& e) {
+      EXPECT_NE(std::string(e.what()).find("bad.yml: line "), std::string::npos) << e.what();
+    }
+  }
+  // A flow sequence continued over lines (indented, as OpenCV writes it), quoted colons and
+  // comments pass.
+  std::FILE* f = std::fopen((tmp.path() / "wrapped.yml").string().c_str(), "w");
+  ASSERT_NE(f, nullptr);
+  std::fputs("%YAML:1.0\n---\n# written by hand\ncalibration_time: \"09-Jan-2012 13:57:47\"\n"
+             "M1: !!opencv-matrix\n   rows: 3\n   cols: 3\n   dt: d\n   data: [ 700., 0., 320.,\n"
+             "       0., 700., 240.,\n       0., 0., 1. ]\nD1: !!opencv-matrix\n   rows: 1\n   cols: 5\n   dt: d\n"
+             "   data: [ 0., 0., 0., 0., 0. ]\nM2: !!opencv-matrix\n   rows: 3\n   cols: 3\n   dt: d\n"
+             "   data: [ 700., 0., 320., 0., 700., 240., 0., 0., 1. ]\nD2: !!opencv-matrix\n   rows: 1\n"
+             "   cols: 5\n   dt: d\n   data: [ 0., 0., 0., 0., 0. ]\n",
+             f);
+  std::fclose(f);
+  const StereoRig rig = ReadOpenCvCalibration(tmp.path() / "wrapped.yml", tmp.path() / "extrinsics.yml", 640, 480,
+                                              0.1, truth.mast);
+  EXPECT_EQ(rig.left.K(1, 2), 240.0);
+}
+
 // Writes extrinsics.yml with R as given (a YAML opencv-matrix body) and a valid T.
 void WriteExtrinsics(const std::filesystem::path& dir, const std::string& r_body) {
   std::FILE* f = std::fopen((dir / "extrinsics.yml").string().c_str(), "w");
