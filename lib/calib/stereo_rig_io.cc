@@ -97,6 +97,7 @@ void CheckForOpenCvParser(const std::string& text, const std::string& file) {
         << file << ": not an OpenCV XML file (it does not end with a closing tag: cut short?)";
     return;
   }
+  if (text[first] == '{') return;  // JSON, which OpenCV also writes
   long line = 0;
   bool content = false;  // a key seen
   for (std::size_t begin = 0; begin < text.size();) {
