@@ -225,10 +225,9 @@ StereoRig StereoRigFromJson(const nlohmann::json& j, const std::string& source) 
   const auto& pose = Field(j, "right_from_left", source);
   OnlyKeys(pose, {"R", "t_m"}, rl);
   rig.right_from_left_R = MatrixFrom<3, 3>(Field(pose, "R", rl), rl + ".R");
-  rig.right_from_left_t_m = MatrixFrom<3, 1>(nlohmann::json{{Field(pose, "t_m", rl).at(0)},
-                                                            {Field(pose, "t_m", rl).at(1)},
-                                                            {Field(pose, "t_m", rl).at(2)}},
-                                             rl + ".t_m");
+  const auto& t = Field(pose, "t_m", rl);
+  LN_CHECK_INPUT(t.is_array() && t.size() == 3) << rl << ".t_m: expected 3 numbers";
+  rig.right_from_left_t_m = MatrixFrom<3, 1>(nlohmann::json{{t[0]}, {t[1]}, {t[2]}}, rl + ".t_m");
   if (j.contains("mast")) {
     const std::string m = source + ".mast";
     const auto& mj = j["mast"];

@@ -64,6 +64,14 @@ TEST(StereoRigJson, NamesUnknownAndMissingFields) {
   j = good;
   j["format"] = "lunarnav.rig/2";
   expect_error(j, "rig.json.format");
+  // The translation: three numbers, neither fewer (found by fuzzing: an index error escaped
+  // as an internal error) nor more, nor anything else.
+  for (const nlohmann::json& t : {nlohmann::json{0.0, 0.001}, nlohmann::json{0.5, 0.0, 0.0, 1.0},
+                                  nlohmann::json(0.5), nlohmann::json{{"x", 0.5}}}) {
+    j = good;
+    j["right_from_left"]["t_m"] = t;
+    expect_error(j, "rig.json.right_from_left.t_m: expected 3 numbers");
+  }
 }
 
 // A rotation as a paper prints it: every element rounded to `digits` significant digits.
