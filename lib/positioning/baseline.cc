@@ -32,30 +32,60 @@ PlainDeadReckoner::PlainDeadReckoner(const telemetry::SensorModel& model, const 
   prev_dir_y_ = dir_y_;
 }
 
+// Turns the heading by d (rad). Inlined into Step.
+[[gnu::always_inline]] inline void PlainDeadReckoner::Turn(double d) {
+  pose_.heading_rad += d;
+  if (std::abs(d) < 0.05) [[likely]] {  // rotate the direction by d: cos d, sin d to 1e-9
+    const double d2 = d * d;
+    const double c = 1.0 - d2 * (0.5 - d2 * (1.0 / 24.0)), s = d * (1.0 - d2 * (1.0 / 6.0));
+    const double x = dir_x_ * c + dir_y_ * s, y = dir_y_ * c - dir_x_ * s;
+    dir_x_ = x;
+    dir_y_ = y;
+    if (++rotations_ % 64 == 0) {  // back onto the unit circle (each rotation errs by < 1e-12)
+      const double renorm = 1.5 - 0.5 * (x * x + y * y);
+      dir_x_ = x * renorm;
+      dir_y_ = y * renorm;
+    }
+  } else {
+    dir_x_ = std::sin(pose_.heading_rad);
+    dir_y_ = std::cos(pose_.heading_rad);
+  }
+}
+
 // Called for every gyro sample once the rover has moved: inlined into Step.
 [[gnu::always_inline]] inline void PlainDeadReckoner::UpdateHeading(double t_s, double rate_radps) {
-  if (have_rate_ && t_s > last_gyro_t_) {
-    const double d = 0.5 * (last_rate_ + rate_radps - 2.0 * bias_) * (t_s - last_gyro_t_);
-    pose_.heading_rad += d;
-    if (std::abs(d) < 0.05) [[likely]] {  // rotate the direction by d: cos d, sin d to 1e-9
-      const double d2 = d * d;
-      const double c = 1.0 - d2 * (0.5 - d2 * (1.0 / 24.0)), s = d * (1.0 - d2 * (1.0 / 6.0));
-      const double x = dir_x_ * c + dir_y_ * s, y = dir_y_ * c - dir_x_ * s;
-      dir_x_ = x;
-      dir_y_ = y;
-      if (++rotations_ % 64 == 0) {  // back onto the unit circle (each rotation errs by < 1e-12)
-        const double renorm = 1.5 - 0.5 * (x * x + y * y);
-        dir_x_ = x * renorm;
-        dir_y_ = y * renorm;
-      }
-    } else {
-      dir_x_ = std::sin(pose_.heading_rad);
-      dir_y_ = std::cos(pose_.heading_rad);
-    }
-  }
+  if (have_rate_ && t_s > last_gyro_t_) Turn(0.5 * (last_rate_ + rate_radps - 2.0 * bias_) * (t_s - last_gyro_t_));
   have_rate_ = true;
   last_rate_ = rate_radps;
   last_gyro_t_ = t_s;
+}
+
+// The first encoder sample that shows the wheels moving, the log having started at rest: the
+// bias is the rest's mean reading (when the rest lasted stationary_min_s up to the last
+// still sample), and the heading takes the readings held since that sample (the motion's
+// start), from the rest's rate at the last reading at rest.
+void PlainDeadReckoner::StartMoving() {
+  moved_ever_ = true;
+  const double rest_rate = bias_count_ > 0 ? bias_sum_ / static_cast<double>(bias_count_) : 0.0;
+  if (bias_count_ > 0 && last_still_t_ - pose_start_t_ >= stationary_min_s_) {
+    bias_ = rest_rate;
+    bias_frozen_ = true;
+  } else {  // too short a rest to tell the bias
+    bias_sum_ = 0;
+    bias_count_ = 0;
+  }
+  if (!gyro_) return;
+  if (held_.count > 0) {
+    double d = held_.integral - bias_ * (held_.last_t - held_.first_t);
+    if (rest_gyro_seen_) d += 0.5 * (rest_rate + held_.first_rate - 2.0 * bias_) * (held_.first_t - last_rest_gyro_t_);
+    Turn(d);
+    last_rate_ = held_.last_rate;
+    last_gyro_t_ = held_.last_t;
+  } else {
+    last_rate_ = rest_rate;
+    last_gyro_t_ = last_rest_gyro_t_;
+  }
+  have_rate_ = held_.count > 0 || rest_gyro_seen_;
 }
 
 void PlainDeadReckoner::Step(double t_s, const std::array<double, 4>& encoder_counts, double gyro_count) {
@@ -63,6 +93,7 @@ void PlainDeadReckoner::Step(double t_s, const std::array<double, 4>& encoder_co
     started_ = true;
     pose_start_t_ = t_s;
     still_since_t_ = t_s;
+    last_still_t_ = t_s;
   }
   // Wheels: unwrapped travel (a step of more than half the counter is a wrap); whether any
   // count changed.
@@ -85,21 +116,33 @@ void PlainDeadReckoner::Step(double t_s, const std::array<double, 4>& encoder_co
     last_count_[w] = count;
   }
   travel_sum_m_ = travel_sum;
-  if (moved) {
-    still_since_t_ = t_s;
-    if (!bias_frozen_) [[unlikely]] {
+  // While the bias is learnt, gyro readings since the last encoder sample are held until the
+  // next one: the wheels were still up to a sample that shows no change, and started moving
+  // after the last such sample when one shows a change. A turn from rest shows in the gyro up
+  // to an encoder interval before the counts change; taken as rest it would enter the bias
+  // and leave the heading.
+  if (!bias_frozen_ && sampled) [[unlikely]] {
+    if (moved) {
+      if (!moved_ever_) StartMoving();
+      held_ = HeldReadings();
+    } else {  // still until now: the held readings were at rest
+      bias_sum_ += held_.bias_sum;
+      bias_count_ += held_.bias_count;
       if (!moved_ever_) {
-        moved_ever_ = true;
-        if (bias_count_ > 0 && t_s - pose_start_t_ >= stationary_min_s_) {  // the log started at rest
-          bias_ = bias_sum_ / static_cast<double>(bias_count_);
-          bias_frozen_ = true;
-        } else {  // too short a rest to tell the bias
-          bias_sum_ = 0;
-          bias_count_ = 0;
+        last_still_t_ = t_s;
+        if (held_.count > 0) {
+          last_rest_gyro_t_ = held_.last_t;
+          rest_gyro_seen_ = true;
         }
       }
-      if (in_period_) {  // the end of the first stationary period
-        in_period_ = false;
+      held_ = HeldReadings();
+    }
+  }
+  if (moved) {
+    still_since_t_ = t_s;
+    if (in_period_ && !bias_frozen_) [[unlikely]] {  // the end of the first stationary period
+      in_period_ = false;
+      if (bias_count_ > 0) {
         bias_ = bias_sum_ / static_cast<double>(bias_count_);
         bias_frozen_ = true;
       }
@@ -111,18 +154,30 @@ void PlainDeadReckoner::Step(double t_s, const std::array<double, 4>& encoder_co
     if (bias_frozen_) [[likely]] {
       UpdateHeading(t_s, rate);
     } else {
+      const bool known_still = wheel_count_ == 0 || (sampled && !moved);  // still at this very time
       const bool stationary = !moved && t_s - still_since_t_ >= stationary_min_s_;
       if (!moved_ever_ || stationary) {
-        in_period_ = moved_ever_;
-        bias_sum_ += rate;
-        ++bias_count_;
+        if (moved_ever_) in_period_ = true;
+        if (known_still) {
+          bias_sum_ += rate;
+          ++bias_count_;
+          if (!moved_ever_) {
+            last_rest_gyro_t_ = t_s;
+            rest_gyro_seen_ = true;
+          }
+        } else {  // the next encoder sample tells whether this was rest
+          held_.bias_sum += rate;
+          ++held_.bias_count;
+        }
       }
       if (moved_ever_) {
         UpdateHeading(t_s, rate);
-      } else {  // at rest from the start: the heading is the start's; the bias is being learnt
-        have_rate_ = true;
-        last_rate_ = bias_sum_ / static_cast<double>(bias_count_);
-        last_gyro_t_ = t_s;
+      } else if (!known_still) {  // kept for the heading, should it be the motion's start
+        if (held_.count > 0) held_.integral += 0.5 * (held_.last_rate + rate) * (t_s - held_.last_t);
+        else held_.first_t = t_s, held_.first_rate = rate;
+        ++held_.count;
+        held_.last_t = t_s;
+        held_.last_rate = rate;
       }
     }
   }

@@ -14,7 +14,9 @@ namespace lunarnav::positioning {
 /// wheels' travel (encoder counters unwrapped), the heading the gyro integrated at its own
 /// rate (trapezoids between its samples) minus its bias, the bias being the mean reading over
 /// the first stationary period (the wheels still for stationary_min_s or more, from the start
-/// when the log starts so); x += D sin(psi), y += D cos(psi) with psi the mean heading over
+/// when the log starts so; a period ends at the last encoder sample that shows the wheels
+/// still: gyro readings after it are held until the next encoder sample says whether they
+/// were rest or the motion's start); x += D sin(psi), y += D cos(psi) with psi the mean heading over
 /// the step, z = 0. Without a gyro the heading stays at the start's.
 /// Cheap: a few additions a row and no trigonometric call for small heading changes.
 class PlainDeadReckoner {
@@ -35,7 +37,19 @@ class PlainDeadReckoner {
   bool gyro_bias_known() const { return bias_frozen_; }
 
  private:
+  void Turn(double d_rad);
   void UpdateHeading(double t_s, double rate_radps);
+  void StartMoving();
+  // Gyro readings since the last encoder sample, while the bias is learnt: rest or motion,
+  // as the next encoder sample tells.
+  struct HeldReadings {
+    double bias_sum = 0;   // of those that count for the bias if they were at rest
+    long bias_count = 0;
+    long count = 0;        // before the first motion: all of them, for the heading
+    double first_t = 0, first_rate = 0, last_t = 0, last_rate = 0;
+    double integral = 0;   // trapezoids between them (rad)
+  };
+  HeldReadings held_;
   std::array<bool, 4> wheels_;
   bool gyro_;
   int wheel_count_ = 0;
@@ -53,6 +67,9 @@ class PlainDeadReckoner {
   double prev_dir_x_ = 0, prev_dir_y_ = 1;  // at the last row with encoder samples
   unsigned rotations_ = 0;
   double still_since_t_ = 0;        // wheels unchanged since
+  double last_still_t_ = 0;         // before the first motion: the last encoder sample still
+  double last_rest_gyro_t_ = 0;     // before the first motion: the last gyro reading at rest
+  bool rest_gyro_seen_ = false;
   bool moved_ever_ = false;
   double bias_sum_ = 0;
   long bias_count_ = 0;

@@ -181,8 +181,9 @@ TEST(Simulate, PosfilterScreeningReportsEveryInjectedFaultWhereFaultsCsvSaysItIs
 
 // The real-like presets (a small skid-steered rover with MEMS sensors, encoders at 10 Hz, the
 // IMU at 50 Hz, abrupt turns), with and without a compass, over six seeds: posfilter's
-// trajectory is on average much closer to the truth than the plain baseline it writes beside
-// it (by `evaluate trajectory`, after a 2-D alignment), and on no seed far worse; no screening
+// trajectory is on average closer to the truth than the plain baseline it writes beside it
+// (by `evaluate trajectory`, after a 2-D alignment; without a compass by 10 % or more), and
+// without a compass on no seed worse by more than a seed's spread; no screening
 // rule rejects more than its warning share; without a compass the gyro's scale is not
 // adapted. One seed alone is no test of this: the baseline and the filter share the errors
 // nothing in such a log shows (wheel slip, the gyro's scale), so a seed's ratio lies anywhere
@@ -221,10 +222,14 @@ TEST(Simulate, OnTheSkidSteerPresetsPosfilterIsNoWorseThanThePlainBaseline) {
         EXPECT_NE(summary["states"]["gyro_scale"].get<std::string>().find("held at prior"), std::string::npos);
       }
     }
-    // Measured when written (GCC's logs, seeds 1-6): without a compass a mean ratio of 0.64,
-    // the worst 0.95; with one 0.63 and 1.14 (seed 6: the compass's magnetic wander).
-    EXPECT_LE(sum / seeds, preset == "skid-steer" ? 0.8 : 0.75) << preset;
-    EXPECT_LE(worst, 1.25) << preset;
+    // Measured (GCC's logs, seeds 1-6), against the baseline whose rest ends at its last still
+    // encoder sample: without a compass a mean ratio of 0.83, the worst 0.95; with one 0.91
+    // and 1.40 (seed 3; seed 6 1.14: the compass's magnetic wander pulls the heading more
+    // than the gyro drifts, docs/posfilter.md). Against the baseline that took the first
+    // turn's start for rest the means read 0.64 and 0.63: the filter's gain was half the
+    // baseline's error.
+    EXPECT_LE(sum / seeds, preset == "skid-steer" ? 0.9 : 1.0) << preset;
+    EXPECT_LE(worst, preset == "skid-steer" ? 1.1 : 1.5) << preset;
   }
 }
 

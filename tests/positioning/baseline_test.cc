@@ -74,6 +74,41 @@ TEST(PlainDeadReckoner, RemovesTheGyroBiasLearntAtRestAndIntegratesAtTheGyrosRat
   EXPECT_NEAR(reckoner.distance_m(), 0.4 * 25, 0.01);
 }
 
+// A skid-steered rover turning in place from rest: the gyro (50 Hz) shows the turn up to an
+// encoder interval (10 Hz) before the wheels' counts change. Those readings are the turn's,
+// not the rest's: they stay out of the bias and in the heading.
+TEST(PlainDeadReckoner, ATurnThatStartsBetweenEncoderSamplesIsNotTakenForRest) {
+  const telemetry::SensorModel model = SkidSteerModel();
+  const double bias = 0.001;  // rad/s
+  const double turn_rate = 0.8;  // rad/s (46 deg/s), right
+  for (double start : {5.02, 5.04, 5.06, 5.08}) {  // encoders at 5.0 and 5.1 s
+    PlainDeadReckoner reckoner(model, {true, true, true, true}, true, 0.0, 1.0);
+    double heading = 0, wheel = 0, last_t = 0;
+    for (int k = 0; k <= 50 * 8; ++k) {  // 8 s
+      const double t = 0.02 * k;
+      // At rest, then turning in place for 2 s: the right wheels back, the left ones forward.
+      const double rate = t >= start - 1e-9 && t < start + 2 ? turn_rate : 0.0;
+      heading += rate * (t - last_t);
+      wheel += rate * 0.25 * (t - last_t);  // a 0.5 m track
+      last_t = t;
+      std::array<double, 4> counts = {kNaN, kNaN, kNaN, kNaN};
+      if (k % 5 == 0) {
+        counts[0] = Count(model, telemetry::Channel::kEncoderFrontLeft, wheel, 10);
+        counts[1] = Count(model, telemetry::Channel::kEncoderFrontRight, -wheel, 500);
+        counts[2] = Count(model, telemetry::Channel::kEncoderRearLeft, wheel, 20);
+        counts[3] = Count(model, telemetry::Channel::kEncoderRearRight, -wheel, 700);
+      }
+      reckoner.Step(t, counts, (rate + bias + 1.0) / 0.001953125);
+    }
+    SCOPED_TRACE(start);
+    ASSERT_TRUE(reckoner.gyro_bias_known());
+    // Taken as rest, the turn's readings before the counts change (1-4 of 250) would move the
+    // bias by up to 0.8 x 4 / 250 = 0.013 rad/s and take up to 0.064 rad from the turn.
+    EXPECT_NEAR(reckoner.gyro_bias_radps(), bias, 1e-9);
+    EXPECT_NEAR(reckoner.pose().heading_rad, heading, turn_rate * 0.02);  // trapezoids at the steps
+  }
+}
+
 TEST(PlainDeadReckoner, WithoutAStillStartTheFirstStationaryPeriodGivesTheBias) {
   const telemetry::SensorModel model = SkidSteerModel();
   PlainDeadReckoner reckoner(model, {true, false, false, false}, true, 10 * kDeg, 1.0);
