@@ -77,7 +77,9 @@ void PlainDeadReckoner::StartMoving() {
   if (!gyro_) return;
   if (held_.count > 0) {
     double d = held_.integral - bias_ * (held_.last_t - held_.first_t);
-    if (rest_gyro_seen_) d += 0.5 * (rest_rate + held_.first_rate - 2.0 * bias_) * (held_.first_t - last_rest_gyro_t_);
+    if (rest_gyro_seen_) {
+      d += 0.5 * (rest_rate + held_.first_rate - 2.0 * bias_) * (held_.first_t - last_rest_gyro_t_);
+    }
     Turn(d);
     last_rate_ = held_.last_rate;
     last_gyro_t_ = held_.last_t;
@@ -173,8 +175,12 @@ void PlainDeadReckoner::Step(double t_s, const std::array<double, 4>& encoder_co
       if (moved_ever_) {
         UpdateHeading(t_s, rate);
       } else if (!known_still) {  // kept for the heading, should it be the motion's start
-        if (held_.count > 0) held_.integral += 0.5 * (held_.last_rate + rate) * (t_s - held_.last_t);
-        else held_.first_t = t_s, held_.first_rate = rate;
+        if (held_.count > 0) {
+          held_.integral += 0.5 * (held_.last_rate + rate) * (t_s - held_.last_t);
+        } else {
+          held_.first_t = t_s;
+          held_.first_rate = rate;
+        }
         ++held_.count;
         held_.last_t = t_s;
         held_.last_rate = rate;

@@ -16,8 +16,8 @@ namespace lunarnav::positioning {
 /// the first stationary period (the wheels still for stationary_min_s or more, from the start
 /// when the log starts so; a period ends at the last encoder sample that shows the wheels
 /// still: gyro readings after it are held until the next encoder sample says whether they
-/// were rest or the motion's start); x += D sin(psi), y += D cos(psi) with psi the mean heading over
-/// the step, z = 0. Without a gyro the heading stays at the start's.
+/// were rest or the motion's start); x += D sin(psi), y += D cos(psi) with psi the mean
+/// heading over the step, z = 0. Without a gyro the heading stays at the start's.
 /// Cheap: a few additions a row and no trigonometric call for small heading changes.
 class PlainDeadReckoner {
  public:
