@@ -294,6 +294,10 @@ FrameContribution BinFrame(const cv::Mat& xyz, const cv::Mat& sigma, const Eigen
     }
     CellStats cell;
     double sw_pts = 0, swz = 0, swzz = 0;  // the accepted points' weighted sums
+    // The accepted points' highest kTopSupport, highest first: the last is the top that many
+    // of this pair's points reach.
+    std::array<float, kTopSupport> tops;
+    tops.fill(-std::numeric_limits<float>::infinity());
     for (std::uint32_t k = b; k < e; ++k) {
       const double z = sz[k], w = sw[k];
       if (gated) {
@@ -302,6 +306,9 @@ FrameContribution BinFrame(const cv::Mat& xyz, const cv::Mat& sigma, const Eigen
           ++cell.rejected;
           continue;
         }
+      }
+      for (float v = static_cast<float>(z), *t = tops.data(); t != tops.data() + kTopSupport; ++t) {
+        if (v > *t) std::swap(v, *t);
       }
       sw_pts += w;
       swz += w * z;
@@ -320,6 +327,7 @@ FrameContribution BinFrame(const cv::Mat& xyz, const cv::Mat& sigma, const Eigen
       cell.sum_wzz = frame_w * (m * m + v);
       cell.last_t_s = t_s;
       cell.frames = 1;
+      cell.z_max2 = tops.back();
     }
     out.points_fused += cell.count;
     out.points_rejected += cell.rejected;

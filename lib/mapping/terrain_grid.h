@@ -121,6 +121,10 @@ struct TerrainMapOptions {
   nlohmann::json ToJson() const;
 };
 
+/// Points of one pair that must reach a cell's top for the obstacle rule to trust it without
+/// a second pair (CellStats::z_max2).
+inline constexpr int kTopSupport = 3;
+
 /// What one cell has accumulated: over the frames that saw it, weighted sums of each frame's
 /// observation (weight W = 1 / (sigma^2 + frame_floor^2), value m its points' weighted mean;
 /// sum_wzz adds W (m^2 + v), v the points' weighted variance about m, so that the spread holds
@@ -130,8 +134,12 @@ struct CellStats {
   double sum_w = 0, sum_wz = 0, sum_wzz = 0;
   float z_min = std::numeric_limits<float>::infinity();
   float z_max = -std::numeric_limits<float>::infinity();
-  /// The second lowest of the pairs' lowest points and the second highest of their highest:
-  /// the extremes a second pair confirms (one pair's stray points cannot set them).
+  /// The confirmed extremes, which one pair's stray points cannot set. z_min2: the second
+  /// lowest of the pairs' lowest points (a second pair confirms it). z_max2: the highest top
+  /// that a second pair or three points of one pair reach: the greater of the second highest
+  /// of the pairs' highest points and each pair's own third highest point (kTopSupport). A
+  /// rock near the edge of the view is often seen whole by one pair and only its foot by the
+  /// next; a lone stray point, or two, reaches neither.
   float z_min2 = std::numeric_limits<float>::infinity();
   float z_max2 = -std::numeric_limits<float>::infinity();
   std::uint32_t count = 0;     ///< Accepted points.

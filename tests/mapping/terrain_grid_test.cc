@@ -313,24 +313,37 @@ TEST(TerrainGrid, AnUnsupportedRiseIsRejectedAndASeenFaceIsNot) {
   EXPECT_EQ(part.points_floating, 0);
 }
 
-// The step rule's extremes are those a second pair confirms: one pair's stray high points in a
-// flat cell make no step; a box every pair sees does. The second extremes merge exactly.
+// The step rule's tops are those a second pair or three points of one pair reach, its bottoms
+// those a second pair confirms: one pair's stray points in a flat cell make no step; a box every
+// pair sees does. The confirmed extremes merge exactly.
 TEST(TerrainGrid, ExtremesOfOnePairAloneMakeNoStep) {
   TerrainMapOptions o = GridFrameOptions();
   o.gate_k = std::numeric_limits<double>::infinity();  // the stray points reach the sums
+  o.visibility_k = std::numeric_limits<double>::infinity();
   o.obstacles.extreme_k = std::numeric_limits<double>::infinity();  // confirmation alone
   const auto box = BoxOnPlane(0.0, 1.0, 1.5, 5.0, 5.5, 0.3);
   TerrainGrid grid(o.cell_m);
   for (int k = 0; k < 3; ++k) {
     const FramePose p = Pose(0, 0.3 * k, 0);
     cv::Mat xyz = SurfaceXyz(box, p, 480, 640);
-    if (k == 1) {  // pair 1: a cluster of wrong matches 35 cm up over flat ground at (-1, 7)
+    if (k == 1) {  // pair 1: two wrong matches 35 cm up over flat ground at (-1, 7), one 40 cm
+                   // down at (-1, 7.5)
+      int up = 0, down = 0;
       for (int r = 0; r < xyz.rows; ++r) {
         for (int c = 0; c < xyz.cols; ++c) {
           cv::Vec3f& q = xyz.at<cv::Vec3f>(r, c);
-          if (std::abs(q[0] + 1.0f) < 0.05f && std::abs(q[1] + 0.3f - 7.1f) < 0.05f) q[2] += 0.35f;
+          if (up < 2 && q[0] > -0.95f && q[0] < -0.9f && std::abs(q[1] + 0.3f - 7.1f) < 0.05f) {
+            q[2] += 0.35f;
+            ++up;
+          }
+          if (down < 1 && q[0] > -0.95f && q[0] < -0.9f && std::abs(q[1] + 0.3f - 7.6f) < 0.05f) {
+            q[2] -= 0.4f;
+            ++down;
+          }
         }
       }
+      ASSERT_EQ(up, 2);
+      ASSERT_EQ(down, 1);
     }
     grid.Add(BinFrame(xyz, cv::Mat(), p.WorldFromVehicle(), k, o));
   }
@@ -339,9 +352,14 @@ TEST(TerrainGrid, ExtremesOfOnePairAloneMakeNoStep) {
   ASSERT_TRUE(l.CellOf(-1.0, 7.1, &col, &row));
   EXPECT_GT(l.max_m.at<float>(row, col), 0.3f);  // the raw extreme holds the stray points
   EXPECT_EQ(l.obstacle.at<float>(row, col), 0);
+  ASSERT_TRUE(l.CellOf(-1.0, 7.6, &col, &row));
+  EXPECT_LT(l.min_m.at<float>(row, col), -0.3f);
+  for (int dr = -1; dr <= 1; ++dr) {  // a stray low point makes no step of its neighbours
+    for (int dc = -1; dc <= 1; ++dc) EXPECT_EQ(l.obstacle.at<float>(row + dr, col + dc), 0);
+  }
   ASSERT_TRUE(l.CellOf(1.25, 5.25, &col, &row));
   EXPECT_EQ(l.obstacle.at<float>(row, col), 1);
-  // Merging in any order keeps the two highest and the two lowest.
+  // Merging in any order keeps the two highest and the two lowest, and the pairs' own tops.
   CellStats a, b, c;
   a.z_max = 0.3f;
   a.z_min = -0.1f;
@@ -360,6 +378,43 @@ TEST(TerrainGrid, ExtremesOfOnePairAloneMakeNoStep) {
     EXPECT_EQ(s->z_min, -0.1f);
     EXPECT_EQ(s->z_min2, -0.05f);
   }
+  a.z_max2 = 0.25f;  // a's pair had three points at 0.25 m or higher
+  abc = a;
+  cba = c;
+  abc.Merge(b);
+  abc.Merge(c);
+  cba.Merge(b);
+  cba.Merge(a);
+  EXPECT_EQ(abc.z_max2, 0.25f);
+  EXPECT_EQ(cba.z_max2, 0.25f);
+}
+
+// A rock near the edge of the view: one pair sees it whole, the next only its foot (its top has
+// left the image). The first pair's many points on the top make it a step without a second
+// pair's; a wrong match or two over flat ground still do not.
+TEST(TerrainGrid, ARockTopThatOnlyOnePairSawWholeIsAStep) {
+  TerrainMapOptions o = GridFrameOptions();
+  const auto box = BoxOnPlane(0.0, 1.0, 1.5, 5.0, 5.5, 0.3);
+  TerrainGrid grid(o.cell_m);
+  for (int k = 0; k < 2; ++k) {
+    const FramePose p = Pose(0, 0.3 * k, 0);
+    cv::Mat xyz = SurfaceXyz(box, p, 480, 640);
+    if (k == 1) {  // pair 1 sees only the box's foot: its points there 4 cm up
+      for (int r = 0; r < xyz.rows; ++r) {
+        for (int c = 0; c < xyz.cols; ++c) {
+          cv::Vec3f& q = xyz.at<cv::Vec3f>(r, c);
+          if (q[2] > 0.05f) q[2] = 0.04f;
+        }
+      }
+    }
+    grid.Add(BinFrame(xyz, cv::Mat(), p.WorldFromVehicle(), k, o));
+  }
+  const MapLayers l = ComputeLayers(grid, o.obstacles, 1);
+  int col = 0, row = 0;
+  ASSERT_TRUE(l.CellOf(1.25, 5.25, &col, &row));
+  EXPECT_EQ(l.frames.at<float>(row, col), 2);  // both pairs saw the cell
+  EXPECT_EQ(l.obstacle.at<float>(row, col), 1);
+  EXPECT_EQ(CountCells(l.obstacle, [&](int r, int c) { return l.obstacle.at<float>(r, c) != 0; }), 4);
 }
 
 TEST(TerrainGrid, FusingInTwoHalvesAndMergingEqualsFusingAtOnce) {
