@@ -1,5 +1,6 @@
 // stereo-batch: the paper's correlation matcher over a directory of rectified image pairs.
 // docs/stereo-batch.md describes every option and output.
+#include <cmath>
 #include <filesystem>
 #include <iostream>
 #include <sstream>
@@ -7,6 +8,8 @@
 
 #include "apps/matcher_cli.h"
 #include "calib/stereo_rig_io.h"
+#include "io/stereo_pairs.h"
+#include "mapping/frame_poses.h"
 #include "stereo/batch.h"
 #include "stereo/window_requests.h"
 #include "util/check.h"
@@ -31,6 +34,7 @@ int main(int argc, char** argv) {
   fs::path input_dir, output_dir;
   std::string disparity = "0:127", rows, shard;
   std::string rig_path, range_y, z_range, requests_path;
+  fs::path poses_csv, trajectory, frame_times;
   double xyz_sigma = 1.0;
   bool quiet = false;
   app.add_option("INPUT_DIR", input_dir, "directory holding left/ and right/")->required();
@@ -66,6 +70,16 @@ int main(int argc, char** argv) {
   CLI::Option* requests_option = app.add_option(
       "--requests", requests_path,
       "CSV stem,y_min_m,y_max_m: each listed pair's own distance interval (needs --rig)");
+  CLI::Option* poses_option = app.add_option(
+      "--poses", poses_csv,
+      "poses per pair (stem,t_s,x_m,y_m,z_m,heading_deg,pitch_deg,roll_deg, as terrain-map reads them): each "
+      "pair's search is taken level, at its vehicle's pitch and roll (needs --rig)");
+  CLI::Option* trajectory_option = app.add_option(
+      "--trajectory", trajectory, "posfilter's trajectory.csv or a TUM file, interpolated at --frame-times: as --poses");
+  CLI::Option* frame_times_option = app.add_option("--frame-times", frame_times, "stem,t_s per pair (for --trajectory)");
+  poses_option->needs(rig_option)->excludes(trajectory_option);
+  trajectory_option->needs(rig_option)->needs(frame_times_option);
+  frame_times_option->needs(trajectory_option);
   range_option->excludes(rows_option)->excludes(disparity_option)->needs(rig_option);
   requests_option->needs(rig_option);  // --rows and --disparity then serve the pairs not listed
   sigma_option->needs(rig_option);
@@ -118,6 +132,15 @@ int main(int argc, char** argv) {
       opt.requests = stereo::ReadWindowRequests(requests_path);
       opt.requests_source = requests_path;
       opt.requests_region = region;  // its heights; each request gives Y
+    }
+
+    if (!poses_csv.empty() || !trajectory.empty()) {
+      std::vector<std::string> stems;
+      for (const io::PairFiles& p : io::ListStereoPairs(input_dir)) stems.push_back(p.stem);
+      for (const mapping::FramePose& p : mapping::PosesOfPairs(poses_csv, trajectory, frame_times, stems)) {
+        opt.attitudes[p.stem] = {p.pitch_rad * 180.0 / M_PI, p.roll_rad * 180.0 / M_PI};
+      }
+      opt.attitudes_source = poses_csv.empty() ? trajectory.string() : poses_csv.string();
     }
 
     const stereo::BatchSummary summary =

@@ -33,7 +33,7 @@ HalfSpace Normalized(const Eigen::Vector3d& a, double b) {
 struct ReferenceGeometry {
   double f, c_left, c_right, c_x, c_y, baseline_m;
   Eigen::Vector3d centre, along_y, along_z;
-  ReferenceGeometry(const StereoRig& rig, ReferenceImage reference) {
+  ReferenceGeometry(const StereoRig& rig, ReferenceImage reference, const WindowSelectionOptions& selection) {
     const RectifiedGeometry& g = *rig.rectified;
     f = g.P_left(0, 0);
     c_left = g.P_left(0, 2);
@@ -41,7 +41,11 @@ struct ReferenceGeometry {
     c_y = g.P_left(1, 2);
     baseline_m = -g.P_right(0, 3) / f;
     c_x = reference == ReferenceImage::kRight ? c_right : c_left;
-    const Eigen::Isometry3d vehicle_from_left = rig.VehicleFromLeft();
+    // "Vehicle" below is the frame the region is given in: the level frame when the vehicle's
+    // attitude is given (rotated about the mast base), else the vehicle's own.
+    Eigen::Isometry3d level_from_vehicle = Eigen::Isometry3d::Identity();
+    level_from_vehicle.linear() = selection.LevelFromVehicle();
+    const Eigen::Isometry3d vehicle_from_left = level_from_vehicle * rig.VehicleFromLeft();
     const Eigen::Matrix3d vehicle_from_rect = vehicle_from_left.linear() * g.rect_from_left.transpose();
     // The right camera sits B along the rectified x axis.
     centre = vehicle_from_left.translation() +
@@ -65,9 +69,19 @@ nlohmann::json RegionOfInterest::ToJson() const {
   return {{"y_m", {y_min_m, y_max_m}}, {"z_m", {z_min_m, z_max_m}}};
 }
 
+Eigen::Matrix3d WindowSelectionOptions::LevelFromVehicle() const {
+  constexpr double kRad = M_PI / 180.0;
+  return (Eigen::AngleAxisd(vehicle_pitch_deg * kRad, Eigen::Vector3d::UnitX()) *
+          Eigen::AngleAxisd(vehicle_roll_deg * kRad, Eigen::Vector3d::UnitY()))
+      .toRotationMatrix();
+}
+
 void WindowSelectionOptions::Validate() const {
   LN_CHECK_ARG(disparity_margin_px >= 0 && disparity_margin_px <= 100)
       << "disparity margin: must be in [0, 100] px, got " << disparity_margin_px;
+  LN_CHECK_ARG(std::abs(vehicle_pitch_deg) < 90 && std::abs(vehicle_roll_deg) < 90)
+      << "vehicle attitude: pitch and roll must be in (-90, 90) deg, got " << vehicle_pitch_deg << ", "
+      << vehicle_roll_deg;
 }
 
 double ImageWindow::RowFraction() const {
@@ -98,7 +112,7 @@ ImageWindow SelectWindow(const StereoRig& rig, const RegionOfInterest& region, R
   region.Validate();
   options.Validate();
   const RectifiedGeometry& g = *rig.rectified;
-  const ReferenceGeometry geo(rig, reference);
+  const ReferenceGeometry geo(rig, reference, options);
   const double f = geo.f, c_left = geo.c_left, c_right = geo.c_right, c_x = geo.c_x, c_y = geo.c_y;
   const double baseline_m = geo.baseline_m;
   const Eigen::Vector3d &centre = geo.centre, &along_y = geo.along_y, &along_z = geo.along_z;
@@ -206,8 +220,9 @@ RowBands SelectRowBands(const StereoRig& rig, ReferenceImage reference, const Re
                                                            << guard_tilt_deg;
   LN_CHECK_ARG(std::isfinite(near_guard_factor) && near_guard_factor >= 1)
       << "near guard: the distance factor must be >= 1, got " << near_guard_factor;
+  selection.Validate();
   const RectifiedGeometry& g = *rig.rectified;
-  const ReferenceGeometry geo(rig, reference);
+  const ReferenceGeometry geo(rig, reference, selection);
   const double f = geo.f, c_x = geo.c_x, c_y = geo.c_y;
   const Eigen::Vector3d &centre = geo.centre, &along_y = geo.along_y, &along_z = geo.along_z;
   const double fb = f * geo.baseline_m, dc = geo.c_left - geo.c_right;
@@ -310,7 +325,7 @@ GroundWindow SelectGroundWindow(const StereoRig& rig, ReferenceImage reference, 
   options.Validate();
   selection.Validate();
   const RectifiedGeometry& g = *rig.rectified;
-  const ReferenceGeometry geo(rig, reference);
+  const ReferenceGeometry geo(rig, reference, selection);
   const double f = geo.f, c_left = geo.c_left, c_right = geo.c_right, c_x = geo.c_x, c_y = geo.c_y;
   const double baseline_m = geo.baseline_m;
   const Eigen::Vector3d &centre = geo.centre, &along_y = geo.along_y, &along_z = geo.along_z;
@@ -321,6 +336,7 @@ GroundWindow SelectGroundWindow(const StereoRig& rig, ReferenceImage reference, 
   const double far_depth = std::sqrt(options.max_range_error_m * fb / options.sigma_d_px);
 
   GroundWindow out;
+  out.options = options;
   out.far_limit_depth_m = far_depth;
   // The ground Z = 0 on each pixel's ray: the nearest point both images hold, and the farthest
   // within the far limit.

@@ -35,6 +35,16 @@ struct WindowSelectionOptions {
   /// parabolic fit); one more disparity at each end lets the points whose disparity rounds to
   /// an end of the band still be measured.
   int disparity_margin_px = 1;
+  /// The vehicle's attitude when the pair was taken (pitch nose up, roll right side down,
+  /// degrees, as poses give them): the region's Y and Z are then those of the level frame at
+  /// the mast base (Z along gravity, Y the vehicle's heading) rather than of the vehicle frame,
+  /// so that a vehicle pitched over a rock still searches the ground ahead. 0, 0: the vehicle
+  /// frame (a level vehicle). Each in (-90, 90).
+  double vehicle_pitch_deg = 0;
+  double vehicle_roll_deg = 0;
+  /// The rotation taking vehicle axes to the level frame's: Rx(pitch) Ry(roll) (the vehicle
+  /// frame's pose in the world without its heading and position).
+  Eigen::Matrix3d LevelFromVehicle() const;
   void Validate() const;
 };
 
@@ -115,6 +125,7 @@ struct GroundWindowOptions {
 
 /// The part of the world a rig's stereo is worth running on, and the search it needs.
 struct GroundWindow {
+  GroundWindowOptions options;  ///< What it was made with (to make it again for another attitude).
   /// Y from the nearest ground both cameras see (the flat ground Z = 0 in the vehicle frame)
   /// to the far limit, Z from the options.
   RegionOfInterest region;

@@ -184,4 +184,21 @@ std::map<std::string, FramePose> IndexByStem(const std::vector<FramePose>& poses
   return m;
 }
 
+std::vector<FramePose> PosesOfPairs(const std::filesystem::path& poses_csv, const std::filesystem::path& trajectory,
+                                    const std::filesystem::path& frame_times, const std::vector<std::string>& stems) {
+  const std::filesystem::path& pose_file = poses_csv.empty() ? frame_times : poses_csv;
+  std::vector<FramePose> listed = poses_csv.empty() ? ReadFrameTimes(frame_times) : ReadPosesCsv(poses_csv);
+  const auto by_stem = IndexByStem(listed);
+  for (const std::string& stem : stems) {
+    LN_CHECK_INPUT(by_stem.count(stem) > 0) << "stem " << stem << ": no pose in " << pose_file.string();
+  }
+  const std::set<std::string> wanted(stems.begin(), stems.end());
+  listed.erase(std::remove_if(listed.begin(), listed.end(), [&](const FramePose& p) { return wanted.count(p.stem) == 0; }),
+               listed.end());
+  if (!trajectory.empty()) listed = InterpolateTrajectory(trajectory, listed);
+  for (const FramePose& p : listed) p.Validate(pose_file.string());
+  std::stable_sort(listed.begin(), listed.end(), [](const FramePose& a, const FramePose& b) { return a.t_s < b.t_s; });
+  return listed;
+}
+
 }  // namespace lunarnav::mapping

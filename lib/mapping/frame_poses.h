@@ -68,4 +68,11 @@ std::vector<FramePose> InterpolateTrajectory(const std::filesystem::path& trajec
 /// Poses by stem.
 std::map<std::string, FramePose> IndexByStem(const std::vector<FramePose>& poses);
 
+/// The poses of the pairs `stems`, by time (a stable sort): from a poses file (`poses_csv`), or
+/// from a trajectory interpolated at a frame-times file (`poses_csv` empty). Each is validated.
+/// @throws InputError naming the stem and the file for a pair the file does not list, and as
+///         the readers, InterpolateTrajectory and FramePose::Validate do.
+std::vector<FramePose> PosesOfPairs(const std::filesystem::path& poses_csv, const std::filesystem::path& trajectory,
+                                    const std::filesystem::path& frame_times, const std::vector<std::string>& stems);
+
 }  // namespace lunarnav::mapping

@@ -128,27 +128,18 @@ MapLoopSummary RunMapLoop(const MapLoopOptions& options, const fs::path& rect_di
   stereo_options.requests.clear();
   stereo_options.requests_source = requests_csv.string();
   const TerrainMapRunOptions& mo = options.map;
-  const fs::path& pose_file = mo.poses_csv.empty() ? mo.frame_times : mo.poses_csv;
-  std::vector<FramePose> listed = mo.poses_csv.empty() ? ReadFrameTimes(mo.frame_times) : ReadPosesCsv(mo.poses_csv);
+  std::vector<std::string> stems;
   {
     const std::vector<io::PairFiles> pairs = io::ListStereoPairs(rect_dir);
     LN_CHECK_INPUT(!pairs.empty()) << rect_dir.string() << ": no image pairs in left/ and right/";
-    const auto by_stem = IndexByStem(listed);
-    std::set<std::string> wanted;
-    for (const io::PairFiles& p : pairs) {
-      LN_CHECK_INPUT(by_stem.count(p.stem) > 0) << "stem " << p.stem << ": no pose in " << pose_file.string();
-      wanted.insert(p.stem);
-    }
-    listed.erase(std::remove_if(listed.begin(), listed.end(),
-                                [&](const FramePose& p) { return wanted.count(p.stem) == 0; }),
-                 listed.end());
+    for (const io::PairFiles& p : pairs) stems.push_back(p.stem);
   }
-  if (!mo.trajectory.empty()) listed = InterpolateTrajectory(mo.trajectory, listed);
-  for (const FramePose& p : listed) {
-    p.Validate(pose_file.string());
+  const std::vector<FramePose> poses = PosesOfPairs(mo.poses_csv, mo.trajectory, mo.frame_times, stems);
+  // Each pair searches where its vehicle's attitude puts the ground (stereo::BatchOptions::attitudes).
+  for (const FramePose& p : poses) {
+    stereo_options.attitudes[p.stem] = {p.pitch_rad * 180.0 / M_PI, p.roll_rad * 180.0 / M_PI};
   }
-  std::stable_sort(listed.begin(), listed.end(), [](const FramePose& a, const FramePose& b) { return a.t_s < b.t_s; });
-  const std::vector<FramePose> poses = std::move(listed);
+  stereo_options.attitudes_source = mo.poses_csv.empty() ? mo.trajectory.string() : mo.poses_csv.string();
 
   // A resumed loop keeps the requests it planned (from the map as it then was).
   std::map<std::string, PlannedWindow> recorded;

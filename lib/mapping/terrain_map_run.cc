@@ -257,23 +257,7 @@ TerrainMapRunSummary RunTerrainMap(const TerrainMapRunOptions& options, const fs
     for (const std::string* stem : io::SelectShard(all_stems, options.shard_index, options.shard_count)) {
       stems.push_back(*stem);
     }
-    const fs::path& pose_file = options.poses_csv.empty() ? options.frame_times : options.poses_csv;
-    std::vector<FramePose> listed = options.poses_csv.empty() ? ReadFrameTimes(options.frame_times)
-                                                              : ReadPosesCsv(options.poses_csv);
-    const std::set<std::string> wanted(stems.begin(), stems.end());
-    const auto by_stem = IndexByStem(listed);
-    for (const std::string& stem : stems) {
-      LN_CHECK_INPUT(by_stem.count(stem) > 0) << "stem " << stem << ": no pose in " << pose_file.string();
-    }
-    listed.erase(std::remove_if(listed.begin(), listed.end(),
-                                [&](const FramePose& p) { return wanted.count(p.stem) == 0; }),
-                 listed.end());
-    if (!options.trajectory.empty()) listed = InterpolateTrajectory(options.trajectory, listed);
-    for (const FramePose& p : listed) {
-      p.Validate(pose_file.string());
-    }
-    std::stable_sort(listed.begin(), listed.end(), [](const FramePose& a, const FramePose& b) { return a.t_s < b.t_s; });
-    todo = std::move(listed);
+    todo = PosesOfPairs(options.poses_csv, options.trajectory, options.frame_times, stems);
     has_sigma = options.rig.empty() && fs::is_directory(options.stereo_dir / "xyz_sigma");
   }
   std::map<std::string, std::pair<double, double>> y_interval;  // per stem, from --requests

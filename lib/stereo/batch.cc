@@ -55,10 +55,12 @@ struct PairWindow {
   std::vector<int> row_accept_max_px;                 // requests: the near limit's disparity per row
   int guard_min_disparity_px = 0;
   int guard_max_disparity_px = 0;
+  std::optional<VehicleAttitude> attitude;  // the region is then in the level frame
   nlohmann::json ToJson() const {
     nlohmann::json j = window.ToJson();
     j["source"] = source;
     j["region"] = region.ToJson();
+    if (attitude) j["vehicle_attitude_deg"] = {{"pitch", attitude->pitch_deg}, {"roll", attitude->roll_deg}};
     if (request_line > 0) j["request_line"] = request_line;
     if (!row_disparity_px.empty()) {
       long searched = 0;
@@ -347,8 +349,13 @@ void BatchOptions::Validate() const {
   frame_check.Validate();
   io::CheckShard(shard_index, shard_count);
   LN_CHECK_ARG(num_threads >= 0) << "threads: must be >= 0";
-  LN_CHECK_ARG(rig || (!write_ply && !xyz_sigma_px && !region && requests.empty()))
-      << "ply, xyz-sigma, range-y and requests need the rig (--rig RIG.json)";
+  LN_CHECK_ARG(rig || (!write_ply && !xyz_sigma_px && !region && requests.empty() && attitudes.empty()))
+      << "ply, xyz-sigma, range-y, requests and poses need the rig (--rig RIG.json)";
+  for (const auto& [stem, a] : attitudes) {
+    LN_CHECK_ARG(std::abs(a.pitch_deg) < 90 && std::abs(a.roll_deg) < 90)
+        << attitudes_source << ": stem " << stem << ": pitch and roll must be in (-90, 90) deg, got "
+        << a.pitch_deg << ", " << a.roll_deg;
+  }
   if (!rig) return;
   LN_CHECK_ARG(rig->rectified.has_value())
       << (rig_source.empty() ? std::string("rig") : rig_source)
@@ -381,6 +388,7 @@ json BatchOptions::ToJson() const {
                                {"from_rig", ground && !region ? ground->region.ToJson() : json(nullptr)},
                                {"requests", requests.empty() ? json(nullptr) : json(requests_source)},
                                {"requests_z_m", {requests_region.z_min_m, requests_region.z_max_m}},
+                               {"attitudes", attitudes.empty() ? json(nullptr) : json(attitudes_source)},
                                {"disparity_margin_px", window_selection.disparity_margin_px}};
     }
   }
@@ -431,9 +439,44 @@ struct StereoBatchRun::Impl {
   std::vector<PairTimings> timings;
   tbb::enumerable_thread_specific<NccResult> results;  // reused buffers, one per thread
 
+  std::map<std::string, PairWindow> attitude_windows;  // the rig default of pairs with an attitude
+
   const PairWindow* WindowFor(const std::string& stem) const {
     if (const auto it = requested.find(stem); it != requested.end()) return &it->second;
+    if (const auto it = attitude_windows.find(stem); it != attitude_windows.end()) return &it->second;
     return range_window ? &*range_window : nullptr;
+  }
+
+  // Window selection for one pair: with its attitude when the poses give one.
+  calib::WindowSelectionOptions SelectionFor(const std::string& stem) const {
+    calib::WindowSelectionOptions s = options.window_selection;
+    if (const auto it = options.attitudes.find(stem); it != options.attitudes.end()) {
+      s.vehicle_pitch_deg = it->second.pitch_deg;
+      s.vehicle_roll_deg = it->second.roll_deg;
+    }
+    return s;
+  }
+  std::optional<VehicleAttitude> AttitudeOf(const std::string& stem) const {
+    const auto it = options.attitudes.find(stem);
+    return it == options.attitudes.end() ? std::nullopt : std::optional<VehicleAttitude>(it->second);
+  }
+
+  // The rig's default window of a pair with an attitude; the level one when the cameras of so
+  // tilted a vehicle see no ground (with a warning).
+  PairWindow AttitudeWindow(const std::string& stem) const {
+    try {
+      const calib::GroundWindow g = calib::SelectGroundWindow(*options.rig, options.matcher.reference,
+                                                              options.ground->options, SelectionFor(stem));
+      PairWindow w{"rig-ground",           g.region, g.window, 0, g.row_disparity_px, g.row_accept_min_px, {},
+                   g.guard_min_disparity_px, g.window.max_disparity_px};
+      w.attitude = AttitudeOf(stem);
+      return w;
+    } catch (const std::invalid_argument& e) {
+      LN_LOG(Warning) << options.attitudes_source << ": stem " << stem << ": at pitch "
+                      << options.attitudes.at(stem).pitch_deg << " deg, roll " << options.attitudes.at(stem).roll_deg
+                      << " deg the cameras see no ground; the pair searches as a level vehicle (" << e.what() << ")";
+      return *range_window;
+    }
   }
 
   // The window of one request (a request the camera cannot see is bad input, named by its line).
@@ -444,7 +487,9 @@ struct StereoBatchRun::Impl {
     w.region.y_min_m = r.y_min_m;
     w.region.y_max_m = r.y_max_m;
     w.request_line = r.line;
-    w.window = calib::SelectWindow(*options.rig, w.region, options.matcher.reference, options.window_selection);
+    w.attitude = AttitudeOf(r.stem);
+    const calib::WindowSelectionOptions selection = SelectionFor(r.stem);
+    w.window = calib::SelectWindow(*options.rig, w.region, options.matcher.reference, selection);
     LN_CHECK_INPUT(w.window.visible)
         << options.requests_source << ":" << r.line << ": no point with Y in [" << r.y_min_m << ", " << r.y_max_m
         << "] m and Z in [" << w.region.z_min_m << ", " << w.region.z_max_m << "] m is seen by the "
@@ -457,7 +502,7 @@ struct StereoBatchRun::Impl {
       const calib::RowBands bands =
           calib::SelectRowBands(*options.rig, options.matcher.reference, w.region, w.window,
                                 options.ground->guard_distance_factor, options.ground->guard_tilt_deg,
-                                options.ground->guard_distance_factor, options.window_selection);
+                                options.ground->guard_distance_factor, selection);
       w.row_disparity_px = bands.row_disparity_px;
       w.row_accept_min_px = bands.row_accept_min_px;
       w.row_accept_max_px = bands.row_accept_max_px;
@@ -515,6 +560,16 @@ StereoBatchRun::StereoBatchRun(const BatchOptions& options, const fs::path& inpu
                                   {},
                                   options.ground->guard_min_disparity_px,
                                   options.ground->window.max_disparity_px};
+    // A pair with an attitude searches the ground where its vehicle's attitude puts it (10-20 ms
+    // a pair for the paper's rig: made in parallel).
+    std::vector<std::string> stems;
+    for (const PairFiles& p : run.shard_pairs) {
+      if (options.attitudes.count(p.stem) > 0) stems.push_back(p.stem);
+    }
+    std::vector<PairWindow> windows(stems.size());
+    util::ParallelForEachItem(stems.size(), options.num_threads,
+                              [&](std::size_t k) { windows[k] = run.AttitudeWindow(stems[k]); });
+    for (std::size_t k = 0; k < stems.size(); ++k) run.attitude_windows.emplace(stems[k], std::move(windows[k]));
   }
 
   run.subdirectories = {"disparity", "confidence", "rejections"};

@@ -3,6 +3,7 @@
 #pragma once
 
 #include <filesystem>
+#include <map>
 #include <memory>
 #include <optional>
 #include <string>
@@ -21,6 +22,12 @@ namespace lunarnav::stereo {
 
 using io::ListStereoPairs;
 using io::PairFiles;
+
+/// The vehicle's attitude when a pair was taken, degrees (pitch nose up, roll right side
+/// down, as poses give them).
+struct VehicleAttitude {
+  double pitch_deg = 0, roll_deg = 0;
+};
 
 /// Everything stereo-batch does besides matching.
 struct BatchOptions {
@@ -56,6 +63,12 @@ struct BatchOptions {
   calib::RegionOfInterest requests_region;  ///< The heights for the requests (its Y is unused).
   std::string requests_source;   ///< The requests file (for messages and the summary).
   calib::WindowSelectionOptions window_selection;
+  /// The vehicle's attitude per pair (stereo-batch --poses): a listed pair's rig default and
+  /// requests take their region in the level frame at its mast base (window_selection's
+  /// vehicle_pitch_deg and vehicle_roll_deg), so that a vehicle pitched over a rock still
+  /// searches the ground ahead. Needs the rig; a pair not listed searches as a level vehicle.
+  std::map<std::string, VehicleAttitude> attitudes;
+  std::string attitudes_source;  ///< The poses file (for messages and the summary).
 
   /// Throws std::invalid_argument for bad options: geometry options without a rig, a rig
   /// that is not rectified, a region that the reference camera does not see.

@@ -485,4 +485,53 @@ TEST(SelectRowBands, ANearGuardHoldsTheGroundNearerThanTheInterval) {
   }
 }
 
+// A vehicle pitched over a rock (or rolled on a slope) sees the ground ahead where a level
+// vehicle would not: with its attitude the bands hold the region taken in the level frame at
+// the mast base, every point of it; the level vehicle's bands miss much of it.
+TEST(SelectGroundWindow, WithTheVehiclesAttitudeTheBandsHoldTheLevelRegion) {
+  std::mt19937 rng(5);
+  const StereoRig rig = testing::IdealRectifiedRig();
+  const RectifiedGeometry& g = *rig.rectified;
+  const ReferenceImage reference = ReferenceImage::kRight;
+  const Projector proj(rig, reference);
+  for (const auto& [pitch, roll] : {std::pair{19.4, 0.0}, std::pair{-15.0, 0.0}, std::pair{3.0, 12.0}}) {
+    SCOPED_TRACE(::testing::Message() << "pitch " << pitch << ", roll " << roll);
+    WindowSelectionOptions attitude;
+    attitude.vehicle_pitch_deg = pitch;
+    attitude.vehicle_roll_deg = roll;
+    const Eigen::Matrix3d level_from_vehicle = attitude.LevelFromVehicle();
+    // Rx(pitch) Ry(roll): the vehicle's forward axis rises by the pitch.
+    EXPECT_NEAR(std::asin((level_from_vehicle * Eigen::Vector3d::UnitY()).z()), pitch * M_PI / 180, 1e-12);
+    const GroundWindowOptions options;
+    const GroundWindow tilted = SelectGroundWindow(rig, reference, options, attitude);
+    const GroundWindow level = SelectGroundWindow(rig, reference, options);
+    ASSERT_TRUE(tilted.window.visible);
+    std::uniform_real_distribution<double> X(-6, 6), Y(tilted.region.y_min_m, tilted.region.y_max_m),
+        Z(options.z_min_m, options.z_max_m);
+    int seen = 0, missed = 0, missed_level = 0;
+    for (int i = 0; i < 100000; ++i) {
+      const Eigen::Vector3d in_level(X(rng), Y(rng), i % 2 == 0 ? 0.0 : Z(rng));
+      const auto p = proj.Project(level_from_vehicle.transpose() * in_level);
+      if (!(p.depth > 0) || p.row < -0.5 || p.row > g.height_px - 0.5 || p.column < -0.5 ||
+          p.column > g.width_px - 0.5 || p.column + p.disparity > g.width_px - 0.5) {
+        continue;
+      }
+      const int row = static_cast<int>(std::lround(p.row));
+      ++seen;
+      auto inside = [&](const GroundWindow& w) {
+        const auto [lo, hi] = w.row_disparity_px[row];
+        return lo <= hi && p.disparity >= w.row_accept_min_px[row] && p.disparity <= hi;
+      };
+      missed += !inside(tilted);
+      missed_level += !inside(level);
+    }
+    EXPECT_GT(seen, 5000);
+    EXPECT_EQ(missed, 0);
+    EXPECT_GT(missed_level, seen / 20);  // without the attitude the search misses the ground
+  }
+  WindowSelectionOptions bad;
+  bad.vehicle_pitch_deg = 90;
+  EXPECT_THROW(SelectGroundWindow(rig, reference, GroundWindowOptions(), bad), std::invalid_argument);
+}
+
 }  // namespace lunarnav::calib

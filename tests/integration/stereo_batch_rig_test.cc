@@ -64,10 +64,11 @@ double GroundDisparity(const calib::StereoRig& rig, double x, double y) {
 // a plane) into DIR/left/STEM.png and DIR/right/STEM.png; returns the right image.
 cv::Mat RenderGroundPair(const calib::StereoRig& rig, const fs::path& dir, const std::string& stem,
                          std::uint32_t seed) {
-  sim::PlaneLayer ground;
-  ground.d0_px = GroundDisparity(rig, 0, 0);
-  ground.slope_x = GroundDisparity(rig, 1, 0) - ground.d0_px;
-  ground.slope_y = GroundDisparity(rig, 0, 1) - ground.d0_px;
+  sim::PlaneLayer ground;  // from the bottom rows, which see the ground whatever the tilt
+  const double bottom = rig.rectified->height_px - 1, d_bottom = GroundDisparity(rig, 0, bottom);
+  ground.slope_x = GroundDisparity(rig, 1, bottom) - d_bottom;
+  ground.slope_y = d_bottom - GroundDisparity(rig, 0, bottom - 1);
+  ground.d0_px = d_bottom - bottom * ground.slope_y;
   EXPECT_NEAR(ground.d0_px + 150 * ground.slope_x + 110 * ground.slope_y, GroundDisparity(rig, 150, 110), 1e-6)
       << "the ground's disparity is not affine";
   ground.texture_scale_px = 2.0;
@@ -417,6 +418,66 @@ TEST(StereoBatchRig, ShardsAndResumeWriteTheSameGeometryAsOneRun) {
   summary = io::ReadJson(sharded / "summary.json");
   EXPECT_EQ(summary["counts"]["pairs_resumed"], 0);
   EXPECT_EQ(io::ReadExr(sharded / "xyz_sigma" / "a.exr").attributes.at("lunarnav:sigma_d_px").substr(0, 3), "2.0");
+}
+
+// A vehicle pitched 15 deg nose up (climbing over a rock) sees the level ground where a level
+// vehicle's search does not look for it (below its heights). Rendered with the rig as the pitch
+// places it (mast turned about its base; the top rows see the plane's continuation above the
+// horizon, at negative disparities that no search holds), matched with the rig as it is: with
+// --poses the pair searches the level ground and measures it; without, little of it.
+TEST(StereoBatchRig, WithThePosesAPitchedVehicleSearchesTheLevelGround) {
+  ScopedTempDir tmp;
+  const calib::StereoRig rig = TestRig();
+  constexpr double kPitchDeg = 15.0;
+  const double p = kPitchDeg * M_PI / 180;
+  calib::StereoRig pitched = rig;  // its vehicle frame is the level frame of the pitched vehicle
+  pitched.mast.tilt_deg = rig.mast.tilt_deg - kPitchDeg;
+  pitched.mast.height_m = rig.mast.height_m * std::cos(p);
+  pitched.mast.forward_offset_m = -rig.mast.height_m * std::sin(p);
+  const fs::path in = tmp.path() / "pairs", rig_file = tmp.path() / "rig.json", poses = tmp.path() / "poses.csv";
+  RenderGroundPair(pitched, in, "a", 3);
+  calib::WriteStereoRig(rig_file, rig);
+  std::ofstream(poses) << "stem,t_s,x_m,y_m,z_m,heading_deg,pitch_deg,roll_deg\na,0,0,0,0,0," << kPitchDeg << ",0\n";
+  auto args = [&](const fs::path& out, std::vector<std::string> extra) {
+    std::vector<std::string> a = {in.string(), "-o", out.string(), "-q", "--rig", rig_file.string()};
+    a.insert(a.end(), extra.begin(), extra.end());
+    return a;
+  };
+  const fs::path level = tmp.path() / "level", with_poses = tmp.path() / "poses";
+  ASSERT_EQ(RunTool("stereo-batch", args(level, {}), tmp.path()).exit_code, 0);
+  const auto run = RunTool("stereo-batch", args(with_poses, {"--poses", poses.string()}), tmp.path());
+  ASSERT_EQ(run.exit_code, 0) << run.stderr_text;
+  const nlohmann::json sidecar = io::ReadJson(with_poses / "disparity" / "a.json");
+  EXPECT_NEAR(sidecar["result"]["window"]["vehicle_attitude_deg"]["pitch"].get<double>(), kPitchDeg, 1e-9);
+  EXPECT_EQ(io::ReadJson(with_poses / "summary.json")["options"]["window_selection"]["attitudes"], poses.string());
+  // Points on the level ground (Z = 0 of the pitched vehicle's level frame), within 5 cm.
+  const Eigen::Matrix3d level_from_vehicle = Eigen::AngleAxisd(p, Eigen::Vector3d::UnitX()).toRotationMatrix();
+  auto count = [&](const fs::path& out, int* on_ground, int* off_ground) {
+    const cv::Mat xyz = io::ReadExr(out / "xyz" / "a.exr").pixels;
+    *on_ground = *off_ground = 0;
+    for (int y = 0; y < xyz.rows; ++y) {
+      for (int x = 0; x < xyz.cols; ++x) {
+        const cv::Vec3f v = xyz.at<cv::Vec3f>(y, x);
+        if (!std::isfinite(v[2])) continue;
+        const double z = (level_from_vehicle * Eigen::Vector3d(v[0], v[1], v[2])).z();
+        ++(std::abs(z) < 0.05 ? *on_ground : *off_ground);
+      }
+    }
+  };
+  int ground_poses = 0, off_poses = 0, ground_level = 0, off_level = 0;
+  count(with_poses, &ground_poses, &off_poses);
+  count(level, &ground_level, &off_level);
+  EXPECT_GT(ground_poses, 0.2 * 160 * 120);  // the ground up to the far limit (the top rows see the sky)
+  EXPECT_LT(off_poses, 0.01 * ground_poses);
+  EXPECT_LT(ground_level, 0.1 * ground_poses);  // the level search: none (and 338 points off it)
+  // Every pair needs a pose: bad input naming the stem.
+  std::ofstream(poses, std::ios::trunc) << "stem,t_s,x_m,y_m,z_m,heading_deg,pitch_deg,roll_deg\nb,0,0,0,0,0,0,0\n";
+  const auto missing = RunTool("stereo-batch", args(tmp.path() / "missing", {"--poses", poses.string()}), tmp.path());
+  EXPECT_EQ(missing.exit_code, 3);
+  EXPECT_EQ(missing.ErrorLines(), 1);
+  EXPECT_NE(missing.stderr_text.find("stem a: no pose"), std::string::npos) << missing.stderr_text;
+  EXPECT_EQ(RunTool("stereo-batch", {in.string(), "-o", (tmp.path() / "x").string(), "--poses", poses.string()},
+                    tmp.path()).exit_code, 2);  // needs the rig
 }
 
 TEST(StereoBatchRig, BadRigsAndRequestsHaveTheirExitCodes) {
