@@ -137,10 +137,14 @@ int main(int argc, char** argv) {
     if (!poses_csv.empty() || !trajectory.empty()) {
       std::vector<std::string> stems;
       for (const io::PairFiles& p : io::ListStereoPairs(input_dir)) stems.push_back(p.stem);
-      for (const mapping::FramePose& p : mapping::PosesOfPairs(poses_csv, trajectory, frame_times, stems)) {
-        opt.attitudes[p.stem] = {p.pitch_rad * 180.0 / M_PI, p.roll_rad * 180.0 / M_PI};
-      }
       opt.attitudes_source = poses_csv.empty() ? trajectory.string() : poses_csv.string();
+      for (const mapping::FramePose& p : mapping::PosesOfPairs(poses_csv, trajectory, frame_times, stems)) {
+        const stereo::VehicleAttitude a{p.pitch_rad * 180.0 / M_PI, p.roll_rad * 180.0 / M_PI};
+        LN_CHECK_INPUT(std::abs(a.pitch_deg) < 90 && std::abs(a.roll_deg) < 90)
+            << opt.attitudes_source << ": stem " << p.stem << ": pitch " << a.pitch_deg << " deg, roll " << a.roll_deg
+            << " deg: the ground is searched at pitch and roll within (-90, 90) deg";
+        opt.attitudes[p.stem] = a;
+      }
     }
 
     const stereo::BatchSummary summary =

@@ -478,6 +478,11 @@ TEST(StereoBatchRig, WithThePosesAPitchedVehicleSearchesTheLevelGround) {
   EXPECT_NE(missing.stderr_text.find("stem a: no pose"), std::string::npos) << missing.stderr_text;
   EXPECT_EQ(RunTool("stereo-batch", {in.string(), "-o", (tmp.path() / "x").string(), "--poses", poses.string()},
                     tmp.path()).exit_code, 2);  // needs the rig
+  std::ofstream(poses, std::ios::trunc) << "stem,t_s,x_m,y_m,z_m,heading_deg,pitch_deg,roll_deg\na,0,0,0,0,0,95,0\n";
+  const auto upside = RunTool("stereo-batch", args(tmp.path() / "upside", {"--poses", poses.string()}), tmp.path());
+  EXPECT_EQ(upside.exit_code, 3);
+  EXPECT_EQ(upside.ErrorLines(), 1);
+  EXPECT_NE(upside.stderr_text.find("stem a: pitch 95"), std::string::npos) << upside.stderr_text;
 }
 
 TEST(StereoBatchRig, BadRigsAndRequestsHaveTheirExitCodes) {
