@@ -56,6 +56,11 @@ struct PairWindow {
   int guard_min_disparity_px = 0;
   int guard_max_disparity_px = 0;
   std::optional<VehicleAttitude> attitude;  // the region is then in the level frame
+  // The rig's default search (calib::SelectGroundWindow's window and per-row bands).
+  static PairWindow FromGround(const calib::GroundWindow& g) {
+    return {"rig-ground", g.region, g.window, 0, g.row_disparity_px, g.row_accept_min_px, {},
+            g.guard_min_disparity_px, g.window.max_disparity_px, std::nullopt};
+  }
   nlohmann::json ToJson() const {
     nlohmann::json j = window.ToJson();
     j["source"] = source;
@@ -465,10 +470,8 @@ struct StereoBatchRun::Impl {
   // tilted a vehicle see no ground (with a warning).
   PairWindow AttitudeWindow(const std::string& stem) const {
     try {
-      const calib::GroundWindow g = calib::SelectGroundWindow(*options.rig, options.matcher.reference,
-                                                              options.ground->options, SelectionFor(stem));
-      PairWindow w{"rig-ground",           g.region, g.window, 0, g.row_disparity_px, g.row_accept_min_px, {},
-                   g.guard_min_disparity_px, g.window.max_disparity_px};
+      PairWindow w = PairWindow::FromGround(calib::SelectGroundWindow(
+          *options.rig, options.matcher.reference, options.ground->options, SelectionFor(stem)));
       w.attitude = AttitudeOf(stem);
       return w;
     } catch (const std::invalid_argument& e) {
@@ -551,15 +554,7 @@ StereoBatchRun::StereoBatchRun(const BatchOptions& options, const fs::path& inpu
     run.range_window->window =
         calib::SelectWindow(*options.rig, *options.region, options.matcher.reference, options.window_selection);
   } else if (options.ground) {
-    run.range_window = PairWindow{"rig-ground",
-                                  options.ground->region,
-                                  options.ground->window,
-                                  0,
-                                  options.ground->row_disparity_px,
-                                  options.ground->row_accept_min_px,
-                                  {},
-                                  options.ground->guard_min_disparity_px,
-                                  options.ground->window.max_disparity_px};
+    run.range_window = PairWindow::FromGround(*options.ground);
     // A pair with an attitude searches the ground where its vehicle's attitude puts it (10-20 ms
     // a pair for the paper's rig: made in parallel).
     std::vector<std::string> stems;
