@@ -49,7 +49,13 @@ int main(int argc, char** argv) {
                  "INTRINSICS.yml EXTRINSICS.yml: import OpenCV's stereo calibration (M1 D1 M2 D2; R T) as its "
                  "stereo_calib sample writes it, instead of calibrating; --square is then the metres per unit of T")
       ->expected(2);
-  app.add_option("--image-size", image_size, "WIDTHxHEIGHT of the calibrated images (with --from opencv)");
+  app.add_option("--image-size", image_size,
+                 "WIDTHxHEIGHT of the calibrated images (with --from opencv; with --from kitti on an odometry "
+                 "calib.txt, the default is the size of the sequence's first image)");
+  calib::KittiPair kitti_pair = calib::KittiPair::kColour;
+  app.add_option("--kitti-pair", kitti_pair, "with --from kitti: the rectified pair, colour (cameras 2, 3) or grey (0, 1)")
+      ->transform(CLI::CheckedTransformer(calib::KittiPairNames(), CLI::ignore_case))
+      ->capture_default_str();
   app.add_option("-o,--output", rig_path, "rig file to write (JSON, lunarnav.rig/1)")->required();
   app.add_option("--board", board, "inner corners COLSxROWS of the chessboard")->capture_default_str();
   app.add_option("--square", opt.board.square_size_m,
@@ -101,6 +107,8 @@ int main(int argc, char** argv) {
       import.format = from;
       import.files = inputs;
       import.mast = opt.mast;
+      import.kitti_pair = kitti_pair;
+      LN_CHECK_ARG(app.count("--kitti-pair") == 0 || from == calib::RigFormat::kKitti) << "--kitti-pair: only with --from kitti";
       if (!image_size.empty()) import.image_size_px = util::ParseIntPair(image_size, 'x', "--image-size");
       if (from == calib::RigFormat::kOpenCv) {
         LN_CHECK_ARG(app.count("--square") > 0) << "--from opencv needs --square (metres per unit of T)";

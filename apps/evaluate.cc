@@ -11,6 +11,8 @@
 #include "evaluation/boxes_eval.h"
 #include "evaluation/correlation_study.h"
 #include "evaluation/disparity_eval.h"
+#include "evaluation/lidar_map_eval.h"
+#include "util/check.h"
 #include "evaluation/map_eval.h"
 #include "stereo/window_requests.h"
 #include "evaluation/request_study.h"
@@ -191,13 +193,48 @@ Subcommand AddMap(CLI::App* app) {
     std::string seen_y = "2:10";
     std::filesystem::path requests;
     int threads = 0;
+    evaluation::LidarMapCommand lidar;
+    std::string band;
+    std::string lidar_range = "3:25";
   };
   auto c = std::make_shared<MapArgs>();
   CLI::App* cmd = app->add_subcommand(
       "map", "a terrain-map output against a simulated run's true terrain: elevation RMSE and bias, coverage of\n"
-             "the ground seen, obstacle precision and recall, rocks above the obstacle height found");
+             "the ground seen, obstacle precision and recall, rocks above the obstacle height found; or, with --lidar,\n"
+             "against LiDAR sweeps: flat-ground error, coverage of the rig's band, obstacles against LiDAR relief");
   cmd->add_option("MAP_DIR", c->map, "terrain-map output directory")->required();
-  cmd->add_option("--truth", c->truth, "simulate stereo output directory (truth/terrain.tif, rocks.csv)")->required();
+  cmd->add_option("--truth", c->truth, "simulate stereo output directory (truth/terrain.tif, rocks.csv)");
+  // Against LiDAR (docs/evaluate.md, "Against LiDAR").
+  evaluation::LidarMapCommand& l = c->lidar;
+  cmd->add_option("--lidar", l.lidar_dir,
+                  "instead of --truth: a directory of LiDAR sweeps named by frame (<stem>.bin of KITTI's Velodyne, "
+                  ".ply, .pcd), placed by the poses of their stems");
+  cmd->add_option("--lidar-calib", l.lidar_calib,
+                  "the LiDAR's mounting: KITTI's calib.txt (Tr) or calib_velo_to_cam.txt (default: the sweeps are in "
+                  "the vehicle frame)");
+  cmd->add_flag("--lidar-in-world", l.lidar_in_world, "the sweeps are in the map's world frame already");
+  cmd->add_option("--rig", l.rig, "with --lidar: the rectified rig (the band, the images, KITTI's camera poses)");
+  cmd->add_option("--poses", l.poses_csv, "with --lidar: the vehicle's poses per frame (stem,t_s,x_m,...)");
+  cmd->add_option("--trajectory", l.trajectory,
+                  "with --lidar: or a trajectory (posfilter's, TUM, a KITTI pose file or oxts/) at --frame-times");
+  cmd->add_option("--frame-times", l.frame_times, "stem,t_s per frame, or KITTI's times.txt or timestamps.txt");
+  cmd->add_option("--pairs", l.pairs_dir,
+                  "with --lidar: the stereo pairs taken (a pair directory): the band is theirs, mapped or not "
+                  "(default: the map's frames.csv)");
+  cmd->add_option("--stereo", l.stereo_dir,
+                  "with --lidar: stereo-batch's output (xyz/): each pair against the sweep nearest in time");
+  cmd->add_option("--band", c->band, "with --lidar: the band scored for coverage and recall, MIN:MAX m ahead "
+                                     "(default: the rig's default search)");
+  cmd->add_option("--lidar-range", c->lidar_range,
+                  "with --lidar: returns MIN:MAX m from the sensor (horizontally) are used: nearer ones hit the vehicle, "
+                  "farther ones carry the sensor's small angle errors as height errors")
+      ->capture_default_str();
+  cmd->add_option("--flat-spread", l.options.flat_spread_m,
+                  "with --lidar: a flat cell's returns lie within this of their median, m")
+      ->capture_default_str();
+  cmd->add_option("--object-height", l.options.object_height_m,
+                  "with --lidar: a return this far above the local ground makes its cell an object, m")
+      ->capture_default_str();
   cmd->add_option("--min-points", c->options.min_points, "cells with fewer points are not scored")
       ->capture_default_str();
   cmd->add_option("--rock-height", c->options.rock_height_m, "rocks at least this tall are counted, m")
@@ -226,6 +263,31 @@ Subcommand AddMap(CLI::App* app) {
   cmd->add_option("-j,--threads", c->threads, "threads (0 = all cores)")->capture_default_str();
   cmd->add_option("-o,--output", c->output_dir, "output directory (created)")->required();
   return {cmd, [c](const json& head) {
+            LN_CHECK_ARG(c->truth.empty() != c->lidar.lidar_dir.empty()) << "give either --truth or --lidar";
+            if (!c->lidar.lidar_dir.empty()) {
+              evaluation::LidarMapCommand& l = c->lidar;
+              LN_CHECK_ARG(!l.rig.empty()) << "--lidar needs --rig";
+              LN_CHECK_ARG(l.lidar_in_world || l.poses_csv.empty() != l.trajectory.empty())
+                  << "--lidar needs --poses or --trajectory with --frame-times";
+              LN_CHECK_ARG(l.trajectory.empty() || !l.frame_times.empty()) << "--trajectory needs --frame-times";
+              LN_CHECK_ARG(!l.lidar_in_world || !(l.poses_csv.empty() && l.trajectory.empty()))
+                  << "the pairs' poses are still needed with --lidar-in-world (the band)";
+              if (!c->band.empty()) std::tie(l.band_min_y_m, l.band_max_y_m) = util::ParseDoublePair(c->band, ':', "--band");
+              std::tie(l.options.min_range_m, l.options.max_range_m) =
+                  util::ParseDoublePair(c->lidar_range, ':', "--lidar-range");
+              l.map_dir = c->map;
+              l.output_dir = c->output_dir;
+              l.num_threads = c->threads;
+              l.options.min_points = c->options.min_points;
+              l.options.tolerance_cells = c->options.tolerance_cells;
+              l.options.large_error_m = c->options.large_error_m;
+              l.options.relief_height_m = c->options.relief_height_m;
+              l.options.recall_height_m = c->options.rock_height_m;
+              const evaluation::LidarEvalResult r = evaluation::RunLidarMapEvaluation(l, head.at("invocation"));
+              LN_LOG(Info) << "evaluate map --lidar: " << r.BriefReport() << "; "
+                           << (c->output_dir / "lidar.md").string();
+              return static_cast<int>(kExitOk);
+            }
             std::tie(c->options.seen_min_y_m, c->options.seen_max_y_m) =
                 util::ParseDoublePair(c->seen_y, ':', "--seen-y");
             if (!c->requests.empty()) {

@@ -6,6 +6,7 @@
 #include <string>
 
 #include "apps/mapping_cli.h"
+#include "calib/stereo_rig_io.h"
 #include "calib/vehicle.h"
 #include "io/atomic_file.h"
 #include "io/json_io.h"
@@ -34,7 +35,9 @@ int main(int argc, char** argv) {
   bool quiet = false;
   app.add_option("--poses", poses, "poses per pair (simulate stereo's truth/poses.csv)");
   app.add_option("--trajectory", trajectory, "posfilter's trajectory.csv or TUM, interpolated at --frame-times");
-  app.add_option("--frame-times", frame_times, "stem,t_s per pair (with --trajectory)");
+  app.add_option("--frame-times", frame_times, "stem,t_s per pair, or KITTI's times.txt or timestamps.txt (with --trajectory)");
+  fs::path rig_path;
+  app.add_option("--rig", rig_path, "rig file: its mast places a trajectory of camera poses (KITTI's) on the vehicle");
   app.add_option("--vehicle", vehicle_path, "vehicle file (speed limits, braking, wheels; default: the paper's Ratler)");
   apps::AddPlannerOptions(&app, &opt, &gravity);
   app.add_option("--map", map_dir,
@@ -51,7 +54,10 @@ int main(int argc, char** argv) {
     LN_CHECK_ARG(trajectory.empty() || !frame_times.empty()) << "--trajectory needs --frame-times";
     const calib::VehicleSpec vehicle = vehicle_path.empty() ? calib::VehicleSpec() : calib::ReadVehicleSpec(vehicle_path);
     std::vector<mapping::FramePose> frames =
-        poses.empty() ? mapping::InterpolateTrajectory(trajectory, mapping::ReadFrameTimes(frame_times))
+        poses.empty() ? mapping::InterpolateTrajectory(
+                            trajectory, mapping::ReadFrameTimes(frame_times),
+                            {frame_times, rig_path.empty() ? std::nullopt
+                                                           : std::optional(calib::ReadStereoRig(rig_path).VehicleFromLeft())})
                       : mapping::ReadPosesCsv(poses);
     std::optional<mapping::MapLayers> map;
     if (!map_dir.empty()) map = mapping::ReadMapElevation(map_dir);

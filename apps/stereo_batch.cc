@@ -75,8 +75,9 @@ int main(int argc, char** argv) {
       "poses per pair (stem,t_s,x_m,y_m,z_m,heading_deg,pitch_deg,roll_deg, as terrain-map reads them): each "
       "pair's search is taken level, at its vehicle's pitch and roll (needs --rig)");
   CLI::Option* trajectory_option = app.add_option(
-      "--trajectory", trajectory, "posfilter's trajectory.csv or a TUM file, interpolated at --frame-times: as --poses");
-  CLI::Option* frame_times_option = app.add_option("--frame-times", frame_times, "stem,t_s per pair (for --trajectory)");
+      "--trajectory", trajectory, "posfilter's trajectory.csv, a TUM file, a KITTI pose file or KITTI oxts/ (camera poses placed by "
+      "--rig's mast), interpolated at --frame-times: as --poses");
+  CLI::Option* frame_times_option = app.add_option("--frame-times", frame_times, "stem,t_s per pair, or KITTI's times.txt or timestamps.txt (for --trajectory)");
   poses_option->needs(rig_option)->excludes(trajectory_option);
   trajectory_option->needs(rig_option)->needs(frame_times_option);
   frame_times_option->needs(trajectory_option);
@@ -138,7 +139,8 @@ int main(int argc, char** argv) {
       std::vector<std::string> stems;
       for (const io::PairFiles& p : io::ListStereoPairs(input_dir)) stems.push_back(p.stem);
       opt.attitudes_source = poses_csv.empty() ? trajectory.string() : poses_csv.string();
-      for (const mapping::FramePose& p : mapping::PosesOfPairs(poses_csv, trajectory, frame_times, stems)) {
+      for (const mapping::FramePose& p : mapping::PosesOfPairs(poses_csv, trajectory, frame_times, stems,
+                                                                       opt.rig->VehicleFromLeft())) {
         const stereo::VehicleAttitude a{p.pitch_rad * 180.0 / M_PI, p.roll_rad * 180.0 / M_PI};
         LN_CHECK_INPUT(std::abs(a.pitch_deg) < 90 && std::abs(a.roll_deg) < 90)
             << opt.attitudes_source << ": stem " << p.stem << ": pitch " << a.pitch_deg << " deg, roll " << a.roll_deg

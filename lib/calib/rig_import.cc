@@ -7,8 +7,10 @@
 
 #include <yaml-cpp/yaml.h>
 
+#include "calib/key_value_text.h"
 #include "calib/stereo_rig_io.h"
 #include "io/atomic_file.h"
+#include "io/image_io.h"
 #include "io/json_io.h"
 #include "io/nesting.h"
 #include "util/check.h"
@@ -137,64 +139,6 @@ RosCamera ReadRosCamera(const fs::path& path) {
 
 // ---- key = value text (Middlebury, KITTI) ----
 
-struct TextEntry {
-  std::string value;
-  int line = 0;
-};
-
-// Lines "key<separator>value"; blank lines skipped.
-std::map<std::string, TextEntry> ReadKeyValues(const fs::path& path, char separator) {
-  std::error_code ec;
-  LN_CHECK_INPUT(fs::is_regular_file(path, ec)) << path.string() << ": no such file";
-  std::ifstream in(path);
-  LN_CHECK_INPUT(in.good()) << path.string() << ": cannot read";
-  std::map<std::string, TextEntry> entries;
-  std::string text;
-  for (int line = 1; std::getline(in, text); ++line) {
-    if (line == 1) util::DropUtf8Bom(&text);
-    if (!text.empty() && text.back() == '\r') text.pop_back();
-    if (text.find_first_not_of(" \t") == std::string::npos) continue;
-    const std::size_t at = text.find(separator);
-    LN_CHECK_INPUT(at != std::string::npos)
-        << path.string() << ":" << line << ": expected 'key" << separator << "value'";
-    std::string key = text.substr(0, at);
-    key.erase(0, key.find_first_not_of(" \t"));
-    key.erase(key.find_last_not_of(" \t") + 1);
-    entries[key] = {text.substr(at + 1), line};
-  }
-  return entries;
-}
-
-const TextEntry& TextField(const std::map<std::string, TextEntry>& entries, const std::string& key,
-                           const fs::path& path) {
-  const auto it = entries.find(key);
-  LN_CHECK_INPUT(it != entries.end()) << path.string() << ": missing field '" << key << "'";
-  return it->second;
-}
-
-// The numbers of a value, separators [ ] ; , and blanks ignored.
-std::vector<double> TextNumbers(const TextEntry& entry, const std::string& key, const fs::path& path, int count) {
-  std::string cleaned = entry.value;
-  for (char& ch : cleaned) {
-    if (ch == '[' || ch == ']' || ch == ';' || ch == ',') ch = ' ';
-  }
-  std::istringstream in(cleaned);
-  in.imbue(std::locale::classic());
-  std::vector<double> values;
-  std::string token;
-  while (in >> token) {
-    char* end = nullptr;
-    const double v = std::strtod(token.c_str(), &end);
-    LN_CHECK_INPUT(end != token.c_str() && *end == '\0' && std::isfinite(v))
-        << path.string() << ":" << entry.line << ": " << key << ": '" << token << "' is not a number";
-    values.push_back(v);
-  }
-  LN_CHECK_INPUT(static_cast<int>(values.size()) == count)
-      << path.string() << ":" << entry.line << ": " << key << ": expected " << count << " numbers, got "
-      << values.size();
-  return values;
-}
-
 // A rig whose raw images are already rectified: no distortion, the same K (up to the principal
 // column), R = I, t = (-B, 0, 0), and its own rectified geometry.
 StereoRig RectifiedRig(const Eigen::Matrix3d& k_left, const Eigen::Matrix3d& k_right, double baseline_m, int width,
@@ -230,6 +174,10 @@ std::string ToString(RigFormat format) {
     if (f == format) return name;
   }
   return "?";
+}
+
+std::map<std::string, KittiPair> KittiPairNames() {
+  return {{"colour", KittiPair::kColour}, {"grey", KittiPair::kGrey}};
 }
 
 std::map<std::string, RigFormat> RigFormatNames() {
@@ -268,6 +216,10 @@ json RigImportOptions::ToJson() const {
   if (format == RigFormat::kOpenCv) {
     j["image_size_px"] = {image_size_px->first, image_size_px->second};
     j["metres_per_unit"] = metres_per_unit;
+  }
+  if (format == RigFormat::kKitti) {
+    j["kitti_pair"] = kitti_pair == KittiPair::kGrey ? "grey" : "colour";
+    if (image_size_px) j["image_size_px"] = {image_size_px->first, image_size_px->second};
   }
   return j;
 }
@@ -387,32 +339,68 @@ StereoRig ReadMiddleburyCalib(const fs::path& calib_txt, const MastPose& mast) {
   return rig;
 }
 
-StereoRig ReadKittiCamToCam(const fs::path& calib_txt, const MastPose& mast) {
+StereoRig ReadKittiCalib(const fs::path& calib_txt, const MastPose& mast, KittiPair pair,
+                         const std::optional<std::pair<int, int>>& image_size_px) {
   const auto entries = ReadKeyValues(calib_txt, ':');
   const std::string f = calib_txt.string();
-  auto projection = [&](const char* key) {
+  const bool grey = pair == KittiPair::kGrey;
+  // The raw format names its rectified projections P_rect_0N; the odometry format PN.
+  const bool odometry = entries.count("P_rect_00") == 0 && entries.count("P_rect_02") == 0 &&
+                        (entries.count("P0") > 0 || entries.count("P2") > 0);
+  const std::string left_key = odometry ? (grey ? "P0" : "P2") : (grey ? "P_rect_00" : "P_rect_02");
+  const std::string right_key = odometry ? (grey ? "P1" : "P3") : (grey ? "P_rect_01" : "P_rect_03");
+  auto projection = [&](const std::string& key) {
     const std::vector<double> v = TextNumbers(TextField(entries, key, calib_txt), key, calib_txt, 12);
     Eigen::Matrix<double, 3, 4> p;
     for (int i = 0; i < 12; ++i) p(i / 4, i % 4) = v[static_cast<std::size_t>(i)];
     return p;
   };
-  const Eigen::Matrix<double, 3, 4> p2 = projection("P_rect_02"), p3 = projection("P_rect_03");
-  const std::vector<double> size = TextNumbers(TextField(entries, "S_rect_02", calib_txt), "S_rect_02", calib_txt, 2);
-  LN_CHECK_INPUT(size[0] > 0 && size[1] > 0 && size[0] == std::floor(size[0]) && size[1] == std::floor(size[1]))
-      << f << ": S_rect_02: expected the rectified width and height in whole pixels";
-  const Eigen::Matrix3d k = p2.leftCols<3>();
-  LN_CHECK_INPUT(k(0, 0) > 0 && (p3.leftCols<3>() - k).cwiseAbs().maxCoeff() <= 1e-6 * k(0, 0))
-      << f << ": P_rect_03: its left 3x3 block must equal P_rect_02's (one rectified camera matrix)";
+  const Eigen::Matrix<double, 3, 4> pl = projection(left_key), pr = projection(right_key);
+  std::pair<double, double> size;
+  if (!odometry) {
+    const std::string size_key = grey ? "S_rect_00" : "S_rect_02";
+    const std::vector<double> s = TextNumbers(TextField(entries, size_key, calib_txt), size_key, calib_txt, 2);
+    size = {s[0], s[1]};
+  } else if (image_size_px.has_value()) {
+    size = {image_size_px->first, image_size_px->second};
+  } else {
+    // calib.txt holds no size: the sequence's own first image of the pair's left camera.
+    const fs::path folder = calib_txt.parent_path() / (grey ? "image_0" : "image_2");
+    std::error_code ec;
+    fs::path first;
+    if (fs::is_directory(folder, ec)) {
+      for (const auto& e : fs::directory_iterator(folder, ec)) {
+        if (io::HasImageExtension(e.path()) && (first.empty() || e.path() < first)) first = e.path();
+      }
+    }
+    LN_CHECK_ARG(!first.empty()) << f << ": an odometry calib.txt holds no image size: give --image-size WIDTHxHEIGHT "
+                                 << "(no image in " << folder.string() << " to take it from)";
+    const cv::Mat image = io::ReadImage(first);
+    size = {image.cols, image.rows};
+  }
+  LN_CHECK_INPUT(size.first > 0 && size.second > 0 && size.first == std::floor(size.first) &&
+                 size.second == std::floor(size.second) && size.first <= 1e5 && size.second <= 1e5)
+      << f << ": expected the rectified width and height in whole pixels, got " << size.first << " x "
+      << size.second;
+  const Eigen::Matrix3d k = pl.leftCols<3>();
+  LN_CHECK_INPUT(k(0, 0) > 0 && k(1, 1) > 0 && k(2, 2) == 1 && k(1, 0) == 0 && k(2, 0) == 0 && k(2, 1) == 0)
+      << f << ": " << left_key << ": its left 3x3 block is no camera matrix [f 0 cx; 0 f cy; 0 0 1]";
+  LN_CHECK_INPUT((pr.leftCols<3>() - k).cwiseAbs().maxCoeff() <= 1e-6 * k(0, 0))
+      << f << ": " << right_key << ": its left 3x3 block must equal " << left_key << "'s (one rectified camera matrix)";
   // Each camera's centre in the rectified frame of camera 0: t = K^-1 P[:, 3].
-  const Eigen::Vector3d t2 = k.inverse() * p2.col(3), t3 = k.inverse() * p3.col(3);
-  const double baseline_m = t2.x() - t3.x();
-  LN_CHECK_INPUT(baseline_m > 0) << f << ": P_rect_03: camera 3 must be to the right of camera 2 (P_rect_02[0][3] > "
-                                 << "P_rect_03[0][3])";
-  StereoRig rig = RectifiedRig(k, k, baseline_m, static_cast<int>(size[0]), static_cast<int>(size[1]), mast);
-  const Eigen::Vector3d dropped = (t3 - t2) * 1e3;
-  rig.notes.push_back(f + ": P_rect_02, P_rect_03: the offsets between cameras 2 and 3 along y (" +
-                      Fixed(dropped.y(), 2) + " mm) and z (" + Fixed(dropped.z(), 2) +
-                      " mm) are dropped; baseline " + Fixed(baseline_m, 4) + " m along x");
+  const Eigen::Vector3d tl = k.inverse() * pl.col(3), tr = k.inverse() * pr.col(3);
+  const double baseline_m = tl.x() - tr.x();
+  LN_CHECK_INPUT(baseline_m > 0 && baseline_m <= kMaxBaselineM)
+      << f << ": " << right_key << ": camera " << right_key.back() << " must be to the right of camera "
+      << left_key.back() << " (" << left_key << "[0][3] > " << right_key << "[0][3]) by at most " << kMaxBaselineM
+      << " m, got a baseline of " << baseline_m << " m";
+  StereoRig rig = RectifiedRig(k, k, baseline_m, static_cast<int>(size.first), static_cast<int>(size.second), mast);
+  const Eigen::Vector3d dropped = (tr - tl) * 1e3;
+  if (std::abs(dropped.y()) >= 0.005 || std::abs(dropped.z()) >= 0.005) {
+    rig.notes.push_back(f + ": " + left_key + ", " + right_key + ": the offsets between cameras " + left_key.back() +
+                        " and " + right_key.back() + " along y (" + Fixed(dropped.y(), 2) + " mm) and z (" +
+                        Fixed(dropped.z(), 2) + " mm) are dropped; baseline " + Fixed(baseline_m, 4) + " m along x");
+  }
   rig.Validate(f);
   return rig;
 }
@@ -427,7 +415,7 @@ StereoRig ImportRig(const RigImportOptions& options) {
     case RigFormat::kRos: return ReadRosCameraInfoPair(files[0], files[1], options.mast);
     case RigFormat::kKalibr: return ReadKalibrCamchain(files[0], options.mast);
     case RigFormat::kMiddlebury: return ReadMiddleburyCalib(files[0], options.mast);
-    case RigFormat::kKitti: return ReadKittiCamToCam(files[0], options.mast);
+    case RigFormat::kKitti: return ReadKittiCalib(files[0], options.mast, options.kitti_pair, options.image_size_px);
   }
   throw std::invalid_argument("--from: unknown format");
 }

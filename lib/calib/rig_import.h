@@ -21,8 +21,16 @@ enum class RigFormat {
   kRos,         ///< left.yaml + right.yaml: ROS camera_info (camera_calibration's files or a message).
   kKalibr,      ///< camchain.yaml of Kalibr (pinhole-radtan, cam0 = left, cam1 = right).
   kMiddlebury,  ///< calib.txt of the Middlebury 2014 stereo datasets (rectified).
-  kKitti        ///< calib_cam_to_cam.txt of KITTI (the rectified colour cameras 02 and 03).
+  kKitti        ///< KITTI: the raw format's calib_cam_to_cam.txt or the odometry calib.txt (rectified).
 };
+
+/// Which of KITTI's two rectified pairs a KITTI calibration describes.
+enum class KittiPair {
+  kColour,  ///< cameras 2 (left) and 3 (right): P_rect_02/03, or the odometry P2/P3.
+  kGrey     ///< cameras 0 (left) and 1 (right): P_rect_00/01, or the odometry P0/P1.
+};
+/// Name -> pair, for CLI11: colour, grey.
+std::map<std::string, KittiPair> KittiPairNames();
 std::string ToString(RigFormat format);
 /// Name -> format, for CLI11's CheckedTransformer: opencv, ros, kalibr, middlebury, kitti.
 std::map<std::string, RigFormat> RigFormatNames();
@@ -35,8 +43,12 @@ struct RigImportOptions {
   std::vector<std::filesystem::path> files;
   MastPose mast;  ///< Written to the rig as given: no format holds it.
   /// opencv only (its files hold neither): the raw image size, and the metres per unit of T.
+  /// (For kitti's odometry calib.txt, which holds no size, the image size: without it, the
+  /// size of the first image in the pair's folder beside calib.txt, image_0/ or image_2/.)
   std::optional<std::pair<int, int>> image_size_px;
   double metres_per_unit = 1.0;
+  /// kitti only: the pair to import.
+  KittiPair kitti_pair = KittiPair::kColour;
 
   /// @throws std::invalid_argument naming the option (--from, --image-size, --square).
   void Validate() const;
@@ -69,14 +81,19 @@ StereoRig ReadKalibrCamchain(const std::filesystem::path& camchain, const MastPo
 /// @throws InputError naming the file, the line and the key.
 StereoRig ReadMiddleburyCalib(const std::filesystem::path& calib_txt, const MastPose& mast);
 
-/// Reads KITTI's calib_cam_to_cam.txt for the rectified colour pair: S_rect_02 (size),
-/// P_rect_02 (left) and P_rect_03 (right), both [f 0 cx f t_x; 0 f cy f t_y; 0 0 1 t_z] in the
-/// rectified frame of camera 0. Each camera's centre there is t = K^-1 P[:, 3]; the baseline is
-/// the x offset between the two (within 0.01 % of the usual (P_rect_02[0][3] -
-/// P_rect_03[0][3]) / f); their millimetre offsets along y and z are dropped, with a note.
-/// Rectified like Middlebury's.
+/// Reads a KITTI calibration for one of its rectified pairs (`pair`):
+/// - the raw format's calib_cam_to_cam.txt: S_rect_0L (size), P_rect_0L (left) and P_rect_0R
+///   (right), L, R = 2, 3 (colour) or 0, 1 (grey);
+/// - the odometry format's calib.txt: PL and PR (L, R = 2, 3 or 0, 1), which hold no size:
+///   `image_size_px`, or the size of the first image of the pair's folder beside calib.txt
+///   (image_2/ or image_0/).
+/// The projections are [f 0 cx f t_x; 0 f cy f t_y; 0 0 1 t_z] in the rectified frame of camera
+/// 0. Each camera's centre there is t = K^-1 P[:, 3]; the baseline is the x offset between the
+/// two (within 0.01 % of the usual (P_L[0][3] - P_R[0][3]) / f); their millimetre offsets along y
+/// and z are dropped, with a note. Rectified like Middlebury's.
 /// @throws InputError naming the file, the line and the key.
-StereoRig ReadKittiCamToCam(const std::filesystem::path& calib_txt, const MastPose& mast);
+StereoRig ReadKittiCalib(const std::filesystem::path& calib_txt, const MastPose& mast, KittiPair pair,
+                         const std::optional<std::pair<int, int>>& image_size_px = std::nullopt);
 
 /// Reads the options' files in their format (ReadOpenCvCalibration for opencv).
 StereoRig ImportRig(const RigImportOptions& options);

@@ -4,6 +4,7 @@
 
 #include "io/image_io.h"
 #include "util/check.h"
+#include "util/errors.h"
 
 namespace lunarnav::io {
 namespace fs = std::filesystem;
@@ -30,14 +31,28 @@ std::map<std::string, std::vector<fs::path>> ImagesByStem(const fs::path& dir) {
 
 }  // namespace
 
-std::vector<PairFiles> ListStereoPairs(const fs::path& input_dir) {
+std::pair<fs::path, fs::path> PairFolders(const fs::path& input_dir) {
   std::error_code ec;
   LN_CHECK_INPUT(fs::is_directory(input_dir, ec)) << input_dir.string() << ": no such directory";
-  const fs::path left_dir = input_dir / "left", right_dir = input_dir / "right";
-  LN_CHECK_INPUT(fs::is_directory(left_dir, ec))
-      << input_dir.string() << ": no left/ directory (expected left/ and right/ image folders)";
-  LN_CHECK_INPUT(fs::is_directory(right_dir, ec))
-      << input_dir.string() << ": no right/ directory (expected left/ and right/ image folders)";
+  // left/ and right/; else KITTI's layouts, the grey pair first: odometry's image_0/ and
+  // image_1/, raw's image_00/data/ and image_01/data/, then the colour pairs.
+  static const char* const kLayouts[][2] = {{"left", "right"},           {"image_0", "image_1"},
+                                            {"image_00/data", "image_01/data"}, {"image_2", "image_3"},
+                                            {"image_02/data", "image_03/data"}};
+  for (const auto& layout : kLayouts) {
+    if (fs::is_directory(input_dir / layout[0], ec) || fs::is_directory(input_dir / layout[1], ec)) {
+      const fs::path left = input_dir / layout[0], right = input_dir / layout[1];
+      LN_CHECK_INPUT(fs::is_directory(left, ec)) << input_dir.string() << ": no " << layout[0] << "/ beside " << layout[1] << "/";
+      LN_CHECK_INPUT(fs::is_directory(right, ec)) << input_dir.string() << ": no " << layout[1] << "/ beside " << layout[0] << "/";
+      return {left, right};
+    }
+  }
+  throw InputError(input_dir.string() + ": no left/ directory (expected left/ and right/ image folders, or KITTI's "
+                   "image_0/ and image_1/, image_00/data/ and image_01/data/)");
+}
+
+std::vector<PairFiles> ListStereoPairs(const fs::path& input_dir) {
+  const auto [left_dir, right_dir] = PairFolders(input_dir);
   const auto lefts = ImagesByStem(left_dir);
   const auto rights = ImagesByStem(right_dir);
   std::map<std::string, PairFiles> pairs;

@@ -4,6 +4,7 @@
 
 #include <filesystem>
 #include <string>
+#include <utility>
 #include <vector>
 
 namespace lunarnav::io {
@@ -16,9 +17,16 @@ struct PairFiles {
   std::string problem;  ///< Empty when both images exist once each.
 };
 
-/// Lists the pairs of INPUT_DIR in name order (byte-wise order of the stems). Files whose
-/// extension is not an image's, and hidden files, are ignored.
-/// @throws InputError when INPUT_DIR, left/ or right/ is missing.
+/// The folders of INPUT_DIR's left and right images: left/ and right/; else KITTI's layouts,
+/// its grey pair before its colour pair: image_0/ and image_1/ (odometry), image_00/data/ and
+/// image_01/data/ (raw), image_2/ and image_3/, image_02/data/ and image_03/data/.
+/// @throws InputError when INPUT_DIR or both folders of every layout are missing, or one of a
+///         layout's two is.
+std::pair<std::filesystem::path, std::filesystem::path> PairFolders(const std::filesystem::path& input_dir);
+
+/// Lists the pairs of INPUT_DIR (PairFolders) in name order (byte-wise order of the stems).
+/// Files whose extension is not an image's, and hidden files, are ignored.
+/// @throws InputError as PairFolders.
 std::vector<PairFiles> ListStereoPairs(const std::filesystem::path& input_dir);
 
 /// The stems of a listing, in its order.

@@ -6,6 +6,7 @@
 #include <set>
 #include <sstream>
 
+#include "mapping/kitti_trajectory.h"
 #include "positioning/trajectory_io.h"
 #include "util/check.h"
 #include "util/errors.h"
@@ -133,6 +134,7 @@ std::vector<FramePose> ReadPosesCsv(const fs::path& path) {
 }
 
 std::vector<FramePose> ReadFrameTimes(const fs::path& path) {
+  if (IsKittiFrameTimes(path)) return ReadKittiFrameTimes(path);
   std::vector<FramePose> times;
   std::set<std::string> seen;
   ForEachRow(path, {"stem", "t_s"}, [&](const std::vector<std::string>& c, const std::string& where) {
@@ -146,15 +148,31 @@ std::vector<FramePose> ReadFrameTimes(const fs::path& path) {
   return times;
 }
 
-std::vector<FramePose> InterpolateTrajectory(const fs::path& trajectory, const std::vector<FramePose>& frame_times) {
-  std::vector<positioning::TrajectorySample> samples = trajectory.extension() == ".csv"
-                                                           ? positioning::ReadTrajectoryCsv(trajectory)
-                                                           : positioning::ReadTrajectoryTum(trajectory);
+std::vector<positioning::TrajectorySample> ReadTrajectory(const fs::path& trajectory, const TrajectoryContext& context) {
+  const TrajectoryFormat format = DetectTrajectoryFormat(trajectory);
+  std::vector<positioning::TrajectorySample> samples;
+  const bool kitti = format == TrajectoryFormat::kKittiPoses || format == TrajectoryFormat::kKittiOxts;
+  LN_CHECK_ARG(!kitti || context.vehicle_from_camera.has_value())
+      << trajectory.string() << ": KITTI's poses are the cameras': give --rig, whose mast places them on the vehicle";
+  switch (format) {
+    case TrajectoryFormat::kPosfilterCsv: samples = positioning::ReadTrajectoryCsv(trajectory); break;
+    case TrajectoryFormat::kTum: samples = positioning::ReadTrajectoryTum(trajectory); break;
+    case TrajectoryFormat::kKittiPoses:
+      samples = ReadKittiPoseTrajectory(trajectory, context.frame_times, *context.vehicle_from_camera);
+      break;
+    case TrajectoryFormat::kKittiOxts: samples = ReadKittiOxtsTrajectory(trajectory, *context.vehicle_from_camera); break;
+  }
   LN_CHECK_INPUT(!samples.empty()) << trajectory.string() << ": no poses";
   for (std::size_t i = 1; i < samples.size(); ++i) {
     LN_CHECK_INPUT(samples[i].t_s > samples[i - 1].t_s)
         << trajectory.string() << ": time stamps must increase (row " << i + 1 << ")";
   }
+  return samples;
+}
+
+std::vector<FramePose> InterpolateTrajectory(const fs::path& trajectory, const std::vector<FramePose>& frame_times,
+                                             const TrajectoryContext& context) {
+  const std::vector<positioning::TrajectorySample> samples = ReadTrajectory(trajectory, context);
   std::vector<FramePose> out;
   for (const FramePose& f : frame_times) {
     const double t = f.t_s;
@@ -185,7 +203,8 @@ std::map<std::string, FramePose> IndexByStem(const std::vector<FramePose>& poses
 }
 
 std::vector<FramePose> PosesOfPairs(const std::filesystem::path& poses_csv, const std::filesystem::path& trajectory,
-                                    const std::filesystem::path& frame_times, const std::vector<std::string>& stems) {
+                                    const std::filesystem::path& frame_times, const std::vector<std::string>& stems,
+                                    const std::optional<Eigen::Isometry3d>& vehicle_from_camera) {
   const std::filesystem::path& pose_file = poses_csv.empty() ? frame_times : poses_csv;
   std::vector<FramePose> listed = poses_csv.empty() ? ReadFrameTimes(frame_times) : ReadPosesCsv(poses_csv);
   const auto by_stem = IndexByStem(listed);
@@ -195,7 +214,7 @@ std::vector<FramePose> PosesOfPairs(const std::filesystem::path& poses_csv, cons
   const std::set<std::string> wanted(stems.begin(), stems.end());
   listed.erase(std::remove_if(listed.begin(), listed.end(), [&](const FramePose& p) { return wanted.count(p.stem) == 0; }),
                listed.end());
-  if (!trajectory.empty()) listed = InterpolateTrajectory(trajectory, listed);
+  if (!trajectory.empty()) listed = InterpolateTrajectory(trajectory, listed, {frame_times, vehicle_from_camera});
   for (const FramePose& p : listed) p.Validate(pose_file.string());
   std::stable_sort(listed.begin(), listed.end(), [](const FramePose& a, const FramePose& b) { return a.t_s < b.t_s; });
   return listed;

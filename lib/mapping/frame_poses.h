@@ -5,10 +5,13 @@
 
 #include <filesystem>
 #include <map>
+#include <optional>
 #include <string>
 #include <vector>
 
 #include <Eigen/Geometry>
+
+#include "positioning/dead_reckoning.h"
 
 namespace lunarnav::mapping {
 
@@ -54,16 +57,34 @@ inline constexpr double kMaxPoseAngleDeg = 1e6;
 std::vector<FramePose> ReadPosesCsv(const std::filesystem::path& path);
 
 /// Reads a frame-times file: a header `stem,t_s` ('#' lines and extra columns allowed), one
-/// row per pair. @throws InputError naming the file and line.
+/// row per pair; or KITTI's times.txt or timestamps.txt (ReadKittiFrameTimes: stems the
+/// frames' numbers as KITTI names their images). @throws InputError naming the file and line.
 std::vector<FramePose> ReadFrameTimes(const std::filesystem::path& path);
 
-/// The poses of the pairs listed in `frame_times` from a trajectory (`.csv`: posfilter's
-/// trajectory.csv; any other extension: TUM "t x y z qx qy qz qw", body x forward, y left,
-/// z up), interpolated linearly in time (angles along the shorter arc).
+/// What reading a trajectory may need besides the file: KITTI's pose files take their times
+/// from the frame-times file (times.txt), and camera poses (KITTI's pose files, its GPS/INS
+/// packets through its calibration) the rig's camera in the vehicle frame
+/// (StereoRig::VehicleFromLeft).
+struct TrajectoryContext {
+  std::filesystem::path frame_times;
+  std::optional<Eigen::Isometry3d> vehicle_from_camera;
+};
+
+/// Reads a trajectory of the vehicle in any of the forms DetectTrajectoryFormat tells apart:
+/// posfilter's trajectory.csv, TUM ("t x y z qx qy qz qw", body x forward, y left, z up),
+/// a KITTI pose file or a KITTI raw oxts/ directory (kitti_trajectory.h; these need
+/// `context.vehicle_from_camera`, a usage error without). Times increase.
+/// @throws InputError naming the file (and line).
+std::vector<positioning::TrajectorySample> ReadTrajectory(const std::filesystem::path& trajectory,
+                                                          const TrajectoryContext& context);
+
+/// The poses of the pairs listed in `frame_times` from a trajectory (ReadTrajectory),
+/// interpolated linearly in time (angles along the shorter arc).
 /// @throws InputError naming the stem when its time lies outside the trajectory, and naming
 ///         the file for an unreadable trajectory.
 std::vector<FramePose> InterpolateTrajectory(const std::filesystem::path& trajectory,
-                                             const std::vector<FramePose>& frame_times);
+                                             const std::vector<FramePose>& frame_times,
+                                             const TrajectoryContext& context = {});
 
 /// Poses by stem.
 std::map<std::string, FramePose> IndexByStem(const std::vector<FramePose>& poses);
@@ -72,7 +93,10 @@ std::map<std::string, FramePose> IndexByStem(const std::vector<FramePose>& poses
 /// from a trajectory interpolated at a frame-times file (`poses_csv` empty). Each is validated.
 /// @throws InputError naming the stem and the file for a pair the file does not list, and as
 ///         the readers, InterpolateTrajectory and FramePose::Validate do.
+/// `vehicle_from_camera`: the rig's left camera in the vehicle frame, for trajectories of
+/// camera poses (TrajectoryContext).
 std::vector<FramePose> PosesOfPairs(const std::filesystem::path& poses_csv, const std::filesystem::path& trajectory,
-                                    const std::filesystem::path& frame_times, const std::vector<std::string>& stems);
+                                    const std::filesystem::path& frame_times, const std::vector<std::string>& stems,
+                                    const std::optional<Eigen::Isometry3d>& vehicle_from_camera = std::nullopt);
 
 }  // namespace lunarnav::mapping

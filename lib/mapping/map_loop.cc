@@ -134,7 +134,8 @@ MapLoopSummary RunMapLoop(const MapLoopOptions& options, const fs::path& rect_di
     LN_CHECK_INPUT(!pairs.empty()) << rect_dir.string() << ": no image pairs in left/ and right/";
     for (const io::PairFiles& p : pairs) stems.push_back(p.stem);
   }
-  const std::vector<FramePose> poses = PosesOfPairs(mo.poses_csv, mo.trajectory, mo.frame_times, stems);
+  const std::vector<FramePose> poses = PosesOfPairs(mo.poses_csv, mo.trajectory, mo.frame_times, stems,
+                                                    options.stereo.rig->VehicleFromLeft());
   // Each pair searches where its vehicle's attitude puts the ground (stereo::BatchOptions::attitudes).
   for (const FramePose& p : poses) {
     stereo_options.attitudes[p.stem] = {p.pitch_rad * 180.0 / M_PI, p.roll_rad * 180.0 / M_PI};

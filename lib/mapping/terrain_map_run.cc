@@ -257,7 +257,9 @@ TerrainMapRunSummary RunTerrainMap(const TerrainMapRunOptions& options, const fs
     for (const std::string* stem : io::SelectShard(all_stems, options.shard_index, options.shard_count)) {
       stems.push_back(*stem);
     }
-    todo = PosesOfPairs(options.poses_csv, options.trajectory, options.frame_times, stems);
+    std::optional<Eigen::Isometry3d> vehicle_from_camera;
+    if (!options.rig.empty()) vehicle_from_camera = calib::ReadStereoRig(options.rig).VehicleFromLeft();
+    todo = PosesOfPairs(options.poses_csv, options.trajectory, options.frame_times, stems, vehicle_from_camera);
     has_sigma = options.rig.empty() && fs::is_directory(options.stereo_dir / "xyz_sigma");
   }
   std::map<std::string, std::pair<double, double>> y_interval;  // per stem, from --requests

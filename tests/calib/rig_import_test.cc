@@ -11,6 +11,7 @@
 #include <opencv2/calib3d.hpp>
 #include <opencv2/core.hpp>
 #include <opencv2/core/eigen.hpp>
+#include <opencv2/imgcodecs.hpp>
 
 #include "calib/paper_rig.h"
 #include "calib/rectify.h"
@@ -220,10 +221,10 @@ constexpr const char* kKittiCalib =
     "P_rect_03: 7.215377e+02 0.000000e+00 6.095593e+02 -3.395242e+02 0.000000e+00 7.215377e+02 1.728540e+02 "
     "2.199936e+00 0.000000e+00 0.000000e+00 1.000000e+00 2.729905e-03\n";
 
-TEST(ReadKittiCamToCam, IsTheRectifiedColourPair) {
+TEST(ReadKittiCalib, IsTheRectifiedColourPair) {
   util::ScopedTempDir tmp;
   WriteText(tmp.path() / "calib_cam_to_cam.txt", kKittiCalib);
-  const StereoRig rig = ReadKittiCamToCam(tmp.path() / "calib_cam_to_cam.txt", MastPose{});
+  const StereoRig rig = ReadKittiCalib(tmp.path() / "calib_cam_to_cam.txt", MastPose{}, KittiPair::kColour);
   EXPECT_EQ(rig.width_px, 1242);
   EXPECT_EQ(rig.height_px, 375);
   // The x offset of the centres K^-1 P[:, 3]: (P[0][3] - cx P[2][3]) / f for each camera.
@@ -241,11 +242,60 @@ TEST(ReadKittiCamToCam, IsTheRectifiedColourPair) {
   std::string text = kKittiCalib;
   text.replace(text.find("-3.395242e+02"), 13, "-3.395242e+0x");
   WriteText(tmp.path() / "bad.txt", text);
-  ExpectError([&] { ReadKittiCamToCam(tmp.path() / "bad.txt", MastPose{}); },
+  ExpectError([&] { ReadKittiCalib(tmp.path() / "bad.txt", MastPose{}, KittiPair::kColour); },
               "bad.txt:8: P_rect_03: '-3.395242e+0x' is not a number");
   text = kKittiCalib;
   WriteText(tmp.path() / "no3.txt", text.substr(0, text.find("S_rect_03")));
-  ExpectError([&] { ReadKittiCamToCam(tmp.path() / "no3.txt", MastPose{}); }, "no3.txt: missing field 'P_rect_03'");
+  ExpectError([&] { ReadKittiCalib(tmp.path() / "no3.txt", MastPose{}, KittiPair::kColour); }, "no3.txt: missing field 'P_rect_03'");
+}
+
+TEST(ReadKittiCalib, ReadsTheGreyPairOfTheRawFormat) {
+  util::ScopedTempDir tmp;
+  std::string text = kKittiCalib;
+  // The raw format's grey pair: P_rect_00 (camera 0 itself) and P_rect_01.
+  text += "S_rect_00: 1.242000e+03 3.750000e+02\n"
+          "P_rect_01: 7.215377e+02 0.000000e+00 6.095593e+02 -3.875744e+02 0.000000e+00 7.215377e+02 1.728540e+02 "
+          "0.000000e+00 0.000000e+00 0.000000e+00 1.000000e+00 0.000000e+00\n";
+  WriteText(tmp.path() / "calib_cam_to_cam.txt", text);
+  const StereoRig rig = ReadKittiCalib(tmp.path() / "calib_cam_to_cam.txt", MastPose{1.65, 0, 0, 0}, KittiPair::kGrey);
+  EXPECT_NEAR(rig.BaselineM(), 387.5744 / 721.5377, 1e-12);
+  EXPECT_EQ(rig.width_px, 1242);
+  EXPECT_EQ(rig.mast.height_m, 1.65);
+  EXPECT_TRUE(rig.notes.empty());  // camera 0 and 1 share their rows exactly: nothing dropped
+}
+
+TEST(ReadKittiCalib, ReadsTheOdometryCalibTxtWithTheSizeGivenOrFromTheSequence) {
+  util::ScopedTempDir tmp;
+  const std::string calib =
+      "P0: 7.070912e+02 0.000000e+00 6.018873e+02 0.000000e+00 0.000000e+00 7.070912e+02 1.831104e+02 0.000000e+00 "
+      "0.000000e+00 0.000000e+00 1.000000e+00 0.000000e+00\n"
+      "P1: 7.070912e+02 0.000000e+00 6.018873e+02 -3.798145e+02 0.000000e+00 7.070912e+02 1.831104e+02 0.000000e+00 "
+      "0.000000e+00 0.000000e+00 1.000000e+00 0.000000e+00\n"
+      "P2: 7.070912e+02 0.000000e+00 6.018873e+02 4.688783e+01 0.000000e+00 7.070912e+02 1.831104e+02 1.178601e-01 "
+      "0.000000e+00 0.000000e+00 1.000000e+00 6.203223e-03\n"
+      "P3: 7.070912e+02 0.000000e+00 6.018873e+02 -3.334597e+02 0.000000e+00 7.070912e+02 1.831104e+02 1.930130e+00 "
+      "0.000000e+00 0.000000e+00 1.000000e+00 3.318498e-03\n"
+      "Tr: -1.857739e-03 -9.999659e-01 -8.039975e-03 -4.784029e-03 -6.481465e-03 8.051860e-03 -9.999466e-01 "
+      "-7.337429e-02 9.999773e-01 -1.805528e-03 -6.496203e-03 -3.339968e-01\n";
+  WriteText(tmp.path() / "calib.txt", calib);
+  const StereoRig grey =
+      ReadKittiCalib(tmp.path() / "calib.txt", MastPose{}, KittiPair::kGrey, std::pair<int, int>{1226, 370});
+  EXPECT_NEAR(grey.BaselineM(), 379.8145 / 707.0912, 1e-12);  // KITTI's baseline = -P1[0][3] / P1[0][0]
+  EXPECT_EQ(grey.width_px, 1226);
+  const StereoRig colour =
+      ReadKittiCalib(tmp.path() / "calib.txt", MastPose{}, KittiPair::kColour, std::pair<int, int>{1226, 370});
+  // The colour cameras' centres K^-1 P[:, 3] (their z offsets move the x ones by a few mm).
+  const double x2 = (46.88783 - 601.8873 * 6.203223e-03) / 707.0912;
+  const double x3 = (-333.4597 - 601.8873 * 3.318498e-03) / 707.0912;
+  EXPECT_NEAR(colour.BaselineM(), x2 - x3, 1e-12);
+  // Without a size: the first image of the pair's folder beside calib.txt; with neither, a
+  // usage error naming the option.
+  EXPECT_THROW(ReadKittiCalib(tmp.path() / "calib.txt", MastPose{}, KittiPair::kGrey), std::invalid_argument);
+  fs::create_directories(tmp.path() / "image_0");
+  cv::imwrite((tmp.path() / "image_0" / "000000.png").string(), cv::Mat(370, 1226, CV_8UC1, cv::Scalar(9)));
+  const StereoRig sized = ReadKittiCalib(tmp.path() / "calib.txt", MastPose{}, KittiPair::kGrey);
+  EXPECT_EQ(sized.width_px, 1226);
+  EXPECT_EQ(sized.height_px, 370);
 }
 
 TEST(RunRigImport, WritesTheRigAndASummaryWithItsNotes) {

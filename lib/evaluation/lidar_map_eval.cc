@@ -1,0 +1,821 @@
+#include "evaluation/lidar_map_eval.h"
+
+#include <algorithm>
+#include <cmath>
+#include <cstdint>
+#include <iomanip>
+#include <map>
+#include <set>
+#include <sstream>
+
+#include <opencv2/imgproc.hpp>
+
+#include "calib/stereo_rig_io.h"
+#include "calib/window_selection.h"
+#include "io/atomic_file.h"
+#include "io/float_array_io.h"
+#include "io/image_io.h"
+#include "io/json_io.h"
+#include "io/point_cloud_io.h"
+#include "io/stereo_pairs.h"
+#include "mapping/kitti_trajectory.h"
+#include "util/check.h"
+#include "util/errors.h"
+#include "util/log.h"
+#include "util/parallel.h"
+#include "util/summary.h"
+#include "util/timer.h"
+
+namespace lunarnav::evaluation {
+namespace fs = std::filesystem;
+using nlohmann::json;
+
+namespace {
+
+constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
+constexpr float kNaNf = std::numeric_limits<float>::quiet_NaN();
+// The largest truth grid, cells: 4096 x 4096 (a square kilometre of 25 cm cells).
+constexpr std::int64_t kMaxTruthCells = std::int64_t{1} << 24;
+
+enum CellClass : int { kNone = 0, kFlat = 1, kObject = 2, kOther = 3 };
+
+// A band of a raster: its pixels and name.
+io::RasterBand NamedBand(const cv::Mat& pixels, const char* name) {
+  io::RasterBand band;
+  band.pixels = pixels;
+  band.description = name;
+  return band;
+}
+
+json Number(double v) { return std::isfinite(v) ? json(v) : json(nullptr); }
+double Ratio(long a, long b) { return b > 0 ? static_cast<double>(a) / static_cast<double>(b) : kNaN; }
+
+double Median(std::vector<float>* v) {
+  if (v->empty()) return kNaN;
+  const auto mid = v->begin() + static_cast<std::ptrdiff_t>(v->size() / 2);
+  std::nth_element(v->begin(), mid, v->end());
+  double m = *mid;
+  if (v->size() % 2 == 0) m = 0.5 * (m + *std::max_element(v->begin(), mid));
+  return m;
+}
+
+double MedianOf(std::vector<double> v) {
+  if (v.empty()) return kNaN;
+  std::sort(v.begin(), v.end());
+  const std::size_t n = v.size();
+  return n % 2 ? v[n / 2] : 0.5 * (v[n / 2 - 1] + v[n / 2]);
+}
+
+const cv::Mat& Band(const io::GeoRaster& r, const std::string& name, const std::string& what) {
+  const int i = r.BandIndex(name);
+  LN_CHECK_INPUT(i >= 0) << what << ": no band '" << name << "'";
+  LN_CHECK_INPUT(r.bands[static_cast<std::size_t>(i)].pixels.type() == CV_32FC1)
+      << what << ": band '" << name << "' is not Float32";
+  return r.bands[static_cast<std::size_t>(i)].pixels;
+}
+
+float At(const cv::Mat& m, int col, int row) {
+  if (col < 0 || row < 0 || col >= m.cols || row >= m.rows) return kNaNf;
+  return m.at<float>(row, col);
+}
+
+// The returns of every sweep binned by truth cell (a counting sort): cell k's returns are
+// z[start[k] .. start[k + 1]), with their sweeps.
+struct Binned {
+  std::vector<std::int64_t> start;
+  std::vector<float> z;
+  std::vector<int> sweep;
+};
+
+Binned BinReturns(const std::vector<LidarSweep>& sweeps, const io::GeoRaster& grid) {
+  const int w = grid.Width(), h = grid.Height();
+  auto cell_of = [&](const Eigen::Vector3f& p) -> std::int64_t {
+    const double col = std::floor((p.x() - grid.x_west_m) / grid.cell_m);
+    const double row = std::floor((grid.y_north_m - p.y()) / grid.cell_m);
+    if (!(col >= 0 && row >= 0 && col < w && row < h)) return -1;
+    return static_cast<std::int64_t>(row) * w + static_cast<std::int64_t>(col);
+  };
+  Binned b;
+  b.start.assign(static_cast<std::size_t>(w) * static_cast<std::size_t>(h) + 1, 0);
+  for (const LidarSweep& s : sweeps) {
+    for (const Eigen::Vector3f& p : s.points) {
+      const std::int64_t k = cell_of(p);
+      if (k >= 0) ++b.start[static_cast<std::size_t>(k) + 1];
+    }
+  }
+  for (std::size_t k = 1; k < b.start.size(); ++k) b.start[k] += b.start[k - 1];
+  b.z.resize(static_cast<std::size_t>(b.start.back()));
+  b.sweep.resize(b.z.size());
+  std::vector<std::int64_t> fill(b.start.begin(), b.start.end() - 1);
+  for (std::size_t s = 0; s < sweeps.size(); ++s) {
+    for (const Eigen::Vector3f& p : sweeps[s].points) {
+      const std::int64_t k = cell_of(p);
+      if (k < 0) continue;
+      const auto at = static_cast<std::size_t>(fill[static_cast<std::size_t>(k)]++);
+      b.z[at] = p.z();
+      b.sweep[at] = static_cast<int>(s);
+    }
+  }
+  return b;
+}
+
+// The truth grid's lattice: the map's, over the box of every return.
+io::GeoRaster TruthLattice(const std::vector<LidarSweep>& sweeps, const io::GeoRaster& map) {
+  double x0 = std::numeric_limits<double>::infinity(), x1 = -x0, y0 = x0, y1 = -x0;
+  for (const LidarSweep& s : sweeps) {
+    for (const Eigen::Vector3f& p : s.points) {
+      x0 = std::min(x0, static_cast<double>(p.x()));
+      x1 = std::max(x1, static_cast<double>(p.x()));
+      y0 = std::min(y0, static_cast<double>(p.y()));
+      y1 = std::max(y1, static_cast<double>(p.y()));
+    }
+  }
+  io::GeoRaster g;
+  g.cell_m = map.cell_m;
+  if (!(x0 <= x1)) {  // no return: one empty cell at the map's corner
+    g.x_west_m = map.x_west_m;
+    g.y_north_m = map.y_north_m;
+    g.bands.push_back(NamedBand(cv::Mat(1, 1, CV_32FC1, cv::Scalar(0)), "returns"));
+    return g;
+  }
+  const double c = map.cell_m;
+  const double first_col = std::floor((x0 - map.x_west_m) / c), last_col = std::floor((x1 - map.x_west_m) / c);
+  const double first_row = std::floor((map.y_north_m - y1) / c), last_row = std::floor((map.y_north_m - y0) / c);
+  const double cells = (last_col - first_col + 1) * (last_row - first_row + 1);
+  LN_CHECK_INPUT(cells <= static_cast<double>(kMaxTruthCells))
+      << "the LiDAR returns span " << (x1 - x0) << " x " << (y1 - y0) << " m, more than "
+      << kMaxTruthCells << " cells of " << c << " m (a sweep or pose far from the others?)";
+  g.x_west_m = map.x_west_m + first_col * c;
+  g.y_north_m = map.y_north_m - first_row * c;
+  const int w = static_cast<int>(last_col - first_col + 1), h = static_cast<int>(last_row - first_row + 1);
+  g.bands.push_back(NamedBand(cv::Mat(h, w, CV_32FC1, cv::Scalar(0)), "returns"));
+  return g;
+}
+
+// Offset of raster b's cells in raster a's: b(col, row) = a(col + dc, row + dr).
+void LatticeOffset(const io::GeoRaster& a, const io::GeoRaster& b, int* dc, int* dr) {
+  const double fc = (b.x_west_m - a.x_west_m) / a.cell_m, fr = (a.y_north_m - b.y_north_m) / a.cell_m;
+  LN_CHECK_INPUT(std::abs(a.cell_m - b.cell_m) <= 1e-9 * a.cell_m && std::abs(fc - std::round(fc)) < 1e-6 &&
+                 std::abs(fr - std::round(fr)) < 1e-6)
+      << "the LiDAR truth is not on the map's lattice";
+  *dc = static_cast<int>(std::lround(fc));
+  *dr = static_cast<int>(std::lround(fr));
+}
+
+// Where a vehicle-frame point falls in the rig's rectified images: true when inside both.
+bool InBothImages(const calib::StereoRig& rig, const Eigen::Isometry3d& left_from_vehicle, const Eigen::Vector3d& v) {
+  const calib::RectifiedGeometry& g = *rig.rectified;
+  const Eigen::Vector3d rect = g.rect_from_left * (left_from_vehicle * v);
+  if (rect.z() <= 0.1) return false;
+  for (const auto* p : {&g.P_left, &g.P_right}) {
+    const Eigen::Vector3d x = *p * rect.homogeneous();
+    const double u = x.x() / x.z(), r = x.y() / x.z();
+    if (!(u >= -0.5 && u <= g.width_px - 0.5 && r >= -0.5 && r <= g.height_px - 0.5)) return false;
+  }
+  return true;
+}
+
+}  // namespace
+
+void LidarEvalOptions::Validate() const {
+  LN_CHECK_ARG(min_points >= 1 && min_lidar_points >= 1) << "min points: must be >= 1";
+  LN_CHECK_ARG(std::isfinite(flat_spread_m) && flat_spread_m > 0) << "flat spread: must be > 0 m";
+  LN_CHECK_ARG(std::isfinite(object_height_m) && object_height_m > 0) << "object height: must be > 0 m";
+  LN_CHECK_ARG(std::isfinite(clearance_m) && clearance_m > object_height_m) << "clearance: must exceed the object height";
+  LN_CHECK_ARG(std::isfinite(min_range_m) && std::isfinite(max_range_m) && min_range_m >= 0 && min_range_m < max_range_m)
+      << "LiDAR range: need 0 <= MIN < MAX";
+  LN_CHECK_ARG(std::isfinite(relief_height_m) && relief_height_m > 0 && std::isfinite(recall_height_m) &&
+               recall_height_m > 0)
+      << "relief heights: must be > 0 m";
+  LN_CHECK_ARG(tolerance_cells >= 0 && tolerance_cells <= 10) << "tolerance: must be in 0..10 cells";
+  LN_CHECK_ARG(std::isfinite(large_error_m) && large_error_m > 0) << "large error: must be > 0 m";
+  LN_CHECK_ARG(std::isfinite(band_min_y_m) && std::isfinite(band_max_y_m) && band_min_y_m < band_max_y_m)
+      << "band: need finite MIN < MAX, got " << band_min_y_m << ":" << band_max_y_m << " m";
+}
+
+json LidarEvalOptions::ToJson() const {
+  return {{"min_points", min_points},
+          {"min_lidar_points", min_lidar_points},
+          {"flat_spread_m", flat_spread_m},
+          {"object_height_m", object_height_m},
+          {"clearance_m", clearance_m},
+          {"lidar_range_m", {min_range_m, max_range_m}},
+          {"relief_height_m", relief_height_m},
+          {"recall_height_m", recall_height_m},
+          {"tolerance_cells", tolerance_cells},
+          {"large_error_m", large_error_m},
+          {"band_y_m", {band_min_y_m, band_max_y_m}}};
+}
+
+io::GeoRaster GridLidarTruth(const std::vector<LidarSweep>& sweeps, const io::GeoRaster& lattice,
+                             const LidarEvalOptions& o) {
+  io::GeoRaster g = TruthLattice(sweeps, lattice);
+  const int w = g.Width(), h = g.Height();
+  const Binned b = BinReturns(sweeps, g);
+  cv::Mat returns = g.bands[0].pixels;
+  cv::Mat low(h, w, CV_32FC1, cv::Scalar(kNaNf));
+  for (int row = 0; row < h; ++row) {
+    for (int col = 0; col < w; ++col) {
+      const std::size_t k = static_cast<std::size_t>(row) * static_cast<std::size_t>(w) + static_cast<std::size_t>(col);
+      const std::int64_t n = b.start[k + 1] - b.start[k];
+      returns.at<float>(row, col) = static_cast<float>(n);
+      if (n == 0) continue;
+      std::vector<float> z(b.z.begin() + b.start[k], b.z.begin() + b.start[k + 1]);
+      const auto at = z.begin() + static_cast<std::ptrdiff_t>(z.size() / 10);
+      std::nth_element(z.begin(), at, z.end());
+      low.at<float>(row, col) = *at;  // the cell's low returns: its ground, or the top of what hides it
+    }
+  }
+  // The local ground: the lowest low return of the 5 x 5 cells around.
+  cv::Mat ground(h, w, CV_32FC1, cv::Scalar(kNaNf)), relief(h, w, CV_32FC1, cv::Scalar(kNaNf));
+  cv::Mat top(h, w, CV_32FC1, cv::Scalar(kNaNf)), median(h, w, CV_32FC1, cv::Scalar(kNaNf));
+  cv::Mat spread(h, w, CV_32FC1, cv::Scalar(kNaNf));
+  for (int row = 0; row < h; ++row) {
+    for (int col = 0; col < w; ++col) {
+      if (returns.at<float>(row, col) == 0) continue;
+      float g0 = std::numeric_limits<float>::infinity();
+      for (int dr = -2; dr <= 2; ++dr) {
+        for (int dc = -2; dc <= 2; ++dc) {
+          const float v = At(low, col + dc, row + dr);
+          if (std::isfinite(v)) g0 = std::min(g0, v);
+        }
+      }
+      ground.at<float>(row, col) = g0;
+      const std::size_t k = static_cast<std::size_t>(row) * static_cast<std::size_t>(w) + static_cast<std::size_t>(col);
+      std::vector<float> below;  // the returns under the clearance
+      for (std::int64_t i = b.start[k]; i < b.start[k + 1]; ++i) {
+        const float z = b.z[static_cast<std::size_t>(i)];
+        if (z - g0 <= o.clearance_m) below.push_back(z);
+      }
+      if (below.empty()) continue;
+      const auto [lo, hi] = std::minmax_element(below.begin(), below.end());
+      relief.at<float>(row, col) = *hi - g0;
+      top.at<float>(row, col) = *hi;
+      const float lo_v = *lo, hi_v = *hi;
+      const double m = Median(&below);
+      median.at<float>(row, col) = static_cast<float>(m);
+      spread.at<float>(row, col) = static_cast<float>(std::max(hi_v - m, m - lo_v));
+      returns.at<float>(row, col) = static_cast<float>(below.size());
+    }
+  }
+  cv::Mat cls(h, w, CV_32FC1, cv::Scalar(kNone)), flat_ground(h, w, CV_32FC1, cv::Scalar(kNaNf));
+  for (int row = 0; row < h; ++row) {
+    for (int col = 0; col < w; ++col) {
+      const float r = relief.at<float>(row, col);
+      if (!std::isfinite(r)) continue;
+      if (r >= o.object_height_m) {
+        cls.at<float>(row, col) = kObject;
+        continue;
+      }
+      bool beside_object = false;
+      for (int dr = -1; dr <= 1; ++dr) {
+        for (int dc = -1; dc <= 1; ++dc) beside_object = beside_object || At(relief, col + dc, row + dr) >= o.object_height_m;
+      }
+      const bool flat = !beside_object && returns.at<float>(row, col) >= o.min_lidar_points &&
+                        spread.at<float>(row, col) <= o.flat_spread_m;
+      cls.at<float>(row, col) = flat ? kFlat : kOther;
+      if (flat) flat_ground.at<float>(row, col) = median.at<float>(row, col);
+    }
+  }
+  g.bands.clear();
+  g.bands.push_back(NamedBand(flat_ground, "ground_m"));
+  g.bands.push_back(NamedBand(relief, "relief_m"));
+  g.bands.push_back(NamedBand(top, "top_m"));
+  g.bands.push_back(NamedBand(cls, "class"));
+  g.bands.push_back(NamedBand(returns, "returns"));
+  return g;
+}
+
+LidarEvalResult EvaluateMapAgainstLidar(const io::GeoRaster& map, const io::GeoRaster& truth,
+                                        const std::vector<mapping::FramePose>& pairs, const calib::StereoRig& rig,
+                                        const LidarEvalOptions& o) {
+  o.Validate();
+  LN_CHECK_ARG(rig.rectified.has_value()) << "the rig is not rectified";
+  const cv::Mat& elevation = Band(map, "elevation_m", "map");
+  const cv::Mat& count = Band(map, "count", "map");
+  const cv::Mat& obstacle = Band(map, "obstacle", "map");
+  const cv::Mat& ground = Band(truth, "ground_m", "truth");
+  const cv::Mat& relief = Band(truth, "relief_m", "truth");
+  const cv::Mat& top = Band(truth, "top_m", "truth");
+  const cv::Mat& cls = Band(truth, "class", "truth");
+  int dc = 0, dr = 0;
+  LatticeOffset(map, truth, &dc, &dr);  // truth (col, row) = map (col + dc, row + dr)
+  auto mapped = [&](int tcol, int trow) {
+    const int c = tcol + dc, r = trow + dr;
+    return At(count, c, r) >= o.min_points && std::isfinite(At(elevation, c, r));
+  };
+  auto map_obstacle = [&](int tcol, int trow) { return mapped(tcol, trow) && At(obstacle, tcol + dc, trow + dr) > 0; };
+  LidarEvalResult res;
+
+  // The elevation error on flat ground.
+  std::vector<double> errors;
+  double worst = -1;
+  for (int row = 0; row < ground.rows; ++row) {
+    for (int col = 0; col < ground.cols; ++col) {
+      const float t = ground.at<float>(row, col);
+      if (!std::isfinite(t)) continue;
+      ++res.flat_cells;
+      if (!mapped(col, row)) continue;
+      const double e = At(elevation, col + dc, row + dr) - t;
+      errors.push_back(e);
+      res.cells_large_error += std::abs(e) > o.large_error_m;
+      if (std::abs(e) > worst) {
+        worst = std::abs(e);
+        res.large_error_x_m = truth.CellCentreX(col);
+        res.large_error_y_m = truth.CellCentreY(row);
+      }
+    }
+  }
+  res.cells_compared = static_cast<long>(errors.size());
+  if (errors.empty()) {
+    res.rmse_m = res.median_m = res.mean_m = res.p90_abs_m = res.max_abs_m = kNaN;
+  } else {
+    double sum = 0, sum2 = 0;
+    std::vector<double> abs_err;
+    for (double e : errors) {
+      sum += e;
+      sum2 += e * e;
+      abs_err.push_back(std::abs(e));
+    }
+    const double n = static_cast<double>(errors.size());
+    res.mean_m = sum / n;
+    res.rmse_m = std::sqrt(sum2 / n);
+    res.median_m = MedianOf(errors);
+    std::sort(abs_err.begin(), abs_err.end());
+    res.p90_abs_m = abs_err[static_cast<std::size_t>(0.9 * (n - 1))];
+    res.max_abs_m = abs_err.back();
+  }
+
+  // The band: cells a pair's cameras saw between band_min_y_m and band_max_y_m ahead, in both
+  // images and in the left camera's line of sight over the LiDAR's surface.
+  const Eigen::Isometry3d left_from_vehicle = rig.VehicleFromLeft().inverse();
+  const double c = truth.cell_m;
+  auto visible = [&](const Eigen::Vector3d& camera, const Eigen::Vector3d& target) {
+    const Eigen::Vector3d d = target - camera;
+    const double length = d.head<2>().norm();
+    const double stop = length - 4 * c;  // the last metre is the target's own ground
+    for (double s = c; s < stop; s += 0.5 * c) {
+      const Eigen::Vector3d p = camera + d * (s / length);
+      const int col = static_cast<int>(std::floor((p.x() - truth.x_west_m) / c));
+      const int row = static_cast<int>(std::floor((truth.y_north_m - p.y()) / c));
+      const float t = At(top, col, row);
+      if (std::isfinite(t) && t > p.z() + 0.05) return false;
+    }
+    return true;
+  };
+  cv::Mat in_band(ground.size(), CV_8UC1, cv::Scalar(0));  // 1 flat ground seen, 2 an object's top seen
+  for (const mapping::FramePose& pose : pairs) {
+    const Eigen::Isometry3d world_from_vehicle = pose.WorldFromVehicle();
+    const Eigen::Isometry3d vehicle_from_world = world_from_vehicle.inverse();
+    const Eigen::Vector3d camera = world_from_vehicle * rig.VehicleFromLeft().translation();
+    // The band's cells lie within twice its far end (half fields of view up to 60 deg).
+    const double reach = 2 * o.band_max_y_m + std::abs(rig.mast.lateral_offset_m) + std::abs(rig.mast.forward_offset_m);
+    const int col0 = std::max(0, static_cast<int>(std::floor((pose.x_m - reach - truth.x_west_m) / c)));
+    const int col1 = std::min(ground.cols - 1, static_cast<int>(std::floor((pose.x_m + reach - truth.x_west_m) / c)));
+    const int row0 = std::max(0, static_cast<int>(std::floor((truth.y_north_m - pose.y_m - reach) / c)));
+    const int row1 = std::min(ground.rows - 1, static_cast<int>(std::floor((truth.y_north_m - pose.y_m + reach) / c)));
+    for (int row = row0; row <= row1; ++row) {
+      for (int col = col0; col <= col1; ++col) {
+        const int k = static_cast<int>(cls.at<float>(row, col));
+        if (k != kFlat && k != kObject) continue;
+        if (in_band.at<std::uint8_t>(row, col) != 0) continue;
+        const double z = k == kFlat ? ground.at<float>(row, col) : top.at<float>(row, col);
+        const Eigen::Vector3d w(truth.CellCentreX(col), truth.CellCentreY(row), z);
+        const Eigen::Vector3d v = vehicle_from_world * w;
+        if (v.y() < o.band_min_y_m || v.y() > o.band_max_y_m) continue;
+        if (!InBothImages(rig, left_from_vehicle, v) || !visible(camera, w)) continue;
+        in_band.at<std::uint8_t>(row, col) = static_cast<std::uint8_t>(k == kFlat ? 1 : 2);
+      }
+    }
+  }
+  for (int row = 0; row < ground.rows; ++row) {
+    for (int col = 0; col < ground.cols; ++col) {
+      if (in_band.at<std::uint8_t>(row, col) != 1) continue;
+      ++res.band_cells;
+      res.band_mapped += mapped(col, row);
+    }
+  }
+  res.coverage = Ratio(res.band_mapped, res.band_cells);
+
+  // Obstacle precision: a map obstacle is judged where the LiDAR has returns within the
+  // tolerance, and real when one of those cells has the relief.
+  const int tol = o.tolerance_cells;
+  for (int row = 0; row < elevation.rows; ++row) {
+    for (int col = 0; col < elevation.cols; ++col) {
+      if (!(At(count, col, row) >= o.min_points && At(obstacle, col, row) > 0)) continue;
+      ++res.obstacle_map;
+      bool judged = false, real = false;
+      for (int r = -tol; r <= tol; ++r) {
+        for (int q = -tol; q <= tol; ++q) {
+          const float rel = At(relief, col - dc + q, row - dr + r);
+          judged = judged || std::isfinite(rel);
+          real = real || rel >= o.relief_height_m;
+        }
+      }
+      res.obstacle_judged += judged;
+      res.obstacle_tp += real;
+    }
+  }
+  res.precision = Ratio(res.obstacle_tp, res.obstacle_judged);
+
+  // Recall: the LiDAR's objects (8-connected cells of enough relief) whose top a pair saw in
+  // the band, found when a map obstacle lies within the tolerance of one of their cells.
+  cv::Mat label(ground.size(), CV_32SC1, cv::Scalar(-1));
+  for (int row = 0; row < ground.rows; ++row) {
+    for (int col = 0; col < ground.cols; ++col) {
+      if (in_band.at<std::uint8_t>(row, col) != 2 || !(relief.at<float>(row, col) >= o.recall_height_m)) continue;
+      if (label.at<int>(row, col) >= 0) continue;
+      const int id = static_cast<int>(res.objects++);
+      bool found = false;
+      std::vector<std::pair<int, int>> stack = {{col, row}};
+      label.at<int>(row, col) = id;
+      while (!stack.empty()) {
+        const auto [x, y] = stack.back();
+        stack.pop_back();
+        for (int r = -tol; r <= tol && !found; ++r) {
+          for (int q = -tol; q <= tol && !found; ++q) found = map_obstacle(x + q, y + r);
+        }
+        for (int r = -1; r <= 1; ++r) {
+          for (int q = -1; q <= 1; ++q) {
+            const int nx = x + q, ny = y + r;
+            if (nx < 0 || ny < 0 || nx >= ground.cols || ny >= ground.rows) continue;
+            if (label.at<int>(ny, nx) >= 0 || in_band.at<std::uint8_t>(ny, nx) != 2 ||
+                !(relief.at<float>(ny, nx) >= o.recall_height_m)) {
+              continue;
+            }
+            label.at<int>(ny, nx) = id;
+            stack.emplace_back(nx, ny);
+          }
+        }
+      }
+      res.objects_found += found;
+    }
+  }
+  res.object_recall = Ratio(res.objects_found, res.objects);
+  return res;
+}
+
+void MeasureSweepConsistency(const std::vector<LidarSweep>& sweeps, const io::GeoRaster& truth,
+                             const LidarEvalOptions& o, LidarEvalResult* result) {
+  io::GeoRaster grid;
+  grid.cell_m = truth.cell_m;
+  grid.x_west_m = truth.x_west_m;
+  grid.y_north_m = truth.y_north_m;
+  grid.bands.push_back(NamedBand(cv::Mat(truth.Height(), truth.Width(), CV_32FC1, cv::Scalar(0)), "returns"));
+  const Binned b = BinReturns(sweeps, grid);
+  const cv::Mat& ground = Band(truth, "ground_m", "truth");
+  std::vector<double> diffs;
+  const int w = truth.Width();
+  for (int row = 0; row < ground.rows; ++row) {
+    for (int col = 0; col < ground.cols; ++col) {
+      if (!std::isfinite(ground.at<float>(row, col))) continue;
+      const std::size_t k = static_cast<std::size_t>(row) * static_cast<std::size_t>(w) + static_cast<std::size_t>(col);
+      std::map<int, std::vector<float>> by_sweep;
+      for (std::int64_t i = b.start[k]; i < b.start[k + 1]; ++i) {
+        by_sweep[b.sweep[static_cast<std::size_t>(i)]].push_back(b.z[static_cast<std::size_t>(i)]);
+      }
+      std::vector<double> medians;
+      for (auto& [s, z] : by_sweep) {
+        if (static_cast<int>(z.size()) >= o.min_lidar_points) medians.push_back(Median(&z));
+      }
+      for (std::size_t i = 0; i < medians.size(); ++i) {
+        for (std::size_t j = i + 1; j < medians.size(); ++j) diffs.push_back(medians[i] - medians[j]);
+      }
+    }
+  }
+  result->sweep_pairs = static_cast<long>(diffs.size());
+  if (diffs.empty()) {
+    result->sweep_rms_m = result->sweep_median_abs_m = kNaN;
+    return;
+  }
+  double sum2 = 0;
+  std::vector<double> abs_d;
+  for (double d : diffs) {
+    sum2 += d * d;
+    abs_d.push_back(std::abs(d));
+  }
+  result->sweep_rms_m = std::sqrt(sum2 / static_cast<double>(diffs.size()));
+  result->sweep_median_abs_m = MedianOf(abs_d);
+}
+
+json LidarEvalResult::ToJson() const {
+  return {{"sweeps", sweeps},
+          {"returns", returns},
+          {"flat_cells", flat_cells},
+          {"cells_compared", cells_compared},
+          {"elevation_rmse_m", Number(rmse_m)},
+          {"elevation_median_m", Number(median_m)},
+          {"elevation_mean_m", Number(mean_m)},
+          {"elevation_p90_abs_m", Number(p90_abs_m)},
+          {"elevation_max_abs_m", Number(max_abs_m)},
+          {"largest_error_at_m", {Number(large_error_x_m), Number(large_error_y_m)}},
+          {"cells_large_error", cells_large_error},
+          {"band_flat_cells", band_cells},
+          {"band_flat_cells_mapped", band_mapped},
+          {"coverage", Number(coverage)},
+          {"obstacle_cells_map", obstacle_map},
+          {"obstacle_cells_judged", obstacle_judged},
+          {"obstacle_true_positive", obstacle_tp},
+          {"obstacle_precision", Number(precision)},
+          {"lidar_objects_in_band", objects},
+          {"lidar_objects_found", objects_found},
+          {"object_recall", Number(object_recall)},
+          {"truth_sweep_pairs", sweep_pairs},
+          {"truth_sweep_rms_m", Number(sweep_rms_m)},
+          {"truth_sweep_median_abs_m", Number(sweep_median_abs_m)},
+          {"pairs_against_nearest_sweep", pairs_measured},
+          {"pair_offset_median_abs_m", Number(pair_offset_median_abs_m)},
+          {"pair_offset_max_abs_m", Number(pair_offset_max_abs_m)}};
+}
+
+Table LidarEvalResult::ToTable() const {
+  Table t;
+  t.title = "Terrain map against LiDAR (flat ground; objects)";
+  t.columns = {{"cells", "", "flat cells compared", 0},
+               {"rmse", "cm", "RMSE (cm)", 2},
+               {"median", "cm", "median offset (cm)", 2},
+               {"largest", "cm", "largest error (cm)", 1},
+               {"large", "", "cells > 30 cm", 0},
+               {"coverage", "pct", "coverage of the band's flat ground (%)", 1},
+               {"precision", "pct", "obstacle precision (%)", 1},
+               {"recall", "pct", "LiDAR objects found (%)", 1},
+               {"sweeps", "cm", "truth: sweep vs sweep median |d| (cm)", 2},
+               {"pairs", "cm", "truth: pair vs nearest sweep median |d| (cm)", 2}};
+  auto pct = [](double v, const std::string& why) { return Cell::NumberOr(100 * v, why); };
+  t.AddRow({Cell::Number(static_cast<double>(cells_compared)), Cell::NumberOr(100 * rmse_m, "no cell"),
+            Cell::NumberOr(100 * median_m, "no cell"), Cell::NumberOr(100 * max_abs_m, "no cell"),
+            Cell::Number(static_cast<double>(cells_large_error)), pct(coverage, "no flat ground in the band"),
+            pct(precision, "no obstacle judged"), pct(object_recall, "no object in the band"),
+            Cell::NumberOr(100 * sweep_median_abs_m, "no cell two sweeps saw"),
+            Cell::NumberOr(100 * pair_offset_median_abs_m, "no stereo points given")});
+  return t;
+}
+
+std::string LidarEvalResult::BriefReport() const {
+  std::ostringstream s;
+  s.setf(std::ios::fixed);
+  s.precision(1);
+  s << "flat ground: RMSE " << 100 * rmse_m << " cm, median " << 100 * median_m << " cm, largest " << 100 * max_abs_m
+    << " cm, " << cells_large_error << " of " << cells_compared << " cells > 30 cm; coverage " << 100 * coverage
+    << " %; obstacles precision " << 100 * precision << " %, LiDAR objects " << objects_found << "/" << objects;
+  return s.str();
+}
+
+namespace {
+
+// The picture: the error on flat ground over the map, the LiDAR's objects, the map's obstacles
+// and the pairs' path, 4 pixels a cell, north up.
+cv::Mat ErrorPicture(const io::GeoRaster& map, const io::GeoRaster& truth, const std::vector<mapping::FramePose>& pairs,
+                     const LidarEvalOptions& o) {
+  constexpr int kScale = 4;
+  const cv::Mat& ground = Band(truth, "ground_m", "truth");
+  const cv::Mat& cls = Band(truth, "class", "truth");
+  const cv::Mat& elevation = Band(map, "elevation_m", "map");
+  const cv::Mat& count = Band(map, "count", "map");
+  const cv::Mat& obstacle = Band(map, "obstacle", "map");
+  int dc = 0, dr = 0;
+  LatticeOffset(map, truth, &dc, &dr);
+  cv::Mat image(ground.rows * kScale, ground.cols * kScale, CV_8UC3, cv::Scalar(25, 25, 25));
+  for (int row = 0; row < ground.rows; ++row) {
+    for (int col = 0; col < ground.cols; ++col) {
+      const int k = static_cast<int>(cls.at<float>(row, col));
+      cv::Scalar colour(25, 25, 25);
+      if (k == kObject) colour = cv::Scalar(120, 60, 30);
+      if (k == kOther) colour = cv::Scalar(70, 70, 70);
+      const bool is_mapped = At(count, col + dc, row + dr) >= o.min_points;
+      if (k == kFlat) {
+        colour = cv::Scalar(140, 140, 140);
+        if (is_mapped) {
+          const double e = std::clamp((At(elevation, col + dc, row + dr) - ground.at<float>(row, col)) /
+                                          o.large_error_m, -1.0, 1.0);
+          const double a = std::abs(e);
+          // white at 0, red above, blue below (BGR)
+          colour = e > 0 ? cv::Scalar(255 * (1 - a), 255 * (1 - a), 255) : cv::Scalar(255, 255 * (1 - a), 255 * (1 - a));
+        }
+      } else if (is_mapped && k != kObject) {
+        colour = cv::Scalar(90, 110, 90);  // mapped where the LiDAR has no flat ground
+      }
+      const cv::Rect box(col * kScale, row * kScale, kScale, kScale);
+      cv::rectangle(image, box, colour, cv::FILLED);
+      if (k == kFlat && is_mapped &&
+          std::abs(At(elevation, col + dc, row + dr) - ground.at<float>(row, col)) > o.large_error_m) {
+        cv::rectangle(image, box, cv::Scalar(0, 230, 255), 1);
+      }
+      if (is_mapped && At(obstacle, col + dc, row + dr) > 0) {
+        cv::rectangle(image, cv::Rect(col * kScale + 1, row * kScale + 1, 2, 2), cv::Scalar(255, 0, 255), cv::FILLED);
+      }
+    }
+  }
+  for (std::size_t i = 1; i < pairs.size(); ++i) {
+    auto px = [&](const mapping::FramePose& p) {
+      return cv::Point(static_cast<int>((p.x_m - truth.x_west_m) / truth.cell_m * kScale),
+                       static_cast<int>((truth.y_north_m - p.y_m) / truth.cell_m * kScale));
+    };
+    cv::line(image, px(pairs[i - 1]), px(pairs[i]), cv::Scalar(255, 255, 255), 1, cv::LINE_AA);
+  }
+  const char* const legend[] = {
+      "map - LiDAR on flat ground: blue -30 cm, white 0, red +30 cm; yellow box: > 30 cm off",
+      "grey: flat ground the map left empty; dark blue: LiDAR objects; magenta: map obstacles; white: path"};
+  int y = 14;
+  for (const char* line : legend) {
+    cv::putText(image, line, cv::Point(6, y), cv::FONT_HERSHEY_SIMPLEX, 0.4, cv::Scalar(0, 0, 0), 3, cv::LINE_AA);
+    cv::putText(image, line, cv::Point(6, y), cv::FONT_HERSHEY_SIMPLEX, 0.4, cv::Scalar(255, 255, 255), 1, cv::LINE_AA);
+    y += 16;
+  }
+  return image;
+}
+
+}  // namespace
+
+LidarEvalResult RunLidarMapEvaluation(const LidarMapCommand& cmd, const json& invocation) {
+  util::Timer timer;
+  LidarEvalOptions o = cmd.options;
+  const calib::StereoRig rig = calib::ReadStereoRig(cmd.rig);
+  LN_CHECK_ARG(rig.rectified.has_value()) << cmd.rig.string() << ": the rig is not rectified";
+  if (std::isfinite(cmd.band_min_y_m)) {
+    o.band_min_y_m = cmd.band_min_y_m;
+    o.band_max_y_m = cmd.band_max_y_m;
+  } else {
+    const calib::GroundWindow window = calib::SelectGroundWindow(rig, calib::ReferenceImage::kRight, {});
+    o.band_min_y_m = window.region.y_min_m;
+    o.band_max_y_m = window.region.y_max_m;
+  }
+  o.Validate();
+  const io::GeoRaster map = io::ReadGeoTiff(cmd.map_dir / "elevation.tif");
+
+  // The pairs taken: the pair directory's (every pair, mapped or not), else the map's own list.
+  std::vector<std::string> pair_stems;
+  std::string pairs_source;
+  if (!cmd.pairs_dir.empty()) {
+    for (const io::PairFiles& p : io::ListStereoPairs(cmd.pairs_dir)) pair_stems.push_back(p.stem);
+    pairs_source = cmd.pairs_dir.string();
+  } else {
+    for (const mapping::FramePose& p : mapping::ReadPosesCsv(cmd.map_dir / "frames.csv")) pair_stems.push_back(p.stem);
+    pairs_source = (cmd.map_dir / "frames.csv").string() + " (the map's own pairs)";
+  }
+  const std::optional<Eigen::Isometry3d> vehicle_from_camera = rig.VehicleFromLeft();
+  const std::vector<mapping::FramePose> pairs =
+      mapping::PosesOfPairs(cmd.poses_csv, cmd.trajectory, cmd.frame_times, pair_stems, vehicle_from_camera);
+
+  // The sweeps, each in the world by its stem's pose and the LiDAR's mounting.
+  std::vector<fs::path> files;
+  {
+    std::error_code ec;
+    LN_CHECK_INPUT(fs::is_directory(cmd.lidar_dir, ec)) << cmd.lidar_dir.string() << ": no such directory";
+    for (const auto& e : fs::directory_iterator(cmd.lidar_dir, ec)) {
+      if (io::HasPointCloudExtension(e.path()) && e.path().filename().string()[0] != '.') files.push_back(e.path());
+    }
+    std::sort(files.begin(), files.end());
+    LN_CHECK_INPUT(!files.empty()) << cmd.lidar_dir.string() << ": no point clouds (.bin, .ply, .pcd)";
+  }
+  std::vector<std::string> sweep_stems;
+  for (const fs::path& f : files) sweep_stems.push_back(f.stem().string());
+  std::map<std::string, mapping::FramePose> sweep_poses;
+  if (!cmd.lidar_in_world) {
+    sweep_poses = mapping::IndexByStem(
+        mapping::PosesOfPairs(cmd.poses_csv, cmd.trajectory, cmd.frame_times, sweep_stems, vehicle_from_camera));
+  }
+  Eigen::Isometry3d vehicle_from_lidar = Eigen::Isometry3d::Identity();
+  if (!cmd.lidar_calib.empty()) {
+    vehicle_from_lidar = mapping::KittiLidarInVehicle(cmd.lidar_calib, rig.VehicleFromLeft());
+  }
+  std::vector<LidarSweep> sweeps(files.size());
+  util::ParallelForEachItem(files.size(), cmd.num_threads, [&](std::size_t k) {
+    LidarSweep& s = sweeps[k];
+    s.stem = sweep_stems[k];
+    Eigen::Isometry3d world_from_lidar = Eigen::Isometry3d::Identity();
+    if (!cmd.lidar_in_world) {
+      const mapping::FramePose& pose = sweep_poses.at(s.stem);
+      s.t_s = pose.t_s;
+      world_from_lidar = pose.WorldFromVehicle() * vehicle_from_lidar;
+    }
+    s.sensor_m = world_from_lidar.translation();
+    const Eigen::Isometry3f transform = world_from_lidar.cast<float>();
+    for (const Eigen::Vector3f& p : io::ReadPointCloud(files[k])) {
+      const Eigen::Vector3f w = transform * p;
+      const double range = cmd.lidar_in_world ? o.min_range_m : (w.head<2>().cast<double>() - s.sensor_m.head<2>()).norm();
+      if (!cmd.lidar_in_world && (range < o.min_range_m || range > o.max_range_m)) continue;
+      s.points.push_back(w);
+    }
+  });
+  const io::GeoRaster truth = GridLidarTruth(sweeps, map, o);
+  LidarEvalResult result = EvaluateMapAgainstLidar(map, truth, pairs, rig, o);
+  result.sweeps = static_cast<long>(sweeps.size());
+  for (const LidarSweep& s : sweeps) result.returns += static_cast<long>(s.points.size());
+  MeasureSweepConsistency(sweeps, truth, o, &result);
+
+  // Each pair against the sweep nearest in time, on flat ground (the pose's share of the error).
+  json pair_rows = json::array();
+  if (!cmd.stereo_dir.empty() && !cmd.lidar_in_world) {
+    const cv::Mat& ground = Band(truth, "ground_m", "truth");
+    io::GeoRaster grid;
+    grid.cell_m = truth.cell_m;
+    grid.x_west_m = truth.x_west_m;
+    grid.y_north_m = truth.y_north_m;
+    grid.bands.push_back(NamedBand(cv::Mat(truth.Height(), truth.Width(), CV_32FC1, cv::Scalar(0)), "returns"));
+    std::vector<double> offsets(pairs.size(), kNaN);
+    std::vector<std::string> nearest(pairs.size());
+    util::ParallelForEachItem(pairs.size(), cmd.num_threads, [&](std::size_t k) {
+      const mapping::FramePose& pose = pairs[k];
+      const fs::path xyz_path = cmd.stereo_dir / "xyz" / (pose.stem + ".exr");
+      std::error_code ec;
+      if (!fs::is_regular_file(xyz_path, ec)) return;
+      const LidarSweep* sweep = nullptr;
+      for (const LidarSweep& s : sweeps) {
+        if (sweep == nullptr || std::abs(s.t_s - pose.t_s) < std::abs(sweep->t_s - pose.t_s)) sweep = &s;
+      }
+      nearest[k] = sweep->stem;
+      const io::ExrImage xyz = io::ReadExr(xyz_path);
+      LN_CHECK_INPUT(xyz.pixels.type() == CV_32FC3) << xyz_path.string() << ": not 3 channels";
+      LidarSweep stereo;
+      const Eigen::Isometry3f world_from_vehicle = pose.WorldFromVehicle().cast<float>();
+      for (int y = 0; y < xyz.pixels.rows; ++y) {
+        const auto* v = xyz.pixels.ptr<cv::Vec3f>(y);
+        for (int x = 0; x < xyz.pixels.cols; ++x) {
+          if (!std::isfinite(v[x][0]) || !std::isfinite(v[x][1]) || !std::isfinite(v[x][2])) continue;
+          if (v[x][1] < o.band_min_y_m || v[x][1] > o.band_max_y_m) continue;
+          stereo.points.push_back(world_from_vehicle * Eigen::Vector3f(v[x][0], v[x][1], v[x][2]));
+        }
+      }
+      const Binned mine = BinReturns({stereo}, grid);
+      const Binned theirs = BinReturns({*sweep}, grid);
+      std::vector<double> d;
+      for (int row = 0; row < ground.rows; ++row) {
+        for (int col = 0; col < ground.cols; ++col) {
+          if (!std::isfinite(ground.at<float>(row, col))) continue;
+          const std::size_t i = static_cast<std::size_t>(row) * static_cast<std::size_t>(ground.cols) +
+                                static_cast<std::size_t>(col);
+          if (mine.start[i + 1] - mine.start[i] < 3 || theirs.start[i + 1] - theirs.start[i] < o.min_lidar_points) continue;
+          std::vector<float> a(mine.z.begin() + mine.start[i], mine.z.begin() + mine.start[i + 1]);
+          std::vector<float> b(theirs.z.begin() + theirs.start[i], theirs.z.begin() + theirs.start[i + 1]);
+          d.push_back(Median(&a) - Median(&b));
+        }
+      }
+      if (d.size() >= 10) offsets[k] = MedianOf(d);
+    });
+    std::vector<double> abs_offsets;
+    for (std::size_t k = 0; k < pairs.size(); ++k) {
+      if (!std::isfinite(offsets[k])) continue;
+      abs_offsets.push_back(std::abs(offsets[k]));
+      pair_rows.push_back({{"stem", pairs[k].stem}, {"sweep", nearest[k]}, {"offset_m", offsets[k]}});
+    }
+    result.pairs_measured = static_cast<long>(abs_offsets.size());
+    if (!abs_offsets.empty()) {
+      result.pair_offset_median_abs_m = MedianOf(abs_offsets);
+      result.pair_offset_max_abs_m = *std::max_element(abs_offsets.begin(), abs_offsets.end());
+    }
+  }
+
+  io::CreateOutputDirectory(cmd.output_dir);
+  const Table table = result.ToTable();
+  WriteTable(cmd.output_dir, "lidar", table);
+  {
+    // Every flat cell: the truth, the map, the error.
+    const cv::Mat& ground = Band(truth, "ground_m", "truth");
+    const cv::Mat& elevation = Band(map, "elevation_m", "map");
+    const cv::Mat& count = Band(map, "count", "map");
+    const cv::Mat& obstacle = Band(map, "obstacle", "map");
+    int dc = 0, dr = 0;
+    LatticeOffset(map, truth, &dc, &dr);
+    std::ostringstream csv;
+    csv.imbue(std::locale::classic());
+    csv << "# lunarnav evaluate map --lidar: every LiDAR flat-ground cell; map_m NaN where the map holds fewer than "
+        << o.min_points << " points\n";
+    csv << "x_m,y_m,lidar_m,map_m,error_m,map_points,map_obstacle\n" << std::fixed << std::setprecision(4);
+    for (int row = 0; row < ground.rows; ++row) {
+      for (int col = 0; col < ground.cols; ++col) {
+        const float t = ground.at<float>(row, col);
+        if (!std::isfinite(t)) continue;
+        const float n = At(count, col + dc, row + dr);
+        const double m = n >= o.min_points ? At(elevation, col + dc, row + dr) : kNaN;
+        csv << truth.CellCentreX(col) << "," << truth.CellCentreY(row) << "," << t << "," << m << "," << m - t << ","
+            << (std::isfinite(n) ? n : 0) << "," << (n >= o.min_points && At(obstacle, col + dc, row + dr) > 0) << "\n";
+      }
+    }
+    io::WriteFileAtomic(cmd.output_dir / "cells.csv", csv.str());
+  }
+  io::WriteImageAtomic(cmd.output_dir / "error.png", ErrorPicture(map, truth, pairs, o));
+  json j = util::SummaryHead("evaluate", invocation);
+  j["subcommand"] = "map";
+  j["mode"] = "lidar";
+  j["inputs"] = {{"map", cmd.map_dir.string()},
+                 {"lidar", cmd.lidar_dir.string()},
+                 {"lidar_calib", cmd.lidar_calib.string()},
+                 {"rig", cmd.rig.string()},
+                 {"poses", cmd.poses_csv.string()},
+                 {"trajectory", cmd.trajectory.string()},
+                 {"frame_times", cmd.frame_times.string()},
+                 {"pairs", pairs_source},
+                 {"pair_count", pairs.size()},
+                 {"stereo", cmd.stereo_dir.string()}};
+  j["options"] = o.ToJson();
+  j["result"] = result.ToJson();
+  j["pairs_against_nearest_sweep"] = pair_rows;
+  j["table"] = table.ToJson();
+  j["outputs"] = {"lidar.csv", "lidar.json", "lidar.md", "cells.csv", "error.png"};
+  j["timings_s"] = {{"total", timer.ElapsedSeconds()}};
+  io::WriteJsonAtomic(cmd.output_dir / "summary.json", j);
+  return result;
+}
+
+}  // namespace lunarnav::evaluation

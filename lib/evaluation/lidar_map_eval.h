@@ -1,0 +1,136 @@
+// A terrain map (terrain-map's elevation.tif) against LiDAR: the sweeps of a vehicle that
+// carried one (KITTI's Velodyne .bin, PLY, PCD), each placed in the map's world by its
+// vehicle's pose and the LiDAR's mounting, gridded on the map's lattice by code of its own.
+// `evaluate map --lidar`; docs/evaluate.md, "Against LiDAR".
+#pragma once
+
+#include <filesystem>
+#include <limits>
+#include <string>
+#include <utility>
+#include <vector>
+
+#include <Eigen/Geometry>
+#include <nlohmann/json.hpp>
+
+#include "calib/stereo_rig.h"
+#include "evaluation/table.h"
+#include "io/geotiff_io.h"
+#include "mapping/frame_poses.h"
+
+namespace lunarnav::evaluation {
+
+struct LidarEvalOptions {
+  /// Map cells with at least this many points are scored, >= 1.
+  int min_points = 3;
+  /// A LiDAR cell needs this many returns (all sweeps) to be judged, >= 1.
+  int min_lidar_points = 3;
+  /// Flat ground: every return of the cell lies within this of the cell's median, metres...
+  double flat_spread_m = 0.08;
+  /// ...and no return of it or its 8 neighbours stands this far above the local ground (the
+  /// lowest of the 5 x 5 cells' low returns): something stood there in some sweep, metres.
+  double object_height_m = 0.15;
+  /// Returns more than this above the local ground are overhead (branches, wires, signs), not
+  /// relief, metres.
+  double clearance_m = 3.0;
+  /// LiDAR returns nearer than `min_range_m` to the sensor (the vehicle itself) or farther than
+  /// `max_range_m` are not used, metres (horizontal distance): far returns graze the ground and
+  /// carry the sensor's angle errors as height errors (0.1 deg of pitch is 4 cm at 25 m, 9 cm at
+  /// 50 m; KITTI raw drive 0005's frames 5-36 against sweep 4 at up to 50 m: 0.4 m apart).
+  double min_range_m = 3.0, max_range_m = 25.0;
+  /// Obstacle precision counts a map obstacle as real when a LiDAR cell within tolerance_cells
+  /// has this much relief (its highest return above the local ground), metres.
+  double relief_height_m = 0.15;
+  /// Recall: LiDAR objects (8-connected cells whose relief is at least this) inside the mapped
+  /// band, found when a map obstacle lies within tolerance_cells of one of their cells, metres.
+  double recall_height_m = 0.20;
+  int tolerance_cells = 1;
+  /// A compared cell farther than this from the truth is a large error (a phantom), metres.
+  double large_error_m = 0.30;
+  /// The band the rig maps: ground this far ahead of a pair (vehicle-frame Y), in both images
+  /// and in the left camera's line of sight (not behind a LiDAR object), metres.
+  double band_min_y_m = 0, band_max_y_m = 0;
+  void Validate() const;
+  nlohmann::json ToJson() const;
+};
+
+/// One sweep in the map's world.
+struct LidarSweep {
+  std::string stem;
+  double t_s = 0;
+  Eigen::Vector3d sensor_m = Eigen::Vector3d::Zero();  ///< The LiDAR's position in the world.
+  std::vector<Eigen::Vector3f> points;                 ///< World coordinates (after the range cut).
+};
+
+/// The LiDAR truth on the map's lattice (one band each, NaN where unknown): `ground_m` the
+/// median return of a flat-ground cell (NaN otherwise), `relief_m` the highest return below the
+/// clearance above the local ground (every cell with returns), `top_m` that highest return's
+/// height (for lines of sight), `class` 0 none, 1 flat ground, 2 object (relief >=
+/// object_height_m), 3 other (rough, or beside an object), `returns`.
+io::GeoRaster GridLidarTruth(const std::vector<LidarSweep>& sweeps, const io::GeoRaster& lattice,
+                             const LidarEvalOptions& options);
+
+struct LidarEvalResult {
+  long sweeps = 0, returns = 0;
+  long flat_cells = 0;       ///< LiDAR flat-ground cells.
+  long cells_compared = 0;   ///< Flat cells the map holds (>= min_points).
+  double rmse_m = 0, median_m = 0, mean_m = 0, p90_abs_m = 0, max_abs_m = 0;
+  long cells_large_error = 0;
+  double large_error_x_m = std::numeric_limits<double>::quiet_NaN();  ///< Where the largest error lies.
+  double large_error_y_m = std::numeric_limits<double>::quiet_NaN();
+  long band_cells = 0, band_mapped = 0;  ///< Flat cells in the band of some pair, and mapped.
+  double coverage = 0;
+  long obstacle_map = 0, obstacle_judged = 0, obstacle_tp = 0;
+  double precision = 0;
+  long objects = 0, objects_found = 0;  ///< LiDAR objects in the band.
+  double object_recall = 0;
+  /// The truth's own consistency: over flat cells that two sweeps saw (>= min_lidar_points
+  /// each), the difference of the two sweeps' medians: RMS, median |.|, count.
+  long sweep_pairs = 0;
+  double sweep_rms_m = 0, sweep_median_abs_m = 0;
+  /// Each pair against the sweep nearest in time (with stereo points): the median over a
+  /// pair's flat cells of its points' median minus the sweep's; over the pairs, the median and
+  /// largest |offset| and the pairs measured.
+  long pairs_measured = 0;
+  double pair_offset_median_abs_m = std::numeric_limits<double>::quiet_NaN();
+  double pair_offset_max_abs_m = std::numeric_limits<double>::quiet_NaN();
+  nlohmann::json ToJson() const;
+  Table ToTable() const;
+  std::string BriefReport() const;
+};
+
+/// Scores `map` against the gridded truth (GridLidarTruth on the map's lattice) over the pairs'
+/// poses `pairs` (the band: `rig`'s images, options.band_*).
+LidarEvalResult EvaluateMapAgainstLidar(const io::GeoRaster& map, const io::GeoRaster& truth,
+                                        const std::vector<mapping::FramePose>& pairs, const calib::StereoRig& rig,
+                                        const LidarEvalOptions& options);
+
+/// The sweep-to-sweep consistency of the truth (LidarEvalResult::sweep_*).
+void MeasureSweepConsistency(const std::vector<LidarSweep>& sweeps, const io::GeoRaster& truth,
+                             const LidarEvalOptions& options, LidarEvalResult* result);
+
+/// `evaluate map --lidar`.
+struct LidarMapCommand {
+  std::filesystem::path map_dir, lidar_dir, output_dir;
+  /// The LiDAR's mounting: a KITTI calib.txt (Tr) or calib_velo_to_cam.txt; empty: the clouds
+  /// are in the vehicle frame.
+  std::filesystem::path lidar_calib;
+  bool lidar_in_world = false;  ///< The clouds are in the map's world already (no poses).
+  std::filesystem::path rig;
+  std::filesystem::path poses_csv, trajectory, frame_times;
+  /// The pairs taken: a stereo pair directory (io::ListStereoPairs); empty: the map's frames.csv.
+  std::filesystem::path pairs_dir;
+  /// stereo-batch's output (xyz/<stem>.exr) for each pair against its nearest sweep; optional.
+  std::filesystem::path stereo_dir;
+  /// The band; NaN: the rig's default search (calib::SelectGroundWindow).
+  double band_min_y_m = std::numeric_limits<double>::quiet_NaN();
+  double band_max_y_m = std::numeric_limits<double>::quiet_NaN();
+  LidarEvalOptions options;
+  int num_threads = 0;
+};
+
+/// Reads the map, the sweeps and the poses, scores, writes OUT_DIR/lidar.{csv,json,md},
+/// cells.csv (every flat cell: truth, map, error), error.png (the picture) and summary.json.
+LidarEvalResult RunLidarMapEvaluation(const LidarMapCommand& command, const nlohmann::json& invocation);
+
+}  // namespace lunarnav::evaluation

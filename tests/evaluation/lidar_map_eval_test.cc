@@ -1,0 +1,180 @@
+#include "evaluation/lidar_map_eval.h"
+
+#include <cmath>
+
+#include <gtest/gtest.h>
+
+namespace lunarnav::evaluation {
+namespace {
+
+constexpr double kCell = 0.25;
+
+// A band of a raster: its pixels and name.
+io::RasterBand NamedBand(const cv::Mat& pixels, const char* name) {
+  io::RasterBand band;
+  band.pixels = pixels;
+  band.description = name;
+  return band;
+}
+
+
+// A level KITTI-like rectified rig: 1242 x 375, f = 721 px, 0.54 m baseline, 1.65 m up.
+calib::StereoRig KittiLikeRig() {
+  calib::StereoRig rig;
+  rig.width_px = 1242;
+  rig.height_px = 375;
+  Eigen::Matrix3d k;
+  k << 721, 0, 609, 0, 721, 173, 0, 0, 1;
+  rig.left.K = rig.right.K = k;
+  rig.right_from_left_t_m = Eigen::Vector3d(-0.54, 0, 0);
+  rig.mast = calib::MastPose{1.65, 0.0, 0.0, 0.0};
+  calib::RectifiedGeometry g;
+  g.P_left.leftCols<3>() = k;
+  g.P_right.leftCols<3>() = k;
+  g.P_right(0, 3) = -721 * 0.54;
+  g.width_px = 1242;
+  g.height_px = 375;
+  rig.rectified = g;
+  return rig;
+}
+
+// Two sweeps of flat ground z = 0 over x in [-12, 12], y in [-2, 22] (a return every 5 cm)
+// with a box 1 m square and 0.5 m tall at x 1.5..2.5, y 7.5..8.5 (its top and faces).
+std::vector<LidarSweep> Sweeps() {
+  std::vector<LidarSweep> sweeps(2);
+  sweeps[0].stem = "a";
+  sweeps[1].stem = "b";
+  int k = 0;
+  for (double x = -12; x < 12; x += 0.05) {
+    for (double y = -2; y < 22; y += 0.05) {
+      const bool on_box = x > 1.5 && x < 2.5 && y > 7.5 && y < 8.5;
+      sweeps[static_cast<std::size_t>(k++ % 2)].points.emplace_back(x + 0.001, y + 0.001, on_box ? 0.5f : 0.0f);
+    }
+  }
+  for (double z = 0; z < 0.5; z += 0.05) {
+    for (double x = 1.5; x < 2.5; x += 0.05) sweeps[0].points.emplace_back(x + 0.001, 7.501, z);
+  }
+  return sweeps;
+}
+
+// A map on the lattice of world-anchored 25 cm cells, x in [-12, 12), y in [-2, 22): the true
+// surface everywhere (the box's top on its cells, which are obstacles), 10 points a cell.
+io::GeoRaster TrueMap() {
+  io::GeoRaster map;
+  map.cell_m = kCell;
+  map.x_west_m = -12;
+  map.y_north_m = 22;
+  const int n = 96;
+  cv::Mat elevation(n, n, CV_32FC1, cv::Scalar(0)), count(n, n, CV_32FC1, cv::Scalar(10)),
+      obstacle(n, n, CV_32FC1, cv::Scalar(0));
+  for (int row = 0; row < n; ++row) {
+    for (int col = 0; col < n; ++col) {
+      const double x = map.CellCentreX(col), y = map.CellCentreY(row);
+      if (x > 1.5 && x < 2.5 && y > 7.5 && y < 8.5) {
+        elevation.at<float>(row, col) = 0.5f;
+        obstacle.at<float>(row, col) = 1;
+      }
+    }
+  }
+  map.bands.push_back(NamedBand(elevation, "elevation_m"));
+  map.bands.push_back(NamedBand(count, "count"));
+  map.bands.push_back(NamedBand(obstacle, "obstacle"));
+  return map;
+}
+
+cv::Mat& MapBand(io::GeoRaster* map, const std::string& name) {
+  return map->bands[static_cast<std::size_t>(map->BandIndex(name))].pixels;
+}
+
+// The map cell holding world (x, y).
+cv::Point CellAt(const io::GeoRaster& map, double x, double y) {
+  return {static_cast<int>(std::floor((x - map.x_west_m) / kCell)),
+          static_cast<int>(std::floor((map.y_north_m - y) / kCell))};
+}
+
+struct Scene {
+  LidarEvalOptions options;
+  std::vector<LidarSweep> sweeps = Sweeps();
+  io::GeoRaster map = TrueMap();
+  io::GeoRaster truth;
+  std::vector<mapping::FramePose> pairs;
+  calib::StereoRig rig = KittiLikeRig();
+  Scene() {
+    options.band_min_y_m = 5;
+    options.band_max_y_m = 12;
+    truth = GridLidarTruth(sweeps, map, options);
+    mapping::FramePose p;
+    p.stem = "000000";
+    pairs.push_back(p);
+  }
+  LidarEvalResult Score() const { return EvaluateMapAgainstLidar(map, truth, pairs, rig, options); }
+};
+
+TEST(EvaluateMapAgainstLidar, AMapOfTheTrueSurfaceScoresPerfectly) {
+  const Scene s;
+  const LidarEvalResult r = s.Score();
+  EXPECT_GT(r.flat_cells, 5000);
+  EXPECT_GT(r.cells_compared, 5000);
+  EXPECT_LT(r.max_abs_m, 1e-6);
+  EXPECT_EQ(r.cells_large_error, 0);
+  EXPECT_GT(r.band_cells, 500);
+  EXPECT_DOUBLE_EQ(r.coverage, 1.0);
+  EXPECT_EQ(r.obstacle_map, 16);  // the box's 4 x 4 cells
+  EXPECT_DOUBLE_EQ(r.precision, 1.0);
+  EXPECT_EQ(r.objects, 1);
+  EXPECT_EQ(r.objects_found, 1);
+  // The box and the cells beside it are not flat ground.
+  const cv::Point box = CellAt(s.truth, 2.0, 8.0);
+  EXPECT_TRUE(std::isnan(s.truth.bands[0].pixels.at<float>(box)));
+}
+
+TEST(EvaluateMapAgainstLidar, APhantomRaisesTheLargestErrorAndACellOff) {
+  Scene s;
+  MapBand(&s.map, "elevation_m").at<float>(CellAt(s.map, -3.1, 9.1)) = 0.6f;
+  const LidarEvalResult r = s.Score();
+  EXPECT_NEAR(r.max_abs_m, 0.6, 1e-6);
+  EXPECT_EQ(r.cells_large_error, 1);
+  EXPECT_NEAR(r.large_error_x_m, -3.125, 1e-9);
+  EXPECT_NEAR(r.large_error_y_m, 9.125, 1e-9);
+  EXPECT_GT(r.rmse_m, 0);
+  EXPECT_DOUBLE_EQ(r.median_m, 0);
+}
+
+TEST(EvaluateMapAgainstLidar, AMissedObjectLowersRecallAndAFalseObstacleLowersPrecision) {
+  Scene s;
+  MapBand(&s.map, "obstacle").setTo(0);
+  MapBand(&s.map, "obstacle").at<float>(CellAt(s.map, -5.1, 10.1)) = 1;  // on flat ground
+  const LidarEvalResult r = s.Score();
+  EXPECT_EQ(r.objects, 1);
+  EXPECT_EQ(r.objects_found, 0);
+  EXPECT_EQ(r.obstacle_judged, 1);
+  EXPECT_DOUBLE_EQ(r.precision, 0.0);
+}
+
+TEST(EvaluateMapAgainstLidar, CoverageCountsTheBandsGroundInSightOnly) {
+  Scene s;
+  cv::Mat& count = MapBand(&s.map, "count");
+  // Ground hidden behind the box (from the camera 1.65 m up) and ground outside the band:
+  // neither counts when the map leaves it empty.
+  count.at<float>(CellAt(s.map, 2.1, 9.6)) = 0;
+  count.at<float>(CellAt(s.map, 0.1, 3.1)) = 0;
+  EXPECT_DOUBLE_EQ(s.Score().coverage, 1.0);
+  // Ground in sight within the band does.
+  count.at<float>(CellAt(s.map, -2.1, 9.6)) = 0;
+  const LidarEvalResult r = s.Score();
+  EXPECT_EQ(r.band_mapped, r.band_cells - 1);
+}
+
+TEST(MeasureSweepConsistency, IsZeroForAgreeingSweepsAndSeesAShiftedOne) {
+  Scene s;
+  LidarEvalResult r;
+  MeasureSweepConsistency(s.sweeps, s.truth, s.options, &r);
+  EXPECT_GT(r.sweep_pairs, 1000);
+  EXPECT_NEAR(r.sweep_median_abs_m, 0, 1e-6);
+  for (Eigen::Vector3f& p : s.sweeps[1].points) p.z() += 0.03f;
+  MeasureSweepConsistency(s.sweeps, s.truth, s.options, &r);
+  EXPECT_NEAR(r.sweep_median_abs_m, 0.03, 1e-5);
+}
+
+}  // namespace
+}  // namespace lunarnav::evaluation
