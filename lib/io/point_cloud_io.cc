@@ -116,6 +116,7 @@ std::vector<Eigen::Vector3f> ReadPcd(const fs::path& path) {
           << "converts binary_compressed)";
     }
   }
+  LN_CHECK_INPUT(fields.size() <= 256) << name << ": " << fields.size() << " fields, more than 256";
   if (counts.empty()) counts.assign(fields.size(), 1);
   LN_CHECK_INPUT(!fields.empty() && sizes.size() == fields.size() && types.size() == fields.size() &&
                  counts.size() == fields.size())
