@@ -34,6 +34,8 @@ namespace {
 
 constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
 constexpr float kNaNf = std::numeric_limits<float>::quiet_NaN();
+// A cell whose low returns lie this far below the wider area's is sunk (a reflection, a hole), m.
+constexpr double kSunkDepthM = 0.3;
 // The largest truth grid, cells: 4096 x 4096 (a square kilometre of 25 cm cells).
 constexpr std::int64_t kMaxTruthCells = std::int64_t{1} << 24;
 
@@ -226,7 +228,26 @@ io::GeoRaster GridLidarTruth(const std::vector<LidarSweep>& sweeps, const io::Ge
       low.at<float>(row, col) = *at;  // the cell's low returns: its ground, or the top of what hides it
     }
   }
-  // The local ground: the lowest low return of the 5 x 5 cells around.
+  // Sunk cells: low returns far below the wider area's (the median of the 9 x 9 cells' low
+  // returns): a laser's reflection in glass or water (a mirror image below the road: KITTI raw
+  // drive 0005 has 3-5 m deep ones beside shop windows) or a hole. They are neither ground nor
+  // the ground under their neighbours.
+  cv::Mat sunk(h, w, CV_8UC1, cv::Scalar(0));
+  for (int row = 0; row < h; ++row) {
+    for (int col = 0; col < w; ++col) {
+      const float own = low.at<float>(row, col);
+      if (!std::isfinite(own)) continue;
+      std::vector<float> around;
+      for (int dr = -4; dr <= 4; ++dr) {
+        for (int dc = -4; dc <= 4; ++dc) {
+          const float v = At(low, col + dc, row + dr);
+          if (std::isfinite(v)) around.push_back(v);
+        }
+      }
+      sunk.at<std::uint8_t>(row, col) = own < Median(&around) - kSunkDepthM;
+    }
+  }
+  // The local ground: the lowest low return of the 5 x 5 cells around that are not sunk.
   cv::Mat ground(h, w, CV_32FC1, cv::Scalar(kNaNf)), relief(h, w, CV_32FC1, cv::Scalar(kNaNf));
   cv::Mat top(h, w, CV_32FC1, cv::Scalar(kNaNf)), median(h, w, CV_32FC1, cv::Scalar(kNaNf));
   cv::Mat spread(h, w, CV_32FC1, cv::Scalar(kNaNf));
@@ -236,10 +257,12 @@ io::GeoRaster GridLidarTruth(const std::vector<LidarSweep>& sweeps, const io::Ge
       float g0 = std::numeric_limits<float>::infinity();
       for (int dr = -2; dr <= 2; ++dr) {
         for (int dc = -2; dc <= 2; ++dc) {
-          const float v = At(low, col + dc, row + dr);
-          if (std::isfinite(v)) g0 = std::min(g0, v);
+          const int c = col + dc, r = row + dr;
+          const float v = At(low, c, r);
+          if (std::isfinite(v) && sunk.at<std::uint8_t>(r, c) == 0) g0 = std::min(g0, v);
         }
       }
+      if (!std::isfinite(g0)) g0 = low.at<float>(row, col);  // every cell around is sunk
       ground.at<float>(row, col) = g0;
       const std::size_t k = static_cast<std::size_t>(row) * static_cast<std::size_t>(w) + static_cast<std::size_t>(col);
       std::vector<float> below;  // the returns under the clearance
@@ -263,6 +286,10 @@ io::GeoRaster GridLidarTruth(const std::vector<LidarSweep>& sweeps, const io::Ge
     for (int col = 0; col < w; ++col) {
       const float r = relief.at<float>(row, col);
       if (!std::isfinite(r)) continue;
+      if (sunk.at<std::uint8_t>(row, col) != 0) {
+        cls.at<float>(row, col) = kOther;
+        continue;
+      }
       if (r >= o.object_height_m) {
         cls.at<float>(row, col) = kObject;
         continue;

@@ -5,6 +5,7 @@
 #include <cstdio>
 #include <ctime>
 #include <fstream>
+#include <limits>
 #include <locale>
 #include <sstream>
 
@@ -302,6 +303,7 @@ std::vector<positioning::TrajectorySample> ReadKittiOxtsTrajectory(const fs::pat
     LN_CHECK_INPUT(!present.empty()) << (oxts_dir / "data").string() << ": no packets (NNNNNNNNNN.txt)";
   }
   std::vector<positioning::TrajectorySample> samples;
+  double height = 0, last_t = 0, last_vu = std::numeric_limits<double>::quiet_NaN();
   for (const std::size_t i : present) {
     const fs::path packet = oxts_dir / "data" / (times[i].stem + ".txt");
     const std::string line = FirstDataLine(packet);
@@ -313,10 +315,23 @@ std::vector<positioning::TrajectorySample> ReadKittiOxtsTrajectory(const fs::pat
     LN_CHECK_INPUT(std::abs(lat) < 85 && std::abs(lon) <= 180 && std::abs(alt) < 1e5)
         << where << ": latitude " << lat << ", longitude " << lon << ", altitude " << alt << " m out of range";
     if (samples.empty()) scale = std::cos(lat * kDeg);
+    // The height: the INS's vertical velocity vu integrated, drawn to the altitude with a time
+    // constant (KittiOxtsHeight); the altitude alone where a packet has no vu.
+    const double t = times[i].t_s;
+    const bool has_vu = v.size() > 10 && std::abs(v[10]) < 100;
+    if (samples.empty() || !has_vu || !std::isfinite(last_vu)) {
+      height = alt;
+    } else {
+      const double dt = t - last_t;
+      height += 0.5 * (v[10] + last_vu) * dt;
+      height += (alt - height) * std::clamp(dt / kOxtsAltitudeTimeConstantS, 0.0, 1.0);
+    }
+    last_t = t;
+    last_vu = has_vu ? v[10] : std::numeric_limits<double>::quiet_NaN();
     Eigen::Isometry3d world_from_imu = Eigen::Isometry3d::Identity();
     world_from_imu.translation() = Eigen::Vector3d(scale * lon * M_PI * kEarthRadiusM / 180.0,
                                                    scale * kEarthRadiusM * std::log(std::tan((90.0 + lat) * M_PI / 360.0)),
-                                                   alt);
+                                                   height);
     world_from_imu.linear() = (Eigen::AngleAxisd(v[5], Eigen::Vector3d::UnitZ()) *
                                Eigen::AngleAxisd(v[4], Eigen::Vector3d::UnitY()) *
                                Eigen::AngleAxisd(v[3], Eigen::Vector3d::UnitX()))

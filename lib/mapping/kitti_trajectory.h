@@ -65,11 +65,22 @@ Eigen::Isometry3d KittiCameraFromImu(const std::filesystem::path& calib_dir);
 /// the date's folder above it (KITTI's layout). @throws InputError when neither holds them.
 std::filesystem::path KittiCalibDirOfOxts(const std::filesystem::path& oxts_dir);
 
-/// A raw drive's GPS/INS packets (oxts/data/*.txt, times from oxts/timestamps.txt, as seconds
-/// since 1970 UTC) as a trajectory of the vehicle: the IMU's pose by the devkit's
+/// The time constant with which ReadKittiOxtsTrajectory draws the integrated vertical velocity
+/// to the packets' altitude, seconds. The altitude is GPS's and wanders by decimetres within
+/// seconds (raw drive 2011_09_26_0005: +0.43 m in 3.6 s while the INS's vertical velocity says
+/// the car descended 0.1 m, as its pitch does; the packets give a position accuracy of 0.5 m):
+/// a map placed by it stands that far off the LiDAR of a few seconds before.
+inline constexpr double kOxtsAltitudeTimeConstantS = 60.0;
+
+/// A raw drive's GPS/INS packets (oxts/data/*.txt present, times from oxts/timestamps.txt, as
+/// seconds since 1970 UTC) as a trajectory of the vehicle: the IMU's pose by the devkit's
 /// convertOxtsToPose (Mercator scale from the first packet's latitude; R = Rz(yaw) Ry(pitch)
-/// Rx(roll), IMU x forward, y left, z up), to rectified camera 0 by KittiCameraFromImu, to the
-/// vehicle by `vehicle_from_camera`; x east, y north, the first pose's mast base the origin.
+/// Rx(roll), IMU x forward, y left, z up), except its height: the INS's vertical velocity (vu)
+/// integrated (trapezoids), drawn to the altitude by a first-order filter of time constant
+/// kOxtsAltitudeTimeConstantS (the altitude's level over minutes, the INS's shape over
+/// seconds; the altitude alone for packets without vu). To rectified camera 0 by
+/// KittiCameraFromImu, to the vehicle by `vehicle_from_camera`; x east, y north, the first
+/// pose's mast base the origin.
 /// @throws InputError naming the file and line.
 std::vector<positioning::TrajectorySample> ReadKittiOxtsTrajectory(const std::filesystem::path& oxts_dir,
                                                                    const Eigen::Isometry3d& vehicle_from_camera);

@@ -165,6 +165,25 @@ TEST(EvaluateMapAgainstLidar, CoverageCountsTheBandsGroundInSightOnly) {
   EXPECT_EQ(r.band_mapped, r.band_cells - 1);
 }
 
+TEST(GridLidarTruth, AReflectionBelowTheRoadIsNeitherGroundNorRelief) {
+  Scene s;
+  // A mirror image in a window: the returns of a 0.75 m square 3 m below the road.
+  for (LidarSweep& sweep : s.sweeps) {
+    for (Eigen::Vector3f& p : sweep.points) {
+      if (p.x() > -6 && p.x() < -5.25 && p.y() > 14 && p.y() < 14.75) p.z() = -3;
+    }
+  }
+  s.truth = GridLidarTruth(s.sweeps, s.map, s.options);
+  const cv::Mat& ground = s.truth.bands[static_cast<std::size_t>(s.truth.BandIndex("ground_m"))].pixels;
+  const cv::Mat& relief = s.truth.bands[static_cast<std::size_t>(s.truth.BandIndex("relief_m"))].pixels;
+  EXPECT_TRUE(std::isnan(ground.at<float>(CellAt(s.truth, -5.6, 14.4))));  // not flat ground
+  const cv::Point beside = CellAt(s.truth, -4.9, 14.4);
+  EXPECT_NEAR(ground.at<float>(beside), 0, 1e-6);  // its neighbours still are
+  EXPECT_NEAR(relief.at<float>(beside), 0, 1e-6);  // and stand on the road, not 3 m above a mirror
+  const LidarEvalResult r = s.Score();
+  EXPECT_EQ(r.cells_large_error, 0);  // the map's road there is not scored against the mirror
+}
+
 TEST(MeasureSweepConsistency, IsZeroForAgreeingSweepsAndSeesAShiftedOne) {
   Scene s;
   LidarEvalResult r;

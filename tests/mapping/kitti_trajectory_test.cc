@@ -170,11 +170,24 @@ TEST(ReadKittiOxtsTrajectory, FollowsTheDevkitsProjectionAndTheCalibrationChain)
   EXPECT_NEAR(samples[0].x_m, 0, 1e-9);
   // The vehicle's mast base: 1.65 m below the camera, 0.27 m to its right (south, then east).
   // Between the packets: 1e-5 deg of latitude north (6378137 pi / 180 1e-5 m on the
-  // devkit's sphere), 0.5 m up, and the base's swing about the turning camera.
+  // devkit's sphere) and the base's swing about the turning camera. The altitude's 0.5 m jump
+  // in 0.1 s, with the INS's vertical velocity 0, moves the height by 0.5 x 0.1 / 60 only.
   const double north = 6378137.0 * M_PI / 180 * 1e-5;
   EXPECT_NEAR(samples[1].y_m, north + 0.27, 1e-3);
   EXPECT_NEAR(samples[1].x_m, 0.27, 1e-6);
-  EXPECT_NEAR(samples[1].z_m, 0.5, 1e-6);
+  EXPECT_NEAR(samples[1].z_m, 0.5 * 0.1 / kOxtsAltitudeTimeConstantS, 1e-6);
+  // A vertical velocity of 1 m/s over the next 0.1 s raises it by 0.1 m (and the altitude's
+  // pull, 0.5 m away, by 0.5 x 0.1 / 60 more).
+  const std::string climbing = " 0 0 0 0 1" + rest.substr(10);
+  io::WriteFileAtomic(oxts / "data" / "0000000001.txt", "49.00001 8.4 110.5 0 0 1.5707963267948966" + climbing);
+  io::WriteFileAtomic(oxts / "data" / "0000000002.txt", "49.00001 8.4 110.5 0 0 1.5707963267948966" + climbing);
+  io::WriteFileAtomic(oxts / "timestamps.txt",
+                      "2011-09-26 13:04:32.3\n2011-09-26 13:04:32.4\n2011-09-26 13:04:32.5\n");
+  const auto climb = ReadKittiOxtsTrajectory(oxts, KittiLikeVehicleFromCamera());
+  ASSERT_EQ(climb.size(), 3u);
+  const double z1 = 0.05 + (0.5 - 0.05) * 0.1 / kOxtsAltitudeTimeConstantS;  // vu 0 then 1: a trapezoid
+  EXPECT_NEAR(climb[1].z_m, z1, 1e-6);
+  EXPECT_NEAR(climb[2].z_m, z1 + 0.1 + (0.5 - z1 - 0.1) * 0.1 / kOxtsAltitudeTimeConstantS, 1e-6);
   // The LiDAR here is the camera's frame turned: KittiLidarInVehicle composes the mounting.
   const Eigen::Isometry3d lidar = KittiLidarInVehicle(drive / "calib_velo_to_cam.txt", KittiLikeVehicleFromCamera());
   EXPECT_NEAR((lidar.linear() * Eigen::Vector3d::UnitX() - Eigen::Vector3d::UnitY()).norm(), 0, 1e-9);  // x forward
