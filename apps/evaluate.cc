@@ -229,6 +229,9 @@ Subcommand AddMap(CLI::App* app) {
                   "with --lidar: returns MIN:MAX m from the sensor (horizontally) are used: nearer ones hit the vehicle, "
                   "farther ones carry the sensor's small angle errors as height errors")
       ->capture_default_str();
+  cmd->add_option("--max-sweep-gap", l.options.max_sweep_gap_s,
+                  "with --lidar: cells a pair saw farther in time than this from every sweep are not judged, s")
+      ->capture_default_str();
   cmd->add_option("--flat-spread", l.options.flat_spread_m,
                   "with --lidar: a flat cell's returns lie within this of their median, m")
       ->capture_default_str();

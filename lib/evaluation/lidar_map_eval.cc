@@ -191,6 +191,7 @@ void LidarEvalOptions::Validate() const {
       << "relief heights: must be > 0 m";
   LN_CHECK_ARG(tolerance_cells >= 0 && tolerance_cells <= 10) << "tolerance: must be in 0..10 cells";
   LN_CHECK_ARG(std::isfinite(large_error_m) && large_error_m > 0) << "large error: must be > 0 m";
+  LN_CHECK_ARG(max_sweep_gap_s >= 0) << "sweep gap: must be >= 0 s";
   LN_CHECK_ARG(std::isfinite(band_min_y_m) && std::isfinite(band_max_y_m) && band_min_y_m < band_max_y_m)
       << "band: need finite MIN < MAX, got " << band_min_y_m << ":" << band_max_y_m << " m";
 }
@@ -206,7 +207,8 @@ json LidarEvalOptions::ToJson() const {
           {"recall_height_m", recall_height_m},
           {"tolerance_cells", tolerance_cells},
           {"large_error_m", large_error_m},
-          {"band_y_m", {band_min_y_m, band_max_y_m}}};
+          {"band_y_m", {band_min_y_m, band_max_y_m}},
+          {"max_sweep_gap_s", Number(max_sweep_gap_s)}};
 }
 
 io::GeoRaster GridLidarTruth(const std::vector<LidarSweep>& sweeps, const io::GeoRaster& lattice,
@@ -315,7 +317,8 @@ io::GeoRaster GridLidarTruth(const std::vector<LidarSweep>& sweeps, const io::Ge
 
 LidarEvalResult EvaluateMapAgainstLidar(const io::GeoRaster& map, const io::GeoRaster& truth,
                                         const std::vector<mapping::FramePose>& pairs, const calib::StereoRig& rig,
-                                        const LidarEvalOptions& o) {
+                                        const LidarEvalOptions& o, const std::vector<double>& sweep_times_s,
+                                        cv::Mat* untimely_out) {
   o.Validate();
   LN_CHECK_ARG(rig.rectified.has_value()) << "the rig is not rectified";
   const cv::Mat& elevation = Band(map, "elevation_m", "map");
@@ -333,6 +336,51 @@ LidarEvalResult EvaluateMapAgainstLidar(const io::GeoRaster& map, const io::GeoR
   };
   auto map_obstacle = [&](int tcol, int trow) { return mapped(tcol, trow) && At(obstacle, tcol + dc, trow + dr) > 0; };
   LidarEvalResult res;
+  const Eigen::Isometry3d left_from_vehicle = rig.VehicleFromLeft().inverse();
+  const double c = truth.cell_m;
+  // The cells of each pair's band (with a metre's margin for its points' errors) in its images.
+  auto for_band_cells = [&](const mapping::FramePose& pose, double margin_m, const auto& fn) {
+    const Eigen::Isometry3d vehicle_from_world = pose.WorldFromVehicle().inverse();
+    // The band's cells lie within twice its far end (half fields of view up to 60 deg).
+    const double reach = 2 * (o.band_max_y_m + margin_m) + std::abs(rig.mast.lateral_offset_m) +
+                         std::abs(rig.mast.forward_offset_m);
+    const int col0 = std::max(0, static_cast<int>(std::floor((pose.x_m - reach - truth.x_west_m) / c)));
+    const int col1 = std::min(ground.cols - 1, static_cast<int>(std::floor((pose.x_m + reach - truth.x_west_m) / c)));
+    const int row0 = std::max(0, static_cast<int>(std::floor((truth.y_north_m - pose.y_m - reach) / c)));
+    const int row1 = std::min(ground.rows - 1, static_cast<int>(std::floor((truth.y_north_m - pose.y_m + reach) / c)));
+    for (int row = row0; row <= row1; ++row) {
+      for (int col = col0; col <= col1; ++col) {
+        const int k = static_cast<int>(cls.at<float>(row, col));
+        if (k == kNone) continue;
+        const double z = k == kFlat ? ground.at<float>(row, col) : top.at<float>(row, col);
+        const Eigen::Vector3d w(truth.CellCentreX(col), truth.CellCentreY(row), z);
+        const Eigen::Vector3d v = vehicle_from_world * w;
+        if (v.y() < o.band_min_y_m - margin_m || v.y() > o.band_max_y_m + margin_m) continue;
+        if (!InBothImages(rig, left_from_vehicle, v)) continue;
+        fn(col, row, k, w);
+      }
+    }
+  };
+  // Untimely cells: in the band of a pair taken farther in time from every sweep than
+  // max_sweep_gap_s. What stood there then (a cyclist who rode on) no sweep shows: the truth
+  // cannot judge them.
+  cv::Mat untimely(ground.size(), CV_8UC1, cv::Scalar(0));
+  std::vector<bool> timely(pairs.size(), true);
+  if (!sweep_times_s.empty()) {
+    for (std::size_t p = 0; p < pairs.size(); ++p) {
+      double gap = std::numeric_limits<double>::infinity();
+      for (double t : sweep_times_s) gap = std::min(gap, std::abs(t - pairs[p].t_s));
+      timely[p] = gap <= o.max_sweep_gap_s;
+      if (timely[p]) continue;
+      for_band_cells(pairs[p], 1.0, [&](int col, int row, int, const Eigen::Vector3d&) {
+        untimely.at<std::uint8_t>(row, col) = 1;
+      });
+    }
+  }
+  auto judged = [&](int tcol, int trow) {
+    return tcol >= 0 && trow >= 0 && tcol < untimely.cols && trow < untimely.rows &&
+           untimely.at<std::uint8_t>(trow, tcol) == 0;
+  };
 
   // The elevation error on flat ground.
   std::vector<double> errors;
@@ -342,6 +390,10 @@ LidarEvalResult EvaluateMapAgainstLidar(const io::GeoRaster& map, const io::GeoR
       const float t = ground.at<float>(row, col);
       if (!std::isfinite(t)) continue;
       ++res.flat_cells;
+      if (!judged(col, row)) {
+        ++res.flat_cells_untimely;
+        continue;
+      }
       if (!mapped(col, row)) continue;
       const double e = At(elevation, col + dc, row + dr) - t;
       errors.push_back(e);
@@ -373,10 +425,8 @@ LidarEvalResult EvaluateMapAgainstLidar(const io::GeoRaster& map, const io::GeoR
     res.max_abs_m = abs_err.back();
   }
 
-  // The band: cells a pair's cameras saw between band_min_y_m and band_max_y_m ahead, in both
-  // images and in the left camera's line of sight over the LiDAR's surface.
-  const Eigen::Isometry3d left_from_vehicle = rig.VehicleFromLeft().inverse();
-  const double c = truth.cell_m;
+  // The band: cells a timely pair's cameras saw between band_min_y_m and band_max_y_m ahead,
+  // in both images and in the left camera's line of sight over the LiDAR's surface.
   auto visible = [&](const Eigen::Vector3d& camera, const Eigen::Vector3d& target) {
     const Eigen::Vector3d d = target - camera;
     const double length = d.head<2>().norm();
@@ -391,29 +441,14 @@ LidarEvalResult EvaluateMapAgainstLidar(const io::GeoRaster& map, const io::GeoR
     return true;
   };
   cv::Mat in_band(ground.size(), CV_8UC1, cv::Scalar(0));  // 1 flat ground seen, 2 an object's top seen
-  for (const mapping::FramePose& pose : pairs) {
-    const Eigen::Isometry3d world_from_vehicle = pose.WorldFromVehicle();
-    const Eigen::Isometry3d vehicle_from_world = world_from_vehicle.inverse();
-    const Eigen::Vector3d camera = world_from_vehicle * rig.VehicleFromLeft().translation();
-    // The band's cells lie within twice its far end (half fields of view up to 60 deg).
-    const double reach = 2 * o.band_max_y_m + std::abs(rig.mast.lateral_offset_m) + std::abs(rig.mast.forward_offset_m);
-    const int col0 = std::max(0, static_cast<int>(std::floor((pose.x_m - reach - truth.x_west_m) / c)));
-    const int col1 = std::min(ground.cols - 1, static_cast<int>(std::floor((pose.x_m + reach - truth.x_west_m) / c)));
-    const int row0 = std::max(0, static_cast<int>(std::floor((truth.y_north_m - pose.y_m - reach) / c)));
-    const int row1 = std::min(ground.rows - 1, static_cast<int>(std::floor((truth.y_north_m - pose.y_m + reach) / c)));
-    for (int row = row0; row <= row1; ++row) {
-      for (int col = col0; col <= col1; ++col) {
-        const int k = static_cast<int>(cls.at<float>(row, col));
-        if (k != kFlat && k != kObject) continue;
-        if (in_band.at<std::uint8_t>(row, col) != 0) continue;
-        const double z = k == kFlat ? ground.at<float>(row, col) : top.at<float>(row, col);
-        const Eigen::Vector3d w(truth.CellCentreX(col), truth.CellCentreY(row), z);
-        const Eigen::Vector3d v = vehicle_from_world * w;
-        if (v.y() < o.band_min_y_m || v.y() > o.band_max_y_m) continue;
-        if (!InBothImages(rig, left_from_vehicle, v) || !visible(camera, w)) continue;
-        in_band.at<std::uint8_t>(row, col) = static_cast<std::uint8_t>(k == kFlat ? 1 : 2);
-      }
-    }
+  for (std::size_t p = 0; p < pairs.size(); ++p) {
+    if (!timely[p]) continue;
+    const Eigen::Vector3d camera = pairs[p].WorldFromVehicle() * rig.VehicleFromLeft().translation();
+    for_band_cells(pairs[p], 0.0, [&](int col, int row, int k, const Eigen::Vector3d& w) {
+      if ((k != kFlat && k != kObject) || in_band.at<std::uint8_t>(row, col) != 0 || !judged(col, row)) return;
+      if (!visible(camera, w)) return;
+      in_band.at<std::uint8_t>(row, col) = static_cast<std::uint8_t>(k == kFlat ? 1 : 2);
+    });
   }
   for (int row = 0; row < ground.rows; ++row) {
     for (int col = 0; col < ground.cols; ++col) {
@@ -430,6 +465,7 @@ LidarEvalResult EvaluateMapAgainstLidar(const io::GeoRaster& map, const io::GeoR
   for (int row = 0; row < elevation.rows; ++row) {
     for (int col = 0; col < elevation.cols; ++col) {
       if (!(At(count, col, row) >= o.min_points && At(obstacle, col, row) > 0)) continue;
+      if (!judged(col - dc, row - dr)) continue;
       ++res.obstacle_map;
       bool judged = false, real = false;
       for (int r = -tol; r <= tol; ++r) {
@@ -479,6 +515,7 @@ LidarEvalResult EvaluateMapAgainstLidar(const io::GeoRaster& map, const io::GeoR
     }
   }
   res.object_recall = Ratio(res.objects_found, res.objects);
+  if (untimely_out != nullptr) *untimely_out = untimely;
   return res;
 }
 
@@ -529,6 +566,7 @@ json LidarEvalResult::ToJson() const {
   return {{"sweeps", sweeps},
           {"returns", returns},
           {"flat_cells", flat_cells},
+          {"flat_cells_untimely", flat_cells_untimely},
           {"cells_compared", cells_compared},
           {"elevation_rmse_m", Number(rmse_m)},
           {"elevation_median_m", Number(median_m)},
@@ -593,7 +631,7 @@ namespace {
 // The picture: the error on flat ground over the map, the LiDAR's objects, the map's obstacles
 // and the pairs' path, 4 pixels a cell, north up.
 cv::Mat ErrorPicture(const io::GeoRaster& map, const io::GeoRaster& truth, const std::vector<mapping::FramePose>& pairs,
-                     const LidarEvalOptions& o) {
+                     const LidarEvalOptions& o, const cv::Mat& untimely) {
   constexpr int kScale = 4;
   const cv::Mat& ground = Band(truth, "ground_m", "truth");
   const cv::Mat& cls = Band(truth, "class", "truth");
@@ -622,6 +660,7 @@ cv::Mat ErrorPicture(const io::GeoRaster& map, const io::GeoRaster& truth, const
       } else if (is_mapped && k != kObject) {
         colour = cv::Scalar(90, 110, 90);  // mapped where the LiDAR has no flat ground
       }
+      if (untimely.at<std::uint8_t>(row, col) != 0) colour *= 0.35;  // not judged: seen far in time from every sweep
       const cv::Rect box(col * kScale, row * kScale, kScale, kScale);
       cv::rectangle(image, box, colour, cv::FILLED);
       if (k == kFlat && is_mapped &&
@@ -642,7 +681,8 @@ cv::Mat ErrorPicture(const io::GeoRaster& map, const io::GeoRaster& truth, const
   }
   const char* const legend[] = {
       "map - LiDAR on flat ground: blue -30 cm, white 0, red +30 cm; yellow box: > 30 cm off",
-      "grey: flat ground the map left empty; dark blue: LiDAR objects; magenta: map obstacles; white: path"};
+      "grey: flat ground the map left empty; dark blue: LiDAR objects; magenta: map obstacles; white: path",
+      "dimmed: not judged (seen by a pair far in time from every sweep)"};
   int y = 14;
   for (const char* line : legend) {
     cv::putText(image, line, cv::Point(6, y), cv::FONT_HERSHEY_SIMPLEX, 0.4, cv::Scalar(0, 0, 0), 3, cv::LINE_AA);
@@ -726,7 +766,12 @@ LidarEvalResult RunLidarMapEvaluation(const LidarMapCommand& cmd, const json& in
     }
   });
   const io::GeoRaster truth = GridLidarTruth(sweeps, map, o);
-  LidarEvalResult result = EvaluateMapAgainstLidar(map, truth, pairs, rig, o);
+  std::vector<double> sweep_times;
+  if (!cmd.lidar_in_world) {
+    for (const LidarSweep& s : sweeps) sweep_times.push_back(s.t_s);
+  }
+  cv::Mat untimely;
+  LidarEvalResult result = EvaluateMapAgainstLidar(map, truth, pairs, rig, o, sweep_times, &untimely);
   result.sweeps = static_cast<long>(sweeps.size());
   for (const LidarSweep& s : sweeps) result.returns += static_cast<long>(s.points.size());
   MeasureSweepConsistency(sweeps, truth, o, &result);
@@ -807,8 +852,8 @@ LidarEvalResult RunLidarMapEvaluation(const LidarMapCommand& cmd, const json& in
     std::ostringstream csv;
     csv.imbue(std::locale::classic());
     csv << "# lunarnav evaluate map --lidar: every LiDAR flat-ground cell; map_m NaN where the map holds fewer than "
-        << o.min_points << " points\n";
-    csv << "x_m,y_m,lidar_m,map_m,error_m,map_points,map_obstacle\n" << std::fixed << std::setprecision(4);
+        << o.min_points << " points; judged 0 where a pair far in time from every sweep saw it\n";
+    csv << "x_m,y_m,lidar_m,map_m,error_m,map_points,map_obstacle,judged\n" << std::fixed << std::setprecision(4);
     for (int row = 0; row < ground.rows; ++row) {
       for (int col = 0; col < ground.cols; ++col) {
         const float t = ground.at<float>(row, col);
@@ -816,12 +861,13 @@ LidarEvalResult RunLidarMapEvaluation(const LidarMapCommand& cmd, const json& in
         const float n = At(count, col + dc, row + dr);
         const double m = n >= o.min_points ? At(elevation, col + dc, row + dr) : kNaN;
         csv << truth.CellCentreX(col) << "," << truth.CellCentreY(row) << "," << t << "," << m << "," << m - t << ","
-            << (std::isfinite(n) ? n : 0) << "," << (n >= o.min_points && At(obstacle, col + dc, row + dr) > 0) << "\n";
+            << (std::isfinite(n) ? n : 0) << "," << (n >= o.min_points && At(obstacle, col + dc, row + dr) > 0) << ","
+            << (untimely.at<std::uint8_t>(row, col) == 0) << "\n";
       }
     }
     io::WriteFileAtomic(cmd.output_dir / "cells.csv", csv.str());
   }
-  io::WriteImageAtomic(cmd.output_dir / "error.png", ErrorPicture(map, truth, pairs, o));
+  io::WriteImageAtomic(cmd.output_dir / "error.png", ErrorPicture(map, truth, pairs, o, untimely));
   json j = util::SummaryHead("evaluate", invocation);
   j["subcommand"] = "map";
   j["mode"] = "lidar";

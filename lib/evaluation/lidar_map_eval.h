@@ -50,6 +50,10 @@ struct LidarEvalOptions {
   /// The band the rig maps: ground this far ahead of a pair (vehicle-frame Y), in both images
   /// and in the left camera's line of sight (not behind a LiDAR object), metres.
   double band_min_y_m = 0, band_max_y_m = 0;
+  /// Cells in the band (with a metre's margin) of a pair taken farther in time than this from
+  /// every sweep are not judged: what stood there then (a cyclist who rode on) no sweep shows,
+  /// seconds, >= 0 (infinity: judge every cell).
+  double max_sweep_gap_s = 0.3;
   void Validate() const;
   nlohmann::json ToJson() const;
 };
@@ -73,6 +77,7 @@ io::GeoRaster GridLidarTruth(const std::vector<LidarSweep>& sweeps, const io::Ge
 struct LidarEvalResult {
   long sweeps = 0, returns = 0;
   long flat_cells = 0;       ///< LiDAR flat-ground cells.
+  long flat_cells_untimely = 0;  ///< Of those, not judged: a pair far in time from every sweep saw them.
   long cells_compared = 0;   ///< Flat cells the map holds (>= min_points).
   double rmse_m = 0, median_m = 0, mean_m = 0, p90_abs_m = 0, max_abs_m = 0;
   long cells_large_error = 0;
@@ -100,10 +105,13 @@ struct LidarEvalResult {
 };
 
 /// Scores `map` against the gridded truth (GridLidarTruth on the map's lattice) over the pairs'
-/// poses `pairs` (the band: `rig`'s images, options.band_*).
+/// poses `pairs` (the band: `rig`'s images, options.band_*). `sweep_times_s`: the sweeps'
+/// times, for options.max_sweep_gap_s (empty: every cell is judged). `untimely`, when given,
+/// receives the cells not judged for time (CV_8UC1 on the truth's lattice, 1 = not judged).
 LidarEvalResult EvaluateMapAgainstLidar(const io::GeoRaster& map, const io::GeoRaster& truth,
                                         const std::vector<mapping::FramePose>& pairs, const calib::StereoRig& rig,
-                                        const LidarEvalOptions& options);
+                                        const LidarEvalOptions& options,
+                                        const std::vector<double>& sweep_times_s = {}, cv::Mat* untimely = nullptr);
 
 /// The sweep-to-sweep consistency of the truth (LidarEvalResult::sweep_*).
 void MeasureSweepConsistency(const std::vector<LidarSweep>& sweeps, const io::GeoRaster& truth,

@@ -165,6 +165,26 @@ TEST(EvaluateMapAgainstLidar, CoverageCountsTheBandsGroundInSightOnly) {
   EXPECT_EQ(r.band_mapped, r.band_cells - 1);
 }
 
+TEST(EvaluateMapAgainstLidar, CellsAPairFarInTimeFromEverySweepSawAreNotJudged) {
+  Scene s;
+  // A second pair 3 m on, 5 s after the only sweep, saw a cyclist 0.6 m up at 13 m: no sweep
+  // shows what stood there then.
+  mapping::FramePose later;
+  later.stem = "000050";
+  later.t_s = 5;
+  later.y_m = 3;
+  s.pairs.push_back(later);
+  MapBand(&s.map, "elevation_m").at<float>(CellAt(s.map, -3.1, 13.1)) = 0.6f;
+  const LidarEvalResult untimed = s.Score();
+  EXPECT_EQ(untimed.cells_large_error, 1);
+  const LidarEvalResult timed = EvaluateMapAgainstLidar(s.map, s.truth, s.pairs, s.rig, s.options, {0.0});
+  EXPECT_EQ(timed.cells_large_error, 0);
+  EXPECT_GT(timed.flat_cells_untimely, 100);
+  EXPECT_LT(timed.cells_compared, untimed.cells_compared);
+  // With a sweep at the second pair's time too, the cell is judged again.
+  EXPECT_EQ(EvaluateMapAgainstLidar(s.map, s.truth, s.pairs, s.rig, s.options, {0.0, 5.1}).cells_large_error, 1);
+}
+
 TEST(GridLidarTruth, AReflectionBelowTheRoadIsNeitherGroundNorRelief) {
   Scene s;
   // A mirror image in a window: the returns of a 0.75 m square 3 m below the road.
