@@ -868,6 +868,23 @@ LidarEvalResult RunLidarMapEvaluation(const LidarMapCommand& cmd, const json& in
     io::WriteFileAtomic(cmd.output_dir / "cells.csv", csv.str());
   }
   io::WriteImageAtomic(cmd.output_dir / "error.png", ErrorPicture(map, truth, pairs, o, untimely));
+  {
+    // The truth as gridded, for a GIS beside the map's elevation.tif.
+    io::GeoRaster layers = truth;
+    cv::Mat judged;
+    untimely.convertTo(judged, CV_32FC1, -1.0, 1.0);
+    layers.bands.push_back(NamedBand(judged, "judged"));
+    const std::map<std::string, std::string> meaning = {
+        {"ground_m", "the median LiDAR return of a flat-ground cell, m (NaN: not flat ground)"},
+        {"relief_m", "the highest return under the clearance above the local ground, m"},
+        {"top_m", "that highest return's height, m"},
+        {"class", "0 no returns, 1 flat ground, 2 object, 3 other (rough, beside an object, sunk)"},
+        {"returns", "LiDAR returns in the cell (all sweeps, under the clearance)"},
+        {"judged", "1 judged, 0 seen by a pair far in time from every sweep"}};
+    for (io::RasterBand& b : layers.bands) b.metadata["meaning"] = meaning.at(b.description);
+    layers.metadata["lunarnav_content"] = "evaluate map --lidar: the LiDAR truth on the map's lattice";
+    io::WriteGeoTiffAtomic(cmd.output_dir / "truth.tif", layers);
+  }
   json j = util::SummaryHead("evaluate", invocation);
   j["subcommand"] = "map";
   j["mode"] = "lidar";
@@ -885,7 +902,7 @@ LidarEvalResult RunLidarMapEvaluation(const LidarMapCommand& cmd, const json& in
   j["result"] = result.ToJson();
   j["pairs_against_nearest_sweep"] = pair_rows;
   j["table"] = table.ToJson();
-  j["outputs"] = {"lidar.csv", "lidar.json", "lidar.md", "cells.csv", "error.png"};
+  j["outputs"] = {"lidar.csv", "lidar.json", "lidar.md", "cells.csv", "error.png", "truth.tif"};
   j["timings_s"] = {{"total", timer.ElapsedSeconds()}};
   io::WriteJsonAtomic(cmd.output_dir / "summary.json", j);
   return result;
