@@ -34,6 +34,9 @@ namespace {
 
 constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
 constexpr float kNaNf = std::numeric_limits<float>::quiet_NaN();
+// Cells this far beyond (or short of) an untimely pair's band are not judged either: its
+// points reach past the band's distances by their errors and at the image's sides, m.
+constexpr double kUntimelyMarginM = 3.0;
 // A cell whose low returns lie this far below the wider area's is sunk (a reflection, a hole), m.
 constexpr double kSunkDepthM = 0.3;
 // The largest truth grid, cells: 4096 x 4096 (a square kilometre of 25 cm cells).
@@ -351,8 +354,8 @@ LidarEvalResult EvaluateMapAgainstLidar(const io::GeoRaster& map, const io::GeoR
     for (int row = row0; row <= row1; ++row) {
       for (int col = col0; col <= col1; ++col) {
         const int k = static_cast<int>(cls.at<float>(row, col));
-        if (k == kNone) continue;
-        const double z = k == kFlat ? ground.at<float>(row, col) : top.at<float>(row, col);
+        // A cell without returns is taken at the height of the vehicle's base.
+        const double z = k == kFlat ? ground.at<float>(row, col) : k == kNone ? pose.z_m : top.at<float>(row, col);
         const Eigen::Vector3d w(truth.CellCentreX(col), truth.CellCentreY(row), z);
         const Eigen::Vector3d v = vehicle_from_world * w;
         if (v.y() < o.band_min_y_m - margin_m || v.y() > o.band_max_y_m + margin_m) continue;
@@ -361,8 +364,8 @@ LidarEvalResult EvaluateMapAgainstLidar(const io::GeoRaster& map, const io::GeoR
       }
     }
   };
-  // Untimely cells: in the band of a pair taken farther in time from every sweep than
-  // max_sweep_gap_s. What stood there then (a cyclist who rode on) no sweep shows: the truth
+  // Untimely cells: in the band (kUntimelyMarginM wider) of a pair taken farther in time from
+  // every sweep than max_sweep_gap_s. What stood there then (a cyclist who rode on) no sweep shows: the truth
   // cannot judge them.
   cv::Mat untimely(ground.size(), CV_8UC1, cv::Scalar(0));
   std::vector<bool> timely(pairs.size(), true);
@@ -372,7 +375,7 @@ LidarEvalResult EvaluateMapAgainstLidar(const io::GeoRaster& map, const io::GeoR
       for (double t : sweep_times_s) gap = std::min(gap, std::abs(t - pairs[p].t_s));
       timely[p] = gap <= o.max_sweep_gap_s;
       if (timely[p]) continue;
-      for_band_cells(pairs[p], 1.0, [&](int col, int row, int, const Eigen::Vector3d&) {
+      for_band_cells(pairs[p], kUntimelyMarginM, [&](int col, int row, int, const Eigen::Vector3d&) {
         untimely.at<std::uint8_t>(row, col) = 1;
       });
     }

@@ -50,7 +50,7 @@ struct LidarEvalOptions {
   /// The band the rig maps: ground this far ahead of a pair (vehicle-frame Y), in both images
   /// and in the left camera's line of sight (not behind a LiDAR object), metres.
   double band_min_y_m = 0, band_max_y_m = 0;
-  /// Cells in the band (with a metre's margin) of a pair taken farther in time than this from
+  /// Cells in the band (3 m wider at each end) of a pair taken farther in time than this from
   /// every sweep are not judged: what stood there then (a cyclist who rode on) no sweep shows,
   /// seconds, >= 0 (infinity: judge every cell).
   double max_sweep_gap_s = 0.3;
