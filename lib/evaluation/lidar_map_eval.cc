@@ -124,6 +124,45 @@ Binned BinReturns(const std::vector<LidarSweep>& sweeps, const io::GeoRaster& gr
   return b;
 }
 
+// The height at cell (col, row)'s centre of the ground's plane under the 5 x 5 cells' low
+// returns (sunk cells left out): the least-squares plane of all the lows, then four times of
+// those no more than 5 cm above the last plane, so that it sinks to the lower envelope: an
+// object's own lows stand above and drop out, a slope's stay. The lowest low when fewer than
+// 4 lows are there.
+double LowPlaneAtCentre(const cv::Mat& low, const cv::Mat& sunk, int col, int row, double cell_m) {
+  struct Low {
+    double x, y, z;
+  };
+  std::vector<Low> lows;
+  double lowest = std::numeric_limits<double>::infinity();
+  for (int dr = -2; dr <= 2; ++dr) {
+    for (int dc = -2; dc <= 2; ++dc) {
+      const int c = col + dc, r = row + dr;
+      const float v = At(low, c, r);
+      if (!std::isfinite(v) || sunk.at<std::uint8_t>(r, c) != 0) continue;
+      lows.push_back({dc * cell_m, -dr * cell_m, v});
+      lowest = std::min(lowest, static_cast<double>(v));
+    }
+  }
+  if (lows.size() < 4) return std::isfinite(lowest) ? lowest : At(low, col, row);
+  Eigen::Vector3d plane(lowest, 0, 0);  // z = a + b x + c y
+  for (int pass = 0; pass < 5; ++pass) {
+    Eigen::Matrix3d ata = Eigen::Matrix3d::Zero();
+    Eigen::Vector3d atb = Eigen::Vector3d::Zero();
+    int used = 0;
+    for (const Low& l : lows) {
+      const Eigen::Vector3d a(1, l.x, l.y);
+      if (pass > 0 && l.z - a.dot(plane) > 0.05) continue;
+      ata += a * a.transpose();
+      atb += a * l.z;
+      ++used;
+    }
+    if (used < 4 || std::abs(ata.determinant()) < 1e-9) break;
+    plane = ata.ldlt().solve(atb);
+  }
+  return plane(0);
+}
+
 // The truth grid's lattice: the map's, over the box of every return.
 io::GeoRaster TruthLattice(const std::vector<LidarSweep>& sweeps, const io::GeoRaster& map) {
   double x0 = std::numeric_limits<double>::infinity(), x1 = -x0, y0 = x0, y1 = -x0;
@@ -215,11 +254,12 @@ json LidarEvalOptions::ToJson() const {
 }
 
 io::GeoRaster GridLidarTruth(const std::vector<LidarSweep>& sweeps, const io::GeoRaster& lattice,
-                             const LidarEvalOptions& o) {
+                             const LidarEvalOptions& o, std::vector<std::vector<int>>* stood_in) {
   io::GeoRaster g = TruthLattice(sweeps, lattice);
   const int w = g.Width(), h = g.Height();
   const Binned b = BinReturns(sweeps, g);
   cv::Mat returns = g.bands[0].pixels;
+  if (stood_in != nullptr) stood_in->assign(static_cast<std::size_t>(w) * static_cast<std::size_t>(h), {});
   cv::Mat low(h, w, CV_32FC1, cv::Scalar(kNaNf));
   for (int row = 0; row < h; ++row) {
     for (int col = 0; col < w; ++col) {
@@ -255,7 +295,8 @@ io::GeoRaster GridLidarTruth(const std::vector<LidarSweep>& sweeps, const io::Ge
   // The local ground: the lowest low return of the 5 x 5 cells around that are not sunk.
   cv::Mat ground(h, w, CV_32FC1, cv::Scalar(kNaNf)), relief(h, w, CV_32FC1, cv::Scalar(kNaNf));
   cv::Mat top(h, w, CV_32FC1, cv::Scalar(kNaNf)), median(h, w, CV_32FC1, cv::Scalar(kNaNf));
-  cv::Mat spread(h, w, CV_32FC1, cv::Scalar(kNaNf));
+  cv::Mat spread(h, w, CV_32FC1, cv::Scalar(kNaNf)), standing(h, w, CV_32FC1, cv::Scalar(kNaNf));
+  cv::Mat persistence(h, w, CV_32FC1, cv::Scalar(kNaNf));
   for (int row = 0; row < h; ++row) {
     for (int col = 0; col < w; ++col) {
       if (returns.at<float>(row, col) == 0) continue;
@@ -276,6 +317,26 @@ io::GeoRaster GridLidarTruth(const std::vector<LidarSweep>& sweeps, const io::Ge
         if (z - g0 <= o.clearance_m) below.push_back(z);
       }
       if (below.empty()) continue;
+      // What stands here: the highest return over the plane through the 5 x 5 cells' low
+      // returns (a slope's rise is no object), and in how many of the sweeps that saw the
+      // cell it stood (a moving object stands in one or two of the many).
+      const double plane = LowPlaneAtCentre(low, sunk, col, row, g.cell_m);
+      double highest = -std::numeric_limits<double>::infinity();
+      std::map<int, bool> stood;  // per sweep that saw the cell: whether it stood
+      for (std::int64_t i = b.start[k]; i < b.start[k + 1]; ++i) {
+        const float z = b.z[static_cast<std::size_t>(i)];
+        if (z - g0 > o.clearance_m) continue;
+        highest = std::max(highest, static_cast<double>(z));
+        bool& s = stood[b.sweep[static_cast<std::size_t>(i)]];
+        s = s || z - plane >= o.recall_height_m;
+      }
+      int stood_count = 0;
+      for (const auto& [sweep, yes] : stood) {
+        stood_count += yes;
+        if (yes && stood_in != nullptr) (*stood_in)[k].push_back(sweep);
+      }
+      standing.at<float>(row, col) = static_cast<float>(highest - plane);
+      persistence.at<float>(row, col) = static_cast<float>(stood_count) / static_cast<float>(stood.size());
       const auto [lo, hi] = std::minmax_element(below.begin(), below.end());
       relief.at<float>(row, col) = *hi - g0;
       top.at<float>(row, col) = *hi;
@@ -315,13 +376,15 @@ io::GeoRaster GridLidarTruth(const std::vector<LidarSweep>& sweeps, const io::Ge
   g.bands.push_back(NamedBand(top, "top_m"));
   g.bands.push_back(NamedBand(cls, "class"));
   g.bands.push_back(NamedBand(returns, "returns"));
+  g.bands.push_back(NamedBand(standing, "standing_m"));
+  g.bands.push_back(NamedBand(persistence, "persistence"));
   return g;
 }
 
 LidarEvalResult EvaluateMapAgainstLidar(const io::GeoRaster& map, const io::GeoRaster& truth,
                                         const std::vector<mapping::FramePose>& pairs, const calib::StereoRig& rig,
                                         const LidarEvalOptions& o, const std::vector<double>& sweep_times_s,
-                                        cv::Mat* untimely_out) {
+                                        cv::Mat* untimely_out, const std::vector<std::vector<int>>* stood_in) {
   o.Validate();
   LN_CHECK_ARG(rig.rectified.has_value()) << "the rig is not rectified";
   const cv::Mat& elevation = Band(map, "elevation_m", "map");
@@ -369,10 +432,17 @@ LidarEvalResult EvaluateMapAgainstLidar(const io::GeoRaster& map, const io::GeoR
   // cannot judge them.
   cv::Mat untimely(ground.size(), CV_8UC1, cv::Scalar(0));
   std::vector<bool> timely(pairs.size(), true);
+  std::vector<int> nearest_sweep(pairs.size(), -1);
   if (!sweep_times_s.empty()) {
     for (std::size_t p = 0; p < pairs.size(); ++p) {
       double gap = std::numeric_limits<double>::infinity();
-      for (double t : sweep_times_s) gap = std::min(gap, std::abs(t - pairs[p].t_s));
+      for (std::size_t s = 0; s < sweep_times_s.size(); ++s) {
+        const double d = std::abs(sweep_times_s[s] - pairs[p].t_s);
+        if (d < gap) {
+          gap = d;
+          nearest_sweep[p] = static_cast<int>(s);
+        }
+      }
       timely[p] = gap <= o.max_sweep_gap_s;
       if (timely[p]) continue;
       for_band_cells(pairs[p], kUntimelyMarginM, [&](int col, int row, int, const Eigen::Vector3d&) {
@@ -443,12 +513,19 @@ LidarEvalResult EvaluateMapAgainstLidar(const io::GeoRaster& map, const io::GeoR
     }
     return true;
   };
-  cv::Mat in_band(ground.size(), CV_8UC1, cv::Scalar(0));  // 1 flat ground seen, 2 an object's top seen
+  // 1 flat ground seen; 2 an object's top seen while it stood there (in the sweep nearest the
+  // pair, when the sweeps' times and who stood when are given).
+  cv::Mat in_band(ground.size(), CV_8UC1, cv::Scalar(0));
   for (std::size_t p = 0; p < pairs.size(); ++p) {
     if (!timely[p]) continue;
     const Eigen::Vector3d camera = pairs[p].WorldFromVehicle() * rig.VehicleFromLeft().translation();
     for_band_cells(pairs[p], 0.0, [&](int col, int row, int k, const Eigen::Vector3d& w) {
       if ((k != kFlat && k != kObject) || in_band.at<std::uint8_t>(row, col) != 0 || !judged(col, row)) return;
+      if (k == kObject && stood_in != nullptr && nearest_sweep[p] >= 0) {
+        const auto& who = (*stood_in)[static_cast<std::size_t>(row) * static_cast<std::size_t>(ground.cols) +
+                                      static_cast<std::size_t>(col)];
+        if (std::find(who.begin(), who.end(), nearest_sweep[p]) == who.end()) return;  // not there then
+      }
       if (!visible(camera, w)) return;
       in_band.at<std::uint8_t>(row, col) = static_cast<std::uint8_t>(k == kFlat ? 1 : 2);
     });
@@ -484,12 +561,21 @@ LidarEvalResult EvaluateMapAgainstLidar(const io::GeoRaster& map, const io::GeoR
   }
   res.precision = Ratio(res.obstacle_tp, res.obstacle_judged);
 
-  // Recall: the LiDAR's objects (8-connected cells of enough relief) whose top a pair saw in
-  // the band, found when a map obstacle lies within the tolerance of one of their cells.
+  // Recall: the LiDAR's objects (8-connected cells where something at least recall_height_m
+  // stands over the local ground's plane in most of the sweeps that saw the cell: no slope, no
+  // passing car) whose top a pair saw in the band, found when a map obstacle lies within the
+  // tolerance of one of their cells.
+  const cv::Mat& standing = Band(truth, "standing_m", "truth");
+  const cv::Mat& persistence = Band(truth, "persistence", "truth");
+  auto stands = [&](int c0, int r0) {
+    // Without the sweeps' times, what stood in most of the sweeps that saw the cell.
+    return standing.at<float>(r0, c0) >= o.recall_height_m &&
+           (stood_in != nullptr || persistence.at<float>(r0, c0) >= 0.5f);
+  };
   cv::Mat label(ground.size(), CV_32SC1, cv::Scalar(-1));
   for (int row = 0; row < ground.rows; ++row) {
     for (int col = 0; col < ground.cols; ++col) {
-      if (in_band.at<std::uint8_t>(row, col) != 2 || !(relief.at<float>(row, col) >= o.recall_height_m)) continue;
+      if (in_band.at<std::uint8_t>(row, col) != 2 || !stands(col, row)) continue;
       if (label.at<int>(row, col) >= 0) continue;
       const int id = static_cast<int>(res.objects++);
       bool found = false;
@@ -505,8 +591,7 @@ LidarEvalResult EvaluateMapAgainstLidar(const io::GeoRaster& map, const io::GeoR
           for (int q = -1; q <= 1; ++q) {
             const int nx = x + q, ny = y + r;
             if (nx < 0 || ny < 0 || nx >= ground.cols || ny >= ground.rows) continue;
-            if (label.at<int>(ny, nx) >= 0 || in_band.at<std::uint8_t>(ny, nx) != 2 ||
-                !(relief.at<float>(ny, nx) >= o.recall_height_m)) {
+            if (label.at<int>(ny, nx) >= 0 || in_band.at<std::uint8_t>(ny, nx) != 2 || !stands(nx, ny)) {
               continue;
             }
             label.at<int>(ny, nx) = id;
@@ -768,13 +853,15 @@ LidarEvalResult RunLidarMapEvaluation(const LidarMapCommand& cmd, const json& in
       s.points.push_back(w);
     }
   });
-  const io::GeoRaster truth = GridLidarTruth(sweeps, map, o);
+  std::vector<std::vector<int>> stood_in;
+  const io::GeoRaster truth = GridLidarTruth(sweeps, map, o, cmd.lidar_in_world ? nullptr : &stood_in);
   std::vector<double> sweep_times;
   if (!cmd.lidar_in_world) {
     for (const LidarSweep& s : sweeps) sweep_times.push_back(s.t_s);
   }
   cv::Mat untimely;
-  LidarEvalResult result = EvaluateMapAgainstLidar(map, truth, pairs, rig, o, sweep_times, &untimely);
+  LidarEvalResult result = EvaluateMapAgainstLidar(map, truth, pairs, rig, o, sweep_times, &untimely,
+                                                   cmd.lidar_in_world ? nullptr : &stood_in);
   result.sweeps = static_cast<long>(sweeps.size());
   for (const LidarSweep& s : sweeps) result.returns += static_cast<long>(s.points.size());
   MeasureSweepConsistency(sweeps, truth, o, &result);
@@ -883,6 +970,8 @@ LidarEvalResult RunLidarMapEvaluation(const LidarMapCommand& cmd, const json& in
         {"top_m", "that highest return's height, m"},
         {"class", "0 no returns, 1 flat ground, 2 object, 3 other (rough, beside an object, sunk)"},
         {"returns", "LiDAR returns in the cell (all sweeps, under the clearance)"},
+        {"standing_m", "the highest return over the plane through the 5 x 5 cells' low returns, m"},
+        {"persistence", "the share of the sweeps that saw the cell in which something 20 cm tall stood there"},
         {"judged", "1 judged, 0 seen by a pair far in time from every sweep"}};
     for (io::RasterBand& b : layers.bands) b.metadata["meaning"] = meaning.at(b.description);
     layers.metadata["lunarnav_content"] = "evaluate map --lidar: the LiDAR truth on the map's lattice";

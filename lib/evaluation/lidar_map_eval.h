@@ -70,9 +70,15 @@ struct LidarSweep {
 /// median return of a flat-ground cell (NaN otherwise), `relief_m` the highest return below the
 /// clearance above the local ground (every cell with returns), `top_m` that highest return's
 /// height (for lines of sight), `class` 0 none, 1 flat ground, 2 object (relief >=
-/// object_height_m), 3 other (rough, or beside an object), `returns`.
+/// object_height_m), 3 other (rough, beside an object, or sunk: low returns 0.3 m below the
+/// 9 x 9 cells', a reflection), `returns`, `standing_m` the highest return over the plane
+/// through the 5 x 5 cells' low returns (a slope's rise is no object), `persistence` the share
+/// of the sweeps that saw the cell in which something recall_height_m tall stood there (a
+/// passing car stands in few).
+/// `stood_in`, when given, receives per cell (row-major on the truth's lattice) the sweeps (their
+/// indices) in which something recall_height_m tall stood over that plane.
 io::GeoRaster GridLidarTruth(const std::vector<LidarSweep>& sweeps, const io::GeoRaster& lattice,
-                             const LidarEvalOptions& options);
+                             const LidarEvalOptions& options, std::vector<std::vector<int>>* stood_in = nullptr);
 
 struct LidarEvalResult {
   long sweeps = 0, returns = 0;
@@ -108,10 +114,15 @@ struct LidarEvalResult {
 /// poses `pairs` (the band: `rig`'s images, options.band_*). `sweep_times_s`: the sweeps'
 /// times, for options.max_sweep_gap_s (empty: every cell is judged). `untimely`, when given,
 /// receives the cells not judged for time (CV_8UC1 on the truth's lattice, 1 = not judged).
+/// Recall's objects: with `stood_in` (GridLidarTruth's) and the sweeps' times, an object cell
+/// counts where a pair saw its top in the band while it stood there (in the sweep nearest the
+/// pair: a car driving ahead stands in every sweep somewhere, each time elsewhere); without,
+/// where it stood in most of the sweeps that saw it.
 LidarEvalResult EvaluateMapAgainstLidar(const io::GeoRaster& map, const io::GeoRaster& truth,
                                         const std::vector<mapping::FramePose>& pairs, const calib::StereoRig& rig,
                                         const LidarEvalOptions& options,
-                                        const std::vector<double>& sweep_times_s = {}, cv::Mat* untimely = nullptr);
+                                        const std::vector<double>& sweep_times_s = {}, cv::Mat* untimely = nullptr,
+                                        const std::vector<std::vector<int>>* stood_in = nullptr);
 
 /// The sweep-to-sweep consistency of the truth (LidarEvalResult::sweep_*).
 void MeasureSweepConsistency(const std::vector<LidarSweep>& sweeps, const io::GeoRaster& truth,

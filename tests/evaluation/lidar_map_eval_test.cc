@@ -185,6 +185,50 @@ TEST(EvaluateMapAgainstLidar, CellsAPairFarInTimeFromEverySweepSawAreNotJudged) 
   EXPECT_EQ(EvaluateMapAgainstLidar(s.map, s.truth, s.pairs, s.rig, s.options, {0.0, 5.1}).cells_large_error, 1);
 }
 
+TEST(EvaluateMapAgainstLidar, AnObjectCountsForRecallWhereItStoodWhenThePairSawIt) {
+  Scene s;
+  // A second box, 0.6 m tall, that only sweep "b" (0.5 s later) shows, at x -3.5..-2.5, y 9..10:
+  // a car that drove in after the pair at 0 s looked.
+  for (double x = -3.5; x < -2.5; x += 0.05) {
+    for (double y = 9; y < 10; y += 0.05) s.sweeps[1].points.emplace_back(x + 0.001, y + 0.001, 0.6f);
+  }
+  s.sweeps[0].t_s = 0;
+  s.sweeps[1].t_s = 0.5;
+  std::vector<std::vector<int>> stood;
+  s.truth = GridLidarTruth(s.sweeps, s.map, s.options, &stood);
+  const std::vector<double> times = {0.0, 0.5};
+  const LidarEvalResult r = EvaluateMapAgainstLidar(s.map, s.truth, s.pairs, s.rig, s.options, times, nullptr, &stood);
+  EXPECT_EQ(r.objects, 1);  // the first box, which both sweeps show
+  EXPECT_EQ(r.objects_found, 1);
+  // Seen by a pair at 0.5 s, the new box is an object the map missed.
+  s.pairs[0].t_s = 0.5;
+  const LidarEvalResult later = EvaluateMapAgainstLidar(s.map, s.truth, s.pairs, s.rig, s.options, times, nullptr,
+                                                        &stood);
+  EXPECT_EQ(later.objects, 2);
+  EXPECT_EQ(later.objects_found, 1);
+}
+
+TEST(GridLidarTruth, ASlopeIsReliefButNoStandingObject) {
+  Scene s;
+  // An embankment of 20 deg (gentler than a vehicle's 30 deg limit) rising 0.5 m from x = 4 to
+  // a terrace, the whole length of the scene.
+  const double rise = std::tan(20 * M_PI / 180);
+  for (LidarSweep& sweep : s.sweeps) {
+    for (Eigen::Vector3f& p : sweep.points) {
+      if (p.x() > 4) p.z() = static_cast<float>(std::min(0.5, rise * (p.x() - 4)));
+    }
+  }
+  s.truth = GridLidarTruth(s.sweeps, s.map, s.options);
+  const cv::Mat& relief = s.truth.bands[static_cast<std::size_t>(s.truth.BandIndex("relief_m"))].pixels;
+  const cv::Mat& standing = s.truth.bands[static_cast<std::size_t>(s.truth.BandIndex("standing_m"))].pixels;
+  const cv::Point slope = CellAt(s.truth, 4.9, 11.1);
+  EXPECT_GT(relief.at<float>(slope), 0.2f);     // rises: precision's relief
+  EXPECT_LT(standing.at<float>(slope), 0.15f);  // stands on nothing: no object to find
+  const cv::Point box = CellAt(s.truth, 2.0, 8.0);
+  EXPECT_GT(standing.at<float>(box), 0.4f);
+  EXPECT_EQ(s.Score().objects, 1);  // the box; the slope is none
+}
+
 TEST(GridLidarTruth, AReflectionBelowTheRoadIsNeitherGroundNorRelief) {
   Scene s;
   // A mirror image in a window: the returns of a 0.75 m square 3 m below the road.
