@@ -12,7 +12,9 @@
 #include "io/float_array_io.h"
 #include "io/image_io.h"
 #include "io/shard_merge.h"
+#include "io/point_cloud_io.h"
 #include "mapping/frame_poses.h"
+#include "mapping/kitti_trajectory.h"
 #include "mapping/window_planner.h"
 #include "positioning/trajectory_io.h"
 #include "stereo/window_requests.h"
@@ -202,12 +204,55 @@ bool ShardSummary(const std::uint8_t* data, std::size_t size) {
   return Refusing([&] { io::MergeShardSummaries(dir, options, nlohmann::json::object()); });
 }
 
+bool KittiTrajectory(const std::uint8_t* data, std::size_t size) {
+  if (size == 0) return false;
+  const std::string_view bytes = Bytes(data + 1, size - 1);
+  // A level camera 1.65 m up, as KITTI's: the vehicle's pose from the camera's.
+  const Eigen::Isometry3d vehicle_from_camera =
+      Eigen::Translation3d(-0.27, 0, 1.65) * Eigen::AngleAxisd(-M_PI / 2, Eigen::Vector3d::UnitX());
+  switch (data[0] % 4) {
+    case 0: {  // a pose file at the times of a times.txt: the two files split at the first NUL
+      const auto [poses, times] = SplitTwo(bytes);
+      const fs::path a = WriteScratch("poses.txt", poses), b = WriteScratch("times.txt", times);
+      return Refusing([&] { mapping::ReadKittiPoseTrajectory(a, b, vehicle_from_camera); });
+    }
+    case 1: {  // frame times (times.txt or timestamps.txt)
+      const fs::path path = WriteScratch("timestamps.txt", bytes);
+      return Refusing([&] { mapping::ReadKittiFrameTimes(path); });
+    }
+    case 2: {  // a raw drive's oxts/ with one packet and its timestamps, beside identity calibrations
+      const auto [packet, times] = SplitTwo(bytes);
+      const fs::path drive = ScratchDir() / "drive";
+      std::error_code ignored;
+      fs::remove_all(drive, ignored);
+      fs::create_directories(drive / "oxts" / "data");
+      WriteScratch("drive/calib_imu_to_velo.txt", "R: 1 0 0 0 1 0 0 0 1\nT: 0 0 0\n");
+      WriteScratch("drive/calib_velo_to_cam.txt", "R: 0 -1 0 0 0 -1 1 0 0\nT: 0 0 0\n");
+      WriteScratch("drive/calib_cam_to_cam.txt", "R_rect_00: 1 0 0 0 1 0 0 0 1\n");
+      WriteScratch("drive/oxts/data/0000000000.txt", packet);
+      WriteScratch("drive/oxts/timestamps.txt", times);
+      return Refusing([&] { mapping::ReadKittiOxtsTrajectory(drive / "oxts", vehicle_from_camera); });
+    }
+    default: {  // the LiDAR's mounting: an odometry calib.txt or a calib_velo_to_cam.txt
+      const fs::path path = WriteScratch("calib.txt", bytes);
+      return Refusing([&] { mapping::KittiLidarInVehicle(path, vehicle_from_camera); });
+    }
+  }
+}
+
+bool PointCloud(const std::uint8_t* data, std::size_t size) {
+  if (size == 0) return false;
+  static const char* const kNames[] = {"sweep.bin", "cloud.pcd", "cloud.ply"};
+  const fs::path path = WriteScratch(kNames[data[0] % 3], Bytes(data + 1, size - 1));
+  return Refusing([&] { io::ReadPointCloud(path); });
+}
+
 const std::vector<NamedTarget>& AllTargets() {
   static const std::vector<NamedTarget> targets = {
       {"telemetry_csv", TelemetryCsv}, {"sensor_json", SensorJson},   {"rig_json", RigJson},
       {"vehicle_json", VehicleJson},   {"rig_import", RigImport},     {"image", Image},
       {"requests_csv", RequestsCsv},   {"trajectory_csv", TrajectoryCsv}, {"poses_csv", PosesCsv},
-      {"shard_summary", ShardSummary}};
+      {"shard_summary", ShardSummary}, {"kitti_trajectory", KittiTrajectory}, {"point_cloud", PointCloud}};
   return targets;
 }
 

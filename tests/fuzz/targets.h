@@ -32,6 +32,12 @@ bool TrajectoryCsv(const std::uint8_t* data, std::size_t size); ///< evaluate's 
 bool PosesCsv(const std::uint8_t* data, std::size_t size);
 /// shard-merge: two shard summaries (split at the first NUL) merged.
 bool ShardSummary(const std::uint8_t* data, std::size_t size);
+/// KITTI's trajectories (--trajectory, --frame-times): the first byte picks a pose file with its
+/// times.txt (split at the first NUL), a frame-times file, an oxts/ packet with its timestamps
+/// (split likewise), or a LiDAR calibration (evaluate map --lidar-calib).
+bool KittiTrajectory(const std::uint8_t* data, std::size_t size);
+/// evaluate map --lidar's clouds: the first byte picks .bin (KITTI), .pcd or .ply.
+bool PointCloud(const std::uint8_t* data, std::size_t size);
 
 struct NamedTarget {
   const char* name;  ///< also the folder of its corpus under testdata/fuzz
