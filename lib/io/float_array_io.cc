@@ -1,6 +1,7 @@
 #include "io/float_array_io.h"
 
 #include <algorithm>
+#include <cmath>
 #include <cstdint>
 #include <fstream>
 #include <stdexcept>
@@ -29,10 +30,23 @@ void WriteExrAtomic(const fs::path& path, const cv::Mat& image, const std::vecto
   LN_CHECK_ARG(static_cast<int>(names.size()) == channels)
       << path.string() << ": " << names.size() << " channel names for " << channels << " channels";
 
+  // The rows that hold a finite value: readers decode only those (ReadExr), the rest is NaN.
+  int first = image.rows, last = -1;
+  for (int y = 0; y < image.rows; ++y) {
+    const float* row = image.ptr<float>(y);
+    const int n = image.cols * channels;
+    if (std::any_of(row, row + n, [](float v) { return std::isfinite(v); })) {
+      first = std::min(first, y);
+      last = y;
+    }
+  }
+  std::map<std::string, std::string> stamped = attributes;
+  stamped[kFiniteRowsAttribute] = last < 0 ? "0 -1" : std::to_string(first) + " " + std::to_string(last);
+
   if (!path.parent_path().empty()) fs::create_directories(path.parent_path());
   const fs::path temp = TempPathFor(path);
   std::string error;
-  if (!internal::Oiio().WriteExr(temp.string(), image, names, attributes, &error)) {
+  if (!internal::Oiio().WriteExr(temp.string(), image, names, stamped, &error)) {
     std::error_code ec;
     fs::remove(temp, ec);
     throw std::runtime_error(path.string() + ": cannot write EXR (" + error + ")");

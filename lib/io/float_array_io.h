@@ -18,9 +18,16 @@ struct ExrImage {
   std::map<std::string, std::string> attributes;  ///< String header attributes (metadata).
 };
 
+/// The header attribute WriteExrAtomic stamps every file with: "FIRST LAST", the rows that
+/// hold a finite value ("0 -1": none); every other row is all NaN. ReadExr decodes only those
+/// rows (a rig's default search fills a fifth of a KITTI pair's rows: its XYZ read five times
+/// faster). A file that stamps too few rows is read with NaN in the rows it leaves out.
+inline constexpr const char* kFiniteRowsAttribute = "lunarnav:finite_rows";
+
 /// Writes a float32 map as a scanline OpenEXR file (32-bit float channels, ZIP compression,
-/// lossless; NaN and infinities are kept as they are). The file is written under a hidden
-/// temporary name and renamed, so `path` holds the complete file or nothing.
+/// lossless; NaN and infinities are kept as they are), stamped with kFiniteRowsAttribute (over
+/// any value `attributes` gives it). The file is written under a hidden temporary name and
+/// renamed, so `path` holds the complete file or nothing.
 /// @param image  CV_32FC1 .. CV_32FC4, top row first; channel k of the Mat is channel k of
 ///        the file.
 /// @param channel_names  one name per channel; empty = "Y" for one channel, "R","G","B"[,"A"]
@@ -37,7 +44,8 @@ void WriteExrAtomic(const std::filesystem::path& path, const cv::Mat& image,
 /// @throws std::runtime_error when it cannot be loaded.
 void PreloadExrReader();
 
-/// Reads an OpenEXR file as float32 (through OpenImageIO).
+/// Reads an OpenEXR file as float32 (through OpenImageIO); a file stamped with
+/// kFiniteRowsAttribute (a valid range of its rows) has only those rows decoded, the others NaN.
 /// @throws InputError naming the file when it is missing, unreadable, not 2-D or not OpenEXR
 ///         (another format under an .exr name, told by its magic number).
 ExrImage ReadExr(const std::filesystem::path& path);

@@ -2,6 +2,8 @@
 #include "io/oiio_module.h"
 
 #include <algorithm>
+#include <cstdio>
+#include <limits>
 
 #include <OpenImageIO/imageio.h>
 
@@ -25,6 +27,10 @@ bool TooLarge(const OIIO::ImageSpec& spec, long long max_pixels, std::string* er
 
 class OiioModuleImpl final : public OiioModule {
  public:
+  // OpenEXR's own thread pool decodes a file's blocks on helper threads: the tools read many
+  // files at once on their -j threads already, and the hand-offs only cost CPU time.
+  OiioModuleImpl() { OIIO::attribute("exr_threads", -1); }
+
   bool ReadInteger(const std::string& path, long long max_pixels, cv::Mat* pixels, int* bits_per_sample,
                    std::string* error) override {
     // The stored colour values, not multiplied by alpha (OIIO's default for PNG and TIFF).
@@ -104,8 +110,23 @@ class OiioModuleImpl final : public OiioModule {
     }
     if (TooLarge(spec, max_pixels, error)) return false;
     pixels->create(spec.height, spec.width, CV_32FC(spec.nchannels));
-    const bool ok =
-        in->read_image(0, 0, 0, spec.nchannels, OIIO::TypeDesc::FLOAT, pixels->data) && !in->has_error();
+    // The rows the writer stamped as holding finite values (lunarnav:finite_rows): only those
+    // are decoded, the others are NaN. Anything else about the stamp: the whole image.
+    int first = 0, last = spec.height - 1;
+    const std::string stamp = spec.get_string_attribute("lunarnav:finite_rows");
+    if (!stamp.empty() && spec.tile_width == 0) {
+      int a = 0, b = 0;
+      char tail = 0;
+      if (std::sscanf(stamp.c_str(), "%d %d%c", &a, &b, &tail) == 2 && a >= 0 && b >= a - 1 && b < spec.height) {
+        first = a;
+        last = b;
+        pixels->setTo(cv::Scalar::all(std::numeric_limits<float>::quiet_NaN()));
+      }
+    }
+    const bool ok = last < first ||
+                    (in->read_scanlines(0, 0, spec.y + first, spec.y + last + 1, 0, 0, spec.nchannels,
+                                        OIIO::TypeDesc::FLOAT, pixels->ptr<float>(first)) &&
+                     !in->has_error());
     if (!ok) {
       *error = "corrupt: " + OneLine(in->geterror(), "cannot decode");
       return false;

@@ -240,8 +240,11 @@ std::vector<Eigen::Isometry3d> ReadKittiPoses(const fs::path& path) {
 std::vector<positioning::TrajectorySample> ReadKittiPoseTrajectory(const fs::path& poses_path,
                                                                    const fs::path& frame_times,
                                                                    const Eigen::Isometry3d& vehicle_from_camera) {
-  LN_CHECK_ARG(!frame_times.empty() && IsKittiFrameTimes(frame_times))
+  LN_CHECK_ARG(!frame_times.empty())
       << poses_path.string() << ": KITTI's pose files hold no times: give the sequence's times.txt as --frame-times";
+  LN_CHECK_INPUT(IsKittiFrameTimes(frame_times))
+      << frame_times.string() << ": not KITTI's times.txt (a number of seconds per line), which the pose file "
+      << poses_path.string() << " takes its times from";
   const std::vector<Eigen::Isometry3d> poses = ReadKittiPoses(poses_path);
   const std::vector<FramePose> times = ReadKittiFrameTimes(frame_times);
   LN_CHECK_INPUT(times.size() >= poses.size())

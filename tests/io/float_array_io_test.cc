@@ -83,6 +83,33 @@ TEST(WriteExrAtomic, RefusesNonFloatMapsAndWrongChannelNames) {
   EXPECT_FALSE(fs::exists(tmp.path() / "a.exr"));
 }
 
+TEST(WriteExrAtomic, StampsTheFiniteRowsAndReadExrDecodesOnlyThose) {
+  util::ScopedTempDir tmp;
+  // Rows 0-9 and 30-39 all NaN, as a rig's default search leaves an XYZ array.
+  cv::Mat m(40, 16, CV_32FC3, cv::Scalar::all(kNaN));
+  for (int y = 10; y < 30; ++y) {
+    for (int x = 0; x < m.cols; ++x) m.at<cv::Vec3f>(y, x) = cv::Vec3f(0.5f * x, 10.0f + y, -0.25f * y);
+  }
+  m.at<cv::Vec3f>(20, 3) = cv::Vec3f(kNaN, kNaN, kNaN);
+  const fs::path path = tmp.path() / "xyz.exr";
+  WriteExrAtomic(path, m, {}, {{kFiniteRowsAttribute, "0 0"}});  // a caller's stale value is replaced
+  const ExrImage back = ReadExr(path);
+  EXPECT_EQ(back.attributes.at(kFiniteRowsAttribute), "10 29");
+  ASSERT_EQ(back.pixels.size(), m.size());
+  for (int y = 0; y < m.rows; ++y) {
+    for (int x = 0; x < m.cols; ++x) {
+      for (int c = 0; c < 3; ++c) {
+        EXPECT_TRUE(SameBitsOrBothNaN(back.pixels.at<cv::Vec3f>(y, x)[c], m.at<cv::Vec3f>(y, x)[c])) << y << "," << x;
+      }
+    }
+  }
+  // An array without a finite value reads back all NaN.
+  WriteExrAtomic(tmp.path() / "empty.exr", cv::Mat(4, 4, CV_32FC3, cv::Scalar::all(kNaN)));
+  const ExrImage empty = ReadExr(tmp.path() / "empty.exr");
+  EXPECT_EQ(empty.attributes.at(kFiniteRowsAttribute), "0 -1");
+  EXPECT_EQ(cv::countNonZero(empty.pixels.reshape(1) == empty.pixels.reshape(1)), 0);
+}
+
 TEST(ReadExr, ReportsMissingAndCorruptFiles) {
   util::ScopedTempDir tmp;
   EXPECT_THROW(ReadExr(tmp.path() / "none.exr"), InputError);

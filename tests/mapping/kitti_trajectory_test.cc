@@ -113,8 +113,8 @@ TEST(ReadKittiPoseTrajectory, PlacesCameraPosesOnTheVehicle) {
   EXPECT_NEAR(samples[3].heading_rad, 30 * kDeg, 1e-9);
   // Without KITTI times the poses have no time.
   io::WriteFileAtomic(dir.path() / "frame_times.csv", "stem,t_s\n000000,0\n");
-  EXPECT_THROW(ReadKittiPoseTrajectory(dir.path() / "poses.txt", dir.path() / "frame_times.csv", v),
-               std::invalid_argument);
+  EXPECT_THROW(ReadKittiPoseTrajectory(dir.path() / "poses.txt", dir.path() / "frame_times.csv", v), InputError);
+  EXPECT_THROW(ReadKittiPoseTrajectory(dir.path() / "poses.txt", "", v), std::invalid_argument);
   // Fewer times than poses.
   io::WriteFileAtomic(dir.path() / "short.txt", "0\n0.1\n");
   EXPECT_THROW(ReadKittiPoseTrajectory(dir.path() / "poses.txt", dir.path() / "short.txt", v), InputError);
