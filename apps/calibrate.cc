@@ -53,7 +53,8 @@ int main(int argc, char** argv) {
                  "WIDTHxHEIGHT of the calibrated images (with --from opencv; with --from kitti on an odometry "
                  "calib.txt, the default is the size of the sequence's first image)");
   calib::KittiPair kitti_pair = calib::KittiPair::kColour;
-  app.add_option("--kitti-pair", kitti_pair, "with --from kitti: the rectified pair, colour (cameras 2, 3) or grey (0, 1)")
+  app.add_option("--kitti-pair", kitti_pair,
+                 "with --from kitti: the rectified pair, colour (cameras 2, 3) or grey (0, 1)")
       ->transform(CLI::CheckedTransformer(calib::KittiPairNames(), CLI::ignore_case))
       ->capture_default_str();
   app.add_option("-o,--output", rig_path, "rig file to write (JSON, lunarnav.rig/1)")->required();
@@ -108,7 +109,8 @@ int main(int argc, char** argv) {
       import.files = inputs;
       import.mast = opt.mast;
       import.kitti_pair = kitti_pair;
-      LN_CHECK_ARG(app.count("--kitti-pair") == 0 || from == calib::RigFormat::kKitti) << "--kitti-pair: only with --from kitti";
+      LN_CHECK_ARG(app.count("--kitti-pair") == 0 || from == calib::RigFormat::kKitti)
+          << "--kitti-pair: only with --from kitti";
       if (!image_size.empty()) import.image_size_px = util::ParseIntPair(image_size, 'x', "--image-size");
       if (from == calib::RigFormat::kOpenCv) {
         LN_CHECK_ARG(app.count("--square") > 0) << "--from opencv needs --square (metres per unit of T)";

@@ -38,9 +38,11 @@ int main(int argc, char** argv) {
   app.add_option("--rig", rig_path, "rectified rig file (rectify's rig.json)")->required();
   app.add_option("--poses", opt.map.poses_csv, "poses per pair: stem,t_s,x_m,y_m,z_m,heading_deg,pitch_deg,roll_deg "
                                                "(simulate stereo's truth/poses.csv)");
-  app.add_option("--trajectory", opt.map.trajectory,
-                 "posfilter's trajectory.csv, a TUM file, a KITTI pose file or KITTI oxts/, interpolated at --frame-times");
-  app.add_option("--frame-times", opt.map.frame_times, "stem,t_s per pair, or KITTI's times.txt or timestamps.txt (for --trajectory)");
+  app.add_option(
+      "--trajectory", opt.map.trajectory,
+      "posfilter's trajectory.csv, a TUM file, a KITTI pose file or KITTI oxts/, interpolated at --frame-times");
+  app.add_option("--frame-times", opt.map.frame_times,
+                 "stem,t_s per pair, or KITTI's times.txt or timestamps.txt (for --trajectory)");
   app.add_option("--vehicle", vehicle_path,
                  "vehicle file: width, wheels, braking (the planner), obstacle height and slope limit (the map) "
                  "(default: the paper's Ratler)");

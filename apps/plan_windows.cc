@@ -34,8 +34,10 @@ int main(int argc, char** argv) {
   std::string gravity = "earth";
   bool quiet = false;
   app.add_option("--poses", poses, "poses per pair (simulate stereo's truth/poses.csv)");
-  app.add_option("--trajectory", trajectory, "posfilter's trajectory.csv or TUM, interpolated at --frame-times");
-  app.add_option("--frame-times", frame_times, "stem,t_s per pair, or KITTI's times.txt or timestamps.txt (with --trajectory)");
+  app.add_option("--trajectory", trajectory,
+                 "posfilter's trajectory.csv, TUM, a KITTI pose file or oxts/ (with --rig), at --frame-times");
+  app.add_option("--frame-times", frame_times,
+                 "stem,t_s per pair, or KITTI's times.txt or timestamps.txt (with --trajectory)");
   fs::path rig_path;
   app.add_option("--rig", rig_path, "rig file: its mast places a trajectory of camera poses (KITTI's) on the vehicle");
   app.add_option("--vehicle", vehicle_path, "vehicle file (speed limits, braking, wheels; default: the paper's Ratler)");

@@ -74,10 +74,12 @@ int main(int argc, char** argv) {
       "--poses", poses_csv,
       "poses per pair (stem,t_s,x_m,y_m,z_m,heading_deg,pitch_deg,roll_deg, as terrain-map reads them): each "
       "pair's search is taken level, at its vehicle's pitch and roll (needs --rig)");
-  CLI::Option* trajectory_option = app.add_option(
-      "--trajectory", trajectory, "posfilter's trajectory.csv, a TUM file, a KITTI pose file or KITTI oxts/ (camera poses placed by "
-      "--rig's mast), interpolated at --frame-times: as --poses");
-  CLI::Option* frame_times_option = app.add_option("--frame-times", frame_times, "stem,t_s per pair, or KITTI's times.txt or timestamps.txt (for --trajectory)");
+  CLI::Option* trajectory_option =
+      app.add_option("--trajectory", trajectory,
+                     "posfilter's trajectory.csv, a TUM file, a KITTI pose file or KITTI oxts/ (camera poses placed by "
+                     "--rig's mast), interpolated at --frame-times: as --poses");
+  CLI::Option* frame_times_option = app.add_option(
+      "--frame-times", frame_times, "stem,t_s per pair, or KITTI's times.txt or timestamps.txt (for --trajectory)");
   poses_option->needs(rig_option)->excludes(trajectory_option);
   trajectory_option->needs(rig_option)->needs(frame_times_option);
   frame_times_option->needs(trajectory_option);

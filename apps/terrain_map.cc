@@ -31,9 +31,11 @@ int main(int argc, char** argv) {
   app.add_option("-o,--output", output_dir, "output directory (created)")->required();
   app.add_option("--poses", opt.poses_csv, "poses per pair: stem,t_s,x_m,y_m,z_m,heading_deg,pitch_deg,roll_deg "
                                            "(simulate stereo's truth/poses.csv)");
-  app.add_option("--trajectory", opt.trajectory, "posfilter's trajectory.csv, a TUM file, a KITTI pose file or "
-                                                 "KITTI oxts/ (with --rig), interpolated at --frame-times");
-  app.add_option("--frame-times", opt.frame_times, "stem,t_s per pair, or KITTI's times.txt or timestamps.txt (for --trajectory)");
+  app.add_option("--trajectory", opt.trajectory,
+                 "posfilter's trajectory.csv, a TUM file, a KITTI pose file or "
+                 "KITTI oxts/ (with --rig), interpolated at --frame-times");
+  app.add_option("--frame-times", opt.frame_times,
+                 "stem,t_s per pair, or KITTI's times.txt or timestamps.txt (for --trajectory)");
   app.add_option("--rig", opt.rig, "rectified rig file: each point's predicted error from the rig's geometry "
                                    "(as xyz_sigma/ holds it) without reading xyz_sigma/");
   app.add_option("--sigma-d", opt.sigma_d_px, "disparity error for --rig's error model, px")->capture_default_str();

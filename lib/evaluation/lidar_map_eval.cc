@@ -5,10 +5,9 @@
 #include <cstdint>
 #include <iomanip>
 #include <map>
+#include <opencv2/imgproc.hpp>
 #include <set>
 #include <sstream>
-
-#include <opencv2/imgproc.hpp>
 
 #include "calib/stereo_rig_io.h"
 #include "calib/window_selection.h"
@@ -187,8 +186,8 @@ io::GeoRaster TruthLattice(const std::vector<LidarSweep>& sweeps, const io::GeoR
   const double first_row = std::floor((map.y_north_m - y1) / c), last_row = std::floor((map.y_north_m - y0) / c);
   const double cells = (last_col - first_col + 1) * (last_row - first_row + 1);
   LN_CHECK_INPUT(cells <= static_cast<double>(kMaxTruthCells))
-      << "the LiDAR returns span " << (x1 - x0) << " x " << (y1 - y0) << " m, more than "
-      << kMaxTruthCells << " cells of " << c << " m (a sweep or pose far from the others?)";
+      << "the LiDAR returns span " << (x1 - x0) << " x " << (y1 - y0) << " m, more than " << kMaxTruthCells
+      << " cells of " << c << " m (a sweep or pose far from the others?)";
   g.x_west_m = map.x_west_m + first_col * c;
   g.y_north_m = map.y_north_m - first_row * c;
   const int w = static_cast<int>(last_col - first_col + 1), h = static_cast<int>(last_row - first_row + 1);
@@ -225,8 +224,10 @@ void LidarEvalOptions::Validate() const {
   LN_CHECK_ARG(min_points >= 1 && min_lidar_points >= 1) << "min points: must be >= 1";
   LN_CHECK_ARG(std::isfinite(flat_spread_m) && flat_spread_m > 0) << "flat spread: must be > 0 m";
   LN_CHECK_ARG(std::isfinite(object_height_m) && object_height_m > 0) << "object height: must be > 0 m";
-  LN_CHECK_ARG(std::isfinite(clearance_m) && clearance_m > object_height_m) << "clearance: must exceed the object height";
-  LN_CHECK_ARG(std::isfinite(min_range_m) && std::isfinite(max_range_m) && min_range_m >= 0 && min_range_m < max_range_m)
+  LN_CHECK_ARG(std::isfinite(clearance_m) && clearance_m > object_height_m)
+      << "clearance: must exceed the object height";
+  LN_CHECK_ARG(std::isfinite(min_range_m) && std::isfinite(max_range_m) && min_range_m >= 0 &&
+               min_range_m < max_range_m)
       << "LiDAR range: need 0 <= MIN < MAX";
   LN_CHECK_ARG(std::isfinite(relief_height_m) && relief_height_m > 0 && std::isfinite(recall_height_m) &&
                recall_height_m > 0)
@@ -362,7 +363,8 @@ io::GeoRaster GridLidarTruth(const std::vector<LidarSweep>& sweeps, const io::Ge
       }
       bool beside_object = false;
       for (int dr = -1; dr <= 1; ++dr) {
-        for (int dc = -1; dc <= 1; ++dc) beside_object = beside_object || At(relief, col + dc, row + dr) >= o.object_height_m;
+        for (int dc = -1; dc <= 1; ++dc)
+          beside_object = beside_object || At(relief, col + dc, row + dr) >= o.object_height_m;
       }
       const bool flat = !beside_object && returns.at<float>(row, col) >= o.min_lidar_points &&
                         spread.at<float>(row, col) <= o.flat_spread_m;
@@ -408,8 +410,8 @@ LidarEvalResult EvaluateMapAgainstLidar(const io::GeoRaster& map, const io::GeoR
   auto for_band_cells = [&](const mapping::FramePose& pose, double margin_m, const auto& fn) {
     const Eigen::Isometry3d vehicle_from_world = pose.WorldFromVehicle().inverse();
     // The band's cells lie within twice its far end (half fields of view up to 60 deg).
-    const double reach = 2 * (o.band_max_y_m + margin_m) + std::abs(rig.mast.lateral_offset_m) +
-                         std::abs(rig.mast.forward_offset_m);
+    const double reach =
+        2 * (o.band_max_y_m + margin_m) + std::abs(rig.mast.lateral_offset_m) + std::abs(rig.mast.forward_offset_m);
     const int col0 = std::max(0, static_cast<int>(std::floor((pose.x_m - reach - truth.x_west_m) / c)));
     const int col1 = std::min(ground.cols - 1, static_cast<int>(std::floor((pose.x_m + reach - truth.x_west_m) / c)));
     const int row0 = std::max(0, static_cast<int>(std::floor((truth.y_north_m - pose.y_m - reach) / c)));
@@ -445,9 +447,8 @@ LidarEvalResult EvaluateMapAgainstLidar(const io::GeoRaster& map, const io::GeoR
       }
       timely[p] = gap <= o.max_sweep_gap_s;
       if (timely[p]) continue;
-      for_band_cells(pairs[p], kUntimelyMarginM, [&](int col, int row, int, const Eigen::Vector3d&) {
-        untimely.at<std::uint8_t>(row, col) = 1;
-      });
+      for_band_cells(pairs[p], kUntimelyMarginM,
+                     [&](int col, int row, int, const Eigen::Vector3d&) { untimely.at<std::uint8_t>(row, col) = 1; });
     }
   }
   auto judged = [&](int tcol, int trow) {
@@ -739,11 +740,12 @@ cv::Mat ErrorPicture(const io::GeoRaster& map, const io::GeoRaster& truth, const
       if (k == kFlat) {
         colour = cv::Scalar(140, 140, 140);
         if (is_mapped) {
-          const double e = std::clamp((At(elevation, col + dc, row + dr) - ground.at<float>(row, col)) /
-                                          o.large_error_m, -1.0, 1.0);
+          const double e =
+              std::clamp((At(elevation, col + dc, row + dr) - ground.at<float>(row, col)) / o.large_error_m, -1.0, 1.0);
           const double a = std::abs(e);
           // white at 0, red above, blue below (BGR)
-          colour = e > 0 ? cv::Scalar(255 * (1 - a), 255 * (1 - a), 255) : cv::Scalar(255, 255 * (1 - a), 255 * (1 - a));
+          colour =
+              e > 0 ? cv::Scalar(255 * (1 - a), 255 * (1 - a), 255) : cv::Scalar(255, 255 * (1 - a), 255 * (1 - a));
         }
       } else if (is_mapped && k != kObject) {
         colour = cv::Scalar(90, 110, 90);  // mapped where the LiDAR has no flat ground
@@ -848,7 +850,8 @@ LidarEvalResult RunLidarMapEvaluation(const LidarMapCommand& cmd, const json& in
     const Eigen::Isometry3f transform = world_from_lidar.cast<float>();
     for (const Eigen::Vector3f& p : io::ReadPointCloud(files[k])) {
       const Eigen::Vector3f w = transform * p;
-      const double range = cmd.lidar_in_world ? o.min_range_m : (w.head<2>().cast<double>() - s.sensor_m.head<2>()).norm();
+      const double range =
+          cmd.lidar_in_world ? o.min_range_m : (w.head<2>().cast<double>() - s.sensor_m.head<2>()).norm();
       if (!cmd.lidar_in_world && (range < o.min_range_m || range > o.max_range_m)) continue;
       s.points.push_back(w);
     }
@@ -905,9 +908,10 @@ LidarEvalResult RunLidarMapEvaluation(const LidarMapCommand& cmd, const json& in
       for (int row = 0; row < ground.rows; ++row) {
         for (int col = 0; col < ground.cols; ++col) {
           if (!std::isfinite(ground.at<float>(row, col))) continue;
-          const std::size_t i = static_cast<std::size_t>(row) * static_cast<std::size_t>(ground.cols) +
-                                static_cast<std::size_t>(col);
-          if (mine.start[i + 1] - mine.start[i] < 3 || theirs.start[i + 1] - theirs.start[i] < o.min_lidar_points) continue;
+          const std::size_t i =
+              static_cast<std::size_t>(row) * static_cast<std::size_t>(ground.cols) + static_cast<std::size_t>(col);
+          if (mine.start[i + 1] - mine.start[i] < 3 || theirs.start[i + 1] - theirs.start[i] < o.min_lidar_points)
+            continue;
           std::vector<float> a(mine.z.begin() + mine.start[i], mine.z.begin() + mine.start[i + 1]);
           std::vector<float> b(theirs.z.begin() + theirs.start[i], theirs.z.begin() + theirs.start[i + 1]);
           d.push_back(Median(&a) - Median(&b));

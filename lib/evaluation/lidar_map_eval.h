@@ -4,14 +4,13 @@
 // `evaluate map --lidar`; docs/evaluate.md, "Against LiDAR".
 #pragma once
 
+#include <Eigen/Geometry>
 #include <filesystem>
 #include <limits>
+#include <nlohmann/json.hpp>
 #include <string>
 #include <utility>
 #include <vector>
-
-#include <Eigen/Geometry>
-#include <nlohmann/json.hpp>
 
 #include "calib/stereo_rig.h"
 #include "evaluation/table.h"
@@ -82,9 +81,9 @@ io::GeoRaster GridLidarTruth(const std::vector<LidarSweep>& sweeps, const io::Ge
 
 struct LidarEvalResult {
   long sweeps = 0, returns = 0;
-  long flat_cells = 0;       ///< LiDAR flat-ground cells.
+  long flat_cells = 0;           ///< LiDAR flat-ground cells.
   long flat_cells_untimely = 0;  ///< Of those, not judged: a pair far in time from every sweep saw them.
-  long cells_compared = 0;   ///< Flat cells the map holds (>= min_points).
+  long cells_compared = 0;       ///< Flat cells the map holds (>= min_points).
   double rmse_m = 0, median_m = 0, mean_m = 0, p90_abs_m = 0, max_abs_m = 0;
   long cells_large_error = 0;
   double large_error_x_m = std::numeric_limits<double>::quiet_NaN();  ///< Where the largest error lies.
@@ -120,8 +119,8 @@ struct LidarEvalResult {
 /// where it stood in most of the sweeps that saw it.
 LidarEvalResult EvaluateMapAgainstLidar(const io::GeoRaster& map, const io::GeoRaster& truth,
                                         const std::vector<mapping::FramePose>& pairs, const calib::StereoRig& rig,
-                                        const LidarEvalOptions& options,
-                                        const std::vector<double>& sweep_times_s = {}, cv::Mat* untimely = nullptr,
+                                        const LidarEvalOptions& options, const std::vector<double>& sweep_times_s = {},
+                                        cv::Mat* untimely = nullptr,
                                         const std::vector<std::vector<int>>* stood_in = nullptr);
 
 /// The sweep-to-sweep consistency of the truth (LidarEvalResult::sweep_*).

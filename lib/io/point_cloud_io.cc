@@ -19,8 +19,8 @@ namespace {
 bool Finite(const Eigen::Vector3f& p) { return std::isfinite(p.x()) && std::isfinite(p.y()) && std::isfinite(p.z()); }
 
 float LittleEndianFloat(const unsigned char* p) {
-  const std::uint32_t bits = std::uint32_t{p[0]} | std::uint32_t{p[1]} << 8 | std::uint32_t{p[2]} << 16 |
-                             std::uint32_t{p[3]} << 24;
+  const std::uint32_t bits =
+      std::uint32_t{p[0]} | std::uint32_t{p[1]} << 8 | std::uint32_t{p[2]} << 16 | std::uint32_t{p[3]} << 24;
   float v;
   std::memcpy(&v, &bits, sizeof v);
   return v;
@@ -131,7 +131,8 @@ std::vector<Eigen::Vector3f> ReadPcd(const fs::path& path) {
     }
   }
   for (int a = 0; a < 3; ++a) {
-    LN_CHECK_INPUT(xyz[a] >= 0) << name << ": no field " << "xyz"[a];
+    LN_CHECK_INPUT(xyz[a] >= 0) << name << ": no field "
+                                << "xyz"[a];
     const std::size_t i = static_cast<std::size_t>(xyz[a]);
     LN_CHECK_INPUT(types[i] == "F" && (sizes[i] == 4 || sizes[i] == 8))
         << name << ": field " << fields[i] << ": expected TYPE F of SIZE 4 or 8";

@@ -3,11 +3,10 @@
 // "Point clouds".
 #pragma once
 
+#include <Eigen/Core>
 #include <cstdint>
 #include <filesystem>
 #include <vector>
-
-#include <Eigen/Core>
 
 namespace lunarnav::io {
 

@@ -42,8 +42,10 @@ std::pair<fs::path, fs::path> PairFolders(const fs::path& input_dir) {
   for (const auto& layout : kLayouts) {
     if (fs::is_directory(input_dir / layout[0], ec) || fs::is_directory(input_dir / layout[1], ec)) {
       const fs::path left = input_dir / layout[0], right = input_dir / layout[1];
-      LN_CHECK_INPUT(fs::is_directory(left, ec)) << input_dir.string() << ": no " << layout[0] << "/ beside " << layout[1] << "/";
-      LN_CHECK_INPUT(fs::is_directory(right, ec)) << input_dir.string() << ": no " << layout[1] << "/ beside " << layout[0] << "/";
+      LN_CHECK_INPUT(fs::is_directory(left, ec))
+          << input_dir.string() << ": no " << layout[0] << "/ beside " << layout[1] << "/";
+      LN_CHECK_INPUT(fs::is_directory(right, ec))
+          << input_dir.string() << ": no " << layout[1] << "/ beside " << layout[0] << "/";
       return {left, right};
     }
   }

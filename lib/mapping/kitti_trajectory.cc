@@ -138,8 +138,8 @@ Eigen::Isometry3d RigidFromKeys(const std::map<std::string, calib::TextEntry>& e
 // R_rect_00 of a calib_cam_to_cam.txt as a transform.
 Eigen::Isometry3d RectifyingRotation(const fs::path& cam_to_cam) {
   const auto entries = calib::ReadKeyValues(cam_to_cam, ':');
-  std::vector<double> r = calib::TextNumbers(calib::TextField(entries, "R_rect_00", cam_to_cam), "R_rect_00",
-                                             cam_to_cam, 9);
+  std::vector<double> r =
+      calib::TextNumbers(calib::TextField(entries, "R_rect_00", cam_to_cam), "R_rect_00", cam_to_cam, 9);
   std::vector<double> v(12, 0.0);
   for (int i = 0; i < 3; ++i) {
     for (int j = 0; j < 3; ++j) v[static_cast<std::size_t>(4 * i + j)] = r[static_cast<std::size_t>(3 * i + j)];
@@ -164,10 +164,14 @@ positioning::TrajectorySample SampleOf(const Eigen::Isometry3d& world_from_vehic
 
 std::string ToString(TrajectoryFormat format) {
   switch (format) {
-    case TrajectoryFormat::kPosfilterCsv: return "posfilter-csv";
-    case TrajectoryFormat::kTum: return "tum";
-    case TrajectoryFormat::kKittiPoses: return "kitti-poses";
-    case TrajectoryFormat::kKittiOxts: return "kitti-oxts";
+    case TrajectoryFormat::kPosfilterCsv:
+      return "posfilter-csv";
+    case TrajectoryFormat::kTum:
+      return "tum";
+    case TrajectoryFormat::kKittiPoses:
+      return "kitti-poses";
+    case TrajectoryFormat::kKittiOxts:
+      return "kitti-oxts";
   }
   return "?";
 }
@@ -181,14 +185,11 @@ TrajectoryFormat DetectTrajectoryFormat(const fs::path& path) {
   }
   LN_CHECK_INPUT(fs::is_regular_file(path, ec)) << path.string() << ": no such file";
   if (path.extension() == ".csv") return TrajectoryFormat::kPosfilterCsv;
-  const std::string first = FirstDataLine(path);
+  // Twelve numbers on the first line: KITTI's; anything else is read as TUM, whose reader names
+  // the line that is not.
   std::vector<double> values;
-  LN_CHECK_INPUT(!first.empty()) << path.string() << ": no poses";
-  const bool numbers = LineNumbers(first, &values);
-  if (numbers && values.size() == 12) return TrajectoryFormat::kKittiPoses;
-  if (numbers && values.size() == 8) return TrajectoryFormat::kTum;
-  throw InputError(path.string() + ": not a trajectory this reads (a .csv of posfilter's, TUM's 8 numbers or " +
-                   "KITTI's 12 per line, or KITTI's oxts/ directory)");
+  const bool numbers = LineNumbers(FirstDataLine(path), &values);
+  return numbers && values.size() == 12 ? TrajectoryFormat::kKittiPoses : TrajectoryFormat::kTum;
 }
 
 bool IsKittiFrameTimes(const fs::path& path) {
@@ -227,7 +228,8 @@ std::vector<Eigen::Isometry3d> ReadKittiPoses(const fs::path& path) {
     const std::string where = path.string() + ":" + std::to_string(number);
     std::vector<double> v;
     LN_CHECK_INPUT(LineNumbers(line, &v) && v.size() == 12)
-        << where << ": expected 12 numbers (a 3 x 4 pose, row-major), got " << (v.size() == 12 ? "a non-number" : std::to_string(v.size()));
+        << where << ": expected 12 numbers (a 3 x 4 pose, row-major), got "
+        << (v.size() == 12 ? "a non-number" : std::to_string(v.size()));
     const Eigen::Isometry3d pose = RigidFrom12(v, where);
     LN_CHECK_INPUT(pose.translation().cwiseAbs().maxCoeff() <= kMaxWorldCoordinateM)
         << where << ": a position beyond " << kMaxWorldCoordinateM / 1000 << " km";
@@ -298,8 +300,9 @@ std::vector<positioning::TrajectorySample> ReadKittiOxtsTrajectory(const fs::pat
         continue;
       }
       const std::size_t index = std::stoul(stem);
-      LN_CHECK_INPUT(index < times.size()) << e.path().string() << ": packet " << index << " has no line in "
-                                           << (oxts_dir / "timestamps.txt").string() << " (" << times.size() << " lines)";
+      LN_CHECK_INPUT(index < times.size())
+          << e.path().string() << ": packet " << index << " has no line in " << (oxts_dir / "timestamps.txt").string()
+          << " (" << times.size() << " lines)";
       present.push_back(index);
     }
     std::sort(present.begin(), present.end());
@@ -332,13 +335,13 @@ std::vector<positioning::TrajectorySample> ReadKittiOxtsTrajectory(const fs::pat
     last_t = t;
     last_vu = has_vu ? v[10] : std::numeric_limits<double>::quiet_NaN();
     Eigen::Isometry3d world_from_imu = Eigen::Isometry3d::Identity();
-    world_from_imu.translation() = Eigen::Vector3d(scale * lon * M_PI * kEarthRadiusM / 180.0,
-                                                   scale * kEarthRadiusM * std::log(std::tan((90.0 + lat) * M_PI / 360.0)),
-                                                   height);
-    world_from_imu.linear() = (Eigen::AngleAxisd(v[5], Eigen::Vector3d::UnitZ()) *
-                               Eigen::AngleAxisd(v[4], Eigen::Vector3d::UnitY()) *
-                               Eigen::AngleAxisd(v[3], Eigen::Vector3d::UnitX()))
-                                  .toRotationMatrix();
+    world_from_imu.translation() =
+        Eigen::Vector3d(scale * lon * M_PI * kEarthRadiusM / 180.0,
+                        scale * kEarthRadiusM * std::log(std::tan((90.0 + lat) * M_PI / 360.0)), height);
+    world_from_imu.linear() =
+        (Eigen::AngleAxisd(v[5], Eigen::Vector3d::UnitZ()) * Eigen::AngleAxisd(v[4], Eigen::Vector3d::UnitY()) *
+         Eigen::AngleAxisd(v[3], Eigen::Vector3d::UnitX()))
+            .toRotationMatrix();
     Eigen::Isometry3d world_from_vehicle = world_from_imu * imu_from_vehicle;
     if (samples.empty()) origin = world_from_vehicle.translation();
     world_from_vehicle.translation() -= origin;

@@ -9,11 +9,10 @@
 // vehicle's X (right) and Y (forward) for pose files, which hold no north.
 #pragma once
 
+#include <Eigen/Geometry>
 #include <filesystem>
 #include <string>
 #include <vector>
-
-#include <Eigen/Geometry>
 
 #include "mapping/frame_poses.h"
 #include "positioning/dead_reckoning.h"
@@ -29,8 +28,10 @@ enum class TrajectoryFormat {
 };
 std::string ToString(TrajectoryFormat format);
 
-/// A directory is KITTI's oxts/; a .csv file posfilter's; otherwise the first data line's count
-/// of numbers: 12 KITTI poses, 8 TUM. @throws InputError naming the file for anything else.
+/// A directory is KITTI's oxts/ (InputError naming it when it holds no data/ and
+/// timestamps.txt); a .csv file posfilter's; a file whose first line that is not blank or a
+/// '#' comment holds 12 numbers KITTI's poses; anything else TUM (its reader names the line
+/// that is not). @throws InputError naming a path that does not exist.
 TrajectoryFormat DetectTrajectoryFormat(const std::filesystem::path& path);
 
 /// True when a frame-times file is one of KITTI's (its first line that is not blank or a '#'

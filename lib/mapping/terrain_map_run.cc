@@ -338,9 +338,11 @@ TerrainMapRunSummary RunTerrainMap(const TerrainMapRunOptions& options, const fs
     const std::size_t n = std::min(block, todo.size() - b0);
     std::vector<FrameContribution> parts(n);
     std::vector<cv::Size> sizes(n);
+    std::vector<double> read_cpu(n, 0.0);
     util::ParallelForEachItem(n, threads, [&](std::size_t k) {
       const FramePose& pose = todo[b0 + k];
       const fs::path xyz_path = options.stereo_dir / "xyz" / (pose.stem + ".exr");
+      const double read_start = util::ThreadCpuSeconds();
       const io::ExrImage xyz = io::ReadExr(xyz_path);
       LN_CHECK_INPUT(xyz.pixels.type() == CV_32FC3)
           << "stem " << pose.stem << ": " << xyz_path.string() << " has " << xyz.pixels.channels()
@@ -354,6 +356,7 @@ TerrainMapRunSummary RunTerrainMap(const TerrainMapRunOptions& options, const fs
             << " with " << sigma.channels() << " channels, the XYZ array " << xyz.pixels.cols << "x"
             << xyz.pixels.rows << " with 3";
       }
+      read_cpu[k] = util::ThreadCpuSeconds() - read_start;
       sizes[k] = xyz.pixels.size();
       const auto interval = y_interval.find(pose.stem);
       constexpr double kInf = std::numeric_limits<double>::infinity();
@@ -364,6 +367,7 @@ TerrainMapRunSummary RunTerrainMap(const TerrainMapRunOptions& options, const fs
     });
     for (std::size_t k = 0; k < n; ++k) {
       const FramePose& pose = todo[b0 + k];
+      summary.read_cpu_seconds += read_cpu[k];
       if (first_stem.empty()) {
         first_stem = pose.stem;
         first_size = sizes[k];
@@ -467,6 +471,7 @@ TerrainMapRunSummary RunTerrainMap(const TerrainMapRunOptions& options, const fs
   j["timings_s"] = {{"total", summary.seconds},
                     {"read_and_fuse", summary.fuse_seconds},
                     {"read_and_fuse_cpu", summary.fuse_cpu_seconds},
+                    {"read_cpu", summary.read_cpu_seconds},
                     {"write", summary.write_seconds}};
   // Points (valid XYZ) read and fused per second of wall time, and per second of CPU time
   // (with -j 1, one core's rate even when other processes share the machine).

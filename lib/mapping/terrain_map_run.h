@@ -53,6 +53,8 @@ struct TerrainMapRunSummary {
   long frames_without_points = 0;  ///< This run's pairs whose XYZ arrays held no valid point.
   std::vector<std::string> warnings;  ///< Printed as they arise and kept in summary.json.
   double seconds = 0, fuse_seconds = 0, fuse_cpu_seconds = 0, write_seconds = 0;
+  /// Of fuse_cpu_seconds, the CPU time the threads spent reading the arrays (the EXR decoding).
+  double read_cpu_seconds = 0;
   double peak_memory_mib = 0;
   std::string BriefReport() const;  ///< e.g. "40 frames, 9.1 M points fused; 12,345 cells, 17 obstacle cells; 3.2 s".
 };

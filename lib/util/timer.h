@@ -2,6 +2,7 @@
 #pragma once
 
 #include <chrono>
+#include <ctime>
 
 namespace lunarnav::util {
 
@@ -18,5 +19,12 @@ class Timer {
  private:
   std::chrono::steady_clock::time_point start_;
 };
+
+/// The CPU time the calling thread has used, seconds (what a part of a parallel loop costs).
+inline double ThreadCpuSeconds() {
+  timespec t{};
+  clock_gettime(CLOCK_THREAD_CPUTIME_ID, &t);
+  return static_cast<double>(t.tv_sec) + 1e-9 * static_cast<double>(t.tv_nsec);
+}
 
 }  // namespace lunarnav::util

@@ -1,8 +1,8 @@
 #include "evaluation/lidar_map_eval.h"
 
-#include <cmath>
-
 #include <gtest/gtest.h>
+
+#include <cmath>
 
 namespace lunarnav::evaluation {
 namespace {
@@ -16,7 +16,6 @@ io::RasterBand NamedBand(const cv::Mat& pixels, const char* name) {
   band.description = name;
   return band;
 }
-
 
 // A level KITTI-like rectified rig: 1242 x 375, f = 721 px, 0.54 m baseline, 1.65 m up.
 calib::StereoRig KittiLikeRig() {
@@ -202,8 +201,8 @@ TEST(EvaluateMapAgainstLidar, AnObjectCountsForRecallWhereItStoodWhenThePairSawI
   EXPECT_EQ(r.objects_found, 1);
   // Seen by a pair at 0.5 s, the new box is an object the map missed.
   s.pairs[0].t_s = 0.5;
-  const LidarEvalResult later = EvaluateMapAgainstLidar(s.map, s.truth, s.pairs, s.rig, s.options, times, nullptr,
-                                                        &stood);
+  const LidarEvalResult later =
+      EvaluateMapAgainstLidar(s.map, s.truth, s.pairs, s.rig, s.options, times, nullptr, &stood);
   EXPECT_EQ(later.objects, 2);
   EXPECT_EQ(later.objects_found, 1);
 }

@@ -128,7 +128,9 @@ bool RigImport(const std::uint8_t* data, std::size_t size) {
     }
     default: {
       const fs::path path = WriteScratch("calib_cam_to_cam.txt", bytes);
-      return Refusing([&] { calib::ReadKittiCalib(path, mast, calib::KittiPair::kColour, std::pair<int, int>{1242, 375}); });
+      return Refusing([&] {
+        calib::ReadKittiCalib(path, mast, calib::KittiPair::kColour, std::pair<int, int>{1242, 375});
+      });
     }
   }
 }

@@ -1,11 +1,11 @@
 #include "io/point_cloud_io.h"
 
+#include <gtest/gtest.h>
+
 #include <cmath>
 #include <cstring>
 #include <limits>
 #include <string>
-
-#include <gtest/gtest.h>
 
 #include "io/atomic_file.h"
 #include "util/errors.h"
@@ -63,8 +63,7 @@ TEST(ReadPointCloud, ReadsPcdAsciiAndBinary) {
   ExpectRefused(dir.path() / "short.pcd", "2 points of 16 bytes declared, 20 bytes of data");
   WriteFileAtomic(dir.path() / "lzf.pcd", head + "DATA binary_compressed\n");
   ExpectRefused(dir.path() / "lzf.pcd", "DATA binary_compressed is not supported");
-  WriteFileAtomic(dir.path() / "noz.pcd",
-                  "FIELDS x y\nSIZE 4 4\nTYPE F F\nCOUNT 1 1\nPOINTS 1\nDATA ascii\n1 2\n");
+  WriteFileAtomic(dir.path() / "noz.pcd", "FIELDS x y\nSIZE 4 4\nTYPE F F\nCOUNT 1 1\nPOINTS 1\nDATA ascii\n1 2\n");
   ExpectRefused(dir.path() / "noz.pcd", "no field z");
   ExpectRefused(dir.path() / "cloud.xyz", "not a point cloud this reads");
 }

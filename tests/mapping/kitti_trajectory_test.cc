@@ -1,10 +1,10 @@
 #include "mapping/kitti_trajectory.h"
 
+#include <gtest/gtest.h>
+
 #include <cmath>
 #include <cstdio>
 #include <string>
-
-#include <gtest/gtest.h>
 
 #include "calib/stereo_rig.h"
 #include "io/atomic_file.h"
@@ -146,7 +146,9 @@ TEST(PosesOfPairs, ReadsKittiPosesAtKittiTimesThroughTheRig) {
   io::WriteFileAtomic(dir.path() / "tum.txt", "# t x y z qx qy qz qw\n0 0 0 0 0 0 0 1\n");
   EXPECT_EQ(DetectTrajectoryFormat(dir.path() / "tum.txt"), TrajectoryFormat::kTum);
   io::WriteFileAtomic(dir.path() / "odd.txt", "0 0 0\n");
-  EXPECT_THROW(DetectTrajectoryFormat(dir.path() / "odd.txt"), InputError);
+  EXPECT_EQ(DetectTrajectoryFormat(dir.path() / "odd.txt"), TrajectoryFormat::kTum);  // TUM's reader names the line
+  EXPECT_THROW(DetectTrajectoryFormat(dir.path() / "missing.txt"), InputError);
+  EXPECT_THROW(DetectTrajectoryFormat(dir.path()), InputError);  // a directory that is no oxts/
 }
 
 TEST(ReadKittiOxtsTrajectory, FollowsTheDevkitsProjectionAndTheCalibrationChain) {
@@ -181,8 +183,7 @@ TEST(ReadKittiOxtsTrajectory, FollowsTheDevkitsProjectionAndTheCalibrationChain)
   const std::string climbing = " 0 0 0 0 1" + rest.substr(10);
   io::WriteFileAtomic(oxts / "data" / "0000000001.txt", "49.00001 8.4 110.5 0 0 1.5707963267948966" + climbing);
   io::WriteFileAtomic(oxts / "data" / "0000000002.txt", "49.00001 8.4 110.5 0 0 1.5707963267948966" + climbing);
-  io::WriteFileAtomic(oxts / "timestamps.txt",
-                      "2011-09-26 13:04:32.3\n2011-09-26 13:04:32.4\n2011-09-26 13:04:32.5\n");
+  io::WriteFileAtomic(oxts / "timestamps.txt", "2011-09-26 13:04:32.3\n2011-09-26 13:04:32.4\n2011-09-26 13:04:32.5\n");
   const auto climb = ReadKittiOxtsTrajectory(oxts, KittiLikeVehicleFromCamera());
   ASSERT_EQ(climb.size(), 3u);
   const double z1 = 0.05 + (0.5 - 0.05) * 0.1 / kOxtsAltitudeTimeConstantS;  // vu 0 then 1: a trapezoid
