@@ -11,6 +11,7 @@
 
 #include "calib/stereo_rig_io.h"
 #include "calib/window_selection.h"
+#include "evaluation/map_rasters.h"
 #include "io/atomic_file.h"
 #include "io/float_array_io.h"
 #include "io/image_io.h"
@@ -51,8 +52,8 @@ io::RasterBand NamedBand(const cv::Mat& pixels, const char* name) {
   return band;
 }
 
-json Number(double v) { return std::isfinite(v) ? json(v) : json(nullptr); }
-double Ratio(long a, long b) { return b > 0 ? static_cast<double>(a) / static_cast<double>(b) : kNaN; }
+using internal::Number;
+using internal::Ratio;
 
 double Median(std::vector<float>* v) {
   if (v->empty()) return kNaN;
@@ -71,17 +72,10 @@ double MedianOf(std::vector<double> v) {
 }
 
 const cv::Mat& Band(const io::GeoRaster& r, const std::string& name, const std::string& what) {
-  const int i = r.BandIndex(name);
-  LN_CHECK_INPUT(i >= 0) << what << ": no band '" << name << "'";
-  LN_CHECK_INPUT(r.bands[static_cast<std::size_t>(i)].pixels.type() == CV_32FC1)
-      << what << ": band '" << name << "' is not Float32";
-  return r.bands[static_cast<std::size_t>(i)].pixels;
+  return internal::FloatBand(r, name, what);
 }
 
-float At(const cv::Mat& m, int col, int row) {
-  if (col < 0 || row < 0 || col >= m.cols || row >= m.rows) return kNaNf;
-  return m.at<float>(row, col);
-}
+float At(const cv::Mat& m, int col, int row) { return internal::ValueAt(m, col, row); }
 
 // The returns of every sweep binned by truth cell (a counting sort): cell k's returns are
 // z[start[k] .. start[k + 1]), with their sweeps.
@@ -197,12 +191,7 @@ io::GeoRaster TruthLattice(const std::vector<LidarSweep>& sweeps, const io::GeoR
 
 // Offset of raster b's cells in raster a's: b(col, row) = a(col + dc, row + dr).
 void LatticeOffset(const io::GeoRaster& a, const io::GeoRaster& b, int* dc, int* dr) {
-  const double fc = (b.x_west_m - a.x_west_m) / a.cell_m, fr = (a.y_north_m - b.y_north_m) / a.cell_m;
-  LN_CHECK_INPUT(std::abs(a.cell_m - b.cell_m) <= 1e-9 * a.cell_m && std::abs(fc - std::round(fc)) < 1e-6 &&
-                 std::abs(fr - std::round(fr)) < 1e-6)
-      << "the LiDAR truth is not on the map's lattice";
-  *dc = static_cast<int>(std::lround(fc));
-  *dr = static_cast<int>(std::lround(fr));
+  internal::LatticeOffset(a, b, "the LiDAR truth", dc, dr);
 }
 
 // Where a vehicle-frame point falls in the rig's rectified images: true when inside both.

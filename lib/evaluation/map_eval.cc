@@ -10,6 +10,7 @@
 #include <mutex>
 #include <sstream>
 
+#include "evaluation/map_rasters.h"
 #include "io/atomic_file.h"
 #include "io/float_array_io.h"
 #include "io/image_io.h"
@@ -30,33 +31,13 @@ namespace {
 
 constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
 
-// Offset of raster b's cells in raster a's: b(col, row) = a(col + dc, row + dr).
-void LatticeOffset(const io::GeoRaster& a, const io::GeoRaster& b, const std::string& what, int* dc, int* dr) {
-  LN_CHECK_INPUT(std::abs(a.cell_m - b.cell_m) <= 1e-9 * a.cell_m)
-      << what << ": cell " << b.cell_m << " m, the map's is " << a.cell_m << " m";
-  const double fc = (b.x_west_m - a.x_west_m) / a.cell_m, fr = (a.y_north_m - b.y_north_m) / a.cell_m;
-  LN_CHECK_INPUT(std::abs(fc - std::round(fc)) < 1e-6 && std::abs(fr - std::round(fr)) < 1e-6)
-      << what << ": not on the map's cell lattice";
-  *dc = static_cast<int>(std::lround(fc));
-  *dr = static_cast<int>(std::lround(fr));
-}
-
+using internal::LatticeOffset;
+using internal::Number;
+using internal::Ratio;
 const cv::Mat& Band(const io::GeoRaster& r, const std::string& name, const std::string& what) {
-  const int i = r.BandIndex(name);
-  LN_CHECK_INPUT(i >= 0) << what << ": no band '" << name << "'";
-  LN_CHECK_INPUT(r.bands[i].pixels.type() == CV_32FC1) << what << ": band '" << name << "' is not Float32";
-  return r.bands[i].pixels;
+  return internal::FloatBand(r, name, what);
 }
-
-// Value of `m` at (col, row) of another raster offset by (dc, dr), NaN outside.
-float At(const cv::Mat& m, int col, int row) {
-  if (col < 0 || row < 0 || col >= m.cols || row >= m.rows) return std::numeric_limits<float>::quiet_NaN();
-  return m.at<float>(row, col);
-}
-
-double Ratio(long a, long b) { return b > 0 ? static_cast<double>(a) / static_cast<double>(b) : kNaN; }
-
-json Number(double v) { return std::isfinite(v) ? json(v) : json(nullptr); }
+float At(const cv::Mat& m, int col, int row) { return internal::ValueAt(m, col, row); }
 
 }  // namespace
 
