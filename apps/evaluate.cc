@@ -267,6 +267,22 @@ Subcommand AddMap(CLI::App* app) {
   cmd->add_option("-o,--output", c->output_dir, "output directory (created)")->required();
   return {cmd, [c](const json& head) {
             LN_CHECK_ARG(c->truth.empty() != c->lidar.lidar_dir.empty()) << "give either --truth or --lidar";
+            if (c->lidar.lidar_dir.empty()) {  // no option of --lidar's is silently ignored
+              const evaluation::LidarMapCommand& l = c->lidar;
+              for (const auto& [given, name] : {std::pair{!l.lidar_calib.empty(), "--lidar-calib"},
+                                                {l.lidar_in_world, "--lidar-in-world"},
+                                                {!l.rig.empty(), "--rig"},
+                                                {!l.poses_csv.empty(), "--poses"},
+                                                {!l.trajectory.empty(), "--trajectory"},
+                                                {!l.frame_times.empty(), "--frame-times"},
+                                                {!l.pairs_dir.empty(), "--pairs"},
+                                                {!l.stereo_dir.empty(), "--stereo"},
+                                                {!c->band.empty(), "--band"}}) {
+                LN_CHECK_ARG(!given) << name << ": only with --lidar (the simulated truth holds its own poses)";
+              }
+            } else {
+              LN_CHECK_ARG(c->requests.empty()) << "--requests: only with --truth";
+            }
             if (!c->lidar.lidar_dir.empty()) {
               evaluation::LidarMapCommand& l = c->lidar;
               LN_CHECK_ARG(!l.rig.empty()) << "--lidar needs --rig";
@@ -275,7 +291,9 @@ Subcommand AddMap(CLI::App* app) {
               LN_CHECK_ARG(l.trajectory.empty() || !l.frame_times.empty()) << "--trajectory needs --frame-times";
               LN_CHECK_ARG(!l.lidar_in_world || !(l.poses_csv.empty() && l.trajectory.empty()))
                   << "the pairs' poses are still needed with --lidar-in-world (the band)";
-              if (!c->band.empty()) std::tie(l.band_min_y_m, l.band_max_y_m) = util::ParseDoublePair(c->band, ':', "--band");
+              if (!c->band.empty()) {
+                std::tie(l.band_min_y_m, l.band_max_y_m) = util::ParseDoublePair(c->band, ':', "--band");
+              }
               std::tie(l.options.min_range_m, l.options.max_range_m) =
                   util::ParseDoublePair(c->lidar_range, ':', "--lidar-range");
               l.map_dir = c->map;

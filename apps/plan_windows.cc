@@ -56,11 +56,12 @@ int main(int argc, char** argv) {
     LN_CHECK_ARG(trajectory.empty() || !frame_times.empty()) << "--trajectory needs --frame-times";
     const calib::VehicleSpec vehicle = vehicle_path.empty() ? calib::VehicleSpec() : calib::ReadVehicleSpec(vehicle_path);
     std::vector<mapping::FramePose> frames =
-        poses.empty() ? mapping::InterpolateTrajectory(
-                            trajectory, mapping::ReadFrameTimes(frame_times),
-                            {frame_times, rig_path.empty() ? std::nullopt
-                                                           : std::optional(calib::ReadStereoRig(rig_path).VehicleFromLeft())})
-                      : mapping::ReadPosesCsv(poses);
+        poses.empty()
+            ? mapping::InterpolateTrajectory(
+                  trajectory, mapping::ReadFrameTimes(frame_times),
+                  {frame_times,
+                   rig_path.empty() ? std::nullopt : std::optional(calib::ReadStereoRig(rig_path).VehicleFromLeft())})
+            : mapping::ReadPosesCsv(poses);
     std::optional<mapping::MapLayers> map;
     if (!map_dir.empty()) map = mapping::ReadMapElevation(map_dir);
     const std::string source = poses.empty() ? trajectory.string() : poses.string();

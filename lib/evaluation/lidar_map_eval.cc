@@ -707,11 +707,12 @@ std::string LidarEvalResult::BriefReport() const {
 namespace {
 
 // The picture: the error on flat ground over the map, the LiDAR's objects, the map's obstacles
-// and the pairs' path, 4 pixels a cell, north up.
+// and the pairs' path, 4 pixels a cell (fewer for a truth over 1024 cells a side, so that the
+// picture stays within 4096 pixels a side where it can), north up.
 cv::Mat ErrorPicture(const io::GeoRaster& map, const io::GeoRaster& truth, const std::vector<mapping::FramePose>& pairs,
                      const LidarEvalOptions& o, const cv::Mat& untimely) {
-  constexpr int kScale = 4;
   const cv::Mat& ground = Band(truth, "ground_m", "truth");
+  const int kScale = std::clamp(4096 / std::max({ground.rows, ground.cols, 1}), 1, 4);
   const cv::Mat& cls = Band(truth, "class", "truth");
   const cv::Mat& elevation = Band(map, "elevation_m", "map");
   const cv::Mat& count = Band(map, "count", "map");
@@ -747,7 +748,9 @@ cv::Mat ErrorPicture(const io::GeoRaster& map, const io::GeoRaster& truth, const
         cv::rectangle(image, box, cv::Scalar(0, 230, 255), 1);
       }
       if (is_mapped && At(obstacle, col + dc, row + dr) > 0) {
-        cv::rectangle(image, cv::Rect(col * kScale + 1, row * kScale + 1, 2, 2), cv::Scalar(255, 0, 255), cv::FILLED);
+        cv::rectangle(image, cv::Rect(col * kScale + kScale / 4, row * kScale + kScale / 4, std::max(1, kScale / 2),
+                                      std::max(1, kScale / 2)),
+                      cv::Scalar(255, 0, 255), cv::FILLED);
       }
     }
   }
@@ -944,7 +947,8 @@ LidarEvalResult RunLidarMapEvaluation(const LidarMapCommand& cmd, const json& in
         const float n = At(count, col + dc, row + dr);
         const double m = n >= o.min_points ? At(elevation, col + dc, row + dr) : kNaN;
         csv << truth.CellCentreX(col) << "," << truth.CellCentreY(row) << "," << t << "," << m << "," << m - t << ","
-            << (std::isfinite(n) ? n : 0) << "," << (n >= o.min_points && At(obstacle, col + dc, row + dr) > 0) << ","
+            << (std::isfinite(n) ? static_cast<long>(n) : 0L) << ","
+            << (n >= o.min_points && At(obstacle, col + dc, row + dr) > 0) << ","
             << (untimely.at<std::uint8_t>(row, col) == 0) << "\n";
       }
     }

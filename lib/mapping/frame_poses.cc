@@ -19,11 +19,7 @@ namespace {
 
 constexpr double kDeg = M_PI / 180.0;
 
-std::string Trim(const std::string& s) {
-  const auto b = s.find_first_not_of(" \t\r");
-  if (b == std::string::npos) return "";
-  return s.substr(b, s.find_last_not_of(" \t\r") - b + 1);
-}
+using util::Trim;
 
 std::vector<std::string> SplitCells(const std::string& line) {
   std::vector<std::string> cells;

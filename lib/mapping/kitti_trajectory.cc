@@ -25,11 +25,7 @@ constexpr double kDeg = M_PI / 180.0;
 // The largest file of poses, times or packets read, lines: a drive of 28 hours at 10 Hz.
 constexpr long kMaxLines = 1000000;
 
-std::string Trim(const std::string& s) {
-  const auto b = s.find_first_not_of(" \t\r");
-  if (b == std::string::npos) return "";
-  return s.substr(b, s.find_last_not_of(" \t\r") - b + 1);
-}
+using util::Trim;
 
 // The whitespace-separated numbers of a line; false when a token is not a finite number.
 bool LineNumbers(const std::string& line, std::vector<double>* values) {
@@ -122,11 +118,14 @@ Eigen::Isometry3d RigidFrom12(const std::vector<double>& v, const std::string& w
   return m;
 }
 
-// A rotation (9 numbers, row-major) and translation (3) of a "key: numbers" calibration file.
+// A rotation (9 numbers, row-major) and translation (3; none: zero) of a "key: numbers"
+// calibration file.
 Eigen::Isometry3d RigidFromKeys(const std::map<std::string, calib::TextEntry>& entries, const char* r_key,
                                 const char* t_key, const fs::path& path) {
   const std::vector<double> r = calib::TextNumbers(calib::TextField(entries, r_key, path), r_key, path, 9);
-  const std::vector<double> t = calib::TextNumbers(calib::TextField(entries, t_key, path), t_key, path, 3);
+  const std::vector<double> t = t_key == nullptr ? std::vector<double>(3, 0.0)
+                                                 : calib::TextNumbers(calib::TextField(entries, t_key, path), t_key,
+                                                                      path, 3);
   std::vector<double> v(12);
   for (int i = 0; i < 3; ++i) {
     for (int j = 0; j < 3; ++j) v[static_cast<std::size_t>(4 * i + j)] = r[static_cast<std::size_t>(3 * i + j)];
@@ -137,14 +136,7 @@ Eigen::Isometry3d RigidFromKeys(const std::map<std::string, calib::TextEntry>& e
 
 // R_rect_00 of a calib_cam_to_cam.txt as a transform.
 Eigen::Isometry3d RectifyingRotation(const fs::path& cam_to_cam) {
-  const auto entries = calib::ReadKeyValues(cam_to_cam, ':');
-  std::vector<double> r =
-      calib::TextNumbers(calib::TextField(entries, "R_rect_00", cam_to_cam), "R_rect_00", cam_to_cam, 9);
-  std::vector<double> v(12, 0.0);
-  for (int i = 0; i < 3; ++i) {
-    for (int j = 0; j < 3; ++j) v[static_cast<std::size_t>(4 * i + j)] = r[static_cast<std::size_t>(3 * i + j)];
-  }
-  return RigidFrom12(v, cam_to_cam.string() + ": R_rect_00");
+  return RigidFromKeys(calib::ReadKeyValues(cam_to_cam, ':'), "R_rect_00", nullptr, cam_to_cam);
 }
 
 positioning::TrajectorySample SampleOf(const Eigen::Isometry3d& world_from_vehicle, double t_s) {

@@ -239,6 +239,8 @@ TerrainMapRunSummary RunTerrainMap(const TerrainMapRunOptions& options, const fs
   const TerrainMapOptions& mo = options.map;
 
   // Everything is checked before anything is written.
+  std::optional<calib::StereoRig> rig;
+  if (!options.rig.empty()) rig = calib::ReadStereoRig(options.rig);
   std::vector<FramePose> todo;
   bool has_sigma = false;
   if (!options.stereo_dir.empty()) {
@@ -258,7 +260,7 @@ TerrainMapRunSummary RunTerrainMap(const TerrainMapRunOptions& options, const fs
       stems.push_back(*stem);
     }
     std::optional<Eigen::Isometry3d> vehicle_from_camera;
-    if (!options.rig.empty()) vehicle_from_camera = calib::ReadStereoRig(options.rig).VehicleFromLeft();
+    if (rig) vehicle_from_camera = rig->VehicleFromLeft();
     todo = PosesOfPairs(options.poses_csv, options.trajectory, options.frame_times, stems, vehicle_from_camera);
     has_sigma = options.rig.empty() && fs::is_directory(options.stereo_dir / "xyz_sigma");
   }
@@ -269,9 +271,7 @@ TerrainMapRunSummary RunTerrainMap(const TerrainMapRunOptions& options, const fs
     }
   }
   std::optional<ElevationErrorModel> error_model;
-  if (!options.rig.empty()) {
-    error_model.emplace(calib::ReadStereoRig(options.rig), options.reference, options.sigma_d_px);
-  }
+  if (rig) error_model.emplace(*rig, options.reference, options.sigma_d_px);
   summary.frames_total = static_cast<long>(todo.size());
 
   TerrainGrid grid(mo.cell_m);

@@ -12,12 +12,7 @@
 namespace lunarnav::stereo {
 namespace {
 
-std::string Trim(const std::string& s) {
-  const std::size_t begin = s.find_first_not_of(" \t\r");
-  if (begin == std::string::npos) return "";
-  const std::size_t end = s.find_last_not_of(" \t\r");
-  return s.substr(begin, end - begin + 1);
-}
+using util::Trim;
 
 std::vector<std::string> SplitCells(const std::string& line) {
   std::vector<std::string> cells;

@@ -6,14 +6,13 @@
 #include <system_error>
 
 namespace lunarnav::util {
-namespace {
+
 std::string Trim(const std::string& s) {
-  const auto begin = s.find_first_not_of(" \t");
+  const auto begin = s.find_first_not_of(" \t\r");
   if (begin == std::string::npos) return "";
-  const auto end = s.find_last_not_of(" \t");
+  const auto end = s.find_last_not_of(" \t\r");
   return s.substr(begin, end - begin + 1);
 }
-}  // namespace
 
 int ParseInt(const std::string& text, const std::string& what) {
   const std::string t = Trim(text);

@@ -19,6 +19,9 @@ std::pair<double, double> ParseDoublePair(const std::string& text, char separato
 int ParseInt(const std::string& text, const std::string& what);
 double ParseDouble(const std::string& text, const std::string& what);
 
+/// `s` without its leading and trailing blanks, tabs and carriage returns (a CRLF file's lines).
+std::string Trim(const std::string& s);
+
 /// Removes a UTF-8 byte-order mark from the start of `first_line` (spreadsheets write one
 /// before a CSV's first line): the text readers call it on a file's first line.
 void DropUtf8Bom(std::string* first_line);

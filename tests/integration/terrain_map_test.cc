@@ -273,6 +273,26 @@ TEST(TerrainMapTool, AWindowOfNoSizeIsAUsageError) {
   }
 }
 
+// evaluate map: the simulated truth and LiDAR are two sources; an option of the one given
+// with the other is a usage error naming it, not silently ignored.
+TEST(EvaluateMapTool, OptionsOfTheOtherTruthAreUsageErrors) {
+  util::ScopedTempDir tmp;
+  const fs::path map = tmp.path() / "map", out = tmp.path() / "eval";
+  for (const std::vector<std::string>& args :
+       {std::vector<std::string>{"--truth", "sim", "--stereo", "stereo"}, {"--truth", "sim", "--lidar-calib", "c.txt"},
+        {"--truth", "sim", "--band", "5:10"}, {"--lidar", "velodyne", "--requests", "requests.csv"},
+        {"--truth", "sim", "--lidar", "velodyne"}}) {
+    std::vector<std::string> all = {"map", map.string()};
+    all.insert(all.end(), args.begin(), args.end());
+    all.insert(all.end(), {"-o", out.string(), "-q"});
+    const auto run = RunTool("evaluate", all, tmp.path());
+    EXPECT_EQ(run.exit_code, 2) << args[2] << ": " << run.stderr_text;
+    EXPECT_NE(run.stderr_text.find(args[2] == "velodyne" ? "either --truth or --lidar" : args[2]), std::string::npos)
+        << run.stderr_text;
+    EXPECT_FALSE(fs::exists(out));
+  }
+}
+
 // The state band by band: equal within rounding of the sums.
 void ExpectSameState(const fs::path& a, const fs::path& b) {
   const io::GeoRaster ra = io::ReadGeoTiff(a / "state.tif"), rb = io::ReadGeoTiff(b / "state.tif");
