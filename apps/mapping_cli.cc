@@ -19,6 +19,13 @@ void AddFusionOptions(CLI::App* app, mapping::TerrainMapOptions* map) {
                   "support: reject a point risen more than this above the last point below it in its image column, "
                   "steeper than 30 deg, with no face seen between (inf: off), m")
       ->capture_default_str();
+  app->add_option("--carve-tolerance", map->carve_tolerance_m,
+                  "free-space carving: leave out a cell's observations more than this above the height two pairs' "
+                  "rays passed over it (needs --rig; inf: off), m")
+      ->capture_default_str();
+  app->add_option("--carve-reach", map->carve_reach_m,
+                  "the stretch of each ray, before its point, that carves (horizontal), m")
+      ->capture_default_str();
   app->add_option("--min-frames", map->min_frames, "cells fewer pairs saw are left out of the layers (kept in the sums)")
       ->capture_default_str();
   app->add_option("--frame-floor", map->frame_floor_m,

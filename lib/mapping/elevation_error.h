@@ -47,6 +47,8 @@ class ElevationErrorModel {
     *sigma_h = scale_ * depth * *range_m;
     return true;
   }
+  /// The reference camera's centre in the vehicle frame, metres: where the points' rays start.
+  Eigen::Vector3d ReferenceCamera() const { return {ref_x_, ref_y_, ref_z_}; }
 
  private:
   Eigen::Vector3d left_, axis_;

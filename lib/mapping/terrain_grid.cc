@@ -18,9 +18,21 @@ constexpr int kTileSize = 1 << kTileShift;
 constexpr double kMadToSigma = 1.4826;  // MAD of a normal distribution -> its standard deviation
 constexpr float kNaN = std::numeric_limits<float>::quiet_NaN();
 
-// The state raster's bands, in order.
-const std::array<const char*, 11> kStateBands = {"sum_w",    "sum_wz",   "sum_wzz", "z_min",  "z_max", "count",
-                                                  "rejected", "last_t_s", "frames",  "z_min2", "z_max2"};
+// The state raster of earlier versions: one set of sums per cell, these bands in order.
+const std::array<const char*, 11> kStateBandsV1 = {"sum_w",    "sum_wz",   "sum_wzz", "z_min",  "z_max", "count",
+                                                    "rejected", "last_t_s", "frames",  "z_min2", "z_max2"};
+// The state raster now: the cell's bands, then for each height-bin slot k (1, 2, ...) these
+// bands named "bin<k>_<name>" (count 0: the slot is empty).
+const std::array<const char*, 4> kStateCellBands = {"ceiling", "ceiling2", "rejected", "bin_level"};
+const std::array<const char*, 11> kStateBinBands = {"index",    "sum_w",  "sum_wz", "sum_wzz", "z_min", "z_max",
+                                                     "count",    "last_t_s", "frames", "z_min2",  "z_max2"};
+constexpr float kInfF = std::numeric_limits<float>::infinity();
+
+// The two lowest of {a1 <= a2} and {b1 <= b2}, into a1, a2.
+void TwoLowest(float* a1, float* a2, float b1, float b2) {
+  *a2 = std::min(std::max(*a1, b1), std::min(*a2, b2));
+  *a1 = std::min(*a1, b1);
+}
 
 std::uint64_t TileKey(std::int64_t ti, std::int64_t tj) {
   return (static_cast<std::uint64_t>(static_cast<std::uint32_t>(ti)) << 32) |
@@ -41,6 +53,57 @@ struct ColumnWalk {
   float last_range = std::numeric_limits<float>::infinity();
   float last_z = std::numeric_limits<float>::infinity();
 };
+
+// A point's ray for carving: its world position and its predicted horizontal error.
+struct Ray {
+  double x = 0, y = 0;
+  float z = 0, sigma_h = 0;
+  std::uint32_t point = 0;  // its index in the frame's binned points
+};
+// One point in this many casts its ray (the ceiling is the kCeilingSupport-th lowest of many).
+constexpr std::size_t kRayStride = 8;
+
+// Walks `ray` from the camera (2-D, cell by cell) over its carving stretch: the last
+// o.carve_reach_m before its point, less twice the point's horizontal error and half a cell;
+// in each cell it crosses, the lowest height of the ray there (where it leaves the cell: the
+// ray descends) joins the cell's kCeilingSupport lowest in `ceilings` (box i0, j0, nx x ny).
+// Returns 1 when the ray crossed a cell, else 0.
+int CastRay(const Eigen::Vector3d& camera, const Ray& ray, const TerrainMapOptions& o, std::int32_t i0, std::int32_t j0,
+            std::int64_t nx, std::int64_t ny, float* ceilings) {
+  const double dx = ray.x - camera.x(), dy = ray.y - camera.y(), dz = ray.z - camera.z();
+  const double length = std::sqrt(dx * dx + dy * dy);
+  const double s1 = length - 2.0 * ray.sigma_h - 0.5 * o.cell_m, s0 = std::max(0.0, length - o.carve_reach_m);
+  if (!(dz < 0) || !(s1 > s0)) return 0;
+  const double ux = dx / length, uy = dy / length, c = o.cell_m, inv_cell = 1.0 / c;
+  std::int64_t i = static_cast<std::int64_t>(std::floor((camera.x() + ux * s0) * inv_cell));
+  std::int64_t j = static_cast<std::int64_t>(std::floor((camera.y() + uy * s0) * inv_cell));
+  const int step_i = ux > 0 ? 1 : -1, step_j = uy > 0 ? 1 : -1;
+  const double inf = std::numeric_limits<double>::infinity();
+  // The ray's distance from the camera where it next crosses a column (row) boundary.
+  double next_x = ux != 0 ? ((ux > 0 ? i + 1 : i) * c - camera.x()) / ux : inf;
+  double next_y = uy != 0 ? ((uy > 0 ? j + 1 : j) * c - camera.y()) / uy : inf;
+  const double delta_x = ux != 0 ? c / std::abs(ux) : inf, delta_y = uy != 0 ? c / std::abs(uy) : inf;
+  const double slope = dz / length;
+  for (int guard = 0; guard < 100000; ++guard) {
+    const double s_exit = std::min({next_x, next_y, s1});
+    const std::int64_t li = i - i0, lj = j - j0;
+    if (li >= 0 && lj >= 0 && li < nx && lj < ny) {
+      float h = static_cast<float>(camera.z() + slope * s_exit);
+      for (float* t = ceilings + (lj * nx + li) * kCeilingSupport; t != ceilings + (lj * nx + li + 1) * kCeilingSupport; ++t) {
+        if (h < *t) std::swap(h, *t);
+      }
+    }
+    if (s_exit >= s1) break;
+    if (next_x < next_y) {
+      i += step_i;
+      next_x += delta_x;
+    } else {
+      j += step_j;
+      next_y += delta_y;
+    }
+  }
+  return 1;
+}
 
 // The smaller of two one-sided differences when they agree in sign, else 0 (minmod).
 double MinMod(double a, double b) {
@@ -76,6 +139,8 @@ void TerrainMapOptions::Validate() const {
   LN_CHECK_ARG(visibility_k > 0) << "visibility: must be > 0 (inf: off)";
   LN_CHECK_ARG(std::isfinite(visibility_floor_m) && visibility_floor_m >= 0) << "visibility floor: must be >= 0 m";
   LN_CHECK_ARG(support_rise_m > 0) << "support rise: must be > 0 m (inf: off)";
+  LN_CHECK_ARG(carve_tolerance_m >= 0) << "carve tolerance: must be >= 0 m (inf: off)";
+  LN_CHECK_ARG(std::isfinite(carve_reach_m) && carve_reach_m > 0) << "carve reach: must be > 0 m";
   LN_CHECK_ARG(std::isfinite(frame_floor_m) && frame_floor_m > 0) << "frame floor: must be > 0 m";
   LN_CHECK_ARG(std::isfinite(default_sigma_m) && default_sigma_m > 0) << "default sigma: must be > 0 m";
   LN_CHECK_ARG(max_range_m > 0) << "max range: must be > 0 m";
@@ -96,6 +161,8 @@ nlohmann::json TerrainMapOptions::ToJson() const {
           {"visibility_k", number(visibility_k)},
           {"visibility_floor_m", visibility_floor_m},
           {"support_rise_m", number(support_rise_m)},
+          {"carve_tolerance_m", number(carve_tolerance_m)},
+          {"carve_reach_m", carve_reach_m},
           {"frame_floor_m", frame_floor_m},
           {"default_sigma_m", default_sigma_m},
           {"max_range_m", number(max_range_m)},
@@ -119,6 +186,9 @@ void CellStats::Merge(const CellStats& o) {
   rejected += o.rejected;
   frames += o.frames;
   last_t_s = std::max(last_t_s, o.last_t_s);
+  TwoLowest(&ceiling, &ceiling2, o.ceiling, o.ceiling2);
+  carved_points += o.carved_points;
+  carved_frames += o.carved_frames;
 }
 
 double CellStats::StdDev() const {
@@ -150,6 +220,10 @@ FrameContribution BinFrame(const cv::Mat& xyz, const cv::Mat& sigma, const Eigen
     std::vector<float> zs, ws, sz, sw, scratch;
     std::vector<std::uint32_t> start, local, fill;
     std::vector<ColumnWalk> walk;
+    std::vector<Ray> rays;
+    std::vector<float> ceilings;
+    std::vector<std::uint32_t> src;
+    std::vector<std::uint8_t> accepted;  // per cell of the frame's box, its kCeilingSupport lowest ray heights
   };
   static thread_local Buffers buf;
   std::vector<std::int32_t>& ci = buf.ci;
@@ -160,6 +234,12 @@ FrameContribution BinFrame(const cv::Mat& xyz, const cv::Mat& sigma, const Eigen
   cj.clear();
   zs.clear();
   ws.clear();
+  // Carving: the rays start at the reference camera.
+  const bool carving = error_model != nullptr && std::isfinite(o.carve_tolerance_m);
+  const Eigen::Vector3d camera =
+      carving ? Eigen::Vector3d(world_from_vehicle * error_model->ReferenceCamera()) : Eigen::Vector3d::Zero();
+  std::vector<Ray>& rays = buf.rays;
+  rays.clear();
 
   // Pass 1: points to world cells, rows bottom up (rays rising) for the visibility rule.
   const std::size_t capacity = xyz.total();
@@ -243,9 +323,23 @@ FrameContribution BinFrame(const cv::Mat& xyz, const cv::Mat& sigma, const Eigen
       cj.push_back(j);
       zs.push_back(static_cast<float>(wz));
       ws.push_back(static_cast<float>(w));
+      if (carving && wz < camera.z() && zs.size() % kRayStride == 1) {
+        rays.push_back({wx, wy, static_cast<float>(wz), static_cast<float>(sigma_h), static_cast<std::uint32_t>(zs.size() - 1)});
+      }
     }
   }
   if (zs.empty()) return out;
+  if (!rays.empty()) {  // the box reaches back to the camera, where the rays start
+    const double ci_cam = std::floor(camera.x() * inv_cell), cj_cam = std::floor(camera.y() * inv_cell);
+    if (std::abs(ci_cam) < 2e9 && std::abs(cj_cam) < 2e9) {
+      i0 = std::min(i0, static_cast<std::int32_t>(ci_cam));
+      i1 = std::max(i1, static_cast<std::int32_t>(ci_cam));
+      j0 = std::min(j0, static_cast<std::int32_t>(cj_cam));
+      j1 = std::max(j1, static_cast<std::int32_t>(cj_cam));
+    } else {
+      rays.clear();
+    }
+  }
 
   // Pass 2: counting sort by cell of the frame's bounding box.
   const std::int64_t nx = static_cast<std::int64_t>(i1) - i0 + 1, ny = static_cast<std::int64_t>(j1) - j0 + 1;
@@ -264,13 +358,18 @@ FrameContribution BinFrame(const cv::Mat& xyz, const cv::Mat& sigma, const Eigen
   fill.assign(start.begin(), start.end() - 1);
   std::vector<float>& sz = buf.sz;
   std::vector<float>& sw = buf.sw;
+  std::vector<std::uint32_t>& src = buf.src;
   sz.resize(zs.size());
   sw.resize(zs.size());
+  src.resize(zs.size());
   for (std::size_t k = 0; k < zs.size(); ++k) {
     const std::uint32_t at = fill[local[k]]++;
     sz[at] = zs[k];
     sw[at] = ws[k];
+    src[at] = static_cast<std::uint32_t>(k);
   }
+  std::vector<std::uint8_t>& accepted = buf.accepted;  // by pass 1's index: the gate kept the point
+  if (!rays.empty()) accepted.assign(zs.size(), 0);
 
   // Pass 3: per cell, gate against the frame's median and sum.
   std::vector<float>& scratch = buf.scratch;
@@ -310,6 +409,7 @@ FrameContribution BinFrame(const cv::Mat& xyz, const cv::Mat& sigma, const Eigen
       for (float v = static_cast<float>(z), *t = tops.data(); t != tops.data() + kTopSupport; ++t) {
         if (v > *t) std::swap(v, *t);
       }
+      if (!rays.empty()) accepted[src[k]] = 1;
       sw_pts += w;
       swz += w * z;
       swzz += w * z * z;
@@ -333,12 +433,97 @@ FrameContribution BinFrame(const cv::Mat& xyz, const cv::Mat& sigma, const Eigen
     out.points_rejected += cell.rejected;
     out.cells.push_back({CellIndex{i0 + c % nx, j0 + c / nx}, cell});
   }
+  if (rays.empty()) return out;
+
+  // Pass 4: the rays of the points the gate kept set the frame's ceilings; a frame does not
+  // carve what it sees itself (a cell its rays cross beside an object it sees in that cell, the
+  // side of a parked car, keeps its points: the ceiling is at least the frame's own highest).
+  std::vector<float>& ceilings = buf.ceilings;
+  ceilings.assign(static_cast<std::size_t>(nx * ny) * kCeilingSupport, kInfF);
+  for (const Ray& ray : rays) {
+    if (accepted[ray.point]) out.rays_cast += CastRay(camera, ray, o, i0, j0, nx, ny, ceilings.data());
+  }
+  auto ceiling_of = [&](std::int64_t c) { return ceilings[static_cast<std::size_t>(c) * kCeilingSupport + kCeilingSupport - 1]; };
+  std::vector<std::pair<CellIndex, CellStats>> seen;
+  seen.swap(out.cells);
+  out.cells.reserve(seen.size());
+  std::size_t next = 0;
+  for (std::int64_t c = 0; c < nx * ny; ++c) {
+    const CellIndex index{i0 + c % nx, j0 + c / nx};
+    const bool has = next < seen.size() && seen[next].first.i == index.i && seen[next].first.j == index.j;
+    const float ceiling = ceiling_of(c);
+    if (has) {
+      CellStats& cell = seen[next++].second;
+      cell.ceiling = cell.count > 0 ? std::max(ceiling, cell.z_max) : ceiling;
+      out.cells.push_back({index, cell});
+    } else if (std::isfinite(ceiling)) {
+      CellStats free;
+      free.ceiling = ceiling;
+      out.cells.push_back({index, free});
+    }
+  }
   return out;
 }
 
+// A cell's record: its free space, the points its frames' gates rejected, and its frames'
+// observations by height bin (index floor(mean / (kHeightBinM 2^level)), ascending).
+struct TerrainGrid::Record {
+  float ceiling = kInfF, ceiling2 = kInfF;
+  std::uint32_t rejected = 0;
+  std::uint8_t level = 0;
+  std::vector<std::pair<std::int32_t, CellStats>> bins;
+
+  bool Known() const { return !bins.empty() || rejected > 0 || std::isfinite(ceiling); }
+
+  void Insert(std::int32_t index, const CellStats& s) {
+    auto it = std::lower_bound(bins.begin(), bins.end(), index,
+                               [](const std::pair<std::int32_t, CellStats>& b, std::int32_t v) { return b.first < v; });
+    if (it != bins.end() && it->first == index) {
+      it->second.Merge(s);
+    } else {
+      bins.insert(it, {index, s});
+    }
+  }
+  // Doubles the bins' height, merging each even bin with the odd one above it.
+  void Coarsen() {
+    ++level;
+    std::size_t out = 0;
+    for (std::size_t k = 0; k < bins.size(); ++k) {
+      const std::int32_t index = bins[k].first >> 1;  // arithmetic shift: floor(index / 2)
+      if (out > 0 && bins[out - 1].first == index) {
+        bins[out - 1].second.Merge(bins[k].second);
+      } else {
+        bins[out++] = {index, bins[k].second};
+      }
+    }
+    bins.resize(out);
+  }
+  void Fit() {
+    while (bins.size() > static_cast<std::size_t>(kMaxHeightBins)) Coarsen();
+  }
+  // One frame's observation (count > 0).
+  void AddObservation(const CellStats& s) {
+    CellStats bin = s;
+    bin.ceiling = bin.ceiling2 = kInfF;
+    bin.rejected = 0;
+    const double q = std::clamp(std::floor(s.Mean() / kHeightBinM), -1073741824.0, 1073741823.0);
+    Insert(static_cast<std::int32_t>(static_cast<std::int64_t>(q) >> level), bin);
+    Fit();
+  }
+  // Another map's record of the same cell. The result depends only on the observations: the
+  // level is the least at which all of them fit kMaxHeightBins bins.
+  void MergeRecord(const Record& o) {
+    TwoLowest(&ceiling, &ceiling2, o.ceiling, o.ceiling2);
+    rejected += o.rejected;
+    while (level < o.level) Coarsen();
+    for (const auto& [index, stats] : o.bins) Insert(index >> (level - o.level), stats);
+    Fit();
+  }
+};
+
 struct TerrainGrid::Tile {
   std::int64_t ti = 0, tj = 0;
-  std::array<CellStats, kTileSize * kTileSize> cells;
+  std::array<Record, kTileSize * kTileSize> cells;
 };
 
 TerrainGrid::TerrainGrid(double cell_m) : cell_m_(cell_m) {
@@ -348,7 +533,7 @@ TerrainGrid::TerrainGrid(TerrainGrid&&) noexcept = default;
 TerrainGrid& TerrainGrid::operator=(TerrainGrid&&) noexcept = default;
 TerrainGrid::~TerrainGrid() = default;
 
-CellStats* TerrainGrid::Cell(CellIndex c) {
+TerrainGrid::Record* TerrainGrid::Cell(CellIndex c) {
   const std::int64_t ti = FloorDiv(c.i, kTileShift), tj = FloorDiv(c.j, kTileShift);
   std::unique_ptr<Tile>& tile = tiles_[TileKey(ti, tj)];
   if (!tile) {
@@ -359,17 +544,39 @@ CellStats* TerrainGrid::Cell(CellIndex c) {
   return &tile->cells[static_cast<std::size_t>((c.j - (tj << kTileShift)) * kTileSize + (c.i - (ti << kTileShift)))];
 }
 
-const CellStats* TerrainGrid::Find(CellIndex c) const {
+const TerrainGrid::Record* TerrainGrid::FindRecord(CellIndex c) const {
   const std::int64_t ti = FloorDiv(c.i, kTileShift), tj = FloorDiv(c.j, kTileShift);
   const auto it = tiles_.find(TileKey(ti, tj));
   if (it == tiles_.end()) return nullptr;
-  const CellStats& s =
-      it->second->cells[static_cast<std::size_t>((c.j - (tj << kTileShift)) * kTileSize + (c.i - (ti << kTileShift)))];
-  return s.count > 0 || s.rejected > 0 ? &s : nullptr;
+  return &it->second->cells[static_cast<std::size_t>((c.j - (tj << kTileShift)) * kTileSize + (c.i - (ti << kTileShift)))];
+}
+
+std::optional<CellStats> TerrainGrid::Find(CellIndex c, double carve_tolerance_m) const {
+  const Record* r = FindRecord(c);
+  if (r == nullptr || (r->bins.empty() && r->rejected == 0)) return std::nullopt;
+  CellStats s;
+  s.rejected = r->rejected;
+  const double limit = static_cast<double>(r->ceiling2) + carve_tolerance_m;  // inf + anything: no carving
+  for (const auto& [index, bin] : r->bins) {
+    if (bin.Mean() > limit) {
+      s.carved_points += bin.count;
+      s.carved_frames += bin.frames;
+    } else {
+      s.Merge(bin);
+    }
+  }
+  s.ceiling = r->ceiling;
+  s.ceiling2 = r->ceiling2;
+  return s;
 }
 
 void TerrainGrid::Add(const FrameContribution& frame) {
-  for (const auto& [index, stats] : frame.cells) Cell(index)->Merge(stats);
+  for (const auto& [index, stats] : frame.cells) {
+    Record* r = Cell(index);
+    TwoLowest(&r->ceiling, &r->ceiling2, stats.ceiling, stats.ceiling2);
+    r->rejected += stats.rejected;
+    if (stats.count > 0) r->AddObservation(stats);
+  }
 }
 
 void TerrainGrid::Merge(const TerrainGrid& other) {
@@ -377,9 +584,9 @@ void TerrainGrid::Merge(const TerrainGrid& other) {
       << "cannot merge maps of different cell sizes (" << cell_m_ << " and " << other.cell_m_ << " m)";
   for (const auto& [key, tile] : other.tiles_) {
     for (int k = 0; k < kTileSize * kTileSize; ++k) {
-      const CellStats& s = tile->cells[k];
-      if (s.count == 0 && s.rejected == 0) continue;
-      Cell({(tile->ti << kTileShift) + k % kTileSize, (tile->tj << kTileShift) + k / kTileSize})->Merge(s);
+      const Record& r = tile->cells[k];
+      if (!r.Known()) continue;
+      Cell({(tile->ti << kTileShift) + k % kTileSize, (tile->tj << kTileShift) + k / kTileSize})->MergeRecord(r);
     }
   }
 }
@@ -398,16 +605,20 @@ std::size_t TerrainGrid::TileCount() const { return tiles_.size(); }
 std::size_t TerrainGrid::MappedCells() const {
   std::size_t n = 0;
   for (const auto& [key, tile] : tiles_) {
-    for (const CellStats& s : tile->cells) n += s.count > 0;
+    for (const Record& r : tile->cells) n += !r.bins.empty();
   }
   return n;
 }
 
-std::optional<std::array<std::int64_t, 4>> TerrainGrid::MappedBounds() const {
+namespace {
+
+// The box {i0, j0, i1, j1} of the grid's cells for which `take` holds.
+template <typename Tiles, typename Take>
+std::optional<std::array<std::int64_t, 4>> BoxOf(const Tiles& tiles, Take take) {
   std::optional<std::array<std::int64_t, 4>> b;
-  for (const auto& [key, tile] : tiles_) {
+  for (const auto& [key, tile] : tiles) {
     for (int k = 0; k < kTileSize * kTileSize; ++k) {
-      if (tile->cells[k].count == 0) continue;
+      if (!take(tile->cells[k])) continue;
       const std::int64_t i = (tile->ti << kTileShift) + k % kTileSize, j = (tile->tj << kTileShift) + k / kTileSize;
       if (!b) {
         b = std::array<std::int64_t, 4>{i, j, i, j};
@@ -422,70 +633,143 @@ std::optional<std::array<std::int64_t, 4>> TerrainGrid::MappedBounds() const {
   return b;
 }
 
+}  // namespace
+
+std::optional<std::array<std::int64_t, 4>> TerrainGrid::MappedBounds() const {
+  return BoxOf(tiles_, [](const Record& r) { return !r.bins.empty(); });
+}
+
+std::optional<std::array<std::int64_t, 4>> TerrainGrid::KnownBounds() const {
+  return BoxOf(tiles_, [](const Record& r) { return r.Known(); });
+}
+
 io::GeoRaster TerrainGrid::ToStateRaster() const {
   io::GeoRaster r;
   r.cell_m = cell_m_;
   r.metadata["lunarnav_content"] = "terrain-map state";
-  const auto b = MappedBounds();
+  const auto b = KnownBounds();
   const int w = b ? static_cast<int>((*b)[2] - (*b)[0] + 1) : 1, h = b ? static_cast<int>((*b)[3] - (*b)[1] + 1) : 1;
   const std::int64_t i0 = b ? (*b)[0] : 0, j1 = b ? (*b)[3] : 0;
   r.x_west_m = static_cast<double>(i0) * cell_m_;
   r.y_north_m = static_cast<double>(j1 + 1) * cell_m_;
-  for (const char* name : kStateBands) {
+  std::size_t slots = 1;
+  for (const auto& [key, tile] : tiles_) {
+    for (const Record& rec : tile->cells) slots = std::max(slots, rec.bins.size());
+  }
+  auto add_band = [&](const std::string& name, double fill) {
     io::RasterBand band;
     band.description = name;
-    band.pixels = cv::Mat(h, w, CV_64FC1, cv::Scalar(0));
+    band.pixels = cv::Mat(h, w, CV_64FC1, cv::Scalar(fill));
     r.bands.push_back(std::move(band));
+  };
+  for (const char* name : kStateCellBands) add_band(name, 0.0);
+  r.bands[0].pixels.setTo(cv::Scalar(std::numeric_limits<double>::infinity()));
+  r.bands[1].pixels.setTo(cv::Scalar(std::numeric_limits<double>::infinity()));
+  for (std::size_t k = 0; k < slots; ++k) {
+    for (const char* name : kStateBinBands) add_band("bin" + std::to_string(k + 1) + "_" + name, 0.0);
   }
-  for (int row = 0; row < h; ++row) {
+  for (int row = 0; row < h && b; ++row) {
     for (int col = 0; col < w; ++col) {
-      const CellStats* s = b ? Find({i0 + col, j1 - row}) : nullptr;
-      if (s == nullptr) continue;
-      const double v[11] = {s->sum_w,
-                           s->sum_wz,
-                           s->sum_wzz,
-                           s->z_min,
-                           s->z_max,
-                           static_cast<double>(s->count),
-                           static_cast<double>(s->rejected),
-                           s->last_t_s,
-                           static_cast<double>(s->frames),
-                           s->z_min2,
-                           s->z_max2};
-      for (int k = 0; k < 11; ++k) r.bands[k].pixels.at<double>(row, col) = v[k];
+      const Record* rec = FindRecord({i0 + col, j1 - row});
+      if (rec == nullptr || !rec->Known()) continue;
+      const double cell[4] = {rec->ceiling, rec->ceiling2, static_cast<double>(rec->rejected),
+                              static_cast<double>(rec->level)};
+      for (int k = 0; k < 4; ++k) r.bands[k].pixels.at<double>(row, col) = cell[k];
+      for (std::size_t k = 0; k < rec->bins.size(); ++k) {
+        const auto& [index, s] = rec->bins[k];
+        const double v[11] = {static_cast<double>(index), s.sum_w, s.sum_wz, s.sum_wzz, s.z_min, s.z_max,
+                              static_cast<double>(s.count), s.last_t_s, static_cast<double>(s.frames), s.z_min2,
+                              s.z_max2};
+        for (int m = 0; m < 11; ++m) r.bands[4 + 11 * k + m].pixels.at<double>(row, col) = v[m];
+      }
     }
   }
   return r;
 }
 
 TerrainGrid TerrainGrid::FromStateRaster(const io::GeoRaster& r, const std::string& source) {
-  LN_CHECK_INPUT(r.bands.size() == kStateBands.size()) << source << ": not a terrain-map state file";
-  for (std::size_t k = 0; k < kStateBands.size(); ++k) {
-    LN_CHECK_INPUT(r.bands[k].description == kStateBands[k] && r.bands[k].pixels.type() == CV_64FC1)
-        << source << ": band " << k + 1 << " is not the state band '" << kStateBands[k] << "'";
+  auto named = [&](std::size_t k, const std::string& name) {
+    return r.bands[k].description == name && r.bands[k].pixels.type() == CV_64FC1;
+  };
+  bool v1 = r.bands.size() == kStateBandsV1.size();
+  for (std::size_t k = 0; v1 && k < kStateBandsV1.size(); ++k) v1 = named(k, kStateBandsV1[k]);
+  const std::size_t bin_bands = kStateBinBands.size(), cell_bands = kStateCellBands.size();
+  if (!v1) {
+    LN_CHECK_INPUT(r.bands.size() > cell_bands && (r.bands.size() - cell_bands) % bin_bands == 0)
+        << source << ": not a terrain-map state file";
+    for (std::size_t k = 0; k < r.bands.size(); ++k) {
+      const std::string name = k < cell_bands ? std::string(kStateCellBands[k])
+                                               : "bin" + std::to_string((k - cell_bands) / bin_bands + 1) + "_" +
+                                                     kStateBinBands[(k - cell_bands) % bin_bands];
+      LN_CHECK_INPUT(named(k, name)) << source << ": band " << k + 1 << " is not the state band '" << name << "'";
+    }
   }
   TerrainGrid grid(r.cell_m);
   const double fi = r.x_west_m / r.cell_m, fj = r.y_north_m / r.cell_m;
   LN_CHECK_INPUT(std::abs(fi - std::round(fi)) < 1e-6 && std::abs(fj - std::round(fj)) < 1e-6)
       << source << ": origin is not on the cell lattice";
   const auto i0 = static_cast<std::int64_t>(std::llround(fi)), j1 = static_cast<std::int64_t>(std::llround(fj)) - 1;
+  // A count band's value: a whole number of 0 to 2^32 - 1.
+  auto count_of = [&](double v, int col, int row, const char* what) {
+    LN_CHECK_INPUT(v >= 0 && v <= 4294967295.0 && v == std::floor(v))
+        << source << ": cell (" << col << ", " << row << ") has " << what << " " << v << " (a count)";
+    return static_cast<std::uint32_t>(v);
+  };
+  int at_col = 0, at_row = 0;
+  auto stats_of = [&](const double* v) {  // sum_w, sum_wz, sum_wzz, z_min, z_max, count, last_t_s, frames, z_min2, z_max2
+    CellStats s;
+    s.sum_w = v[0];
+    s.sum_wz = v[1];
+    s.sum_wzz = v[2];
+    s.z_min = static_cast<float>(v[3]);
+    s.z_max = static_cast<float>(v[4]);
+    s.count = count_of(v[5], at_col, at_row, "count");
+    s.last_t_s = v[6];
+    s.frames = count_of(v[7], at_col, at_row, "frames");
+    LN_CHECK_INPUT(std::isfinite(s.sum_w) && s.sum_w > 0 && std::isfinite(s.sum_wz) && std::isfinite(s.sum_wzz))
+        << source << ": cell (" << at_col << ", " << at_row << ") has sums " << s.sum_w << ", " << s.sum_wz << ", "
+        << s.sum_wzz << " (finite, weights > 0)";
+    s.z_min2 = static_cast<float>(v[8]);
+    s.z_max2 = static_cast<float>(v[9]);
+    return s;
+  };
+  const std::size_t slots = v1 ? 0 : (r.bands.size() - cell_bands) / bin_bands;
   for (int row = 0; row < r.Height(); ++row) {
     for (int col = 0; col < r.Width(); ++col) {
-      double v[11];
-      for (int k = 0; k < 11; ++k) v[k] = r.bands[k].pixels.at<double>(row, col);
-      if (v[5] <= 0 && v[6] <= 0) continue;
-      CellStats* s = grid.Cell({i0 + col, j1 - row});
-      s->sum_w = v[0];
-      s->sum_wz = v[1];
-      s->sum_wzz = v[2];
-      s->z_min = static_cast<float>(v[3]);
-      s->z_max = static_cast<float>(v[4]);
-      s->count = static_cast<std::uint32_t>(v[5]);
-      s->rejected = static_cast<std::uint32_t>(v[6]);
-      s->frames = static_cast<std::uint32_t>(v[8]);
-      s->z_min2 = static_cast<float>(v[9]);
-      s->z_max2 = static_cast<float>(v[10]);
-      s->last_t_s = v[7];
+      auto at = [&](std::size_t k) { return r.bands[k].pixels.at<double>(row, col); };
+      at_col = col;
+      at_row = row;
+      if (v1) {  // one set of sums: one bin, no ceiling
+        double v[11];
+        for (std::size_t k = 0; k < 11; ++k) v[k] = at(k);
+        if (v[5] <= 0 && v[6] <= 0) continue;
+        Record* rec = grid.Cell({i0 + col, j1 - row});
+        rec->rejected = count_of(v[6], col, row, "rejected");
+        const double sums[10] = {v[0], v[1], v[2], v[3], v[4], v[5], v[7], v[8], v[9], v[10]};
+        if (v[5] > 0) rec->AddObservation(stats_of(sums));
+        continue;
+      }
+      const double level = at(3);
+      const bool any = std::isfinite(at(0)) || at(2) > 0 || (slots > 0 && at(cell_bands + 6) > 0);
+      if (!any) continue;
+      LN_CHECK_INPUT(level >= 0 && level <= 31 && level == std::floor(level))
+          << source << ": cell (" << col << ", " << row << ") has bin level " << level << " (0-31)";
+      Record* rec = grid.Cell({i0 + col, j1 - row});
+      rec->ceiling = static_cast<float>(at(0));
+      rec->ceiling2 = static_cast<float>(at(1));
+      rec->rejected = count_of(at(2), col, row, "rejected");
+      rec->level = static_cast<std::uint8_t>(level);
+      for (std::size_t k = 0; k < slots; ++k) {
+        const std::size_t base = cell_bands + k * bin_bands;
+        if (!(at(base + 6) > 0)) continue;
+        double v[10];
+        for (std::size_t m = 0; m < 10; ++m) v[m] = at(base + 1 + m);
+        const double index = at(base);
+        LN_CHECK_INPUT(std::abs(index) <= 1073741824.0 && index == std::floor(index))
+            << source << ": cell (" << col << ", " << row << ") has bin index " << index;
+        rec->Insert(static_cast<std::int32_t>(index), stats_of(v));
+      }
+      rec->Fit();
     }
   }
   return grid;
@@ -548,7 +832,8 @@ cv::Mat DetectObstacles(const cv::Mat& elevation, const cv::Mat& min_m, const cv
   return out;
 }
 
-MapLayers ComputeLayers(const TerrainGrid& grid, const ObstacleOptions& obstacles, int min_frames) {
+MapLayers ComputeLayers(const TerrainGrid& grid, const ObstacleOptions& obstacles, int min_frames,
+                        double carve_tolerance_m, CarveCounts* carved) {
   LN_CHECK_ARG(min_frames >= 1) << "min frames: must be >= 1";
   MapLayers l;
   l.cell_m = grid.cell_m();
@@ -565,8 +850,13 @@ MapLayers ComputeLayers(const TerrainGrid& grid, const ObstacleOptions& obstacle
   }
   for (int row = 0; row < h; ++row) {
     for (int col = 0; col < w; ++col) {
-      const CellStats* s = grid.Find({i0 + col, j1 - row});
-      if (s == nullptr || s->count == 0 || s->frames < static_cast<std::uint32_t>(min_frames)) continue;
+      const std::optional<CellStats> s = grid.Find({i0 + col, j1 - row}, carve_tolerance_m);
+      if (s && carved != nullptr && s->carved_frames > 0) {
+        carved->points += s->carved_points;
+        carved->observations += s->carved_frames;
+        ++(s->count > 0 ? carved->cells_changed : carved->cells_cleared);
+      }
+      if (!s || s->count == 0 || s->frames < static_cast<std::uint32_t>(min_frames)) continue;
       l.elevation_m.at<float>(row, col) = static_cast<float>(s->Mean());
       l.min_m.at<float>(row, col) = s->z_min;
       l.max_m.at<float>(row, col) = s->z_max;

@@ -19,6 +19,17 @@
 // frame by its count. The cell's elevation is the weighted mean of its frames' observations;
 // the map is a sum of per-frame terms, so fusing frames in any order, or in parts that are then merged,
 // gives the same map.
+//
+// Free-space carving across pairs: a ray from the camera to a point passes through empty air,
+// so in a 2.5-D world every cell it crosses on its way holds nothing above the ray. Each frame
+// records, per cell its rays cross in the last metres before their points, the ray's lowest
+// height over the cell (the kCeilingSupport-th lowest of its rays, so that a stray match does
+// not count); a cell keeps the two lowest of its frames' records. The frames' observations of
+// a cell are kept apart by height (bins on a fixed lattice of heights, coarsened when a cell
+// holds more than kMaxHeightBins), and when the layers are computed, the bins whose mean
+// stands more than carve_tolerance_m above the second frame's ceiling are left out: the
+// reflections seen behind glossy bodies, the cyclist that has moved on, the wrong matches
+// beside an object's edge. Both are sums and minima, so the exactness above holds.
 #pragma once
 
 #include <cstdint>
@@ -86,6 +97,14 @@ struct TerrainMapOptions {
   /// seen by the rows between, and was not (adjacent pixels of a real face differ by far less),
   /// metres, > 0; infinity turns it off.
   double support_rise_m = 0.2;
+  /// Carving (see above): a cell's observations more than this above the ceiling that two
+  /// frames' rays set over it are left out of the layers, metres, >= 0; infinity turns it off.
+  /// Needs the rays' origin (the rig's error model); without it nothing is carved.
+  double carve_tolerance_m = 0.2;
+  /// The stretch of each ray that carves: the last this many metres (horizontally) before its
+  /// point, less the point's own uncertainty (twice its horizontal error and half a cell),
+  /// metres, > 0. Near its point a ray runs close over the ground, where it says most.
+  double carve_reach_m = 2.0;
   /// The least error of one frame's estimate of a cell, whatever its points' count and
   /// precision (their errors are correlated: one pose, one rig, overlapping windows), metres,
   /// > 0. A frame's observation of a cell weighs 1 / (mean point variance + this^2).
@@ -125,6 +144,13 @@ struct TerrainMapOptions {
 /// a second pair (CellStats::z_max2).
 inline constexpr int kTopSupport = 3;
 
+/// The height bins that keep a cell's observations apart for carving: kHeightBinM at first,
+/// doubled (neighbouring bins merged) whenever a cell would hold more than kMaxHeightBins.
+inline constexpr double kHeightBinM = 0.1;
+inline constexpr int kMaxHeightBins = 4;
+/// Rays of one frame that must pass below a height over a cell for the frame to set it.
+inline constexpr int kCeilingSupport = 3;
+
 /// What one cell has accumulated: over the frames that saw it, weighted sums of each frame's
 /// observation (weight W = 1 / (sigma^2 + frame_floor^2), value m its points' weighted mean;
 /// sum_wzz adds W (m^2 + v), v the points' weighted variance about m, so that the spread holds
@@ -146,6 +172,14 @@ struct CellStats {
   std::uint32_t rejected = 0;  ///< Points the gate rejected.
   std::uint32_t frames = 0;    ///< Pairs that added points.
   double last_t_s = -std::numeric_limits<double>::infinity();  ///< Time of the last frame that added points.
+  /// Free space over the cell: the lowest and second lowest of the frames' ceilings (a frame's
+  /// ceiling: the kCeilingSupport-th lowest height at which its rays crossed the cell), metres;
+  /// infinity: none.
+  float ceiling = std::numeric_limits<float>::infinity();
+  float ceiling2 = std::numeric_limits<float>::infinity();
+  /// Accepted points and frames' observations that carving left out (TerrainGrid::Find only;
+  /// they are not in the sums above).
+  std::uint32_t carved_points = 0, carved_frames = 0;
 
   void Merge(const CellStats& other);
   double Mean() const { return sum_wz / sum_w; }
@@ -170,6 +204,7 @@ struct FrameContribution {
   long points_floating = 0;  ///< Rejected by the visibility rule (a farther ray passes beneath).
   long points_unsupported = 0;  ///< Rejected by the support rule (a rise with no face seen below).
   long points_out_of_range = 0;
+  long rays_cast = 0;  ///< Rays that set ceilings (carving).
 };
 
 /// Bins one frame's points into cells and gates them (the fusion described above).
@@ -182,6 +217,8 @@ struct FrameContribution {
 /// @param y_min_m, y_max_m  points with vehicle Y outside this interval are left out (counted
 ///        out of range): the distance interval I_Y the pair was requested for (sec. 3.3), whose
 ///        disparity range makes matches outside it unreliable.
+/// The rays that carve start at `error_model`'s reference camera: without a model, the frame
+/// sets no ceiling.
 FrameContribution BinFrame(const cv::Mat& xyz_vehicle, const cv::Mat& sigma_vehicle,
                            const Eigen::Isometry3d& world_from_vehicle, double t_s, const TerrainMapOptions& options,
                            const ElevationErrorModel* error_model = nullptr,
@@ -203,23 +240,32 @@ class TerrainGrid {
   /// Drops every tile that lies wholly outside the square of side `side_m` centred at
   /// (x, y): the vehicle-centred window.
   void KeepWindow(double x_m, double y_m, double side_m);
-  /// The cell, or nullptr when it has never been touched.
-  const CellStats* Find(CellIndex c) const;
+  /// The cell's accumulation, its observations more than `carve_tolerance_m` above its
+  /// ceiling2 left out (counted in carved_points and carved_frames; infinity: none), or
+  /// nothing when no point ever reached it.
+  std::optional<CellStats> Find(CellIndex c,
+                                double carve_tolerance_m = std::numeric_limits<double>::infinity()) const;
   std::size_t TileCount() const;
-  std::size_t MappedCells() const;  ///< Cells with at least one accepted point.
+  std::size_t MappedCells() const;  ///< Cells with at least one accepted point (carving aside).
   /// Smallest cell box containing every mapped cell: {i0, j0, i1, j1} inclusive, or nothing.
   std::optional<std::array<std::int64_t, 4>> MappedBounds() const;
 
-  /// The exact accumulators as a Float64 raster (bands sum_w, sum_wz, sum_wzz, z_min, z_max,
-  /// count, rejected, last_t_s, frames, z_min2, z_max2) over MappedBounds(), for --resume and merging.
+  /// The exact accumulators as a Float64 raster over every cell that holds a point or a
+  /// ceiling, for --resume and merging (docs/formats.md: the cell's ceiling, ceiling2,
+  /// rejected and bin level, then per height bin its index and sums).
   io::GeoRaster ToStateRaster() const;
-  /// The inverse of ToStateRaster. @throws InputError naming `source` for a raster that is
-  /// not a state raster or whose origin is off the lattice.
+  /// The inverse of ToStateRaster; also reads the states of earlier versions (one band set,
+  /// no ceilings). @throws InputError naming `source` for a raster that is not a state raster
+  /// or whose origin is off the lattice.
   static TerrainGrid FromStateRaster(const io::GeoRaster& raster, const std::string& source);
 
  private:
+  struct Record;
   struct Tile;
-  CellStats* Cell(CellIndex c);
+  Record* Cell(CellIndex c);
+  const Record* FindRecord(CellIndex c) const;
+  /// Smallest box of the cells holding a point or a ceiling.
+  std::optional<std::array<std::int64_t, 4>> KnownBounds() const;
   double cell_m_;
   std::unordered_map<std::uint64_t, std::unique_ptr<Tile>> tiles_;
 };
@@ -233,9 +279,21 @@ struct MapLayers {
   bool CellOf(double x_m, double y_m, int* col, int* row) const;
 };
 
+/// What carving left out of a map's layers.
+struct CarveCounts {
+  long points = 0;         ///< Accepted points of the observations left out.
+  long observations = 0;   ///< Frames' observations of cells left out.
+  long cells_changed = 0;  ///< Cells that kept some of their observations.
+  long cells_cleared = 0;  ///< Cells that kept none (unmapped in the layers).
+};
+
 /// The layers of `grid` over its mapped bounds (empty Mats when nothing is mapped); cells that
-/// fewer than `min_frames` pairs saw are left out of the layers (NaN), not of the grid.
-MapLayers ComputeLayers(const TerrainGrid& grid, const ObstacleOptions& obstacles, int min_frames = 1);
+/// fewer than `min_frames` pairs saw are left out of the layers (NaN), not of the grid; each
+/// cell's observations more than `carve_tolerance_m` above its ceiling2 are left out
+/// (TerrainGrid::Find), counted in `carved` when given.
+MapLayers ComputeLayers(const TerrainGrid& grid, const ObstacleOptions& obstacles, int min_frames = 1,
+                        double carve_tolerance_m = std::numeric_limits<double>::infinity(),
+                        CarveCounts* carved = nullptr);
 
 /// The obstacle layer (see MapLayers::obstacle) from elevation, min, max and count layers of
 /// one size (CV_32F, NaN = unmapped; `count` may be empty: every mapped cell is judged).

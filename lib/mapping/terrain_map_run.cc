@@ -81,6 +81,7 @@ json FusionJson(const TerrainMapRunOptions& options, const std::string& errors) 
           {"visibility_k", number(mo.visibility_k)},
           {"visibility_floor_m", mo.visibility_floor_m},
           {"support_rise_m", number(mo.support_rise_m)},
+          {"carve_reach_m", mo.carve_reach_m},
           {"frame_floor_m", mo.frame_floor_m},
           {"max_range_m", number(mo.max_range_m)},
           {"max_horizontal_sigma_cells", number(mo.max_horizontal_sigma_cells)},
@@ -386,6 +387,7 @@ TerrainMapRunSummary RunTerrainMap(const TerrainMapRunOptions& options, const fs
       summary.points_floating += c.points_floating;
       summary.points_unsupported += c.points_unsupported;
       summary.points_out_of_range += c.points_out_of_range;
+      summary.rays_cast += c.rays_cast;
       fused.push_back({pose, c.points_fused, c.points_rejected});
       ++summary.frames_fused;
       if (c.points_in == 0 && summary.frames_without_points++ == 0) first_empty = pose.stem;
@@ -412,7 +414,7 @@ TerrainMapRunSummary RunTerrainMap(const TerrainMapRunOptions& options, const fs
   util::Timer write_timer;
   io::CreateOutputDirectory(out);
   io::RemoveStaleTempFiles(out);
-  const MapLayers layers = ComputeLayers(grid, mo.obstacles, mo.min_frames);
+  const MapLayers layers = ComputeLayers(grid, mo.obstacles, mo.min_frames, mo.carve_tolerance_m, &summary.carved);
   summary.mapped_cells = static_cast<long>(grid.MappedCells());
   if (!layers.obstacle.empty()) {
     summary.obstacle_cells = cv::countNonZero(layers.obstacle > 0);
@@ -468,6 +470,12 @@ TerrainMapRunSummary RunTerrainMap(const TerrainMapRunOptions& options, const fs
                  {"points_out_of_range", summary.points_out_of_range},
                  {"mapped_cells", summary.mapped_cells},     {"obstacle_cells", summary.obstacle_cells},
                  {"frames_without_points", summary.frames_without_points}};
+  // Free-space carving (docs/terrain-map.md): the rays that set ceilings, and what the layers left out.
+  j["counts"]["carving"] = {{"rays_cast", summary.rays_cast},
+                            {"points_carved", summary.carved.points},
+                            {"observations_carved", summary.carved.observations},
+                            {"cells_changed", summary.carved.cells_changed},
+                            {"cells_cleared", summary.carved.cells_cleared}};
   j["timings_s"] = {{"total", summary.seconds},
                     {"read_and_fuse", summary.fuse_seconds},
                     {"read_and_fuse_cpu", summary.fuse_cpu_seconds},

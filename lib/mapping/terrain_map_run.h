@@ -51,6 +51,8 @@ struct TerrainMapRunSummary {
        points_out_of_range = 0;
   long mapped_cells = 0, obstacle_cells = 0;
   long frames_without_points = 0;  ///< This run's pairs whose XYZ arrays held no valid point.
+  long rays_cast = 0;               ///< This run's rays that set ceilings (carving; with a rig only).
+  CarveCounts carved;               ///< What carving left out of the layers.
   std::vector<std::string> warnings;  ///< Printed as they arise and kept in summary.json.
   double seconds = 0, fuse_seconds = 0, fuse_cpu_seconds = 0, write_seconds = 0;
   /// Of fuse_cpu_seconds, the CPU time the threads spent reading the arrays (the EXR decoding).

@@ -3,6 +3,9 @@
 
 #include <cmath>
 #include <functional>
+#include <limits>
+
+#include <Eigen/Geometry>
 
 #include <opencv2/core.hpp>
 
@@ -27,6 +30,38 @@ inline cv::Mat SurfaceXyz(const HeightFn& height, const FramePose& pose, int col
       const Eigen::Vector3d w = world_from_vehicle * Eigen::Vector3d(x, y, 0);
       const double z = height(w.x(), w.y()) - pose.z_m;
       xyz.at<cv::Vec3f>(r, c) = cv::Vec3f(static_cast<float>(x), static_cast<float>(y), static_cast<float>(z));
+    }
+  }
+  return xyz;
+}
+
+/// As SurfaceXyz, but each point is where the ray from `camera` (vehicle frame) towards the
+/// grid point on the vehicle's ground plane first meets the surface: what a camera sees, with
+/// what stands in front hiding what lies behind. NaN where the ray meets nothing within 1.5
+/// times its grid point's distance.
+inline cv::Mat RenderedXyz(const HeightFn& height, const FramePose& pose, const Eigen::Vector3d& camera, int cols = 160,
+                           int rows = 120, double x0 = -3, double x1 = 3, double y0 = 2, double y1 = 10) {
+  cv::Mat xyz(rows, cols, CV_32FC3, cv::Scalar::all(std::numeric_limits<float>::quiet_NaN()));
+  const Eigen::Isometry3d world_from_vehicle = pose.WorldFromVehicle();
+  auto below = [&](const Eigen::Vector3d& v) {  // the ray's point v (vehicle frame) at or under the surface
+    const Eigen::Vector3d w = world_from_vehicle * v;
+    return w.z() <= height(w.x(), w.y());
+  };
+  for (int r = 0; r < rows; ++r) {
+    for (int c = 0; c < cols; ++c) {
+      const double x = x0 + (x1 - x0) * (c + 0.5) / cols, y = y1 - (y1 - y0) * (r + 0.5) / rows;
+      const Eigen::Vector3d target(x, y, 0), step = (target - camera) * 0.002;
+      Eigen::Vector3d at = camera;
+      for (int k = 0; k < 750; ++k, at += step) {
+        if (!below(at + step)) continue;
+        Eigen::Vector3d lo = at, hi = at + step;  // bisect to the surface
+        for (int b = 0; b < 30; ++b) {
+          const Eigen::Vector3d mid = 0.5 * (lo + hi);
+          (below(mid) ? hi : lo) = mid;
+        }
+        xyz.at<cv::Vec3f>(r, c) = cv::Vec3f(static_cast<float>(hi.x()), static_cast<float>(hi.y()), static_cast<float>(hi.z()));
+        break;
+      }
     }
   }
   return xyz;

@@ -1,16 +1,22 @@
 #include "mapping/terrain_grid.h"
 
+#include <algorithm>
 #include <cmath>
 #include <limits>
 
 #include <gtest/gtest.h>
 
+#include "calib/paper_rig.h"
+#include "calib/rectify.h"
+#include "mapping/elevation_error.h"
 #include "mapping/synthetic_frames.h"
 
 namespace lunarnav::mapping {
 namespace {
 
+constexpr float kInfinity = std::numeric_limits<float>::infinity();
 using testing::BoxOnPlane;
+using testing::RenderedXyz;
 using testing::SurfaceXyz;
 
 FramePose Pose(double x, double y, double heading_deg, double t_s = 0) {
@@ -248,9 +254,9 @@ TEST(TerrainGrid, AFramesPointsInACellAreOneObservation) {
   const double w_precise = 1.0 / (1e-6 + o.frame_floor_m * o.frame_floor_m);
   const double w_plain = 1.0 / (4e-4 + o.frame_floor_m * o.frame_floor_m);
   const Eigen::Vector3d centre = pose.WorldFromVehicle() * Eigen::Vector3d(0.1, 6.1, 0);
-  const CellStats* s = grid.Find({static_cast<std::int64_t>(std::floor(centre.x() / o.cell_m)),
+  const std::optional<CellStats> s = grid.Find({static_cast<std::int64_t>(std::floor(centre.x() / o.cell_m)),
                                   static_cast<std::int64_t>(std::floor(centre.y() / o.cell_m))});
-  ASSERT_NE(s, nullptr);
+  ASSERT_TRUE(s.has_value());
   EXPECT_NEAR(s->Mean(), 0.1 * w_precise / (w_precise + 4 * w_plain), 1e-6);
   EXPECT_NEAR(s->Sigma(), 1.0 / std::sqrt(w_precise + 4 * w_plain), 1e-9);
   // The roughness holds the frames' disagreement (the points of each frame lie flat).
@@ -439,10 +445,10 @@ TEST(TerrainGrid, FusingInTwoHalvesAndMergingEqualsFusingAtOnce) {
   ASSERT_EQ(first.MappedCells(), whole.MappedCells());
   for (std::int64_t j = (*b)[1]; j <= (*b)[3]; ++j) {
     for (std::int64_t i = (*b)[0]; i <= (*b)[2]; ++i) {
-      const CellStats* a = whole.Find({i, j});
-      const CellStats* m = first.Find({i, j});
-      ASSERT_EQ(a == nullptr, m == nullptr);
-      if (a == nullptr) continue;
+      const std::optional<CellStats> a = whole.Find({i, j});
+      const std::optional<CellStats> m = first.Find({i, j});
+      ASSERT_EQ(a.has_value(), m.has_value());
+      if (!a) continue;
       EXPECT_EQ(a->count, m->count);
       EXPECT_EQ(a->rejected, m->rejected);
       EXPECT_EQ(a->z_min, m->z_min);
@@ -495,10 +501,10 @@ TEST(TerrainGrid, StateRasterRoundTripsExactly) {
   const auto b = *grid.MappedBounds();
   for (std::int64_t j = b[1]; j <= b[3]; ++j) {
     for (std::int64_t i = b[0]; i <= b[2]; ++i) {
-      const CellStats* s = grid.Find({i, j});
-      const CellStats* t = back.Find({i, j});
-      ASSERT_EQ(s == nullptr, t == nullptr);
-      if (s == nullptr) continue;
+      const std::optional<CellStats> s = grid.Find({i, j});
+      const std::optional<CellStats> t = back.Find({i, j});
+      ASSERT_EQ(s.has_value(), t.has_value());
+      if (!s) continue;
       EXPECT_EQ(s->sum_w, t->sum_w);
       EXPECT_EQ(s->sum_wz, t->sum_wz);
       EXPECT_EQ(s->count, t->count);
@@ -520,6 +526,197 @@ TEST(TerrainGrid, WindowKeepsTheSurroundingsOfTheVehicleOnly) {
   ASSERT_TRUE(b.has_value());
   EXPECT_GE((*b)[1] * o.cell_m, 95.0 - 15.0 - 16.0);
   EXPECT_LE(grid.TileCount(), 9u);  // a 30 m window touches at most 3 x 3 tiles of 16 m
+}
+
+
+// Free-space carving (the scenes rendered from the paper's rig, what stands in front hiding what
+// lies behind, so that no true ray passes through a surface).
+class Carving : public ::testing::Test {
+ protected:
+  Carving()
+      : rig_(calib::RectifyRig(calib::testing::PaperRig(), 0.0)),
+        model_(rig_, calib::ReferenceImage::kRight, 1.0),
+        camera_(model_.ReferenceCamera()) {}
+
+  // Six frames driving north 0.5 m apart; frames listed in `with_phantom` also see `phantom`
+  // (a slab 0.6 m up over x in [-0.5, 0.5), y in [7, 7.5)), the others `ground`.
+  std::vector<std::pair<cv::Mat, FramePose>> Drive(const testing::HeightFn& ground, std::vector<int> with_phantom) const {
+    std::vector<std::pair<cv::Mat, FramePose>> frames;
+    for (int k = 0; k < 6; ++k) {
+      const FramePose p = Pose(0, 0.5 * k, 0, k);
+      const bool phantom = std::find(with_phantom.begin(), with_phantom.end(), k) != with_phantom.end();
+      const testing::HeightFn seen = [&, phantom](double x, double y) {
+        return phantom && x >= -0.5 && x < 0.5 && y >= 7 && y < 7.5 ? 0.6 : ground(x, y);
+      };
+      frames.push_back({RenderedXyz(seen, p, camera_, 120, 200, -3, 3, 2, 16), p});  // to 16 m: the top of what stands at 7 m
+    }
+    return frames;
+  }
+  TerrainGrid Fuse(const std::vector<std::pair<cv::Mat, FramePose>>& frames, const TerrainMapOptions& o,
+                   std::vector<int> which = {}) const {
+    TerrainGrid grid(o.cell_m);
+    for (std::size_t k = 0; k < frames.size(); ++k) {
+      if (!which.empty() && std::find(which.begin(), which.end(), static_cast<int>(k)) == which.end()) continue;
+      const auto& [xyz, pose] = frames[k];
+      grid.Add(BinFrame(xyz, cv::Mat(), pose.WorldFromVehicle(), pose.t_s, o, &model_));
+    }
+    return grid;
+  }
+  static std::optional<CellStats> At(const TerrainGrid& grid, double x, double y, double tolerance) {
+    return grid.Find({static_cast<std::int64_t>(std::floor(x / 0.25)), static_cast<std::int64_t>(std::floor(y / 0.25))},
+                     tolerance);
+  }
+
+  calib::StereoRig rig_;
+  ElevationErrorModel model_;
+  Eigen::Vector3d camera_;
+};
+
+TEST_F(Carving, WhatLaterRaysPassBeneathIsLeftOut) {
+  // The first three frames see something 0.6 m up (a cyclist gone by the fourth); the next
+  // three see the ground there, and beyond it, with rays passing low over it.
+  const TerrainMapOptions o;
+  const auto frames = Drive([](double, double) { return 0.0; }, {0, 1, 2});
+  const TerrainGrid grid = Fuse(frames, o);
+  CarveCounts carved;
+  const MapLayers l = ComputeLayers(grid, o.obstacles, 1, o.carve_tolerance_m, &carved);
+  const MapLayers kept = ComputeLayers(grid, o.obstacles, 1);  // no carving
+  int phantom_cells = 0;
+  for (double y = 7.125; y < 7.5; y += 0.25) {
+    for (double x = -0.125; x < 0.5; x += 0.25) {  // (its west column: the support rule's, seen from the east)
+      int col = 0, row = 0;
+      ASSERT_TRUE(l.CellOf(x, y, &col, &row));
+      ++phantom_cells;
+      EXPECT_GT(kept.elevation_m.at<float>(row, col), 0.1) << x << ", " << y;  // the scene can fail the test
+      EXPECT_NEAR(l.elevation_m.at<float>(row, col), 0.0, 0.01) << x << ", " << y;
+      EXPECT_EQ(l.obstacle.at<float>(row, col), 0) << x << ", " << y;
+      const auto s = At(grid, x, y, o.carve_tolerance_m);
+      ASSERT_TRUE(s.has_value());
+      EXPECT_GE(s->carved_frames, 1u) << x << ", " << y;
+      EXPECT_LT(s->ceiling2, 0.3);
+    }
+  }
+  EXPECT_GE(carved.cells_changed, phantom_cells);
+  EXPECT_EQ(carved.cells_cleared, 0);
+  // Outside the slab's cells the ground is flat.
+  EXPECT_EQ(CountCells(l.elevation_m,
+                       [&](int r, int c) {
+                         const double x = l.x_west_m + (c + 0.5) * l.cell_m, y = l.y_north_m - (r + 0.5) * l.cell_m;
+                         const bool slab = x > -0.5 && x < 0.5 && y > 7 && y < 7.5;
+                         return !slab && std::abs(l.elevation_m.at<float>(r, c)) > 0.01;
+                       }),
+            0);
+}
+
+TEST_F(Carving, WhatEveryFrameSeesStays) {
+  // A box 0.3 m high, 0.75 m wide, that every frame sees: its rays pass beside it and over it,
+  // never beneath its top, and a frame's rays beside what it sees in the same cell do not carve.
+  const TerrainMapOptions o;
+  const auto frames = Drive(BoxOnPlane(0.0, -0.6, 0.15, 7.0, 7.5, 0.3), {});
+  const TerrainGrid grid = Fuse(frames, o);
+  CarveCounts carved;
+  const MapLayers l = ComputeLayers(grid, o.obstacles, 1, o.carve_tolerance_m, &carved);
+  const MapLayers kept = ComputeLayers(grid, o.obstacles, 1);
+  EXPECT_EQ(carved.observations, 0);
+  for (int r = 0; r < l.elevation_m.rows; ++r) {
+    for (int c = 0; c < l.elevation_m.cols; ++c) {
+      const float a = l.elevation_m.at<float>(r, c), b = kept.elevation_m.at<float>(r, c);
+      ASSERT_EQ(std::isfinite(a), std::isfinite(b));
+      if (std::isfinite(a)) {
+        EXPECT_EQ(a, b);
+        const float oa = l.obstacle.at<float>(r, c), ob = kept.obstacle.at<float>(r, c);
+        EXPECT_TRUE(oa == ob || (std::isnan(oa) && std::isnan(ob)));
+      }
+    }
+  }
+  int col = 0, row = 0;
+  ASSERT_TRUE(l.CellOf(-0.2, 7.4, &col, &row));
+  EXPECT_NEAR(l.elevation_m.at<float>(row, col), 0.3, 0.01);
+  EXPECT_GT(l.obstacle.at<float>(row, col), 0);
+}
+
+TEST_F(Carving, FusingInPartsMergingAndResumingEqualsFusingAtOnce) {
+  const TerrainMapOptions o;
+  const auto frames = Drive([](double x, double y) { return 0.05 * x + 0.02 * y; }, {0, 3});
+  const TerrainGrid whole = Fuse(frames, o);
+  TerrainGrid parts = Fuse(frames, o, {0, 2, 4});
+  parts.Merge(Fuse(frames, o, {5, 3, 1}));
+  const TerrainGrid back = TerrainGrid::FromStateRaster(parts.ToStateRaster(), "test");
+  const auto b = whole.MappedBounds();
+  ASSERT_TRUE(b.has_value());
+  int carved_cells = 0;
+  for (const TerrainGrid* other : {static_cast<const TerrainGrid*>(&parts), &back}) {
+    ASSERT_EQ(other->MappedBounds(), b);
+    for (std::int64_t j = (*b)[1]; j <= (*b)[3]; ++j) {
+      for (std::int64_t i = (*b)[0]; i <= (*b)[2]; ++i) {
+        const auto a = whole.Find({i, j}, o.carve_tolerance_m), m = other->Find({i, j}, o.carve_tolerance_m);
+        ASSERT_EQ(a.has_value(), m.has_value());
+        if (!a) continue;
+        carved_cells += a->carved_frames > 0;
+        EXPECT_EQ(a->count, m->count);
+        EXPECT_EQ(a->frames, m->frames);
+        EXPECT_EQ(a->carved_frames, m->carved_frames);
+        EXPECT_EQ(a->ceiling, m->ceiling);
+        EXPECT_EQ(a->ceiling2, m->ceiling2);
+        EXPECT_EQ(a->z_max2, m->z_max2);
+        if (a->count > 0) {
+          EXPECT_NEAR(a->Mean(), m->Mean(), 1e-9);
+        }
+      }
+    }
+  }
+  EXPECT_GT(carved_cells, 0);  // the phantom was there to carve
+}
+
+TEST(TerrainGrid, HeightBinsDependOnTheObservationsNotTheirOrder) {
+  // One cell, observations at heights spread over 2 m (more than kMaxHeightBins bins of
+  // kHeightBinM): the bins coarsen; added in any order or merged from parts, the same cell,
+  // and a ceiling leaves out the same observations.
+  const std::vector<double> heights = {0.0, 0.05, 1.9, 0.31, -0.12, 0.74, 0.75, 1.2, 0.02, -0.4};
+  auto frame = [](double z, float ceiling) {
+    CellStats s;
+    s.sum_w = 1;
+    s.sum_wz = z;
+    s.sum_wzz = z * z;
+    s.z_min = s.z_max = s.z_max2 = static_cast<float>(z);
+    s.count = 1;
+    s.frames = 1;
+    s.ceiling = ceiling;
+    FrameContribution f;
+    f.cells.push_back({CellIndex{3, -2}, s});
+    return f;
+  };
+  auto fuse = [&](const std::vector<int>& order) {
+    TerrainGrid g(0.25);
+    for (int k : order) g.Add(frame(heights[k], k == 4 ? 0.5f : k == 6 ? 0.6f : kInfinity));
+    return g;
+  };
+  const TerrainGrid forward = fuse({0, 1, 2, 3, 4, 5, 6, 7, 8, 9});
+  const TerrainGrid backward = fuse({9, 8, 7, 6, 5, 4, 3, 2, 1, 0});
+  TerrainGrid merged = fuse({2, 7, 5});
+  merged.Merge(fuse({0, 1, 3, 4, 6, 8, 9}));
+  for (double tolerance : {0.0, 0.1, 0.5, 2.0, static_cast<double>(kInfinity)}) {
+    const auto a = forward.Find({3, -2}, tolerance);
+    ASSERT_TRUE(a.has_value());
+    for (const TerrainGrid* g : {&backward, static_cast<const TerrainGrid*>(&merged)}) {
+      const auto b = g->Find({3, -2}, tolerance);
+      ASSERT_TRUE(b.has_value());
+      EXPECT_EQ(a->count, b->count) << tolerance;
+      EXPECT_EQ(a->carved_points, b->carved_points) << tolerance;
+      EXPECT_EQ(a->z_max, b->z_max) << tolerance;
+      if (a->count > 0) {
+        EXPECT_NEAR(a->Mean(), b->Mean(), 1e-12) << tolerance;
+      }
+    }
+    if (std::isinf(tolerance)) {
+      EXPECT_EQ(a->count, heights.size());
+    }
+  }
+  // The ceiling 0.6 m (the second lowest) leaves out what stands more than the tolerance above
+  // it, at the coarsened bins' resolution: the observation at 1.9 m at least.
+  const auto carved = forward.Find({3, -2}, 0.1);
+  EXPECT_GE(carved->carved_points, 1u);
+  EXPECT_LT(carved->z_max, 1.9f);
 }
 
 }  // namespace
