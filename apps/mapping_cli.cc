@@ -26,6 +26,10 @@ void AddFusionOptions(CLI::App* app, mapping::TerrainMapOptions* map) {
   app->add_option("--carve-reach", map->carve_reach_m,
                   "the stretch of each ray, before its point, that carves (horizontal), m")
       ->capture_default_str();
+  app->add_option("--hidden-tolerance", map->hidden_tolerance_m,
+                  "leave out a pair's observation of a cell when the ray to it passes this far below the lowest point "
+                  "of another cell the pair sees on its way (needs --rig; inf: off), m")
+      ->capture_default_str();
   app->add_option("--min-frames", map->min_frames, "cells fewer pairs saw are left out of the layers (kept in the sums)")
       ->capture_default_str();
   app->add_option("--frame-floor", map->frame_floor_m,

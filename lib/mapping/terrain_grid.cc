@@ -63,18 +63,17 @@ struct Ray {
 // One point in this many casts its ray (the ceiling is the kCeilingSupport-th lowest of many).
 constexpr std::size_t kRayStride = 8;
 
-// Walks `ray` from the camera (2-D, cell by cell) over its carving stretch: the last
-// o.carve_reach_m before its point, less twice the point's horizontal error and half a cell;
-// in each cell it crosses, the lowest height of the ray there (where it leaves the cell: the
-// ray descends) joins the cell's kCeilingSupport lowest in `ceilings` (box i0, j0, nx x ny).
-// Returns 1 when the ray crossed a cell, else 0.
-int CastRay(const Eigen::Vector3d& camera, const Ray& ray, const TerrainMapOptions& o, std::int32_t i0, std::int32_t j0,
-            std::int64_t nx, std::int64_t ny, float* ceilings) {
-  const double dx = ray.x - camera.x(), dy = ray.y - camera.y(), dz = ray.z - camera.z();
+// Walks the ray from `camera` to the point (x, y, z) cell by cell (2-D, over the lattice of
+// cells of `cell_m`) along its stretch [s0, s1] of horizontal distance from the camera, and
+// calls visit(i, j, h_in, h_out) with each cell's index and the ray's heights where it enters
+// and leaves the cell (or the stretch), until visit returns false.
+template <typename Visit>
+void WalkRay(const Eigen::Vector3d& camera, double x, double y, double z, double s0, double s1, double cell_m,
+             Visit visit) {
+  const double dx = x - camera.x(), dy = y - camera.y();
   const double length = std::sqrt(dx * dx + dy * dy);
-  const double s1 = length - 2.0 * ray.sigma_h - 0.5 * o.cell_m, s0 = std::max(0.0, length - o.carve_reach_m);
-  if (!(dz < 0) || !(s1 > s0)) return 0;
-  const double ux = dx / length, uy = dy / length, c = o.cell_m, inv_cell = 1.0 / c;
+  if (!(length > 0) || !(s1 > s0)) return;
+  const double ux = dx / length, uy = dy / length, c = cell_m, inv_cell = 1.0 / c;
   std::int64_t i = static_cast<std::int64_t>(std::floor((camera.x() + ux * s0) * inv_cell));
   std::int64_t j = static_cast<std::int64_t>(std::floor((camera.y() + uy * s0) * inv_cell));
   const int step_i = ux > 0 ? 1 : -1, step_j = uy > 0 ? 1 : -1;
@@ -83,17 +82,12 @@ int CastRay(const Eigen::Vector3d& camera, const Ray& ray, const TerrainMapOptio
   double next_x = ux != 0 ? ((ux > 0 ? i + 1 : i) * c - camera.x()) / ux : inf;
   double next_y = uy != 0 ? ((uy > 0 ? j + 1 : j) * c - camera.y()) / uy : inf;
   const double delta_x = ux != 0 ? c / std::abs(ux) : inf, delta_y = uy != 0 ? c / std::abs(uy) : inf;
-  const double slope = dz / length;
+  const double slope = (z - camera.z()) / length;
+  double s_in = s0;
   for (int guard = 0; guard < 100000; ++guard) {
-    const double s_exit = std::min({next_x, next_y, s1});
-    const std::int64_t li = i - i0, lj = j - j0;
-    if (li >= 0 && lj >= 0 && li < nx && lj < ny) {
-      float h = static_cast<float>(camera.z() + slope * s_exit);
-      for (float* t = ceilings + (lj * nx + li) * kCeilingSupport; t != ceilings + (lj * nx + li + 1) * kCeilingSupport; ++t) {
-        if (h < *t) std::swap(h, *t);
-      }
-    }
-    if (s_exit >= s1) break;
+    const double s_out = std::min({next_x, next_y, s1});
+    if (!visit(i, j, camera.z() + slope * s_in, camera.z() + slope * s_out) || s_out >= s1) break;
+    s_in = s_out;
     if (next_x < next_y) {
       i += step_i;
       next_x += delta_x;
@@ -102,6 +96,35 @@ int CastRay(const Eigen::Vector3d& camera, const Ray& ray, const TerrainMapOptio
       next_y += delta_y;
     }
   }
+}
+
+// The stretch of a ray that says something about the cells it crosses: the last `reach_m`
+// before its point, less twice the point's horizontal error and half a cell, where the point
+// may lie in truth. {s0, s1} in horizontal distance from the camera.
+std::pair<double, double> RayStretch(const Eigen::Vector3d& camera, double x, double y, double sigma_h, double reach_m,
+                                     double cell_m) {
+  const double length = std::hypot(x - camera.x(), y - camera.y());
+  return {std::max(0.0, length - reach_m), length - 2.0 * sigma_h - 0.5 * cell_m};
+}
+
+// Walks `ray` over its stretch; in each cell it crosses, the lowest height of the ray there
+// (where it leaves the cell: the ray descends) joins the cell's kCeilingSupport lowest in
+// `ceilings` (box i0, j0, nx x ny). Returns 1 when the ray crossed a cell, else 0.
+int CastRay(const Eigen::Vector3d& camera, const Ray& ray, const TerrainMapOptions& o, std::int32_t i0, std::int32_t j0,
+            std::int64_t nx, std::int64_t ny, float* ceilings) {
+  if (!(ray.z < camera.z())) return 0;
+  const auto [s0, s1] = RayStretch(camera, ray.x, ray.y, ray.sigma_h, o.carve_reach_m, o.cell_m);
+  if (!(s1 > s0)) return 0;
+  WalkRay(camera, ray.x, ray.y, ray.z, s0, s1, o.cell_m, [&](std::int64_t i, std::int64_t j, double, double h_out) {
+    const std::int64_t li = i - i0, lj = j - j0;
+    if (li >= 0 && lj >= 0 && li < nx && lj < ny) {
+      float h = static_cast<float>(h_out);
+      for (float* t = ceilings + (lj * nx + li) * kCeilingSupport; t != ceilings + (lj * nx + li + 1) * kCeilingSupport; ++t) {
+        if (h < *t) std::swap(h, *t);
+      }
+    }
+    return true;
+  });
   return 1;
 }
 
@@ -141,6 +164,7 @@ void TerrainMapOptions::Validate() const {
   LN_CHECK_ARG(support_rise_m > 0) << "support rise: must be > 0 m (inf: off)";
   LN_CHECK_ARG(carve_tolerance_m >= 0) << "carve tolerance: must be >= 0 m (inf: off)";
   LN_CHECK_ARG(std::isfinite(carve_reach_m) && carve_reach_m > 0) << "carve reach: must be > 0 m";
+  LN_CHECK_ARG(hidden_tolerance_m >= 0) << "hidden tolerance: must be >= 0 m (inf: off)";
   LN_CHECK_ARG(std::isfinite(frame_floor_m) && frame_floor_m > 0) << "frame floor: must be > 0 m";
   LN_CHECK_ARG(std::isfinite(default_sigma_m) && default_sigma_m > 0) << "default sigma: must be > 0 m";
   LN_CHECK_ARG(max_range_m > 0) << "max range: must be > 0 m";
@@ -163,6 +187,7 @@ nlohmann::json TerrainMapOptions::ToJson() const {
           {"support_rise_m", number(support_rise_m)},
           {"carve_tolerance_m", number(carve_tolerance_m)},
           {"carve_reach_m", carve_reach_m},
+          {"hidden_tolerance_m", number(hidden_tolerance_m)},
           {"frame_floor_m", frame_floor_m},
           {"default_sigma_m", default_sigma_m},
           {"max_range_m", number(max_range_m)},
@@ -223,7 +248,8 @@ FrameContribution BinFrame(const cv::Mat& xyz, const cv::Mat& sigma, const Eigen
     std::vector<Ray> rays;
     std::vector<float> ceilings;
     std::vector<std::uint32_t> src;
-    std::vector<std::uint8_t> accepted;  // per cell of the frame's box, its kCeilingSupport lowest ray heights
+    std::vector<std::uint8_t> accepted;
+    std::vector<float> lowest;  // per cell of the frame's box, its lowest accepted point  // per cell of the frame's box, its kCeilingSupport lowest ray heights
   };
   static thread_local Buffers buf;
   std::vector<std::int32_t>& ci = buf.ci;
@@ -236,6 +262,9 @@ FrameContribution BinFrame(const cv::Mat& xyz, const cv::Mat& sigma, const Eigen
   ws.clear();
   // Carving: the rays start at the reference camera.
   const bool carving = error_model != nullptr && std::isfinite(o.carve_tolerance_m);
+  const bool hiding = error_model != nullptr && std::isfinite(o.hidden_tolerance_m);
+  const Eigen::Vector3d camera_hide =
+      hiding ? Eigen::Vector3d(world_from_vehicle * error_model->ReferenceCamera()) : Eigen::Vector3d::Zero();
   const Eigen::Vector3d camera =
       carving ? Eigen::Vector3d(world_from_vehicle * error_model->ReferenceCamera()) : Eigen::Vector3d::Zero();
   std::vector<Ray>& rays = buf.rays;
@@ -432,6 +461,48 @@ FrameContribution BinFrame(const cv::Mat& xyz, const cv::Mat& sigma, const Eigen
     out.points_fused += cell.count;
     out.points_rejected += cell.rejected;
     out.cells.push_back({CellIndex{i0 + c % nx, j0 + c / nx}, cell});
+  }
+  if (hiding) {
+    // Pass 3b: an observation that the ray to it shows hidden is left out: on its way, the ray
+    // passes through a cell of the same frame below that cell's lowest point (by more than the
+    // tolerance, at the ray's highest over the cell), where the frame sees the ground it would
+    // have hit. Wrong matches behind an object's edge, seen in one camera only, lie there,
+    // metres deep. All tested against the frame's cells as binned.
+    std::vector<float>& lowest = buf.lowest;
+    lowest.assign(static_cast<std::size_t>(nx * ny), kInfF);
+    for (const auto& [index, cell] : out.cells) {
+      if (cell.count > 0) lowest[static_cast<std::size_t>((index.j - j0) * nx + (index.i - i0))] = cell.z_min;
+    }
+    const Eigen::Isometry3d vehicle_from_world = world_from_vehicle.inverse();
+    for (auto& [index, cell] : out.cells) {
+      if (cell.count == 0) continue;
+      const double x = (static_cast<double>(index.i) + 0.5) * o.cell_m, y = (static_cast<double>(index.j) + 0.5) * o.cell_m;
+      const double z = cell.Mean();
+      if (!(z < camera_hide.z())) continue;
+      const Eigen::Vector3d v = vehicle_from_world * Eigen::Vector3d(x, y, z);
+      const double sigma_h = error_model->SigmaHorizontal(v.x(), v.y(), v.z());
+      if (!std::isfinite(sigma_h)) continue;
+      const auto [s0, s1] = RayStretch(camera_hide, x, y, sigma_h, o.carve_reach_m, o.cell_m);
+      bool hidden = false;
+      WalkRay(camera_hide, x, y, z, s0, s1, o.cell_m, [&](std::int64_t i, std::int64_t j, double h_in, double) {
+        const std::int64_t li = i - i0, lj = j - j0;
+        if ((i != index.i || j != index.j) && li >= 0 && lj >= 0 && li < nx && lj < ny) {
+          const float ground = lowest[static_cast<std::size_t>(lj * nx + li)];
+          hidden = std::isfinite(ground) && h_in < static_cast<double>(ground) - o.hidden_tolerance_m;
+        }
+        return !hidden;
+      });
+      if (!hidden) continue;
+      out.points_fused -= cell.count;
+      out.points_hidden += cell.count;
+      if (!rays.empty()) {
+        const std::int64_t c = (index.j - j0) * nx + (index.i - i0);
+        for (std::uint32_t k = start[c]; k < start[c + 1]; ++k) accepted[src[k]] = 0;
+      }
+      CellStats emptied;
+      emptied.rejected = cell.rejected;
+      cell = emptied;
+    }
   }
   if (rays.empty()) return out;
 

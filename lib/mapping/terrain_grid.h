@@ -105,6 +105,12 @@ struct TerrainMapOptions {
   /// point, less the point's own uncertainty (twice its horizontal error and half a cell),
   /// metres, > 0. Near its point a ray runs close over the ground, where it says most.
   double carve_reach_m = 2.0;
+  /// Hidden observations: a frame's observation of a cell is left out when the ray to it
+  /// passes, within the carving stretch, through another cell of the same frame more than this
+  /// below that cell's lowest point (the ray would have met the ground the frame sees there:
+  /// a wrong match, typically behind an object's edge where one camera sees what the other
+  /// cannot), metres, >= 0; infinity turns it off. Needs the rig's error model.
+  double hidden_tolerance_m = 0.1;
   /// The least error of one frame's estimate of a cell, whatever its points' count and
   /// precision (their errors are correlated: one pose, one rig, overlapping windows), metres,
   /// > 0. A frame's observation of a cell weighs 1 / (mean point variance + this^2).
@@ -205,6 +211,7 @@ struct FrameContribution {
   long points_unsupported = 0;  ///< Rejected by the support rule (a rise with no face seen below).
   long points_out_of_range = 0;
   long rays_cast = 0;  ///< Rays that set ceilings (carving).
+  long points_hidden = 0;  ///< Points of observations the ray to them shows hidden (left out).
 };
 
 /// Bins one frame's points into cells and gates them (the fusion described above).

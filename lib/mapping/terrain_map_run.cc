@@ -82,6 +82,7 @@ json FusionJson(const TerrainMapRunOptions& options, const std::string& errors) 
           {"visibility_floor_m", mo.visibility_floor_m},
           {"support_rise_m", number(mo.support_rise_m)},
           {"carve_reach_m", mo.carve_reach_m},
+          {"hidden_tolerance_m", number(mo.hidden_tolerance_m)},
           {"frame_floor_m", mo.frame_floor_m},
           {"max_range_m", number(mo.max_range_m)},
           {"max_horizontal_sigma_cells", number(mo.max_horizontal_sigma_cells)},
@@ -228,7 +229,7 @@ std::string TerrainMapRunSummary::BriefReport() const {
   if (frames_resumed > 0) s << " (+" << frames_resumed << " resumed)";
   if (frames_merged > 0) s << " (+" << frames_merged << " merged)";
   s << ", " << points_fused / 1e6 << " M points (" << points_rejected << " rejected by the gate, " << points_floating
-    << " floating, " << points_unsupported << " unsupported); " << mapped_cells
+    << " floating, " << points_unsupported << " unsupported, " << points_hidden << " hidden); " << mapped_cells
     << " cells, " << obstacle_cells << " obstacle cells; " << seconds << " s";
   return s.str();
 }
@@ -388,6 +389,7 @@ TerrainMapRunSummary RunTerrainMap(const TerrainMapRunOptions& options, const fs
       summary.points_unsupported += c.points_unsupported;
       summary.points_out_of_range += c.points_out_of_range;
       summary.rays_cast += c.rays_cast;
+      summary.points_hidden += c.points_hidden;
       fused.push_back({pose, c.points_fused, c.points_rejected});
       ++summary.frames_fused;
       if (c.points_in == 0 && summary.frames_without_points++ == 0) first_empty = pose.stem;
@@ -467,6 +469,7 @@ TerrainMapRunSummary RunTerrainMap(const TerrainMapRunOptions& options, const fs
                  {"points_in", summary.points_in},           {"points_fused", summary.points_fused},
                  {"points_rejected", summary.points_rejected}, {"points_floating", summary.points_floating},
                  {"points_unsupported", summary.points_unsupported},
+                 {"points_hidden", summary.points_hidden},
                  {"points_out_of_range", summary.points_out_of_range},
                  {"mapped_cells", summary.mapped_cells},     {"obstacle_cells", summary.obstacle_cells},
                  {"frames_without_points", summary.frames_without_points}};

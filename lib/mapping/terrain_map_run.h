@@ -52,6 +52,7 @@ struct TerrainMapRunSummary {
   long mapped_cells = 0, obstacle_cells = 0;
   long frames_without_points = 0;  ///< This run's pairs whose XYZ arrays held no valid point.
   long rays_cast = 0;               ///< This run's rays that set ceilings (carving; with a rig only).
+  long points_hidden = 0;           ///< Points of observations the rays to them show hidden (with a rig only).
   CarveCounts carved;               ///< What carving left out of the layers.
   std::vector<std::string> warnings;  ///< Printed as they arise and kept in summary.json.
   double seconds = 0, fuse_seconds = 0, fuse_cpu_seconds = 0, write_seconds = 0;

@@ -668,6 +668,53 @@ TEST_F(Carving, FusingInPartsMergingAndResumingEqualsFusingAtOnce) {
   EXPECT_GT(carved_cells, 0);  // the phantom was there to carve
 }
 
+TEST_F(Carving, WhatTheRayToItShowsHiddenIsLeftOut) {
+  // Flat ground; in a strip 20 cm wide (what one camera sees beside an object's edge), the
+  // points of the ground 7-7.5 m ahead matched too far (1.3 times their distance, along their
+  // rays: 2.3 m farther and 0.45 m under the ground, where the ground the frame sees 8-9 m ahead
+  // beside the strip would have stopped the rays); the true points where they land missing.
+  const TerrainMapOptions o;
+  const FramePose p = Pose(0, 0, 0);
+  cv::Mat xyz = RenderedXyz([](double, double) { return 0.0; }, p, camera_, 120, 160);
+  int moved = 0;
+  for (auto it = xyz.begin<cv::Vec3f>(); it != xyz.end<cv::Vec3f>(); ++it) {
+    const Eigen::Vector3d v((*it)[0], (*it)[1], (*it)[2]);
+    if (v.y() >= 9 && v.y() < 10 && v.x() >= -0.5 && v.x() < 0) {
+      *it = cv::Vec3f::all(std::numeric_limits<float>::quiet_NaN());
+    }
+    if (v.y() >= 7 && v.y() < 7.5 && std::abs(v.x()) < 0.1) {
+      const Eigen::Vector3d w = camera_ + 1.3 * (v - camera_);
+      *it = cv::Vec3f(static_cast<float>(w.x()), static_cast<float>(w.y()), static_cast<float>(w.z()));
+      ++moved;
+    }
+  }
+  TerrainMapOptions off = o;
+  off.hidden_tolerance_m = std::numeric_limits<double>::infinity();
+  const FrameContribution kept = BinFrame(xyz, cv::Mat(), p.WorldFromVehicle(), 0, off, &model_);
+  const FrameContribution hid = BinFrame(xyz, cv::Mat(), p.WorldFromVehicle(), 0, o, &model_);
+  EXPECT_EQ(kept.points_hidden, 0);
+  EXPECT_GE(hid.points_hidden, moved * 9 / 10);
+  EXPECT_LE(hid.points_hidden, moved);
+  int deep_kept = 0, deep_hid = 0;
+  for (const auto& [index, s] : kept.cells) deep_kept += s.count > 0 && s.Mean() < -0.2;
+  for (const auto& [index, s] : hid.cells) deep_hid += s.count > 0 && s.Mean() < -0.2;
+  EXPECT_GE(deep_kept, 2);  // the wrong matches made a hole without the rule
+  EXPECT_EQ(deep_hid, 0);
+}
+
+TEST_F(Carving, ADitchSeenOverItsLipIsNotHidden) {
+  // A ditch 0.4 m deep from 6 m ahead on, its bottom seen over the lip from 7.6 m: true low
+  // ground, which no ray reaches through the ground.
+  const TerrainMapOptions o;
+  const FramePose p = Pose(0, 0, 0);
+  const cv::Mat xyz = RenderedXyz([](double, double y) { return y >= 6 ? -0.4 : 0.0; }, p, camera_, 120, 160);
+  const FrameContribution f = BinFrame(xyz, cv::Mat(), p.WorldFromVehicle(), 0, o, &model_);
+  EXPECT_EQ(f.points_hidden, 0);
+  int bottom = 0;
+  for (const auto& [index, s] : f.cells) bottom += s.count > 0 && std::abs(s.Mean() + 0.4) < 0.02;
+  EXPECT_GT(bottom, 8);
+}
+
 TEST(TerrainGrid, HeightBinsDependOnTheObservationsNotTheirOrder) {
   // One cell, observations at heights spread over 2 m (more than kMaxHeightBins bins of
   // kHeightBinM): the bins coarsen; added in any order or merged from parts, the same cell,
