@@ -375,7 +375,8 @@ io::GeoRaster GridLidarTruth(const std::vector<LidarSweep>& sweeps, const io::Ge
 LidarEvalResult EvaluateMapAgainstLidar(const io::GeoRaster& map, const io::GeoRaster& truth,
                                         const std::vector<mapping::FramePose>& pairs, const calib::StereoRig& rig,
                                         const LidarEvalOptions& o, const std::vector<double>& sweep_times_s,
-                                        cv::Mat* untimely_out, const std::vector<std::vector<int>>* stood_in) {
+                                        cv::Mat* untimely_out, const std::vector<std::vector<int>>* stood_in,
+                                        cv::Mat* band_out) {
   o.Validate();
   LN_CHECK_ARG(rig.rectified.has_value()) << "the rig is not rectified";
   const cv::Mat& elevation = Band(map, "elevation_m", "map");
@@ -489,7 +490,7 @@ LidarEvalResult EvaluateMapAgainstLidar(const io::GeoRaster& map, const io::GeoR
   }
 
   // The band: cells a timely pair's cameras saw between band_min_y_m and band_max_y_m ahead,
-  // in both images and in the left camera's line of sight over the LiDAR's surface.
+  // in both images and in both cameras' lines of sight over the LiDAR's surface.
   auto visible = [&](const Eigen::Vector3d& camera, const Eigen::Vector3d& target) {
     const Eigen::Vector3d d = target - camera;
     const double length = d.head<2>().norm();
@@ -509,6 +510,7 @@ LidarEvalResult EvaluateMapAgainstLidar(const io::GeoRaster& map, const io::GeoR
   for (std::size_t p = 0; p < pairs.size(); ++p) {
     if (!timely[p]) continue;
     const Eigen::Vector3d camera = pairs[p].WorldFromVehicle() * rig.VehicleFromLeft().translation();
+    const Eigen::Vector3d right = pairs[p].WorldFromVehicle() * rig.VehicleFromRight().translation();
     for_band_cells(pairs[p], 0.0, [&](int col, int row, int k, const Eigen::Vector3d& w) {
       if ((k != kFlat && k != kObject) || in_band.at<std::uint8_t>(row, col) != 0 || !judged(col, row)) return;
       if (k == kObject && stood_in != nullptr && nearest_sweep[p] >= 0) {
@@ -516,7 +518,7 @@ LidarEvalResult EvaluateMapAgainstLidar(const io::GeoRaster& map, const io::GeoR
                                       static_cast<std::size_t>(col)];
         if (std::find(who.begin(), who.end(), nearest_sweep[p]) == who.end()) return;  // not there then
       }
-      if (!visible(camera, w)) return;
+      if (!visible(camera, w) || !visible(right, w)) return;  // stereo needs both lines of sight
       in_band.at<std::uint8_t>(row, col) = static_cast<std::uint8_t>(k == kFlat ? 1 : 2);
     });
   }
@@ -594,6 +596,7 @@ LidarEvalResult EvaluateMapAgainstLidar(const io::GeoRaster& map, const io::GeoR
   }
   res.object_recall = Ratio(res.objects_found, res.objects);
   if (untimely_out != nullptr) *untimely_out = untimely;
+  if (band_out != nullptr) *band_out = in_band;
   return res;
 }
 
@@ -854,9 +857,9 @@ LidarEvalResult RunLidarMapEvaluation(const LidarMapCommand& cmd, const json& in
   if (!cmd.lidar_in_world) {
     for (const LidarSweep& s : sweeps) sweep_times.push_back(s.t_s);
   }
-  cv::Mat untimely;
+  cv::Mat untimely, band;
   LidarEvalResult result = EvaluateMapAgainstLidar(map, truth, pairs, rig, o, sweep_times, &untimely,
-                                                   cmd.lidar_in_world ? nullptr : &stood_in);
+                                                   cmd.lidar_in_world ? nullptr : &stood_in, &band);
   result.sweeps = static_cast<long>(sweeps.size());
   for (const LidarSweep& s : sweeps) result.returns += static_cast<long>(s.points.size());
   MeasureSweepConsistency(sweeps, truth, o, &result);
@@ -961,6 +964,9 @@ LidarEvalResult RunLidarMapEvaluation(const LidarMapCommand& cmd, const json& in
     cv::Mat judged;
     untimely.convertTo(judged, CV_32FC1, -1.0, 1.0);
     layers.bands.push_back(NamedBand(judged, "judged"));
+    cv::Mat band_f;
+    band.convertTo(band_f, CV_32FC1);
+    layers.bands.push_back(NamedBand(band_f, "band"));
     const std::map<std::string, std::string> meaning = {
         {"ground_m", "the median LiDAR return of a flat-ground cell, m (NaN: not flat ground)"},
         {"relief_m", "the highest return under the clearance above the local ground, m"},
@@ -969,7 +975,8 @@ LidarEvalResult RunLidarMapEvaluation(const LidarMapCommand& cmd, const json& in
         {"returns", "LiDAR returns in the cell (all sweeps, under the clearance)"},
         {"standing_m", "the highest return over the plane through the 5 x 5 cells' low returns, m"},
         {"persistence", "the share of the sweeps that saw the cell in which something 20 cm tall stood there"},
-        {"judged", "1 judged, 0 seen by a pair far in time from every sweep"}};
+        {"judged", "1 judged, 0 seen by a pair far in time from every sweep"},
+        {"band", "1 flat ground the coverage counts (a timely pair saw it in the band), 2 an object's top the recall counts, 0 neither"}};
     for (io::RasterBand& b : layers.bands) b.metadata["meaning"] = meaning.at(b.description);
     layers.metadata["lunarnav_content"] = "evaluate map --lidar: the LiDAR truth on the map's lattice";
     io::WriteGeoTiffAtomic(cmd.output_dir / "truth.tif", layers);

@@ -47,7 +47,7 @@ struct LidarEvalOptions {
   /// A compared cell farther than this from the truth is a large error (a phantom), metres.
   double large_error_m = 0.30;
   /// The band the rig maps: ground this far ahead of a pair (vehicle-frame Y), in both images
-  /// and in the left camera's line of sight (not behind a LiDAR object), metres.
+  /// and in both cameras' lines of sight (not behind a LiDAR object), metres.
   double band_min_y_m = 0, band_max_y_m = 0;
   /// Cells in the band (3 m wider at each end) of a pair taken farther in time than this from
   /// every sweep are not judged: what stood there then (a cyclist who rode on) no sweep shows,
@@ -116,12 +116,15 @@ struct LidarEvalResult {
 /// Recall's objects: with `stood_in` (GridLidarTruth's) and the sweeps' times, an object cell
 /// counts where a pair saw its top in the band while it stood there (in the sweep nearest the
 /// pair: a car driving ahead stands in every sweep somewhere, each time elsewhere); without,
-/// where it stood in most of the sweeps that saw it.
+/// where it stood in most of the sweeps that saw it. `band`, when given, receives the cells the
+/// coverage and recall count (CV_8UC1 on the truth's lattice: 1 flat ground a timely pair saw
+/// in the band, 2 an object's top seen there while it stood, 0 neither).
 LidarEvalResult EvaluateMapAgainstLidar(const io::GeoRaster& map, const io::GeoRaster& truth,
                                         const std::vector<mapping::FramePose>& pairs, const calib::StereoRig& rig,
                                         const LidarEvalOptions& options, const std::vector<double>& sweep_times_s = {},
                                         cv::Mat* untimely = nullptr,
-                                        const std::vector<std::vector<int>>* stood_in = nullptr);
+                                        const std::vector<std::vector<int>>* stood_in = nullptr,
+                                        cv::Mat* band = nullptr);
 
 /// The sweep-to-sweep consistency of the truth (LidarEvalResult::sweep_*).
 void MeasureSweepConsistency(const std::vector<LidarSweep>& sweeps, const io::GeoRaster& truth,
