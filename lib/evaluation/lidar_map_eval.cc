@@ -490,7 +490,7 @@ LidarEvalResult EvaluateMapAgainstLidar(const io::GeoRaster& map, const io::GeoR
   }
 
   // The band: cells a timely pair's cameras saw between band_min_y_m and band_max_y_m ahead,
-  // in both images and in both cameras' lines of sight over the LiDAR's surface.
+  // in both images and in the left camera's line of sight over the LiDAR's surface.
   auto visible = [&](const Eigen::Vector3d& camera, const Eigen::Vector3d& target) {
     const Eigen::Vector3d d = target - camera;
     const double length = d.head<2>().norm();
@@ -510,7 +510,6 @@ LidarEvalResult EvaluateMapAgainstLidar(const io::GeoRaster& map, const io::GeoR
   for (std::size_t p = 0; p < pairs.size(); ++p) {
     if (!timely[p]) continue;
     const Eigen::Vector3d camera = pairs[p].WorldFromVehicle() * rig.VehicleFromLeft().translation();
-    const Eigen::Vector3d right = pairs[p].WorldFromVehicle() * rig.VehicleFromRight().translation();
     for_band_cells(pairs[p], 0.0, [&](int col, int row, int k, const Eigen::Vector3d& w) {
       if ((k != kFlat && k != kObject) || in_band.at<std::uint8_t>(row, col) != 0 || !judged(col, row)) return;
       if (k == kObject && stood_in != nullptr && nearest_sweep[p] >= 0) {
@@ -518,7 +517,7 @@ LidarEvalResult EvaluateMapAgainstLidar(const io::GeoRaster& map, const io::GeoR
                                       static_cast<std::size_t>(col)];
         if (std::find(who.begin(), who.end(), nearest_sweep[p]) == who.end()) return;  // not there then
       }
-      if (!visible(camera, w) || !visible(right, w)) return;  // stereo needs both lines of sight
+      if (!visible(camera, w)) return;
       in_band.at<std::uint8_t>(row, col) = static_cast<std::uint8_t>(k == kFlat ? 1 : 2);
     });
   }

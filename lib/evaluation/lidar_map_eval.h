@@ -47,7 +47,7 @@ struct LidarEvalOptions {
   /// A compared cell farther than this from the truth is a large error (a phantom), metres.
   double large_error_m = 0.30;
   /// The band the rig maps: ground this far ahead of a pair (vehicle-frame Y), in both images
-  /// and in both cameras' lines of sight (not behind a LiDAR object), metres.
+  /// and in the left camera's line of sight (not behind a LiDAR object), metres.
   double band_min_y_m = 0, band_max_y_m = 0;
   /// Cells in the band (3 m wider at each end) of a pair taken farther in time than this from
   /// every sweep are not judged: what stood there then (a cyclist who rode on) no sweep shows,
