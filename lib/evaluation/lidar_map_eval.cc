@@ -570,11 +570,16 @@ LidarEvalResult EvaluateMapAgainstLidar(const io::GeoRaster& map, const io::GeoR
       if (label.at<int>(row, col) >= 0) continue;
       const int id = static_cast<int>(res.objects++);
       bool found = false;
+      LidarObject object;
       std::vector<std::pair<int, int>> stack = {{col, row}};
       label.at<int>(row, col) = id;
       while (!stack.empty()) {
         const auto [x, y] = stack.back();
         stack.pop_back();
+        ++object.cells;
+        object.x_m += truth.CellCentreX(x);
+        object.y_m += truth.CellCentreY(y);
+        object.height_m = std::max(object.height_m, static_cast<double>(standing.at<float>(y, x)));
         for (int r = -tol; r <= tol && !found; ++r) {
           for (int q = -tol; q <= tol && !found; ++q) found = map_obstacle(x + q, y + r);
         }
@@ -591,6 +596,10 @@ LidarEvalResult EvaluateMapAgainstLidar(const io::GeoRaster& map, const io::GeoR
         }
       }
       res.objects_found += found;
+      object.x_m /= static_cast<double>(object.cells);
+      object.y_m /= static_cast<double>(object.cells);
+      object.found = found;
+      res.object_list.push_back(object);
     }
   }
   res.object_recall = Ratio(res.objects_found, res.objects);
@@ -955,6 +964,19 @@ LidarEvalResult RunLidarMapEvaluation(const LidarMapCommand& cmd, const json& in
       }
     }
     io::WriteFileAtomic(cmd.output_dir / "cells.csv", csv.str());
+  }
+  {
+    // Every LiDAR object of the band, found or not.
+    std::ostringstream csv;
+    csv.imbue(std::locale::classic());
+    csv << "# lunarnav evaluate map --lidar: the LiDAR objects of the band (what stands " << o.recall_height_m
+        << " m or more over the ground's plane where a pair saw its top); found: a map obstacle within "
+        << o.tolerance_cells << " cell(s) of one of its cells\n";
+    csv << "x_m,y_m,cells,height_m,found\n" << std::fixed << std::setprecision(3);
+    for (const LidarObject& b : result.object_list) {
+      csv << b.x_m << "," << b.y_m << "," << b.cells << "," << b.height_m << "," << b.found << "\n";
+    }
+    io::WriteFileAtomic(cmd.output_dir / "objects.csv", csv.str());
   }
   io::WriteImageAtomic(cmd.output_dir / "error.png", ErrorPicture(map, truth, pairs, o, untimely));
   {

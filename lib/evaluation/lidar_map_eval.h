@@ -79,6 +79,15 @@ struct LidarSweep {
 io::GeoRaster GridLidarTruth(const std::vector<LidarSweep>& sweeps, const io::GeoRaster& lattice,
                              const LidarEvalOptions& options, std::vector<std::vector<int>>* stood_in = nullptr);
 
+/// One LiDAR object of the band (recall): its cells' centre, extent and height, and whether a
+/// map obstacle lay within the tolerance of one of its cells.
+struct LidarObject {
+  double x_m = 0, y_m = 0;  ///< The centre of its cells, world.
+  long cells = 0;
+  double height_m = 0;  ///< The most it stands over the ground's plane (standing_m).
+  bool found = false;
+};
+
 struct LidarEvalResult {
   long sweeps = 0, returns = 0;
   long flat_cells = 0;           ///< LiDAR flat-ground cells.
@@ -93,6 +102,7 @@ struct LidarEvalResult {
   long obstacle_map = 0, obstacle_judged = 0, obstacle_tp = 0;
   double precision = 0;
   long objects = 0, objects_found = 0;  ///< LiDAR objects in the band.
+  std::vector<LidarObject> object_list;  ///< Each of them (objects.csv).
   double object_recall = 0;
   /// The truth's own consistency: over flat cells that two sweeps saw (>= min_lidar_points
   /// each), the difference of the two sweeps' medians: RMS, median |.|, count.
