@@ -238,6 +238,10 @@ Subcommand AddMap(CLI::App* app) {
   cmd->add_option("--object-height", l.options.object_height_m,
                   "with --lidar: a return this far above the local ground makes its cell an object, m")
       ->capture_default_str();
+  cmd->add_option("--overhang", l.options.overhang_m,
+                  "with --lidar: what stands only this far or more over ground seen beneath it (a canopy, a sign) is "
+                  "an overhang, no object to find, m")
+      ->capture_default_str();
   cmd->add_option("--min-points", c->options.min_points, "cells with fewer points are not scored")
       ->capture_default_str();
   cmd->add_option("--rock-height", c->options.rock_height_m, "rocks at least this tall are counted, m")

@@ -222,6 +222,7 @@ void LidarEvalOptions::Validate() const {
                recall_height_m > 0)
       << "relief heights: must be > 0 m";
   LN_CHECK_ARG(tolerance_cells >= 0 && tolerance_cells <= 10) << "tolerance: must be in 0..10 cells";
+  LN_CHECK_ARG(std::isfinite(overhang_m) && overhang_m > recall_height_m) << "overhang: must exceed the recall height";
   LN_CHECK_ARG(std::isfinite(large_error_m) && large_error_m > 0) << "large error: must be > 0 m";
   LN_CHECK_ARG(max_sweep_gap_s >= 0) << "sweep gap: must be >= 0 s";
   LN_CHECK_ARG(std::isfinite(band_min_y_m) && std::isfinite(band_max_y_m) && band_min_y_m < band_max_y_m)
@@ -237,6 +238,7 @@ json LidarEvalOptions::ToJson() const {
           {"lidar_range_m", {min_range_m, max_range_m}},
           {"relief_height_m", relief_height_m},
           {"recall_height_m", recall_height_m},
+          {"overhang_m", overhang_m},
           {"tolerance_cells", tolerance_cells},
           {"large_error_m", large_error_m},
           {"band_y_m", {band_min_y_m, band_max_y_m}},
@@ -311,11 +313,22 @@ io::GeoRaster GridLidarTruth(const std::vector<LidarSweep>& sweeps, const io::Ge
       // returns (a slope's rise is no object), and in how many of the sweeps that saw the
       // cell it stood (a moving object stands in one or two of the many).
       const double plane = LowPlaneAtCentre(low, sunk, col, row, g.cell_m);
+      // An overhang: the ground seen, and nothing between it and overhang_m.
+      bool ground_seen = false;
+      double base = std::numeric_limits<double>::infinity();
+      for (float z : below) {
+        if (z - plane < o.recall_height_m) {
+          ground_seen = true;
+        } else {
+          base = std::min(base, z - plane);
+        }
+      }
+      const bool overhang = ground_seen && base >= o.overhang_m;
       double highest = -std::numeric_limits<double>::infinity();
       std::map<int, bool> stood;  // per sweep that saw the cell: whether it stood
       for (std::int64_t i = b.start[k]; i < b.start[k + 1]; ++i) {
         const float z = b.z[static_cast<std::size_t>(i)];
-        if (z - g0 > o.clearance_m) continue;
+        if (z - g0 > o.clearance_m || (overhang && z - plane >= o.recall_height_m)) continue;
         highest = std::max(highest, static_cast<double>(z));
         bool& s = stood[b.sweep[static_cast<std::size_t>(i)]];
         s = s || z - plane >= o.recall_height_m;

@@ -43,6 +43,10 @@ struct LidarEvalOptions {
   /// Recall: LiDAR objects (8-connected cells whose relief is at least this) inside the mapped
   /// band, found when a map obstacle lies within tolerance_cells of one of their cells, metres.
   double recall_height_m = 0.20;
+  /// An overhang is no object: in a cell where returns show the ground (under recall_height_m
+  /// over the ground's plane), what stands only this far or more over that plane (a tree's
+  /// canopy, a sign on its post, seen with the ground beneath) stands on nothing, metres, > 0.
+  double overhang_m = 1.5;
   int tolerance_cells = 1;
   /// A compared cell farther than this from the truth is a large error (a phantom), metres.
   double large_error_m = 0.30;

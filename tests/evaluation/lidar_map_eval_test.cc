@@ -228,6 +228,32 @@ TEST(GridLidarTruth, ASlopeIsReliefButNoStandingObject) {
   EXPECT_EQ(s.Score().objects, 1);  // the box; the slope is none
 }
 
+TEST(GridLidarTruth, AnOverhangWithTheGroundSeenBeneathIsNoObject) {
+  Scene s;
+  // A canopy 2.2-2.6 m over the road at x -4..-3, y 9..10, the road seen beneath it, and beside
+  // it a post (0-2.4 m) at x -2.1..-1.9, y 9.4..9.6.
+  for (double x = -4; x < -3; x += 0.05) {
+    for (double y = 9; y < 10; y += 0.05) {
+      s.sweeps[0].points.emplace_back(x + 0.001, y + 0.001, 2.2f);
+      s.sweeps[1].points.emplace_back(x + 0.001, y + 0.001, 2.6f);
+    }
+  }
+  for (double z = 0; z < 2.4; z += 0.05) {
+    for (LidarSweep& sweep : s.sweeps) sweep.points.emplace_back(-2.0f, 9.5f, static_cast<float>(z));
+  }
+  s.truth = GridLidarTruth(s.sweeps, s.map, s.options);
+  const cv::Mat& standing = s.truth.bands[static_cast<std::size_t>(s.truth.BandIndex("standing_m"))].pixels;
+  EXPECT_LT(standing.at<float>(CellAt(s.truth, -3.5, 9.5)), 0.15f);  // stands on nothing
+  EXPECT_GT(standing.at<float>(CellAt(s.truth, -2.0, 9.5)), 2.0f);   // the post stands
+  EXPECT_EQ(s.Score().objects, 2);                                    // the box and the post
+  LidarEvalOptions tall = s.options;
+  tall.overhang_m = 3.0;  // a vehicle 3 m tall: the canopy is in its way
+  s.truth = GridLidarTruth(s.sweeps, s.map, tall);
+  EXPECT_GT(s.truth.bands[static_cast<std::size_t>(s.truth.BandIndex("standing_m"))].pixels.at<float>(
+                CellAt(s.truth, -3.5, 9.5)),
+            2.0f);
+}
+
 TEST(GridLidarTruth, AReflectionBelowTheRoadIsNeitherGroundNorRelief) {
   Scene s;
   // A mirror image in a window: the returns of a 0.75 m square 3 m below the road.
