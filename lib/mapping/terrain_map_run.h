@@ -55,6 +55,8 @@ struct TerrainMapRunSummary {
   long points_hidden = 0;           ///< Points of observations the rays to them show hidden (with a rig only).
   CarveCounts carved;               ///< What carving left out of the layers.
   std::vector<std::string> warnings;  ///< Printed as they arise and kept in summary.json.
+  /// Where the points came from: the pairs' disparity maps triangulated with the rig, or the XYZ arrays.
+  std::string points_source;
   double seconds = 0, fuse_seconds = 0, fuse_cpu_seconds = 0, write_seconds = 0;
   /// Of fuse_cpu_seconds, the CPU time the threads spent reading the arrays (the EXR decoding).
   double read_cpu_seconds = 0;

@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdlib>
+#include <cstring>
 #include <filesystem>
 #include <fstream>
 #include <iterator>
@@ -547,6 +548,72 @@ TEST(PlanWindowsTool, WritesRequestsThatStereoBatchReads) {
     EXPECT_DOUBLE_EQ(window["region"]["y_m"][0].get<double>(), r.y_min_m) << r.stem;
     EXPECT_DOUBLE_EQ(window["region"]["y_m"][1].get<double>(), r.y_max_m) << r.stem;
   }
+}
+
+TEST(TerrainMapTool, WithTheRigThePointsComeFromTheDisparityMapsAndAreTheXyzArrays) {
+  // stereo-batch on four rectified pairs of a quarter-size paper rig (a sloping plane), then
+  // terrain-map with that rig: it triangulates the disparity maps itself, and the map is the one
+  // the XYZ arrays make, bit for bit; with another rig it says so and reads the arrays.
+  util::ScopedTempDir tmp;
+  const calib::StereoRig rig = calib::testing::IdealRectifiedRig(160, 120, 185);
+  const fs::path pairs = tmp.path() / "pairs", rig_file = tmp.path() / "rig.json";
+  calib::WriteStereoRig(rig_file, rig);
+  for (const char* side : {"left", "right"}) fs::create_directories(pairs / side);
+  sim::LayeredSceneOptions scene;
+  scene.width = 160;
+  scene.height = 120;
+  sim::PlaneLayer plane;
+  plane.d0_px = 20;
+  plane.slope_y = 0.3;
+  scene.layers = {plane};
+  const sim::RenderedPair pair = sim::RenderLayeredPair(scene);
+  for (int k = 0; k < 4; ++k) {
+    const std::string stem = PoseOf(k).stem;
+    cv::imwrite((pairs / "left" / (stem + ".png")).string(), pair.left);
+    cv::imwrite((pairs / "right" / (stem + ".png")).string(), pair.right);
+  }
+  const std::string poses = (tmp.path() / "poses.csv").string();
+  WritePoses(poses, 4);
+  const fs::path stereo = tmp.path() / "stereo";
+  const auto batch = RunTool("stereo-batch", {pairs.string(), "-o", stereo.string(), "-q", "--rig", rig_file.string()},
+                             tmp.path());
+  ASSERT_EQ(batch.exit_code, 0) << batch.stderr_text;
+  auto map = [&](const fs::path& dir, const fs::path& rig_path, const std::string& out) {
+    const auto run = RunTool("terrain-map", {dir.string(), "--poses", poses, "--rig", rig_path.string(), "-o",
+                                             (tmp.path() / out).string(), "-q", "--no-preview"},
+                             tmp.path());
+    EXPECT_EQ(run.exit_code, 0) << run.stderr_text;
+    return io::ReadJson(tmp.path() / out / "summary.json");
+  };
+  const nlohmann::json from_disparity = map(stereo, rig_file, "m_disparity");
+  EXPECT_EQ(from_disparity["inputs"]["points"], "disparity maps triangulated with the rig");
+  EXPECT_GT(from_disparity["counts"]["points_fused"].get<long>(), 1000);
+  // The same directory without its disparity maps: the XYZ arrays are read.
+  const fs::path arrays = tmp.path() / "arrays";
+  fs::create_directories(arrays);
+  fs::copy(stereo / "xyz", arrays / "xyz");
+  const nlohmann::json from_arrays = map(arrays, rig_file, "m_arrays");
+  EXPECT_EQ(from_arrays["inputs"]["points"], "XYZ arrays");
+  EXPECT_EQ(from_arrays["counts"]["points_fused"], from_disparity["counts"]["points_fused"]);
+  const io::GeoRaster a = io::ReadGeoTiff(tmp.path() / "m_disparity" / "elevation.tif");
+  const io::GeoRaster b = io::ReadGeoTiff(tmp.path() / "m_arrays" / "elevation.tif");
+  ASSERT_EQ(a.bands.size(), b.bands.size());
+  for (std::size_t k = 0; k < a.bands.size(); ++k) {
+    const cv::Mat& pa = a.bands[k].pixels;
+    const cv::Mat& pb = b.bands[k].pixels;
+    ASSERT_EQ(pa.size(), pb.size());
+    EXPECT_EQ(std::memcmp(pa.ptr(), pb.ptr(), pa.total() * pa.elemSize()), 0) << a.bands[k].description;
+  }
+  // Another rig (a longer baseline): its triangulation is not stereo-batch's; the arrays are read.
+  calib::StereoRig other = rig;
+  other.right_from_left_t_m *= 1.1;
+  other.rectified->P_right(0, 3) *= 1.1;
+  const fs::path other_file = tmp.path() / "other_rig.json";
+  calib::WriteStereoRig(other_file, other);
+  const nlohmann::json from_other = map(stereo, other_file, "m_other");
+  EXPECT_EQ(from_other["inputs"]["points"], "XYZ arrays");
+  ASSERT_EQ(from_other["warnings"].size(), 1u);
+  EXPECT_NE(from_other["warnings"][0].get<std::string>().find("another rig"), std::string::npos);
 }
 
 }  // namespace
