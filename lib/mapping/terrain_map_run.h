@@ -58,7 +58,8 @@ struct TerrainMapRunSummary {
   /// Where the points came from: the pairs' disparity maps triangulated with the rig, or the XYZ arrays.
   std::string points_source;
   double seconds = 0, fuse_seconds = 0, fuse_cpu_seconds = 0, write_seconds = 0;
-  /// Of fuse_cpu_seconds, the CPU time the threads spent reading the arrays (the EXR decoding).
+  /// Of fuse_cpu_seconds, the CPU time the threads spent getting the points (the EXR decoding, or the
+  /// disparity maps read and triangulated).
   double read_cpu_seconds = 0;
   double peak_memory_mib = 0;
   std::string BriefReport() const;  ///< e.g. "40 frames, 9.1 M points fused; 12,345 cells, 17 obstacle cells; 3.2 s".
