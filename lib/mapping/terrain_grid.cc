@@ -246,10 +246,11 @@ FrameContribution BinFrame(const cv::Mat& xyz, const cv::Mat& sigma, const Eigen
     std::vector<std::uint32_t> start, local, fill;
     std::vector<ColumnWalk> walk;
     std::vector<Ray> rays;
-    std::vector<float> ceilings;
+    std::vector<float> ceilings;  // per cell of the frame's box, its kCeilingSupport lowest ray heights
     std::vector<std::uint32_t> src;
     std::vector<std::uint8_t> accepted;
-    std::vector<float> lowest;  // per cell of the frame's box, its lowest accepted point  // per cell of the frame's box, its kCeilingSupport lowest ray heights
+    std::vector<float> lowest;  // per cell of the frame's box, its lowest accepted point
+    std::vector<std::pair<CellIndex, CellStats>> seen;
   };
   static thread_local Buffers buf;
   std::vector<std::int32_t>& ci = buf.ci;
@@ -260,13 +261,12 @@ FrameContribution BinFrame(const cv::Mat& xyz, const cv::Mat& sigma, const Eigen
   cj.clear();
   zs.clear();
   ws.clear();
-  // Carving: the rays start at the reference camera.
+  // Carving and hidden observations: the rays start at the reference camera.
   const bool carving = error_model != nullptr && std::isfinite(o.carve_tolerance_m);
   const bool hiding = error_model != nullptr && std::isfinite(o.hidden_tolerance_m);
-  const Eigen::Vector3d camera_hide =
-      hiding ? Eigen::Vector3d(world_from_vehicle * error_model->ReferenceCamera()) : Eigen::Vector3d::Zero();
-  const Eigen::Vector3d camera =
-      carving ? Eigen::Vector3d(world_from_vehicle * error_model->ReferenceCamera()) : Eigen::Vector3d::Zero();
+  const Eigen::Vector3d camera = error_model != nullptr
+                                     ? Eigen::Vector3d(world_from_vehicle * error_model->ReferenceCamera())
+                                     : Eigen::Vector3d::Zero();
   std::vector<Ray>& rays = buf.rays;
   rays.clear();
 
@@ -478,13 +478,13 @@ FrameContribution BinFrame(const cv::Mat& xyz, const cv::Mat& sigma, const Eigen
       if (cell.count == 0) continue;
       const double x = (static_cast<double>(index.i) + 0.5) * o.cell_m, y = (static_cast<double>(index.j) + 0.5) * o.cell_m;
       const double z = cell.Mean();
-      if (!(z < camera_hide.z())) continue;
+      if (!(z < camera.z())) continue;
       const Eigen::Vector3d v = vehicle_from_world * Eigen::Vector3d(x, y, z);
       const double sigma_h = error_model->SigmaHorizontal(v.x(), v.y(), v.z());
       if (!std::isfinite(sigma_h)) continue;
-      const auto [s0, s1] = RayStretch(camera_hide, x, y, sigma_h, o.carve_reach_m, o.cell_m);
+      const auto [s0, s1] = RayStretch(camera, x, y, sigma_h, o.carve_reach_m, o.cell_m);
       bool hidden = false;
-      WalkRay(camera_hide, x, y, z, s0, s1, o.cell_m, [&](std::int64_t i, std::int64_t j, double h_in, double) {
+      WalkRay(camera, x, y, z, s0, s1, o.cell_m, [&](std::int64_t i, std::int64_t j, double h_in, double) {
         const std::int64_t li = i - i0, lj = j - j0;
         if ((i != index.i || j != index.j) && li >= 0 && lj >= 0 && li < nx && lj < ny) {
           const float ground = lowest[static_cast<std::size_t>(lj * nx + li)];
@@ -515,7 +515,8 @@ FrameContribution BinFrame(const cv::Mat& xyz, const cv::Mat& sigma, const Eigen
     if (accepted[ray.point]) out.rays_cast += CastRay(camera, ray, o, i0, j0, nx, ny, ceilings.data());
   }
   auto ceiling_of = [&](std::int64_t c) { return ceilings[static_cast<std::size_t>(c) * kCeilingSupport + kCeilingSupport - 1]; };
-  std::vector<std::pair<CellIndex, CellStats>> seen;
+  std::vector<std::pair<CellIndex, CellStats>>& seen = buf.seen;
+  seen.clear();
   seen.swap(out.cells);
   out.cells.reserve(seen.size());
   std::size_t next = 0;
