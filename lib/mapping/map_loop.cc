@@ -10,6 +10,7 @@
 #include <set>
 #include <sstream>
 
+#include "calib/vehicle.h"
 #include "io/atomic_file.h"
 #include "io/json_io.h"
 #include "io/stereo_pairs.h"
@@ -35,14 +36,41 @@ namespace {
 // interval and a resumed loop all use the same numbers.
 double AsWritten(double v) { return std::strtod(util::Format("%.4f", v).c_str(), nullptr); }
 
-// The rows of a plan.csv this loop wrote (a resumed loop's earlier pairs), by stem.
-std::map<std::string, PlannedWindow> ReadPlanCsv(const fs::path& path) {
+// The planner's values a loop's requests depend on: plan.csv records them, and a resumed loop
+// keeps its recorded requests only when its own are the same.
+constexpr const char* kPlannerLine = "# lunarnav map-loop planner: ";
+json PlannerJson(const MapLoopOptions& options) {
+  return {{"planner", options.planner.ToJson()},
+          {"vehicle", calib::VehicleSpecToJson(options.vehicle)},
+          {"open_loop", options.open_loop}};
+}
+
+// A plan.csv this loop wrote (a resumed loop's earlier pairs): its rows by stem, and the
+// planner's values it records (null: a plan of an earlier version records none).
+struct RecordedPlan {
   std::map<std::string, PlannedWindow> rows;
+  json planner = nullptr;
+};
+
+RecordedPlan ReadPlanCsv(const fs::path& path) {
+  RecordedPlan plan;
+  std::map<std::string, PlannedWindow>& rows = plan.rows;
+  std::map<std::string, long> line_of;
   std::ifstream in(path);
   LN_CHECK_INPUT(in) << path.string() << ": cannot read (a loop to resume has one)";
   std::string line;
   bool header = false;
   for (long number = 1; std::getline(in, line); ++number) {
+    if (!line.empty() && line.back() == '\r') line.pop_back();
+    if (line.rfind(kPlannerLine, 0) == 0) {
+      try {
+        plan.planner = json::parse(line.substr(std::string(kPlannerLine).size()));
+      } catch (const json::exception& e) {
+        throw InputError(path.string() + ":" + std::to_string(number) + ": the planner's record is not JSON (" +
+                         e.what() + ")");
+      }
+      continue;
+    }
     if (line.empty() || line[0] == '#') continue;
     if (!header) {
       LN_CHECK_INPUT(line.rfind("stem,t_s,speed_mps,cycle_s,", 0) == 0)
@@ -66,9 +94,15 @@ std::map<std::string, PlannedWindow> ReadPlanCsv(const fs::path& path) {
         throw InputError(path.string() + ":" + std::to_string(number) + ": '" + cells[k + 1] + "' is not a number");
       }
     }
+    LN_CHECK_INPUT(std::isfinite(w.y_min_m) && std::isfinite(w.y_max_m) && w.y_min_m < w.y_max_m)
+        << path.string() << ":" << number << ": stem " << w.stem << ": the request " << w.y_min_m << ":" << w.y_max_m
+        << " m is not an interval (finite, min < max)";
+    const auto [at, fresh] = line_of.emplace(w.stem, number);
+    LN_CHECK_INPUT(fresh) << path.string() << ":" << number << ": stem " << w.stem << " planned twice (line "
+                          << at->second << " too)";
     rows[w.stem] = w;
   }
-  return rows;
+  return plan;
 }
 
 }  // namespace
@@ -142,9 +176,29 @@ MapLoopSummary RunMapLoop(const MapLoopOptions& options, const fs::path& rect_di
   }
   stereo_options.attitudes_source = mo.poses_csv.empty() ? mo.trajectory.string() : mo.poses_csv.string();
 
-  // A resumed loop keeps the requests it planned (from the map as it then was).
+  // A resumed loop keeps the requests it planned (from the map as it then was), when they were
+  // planned with this loop's planner: another planner is refused, naming the first value that
+  // differs (exit 2).
   std::map<std::string, PlannedWindow> recorded;
-  if (options.resume && fs::is_regular_file(plan_csv)) recorded = ReadPlanCsv(plan_csv);
+  std::vector<std::string> warnings;
+  const json planner = PlannerJson(options);
+  if (options.resume && fs::is_regular_file(plan_csv)) {
+    RecordedPlan plan = ReadPlanCsv(plan_csv);
+    if (plan.planner.is_null()) {
+      warnings.push_back(plan_csv.string() + " records no planner values (a loop of an earlier version): its requests "
+                                             "are kept as planned");
+    } else {
+      for (const auto& [key, value] : planner.items()) {
+        const bool same = plan.planner.contains(key) && plan.planner.at(key) == value;
+        LN_CHECK_ARG(same) << plan_csv.string() << ": planned with " << key << " "
+                           << (plan.planner.contains(key) ? plan.planner.at(key).dump() : "(not recorded)")
+                           << ", this loop's is " << value.dump()
+                           << "; a loop can only be resumed with the same planner (or started afresh)";
+      }
+    }
+    recorded = std::move(plan.rows);
+  }
+  for (const std::string& w : warnings) LN_LOG(Warning) << w;
 
   io::CreateOutputDirectory(out);
   io::RemoveStaleTempFiles(out);
@@ -181,7 +235,7 @@ MapLoopSummary RunMapLoop(const MapLoopOptions& options, const fs::path& rect_di
     plan.push_back(pair.plan);
     // 2. Recorded before matching: a loop killed from here on resumes with this request.
     io::WriteFileAtomic(requests_csv, RequestsCsv(plan));
-    io::WriteFileAtomic(plan_csv, PlanCsv(plan));
+    io::WriteFileAtomic(plan_csv, kPlannerLine + planner.dump() + "\n" + PlanCsv(plan));
     summary.plan_seconds += timer.ElapsedSeconds();
 
     // 3. Stereo in the requested window.

@@ -16,6 +16,7 @@
 #include <opencv2/core.hpp>
 
 #include "integration/run_tool.h"
+#include "io/atomic_file.h"
 #include "io/geotiff_io.h"
 #include "io/json_io.h"
 #include "util/testing.h"
@@ -222,6 +223,39 @@ TEST_F(MapLoopTool, AResumedLoopMakesTheMapOfAnUninterruptedOne) {
   ASSERT_EQ(rows.size(), static_cast<std::size_t>(kFrames));
   EXPECT_EQ(rows[0].at("status"), "resumed");
   EXPECT_EQ(rows[kBlank + 1].at("status"), "ok");
+}
+
+TEST_F(MapLoopTool, AResumedLoopKeepsItsRequestsOnlyFromTheSamePlannerAndASoundPlan) {
+  const fs::path out = Dir() / "replan";
+  fs::copy(Dir() / "loop", out, fs::copy_options::recursive);
+  // Another planner (a longer horizon): the recorded requests were not planned with it.
+  const auto other = Loop(out, {"--resume", "--horizon", "3"});
+  EXPECT_EQ(other.exit_code, 2) << other.stderr_text;
+  EXPECT_NE(other.stderr_text.find("horizon"), std::string::npos) << other.stderr_text;
+  EXPECT_EQ(ReadFileBytes(out / "plan.csv"), ReadFileBytes(Dir() / "loop" / "plan.csv"));  // nothing written
+  const auto open = Loop(out, {"--resume", "--open-loop"});
+  EXPECT_EQ(open.exit_code, 2) << open.stderr_text;
+  EXPECT_NE(open.stderr_text.find("open_loop"), std::string::npos) << open.stderr_text;
+  // A plan whose rows are unsound: a stem twice, a request that is no interval (exit 3, the line).
+  const std::string plan = ReadFileBytes(out / "plan.csv");
+  const std::size_t first = plan.find("\n000000,");
+  ASSERT_NE(first, std::string::npos);
+  const std::string row = plan.substr(first + 1, plan.find('\n', first + 1) - first);
+  io::WriteFileAtomic(out / "plan.csv", plan + row);
+  const auto twice = Loop(out, {"--resume"});
+  EXPECT_EQ(twice.exit_code, 3) << twice.stderr_text;
+  EXPECT_NE(twice.stderr_text.find("planned twice"), std::string::npos) << twice.stderr_text;
+  std::string nan_row = row;
+  nan_row.replace(nan_row.rfind(','), std::string::npos, ",nan\n");
+  std::string broken = plan;
+  broken.replace(first + 1, row.size(), nan_row);
+  io::WriteFileAtomic(out / "plan.csv", broken);
+  const auto nan = Loop(out, {"--resume"});
+  EXPECT_EQ(nan.exit_code, 3) << nan.stderr_text;
+  EXPECT_NE(nan.stderr_text.find("not an interval"), std::string::npos) << nan.stderr_text;
+  // The sound plan, the same planner: resumed.
+  io::WriteFileAtomic(out / "plan.csv", plan);
+  EXPECT_EQ(Loop(out, {"--resume"}).exit_code, 4);  // the blank pair fails again; the others are kept
 }
 
 TEST_F(MapLoopTool, BadInputsHaveTheirExitCodesAndWriteNoMap) {
