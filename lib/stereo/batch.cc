@@ -482,6 +482,19 @@ struct StereoBatchRun::Impl {
     }
   }
 
+  // The --range-y window of a pair with an attitude (the interval in the level frame, as a
+  // request's); the level one when that vehicle's cameras see none of it (with a warning).
+  PairWindow RangeAttitudeWindow(const std::string& stem) const {
+    PairWindow w = *range_window;
+    w.attitude = AttitudeOf(stem);
+    w.window = calib::SelectWindow(*options.rig, w.region, options.matcher.reference, SelectionFor(stem));
+    if (w.window.visible) return w;
+    LN_LOG(Warning) << options.attitudes_source << ": stem " << stem << ": at pitch "
+                    << options.attitudes.at(stem).pitch_deg << " deg, roll " << options.attitudes.at(stem).roll_deg
+                    << " deg the cameras see none of --range-y; the pair searches as a level vehicle";
+    return *range_window;
+  }
+
   // The window of one request (a request the camera cannot see is bad input, named by its line).
   PairWindow RequestWindow(const WindowRequest& r) const {
     PairWindow w;
@@ -555,15 +568,18 @@ StereoBatchRun::StereoBatchRun(const BatchOptions& options, const fs::path& inpu
         calib::SelectWindow(*options.rig, *options.region, options.matcher.reference, options.window_selection);
   } else if (options.ground) {
     run.range_window = PairWindow::FromGround(*options.ground);
-    // A pair with an attitude searches the ground where its vehicle's attitude puts it (10-20 ms
-    // a pair for the paper's rig: made in parallel).
+  }
+  if (run.range_window && !options.attitudes.empty()) {
+    // A pair with an attitude searches the ground (the rig's default, or --range-y's interval)
+    // where its vehicle's attitude puts it (10-20 ms a pair for the paper's rig: made in parallel).
     std::vector<std::string> stems;
     for (const PairFiles& p : run.shard_pairs) {
       if (options.attitudes.count(p.stem) > 0) stems.push_back(p.stem);
     }
     std::vector<PairWindow> windows(stems.size());
-    util::ParallelForEachItem(stems.size(), options.num_threads,
-                              [&](std::size_t k) { windows[k] = run.AttitudeWindow(stems[k]); });
+    util::ParallelForEachItem(stems.size(), options.num_threads, [&](std::size_t k) {
+      windows[k] = options.region ? run.RangeAttitudeWindow(stems[k]) : run.AttitudeWindow(stems[k]);
+    });
     for (std::size_t k = 0; k < stems.size(); ++k) run.attitude_windows.emplace(stems[k], std::move(windows[k]));
   }
 

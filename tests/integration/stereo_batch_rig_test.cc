@@ -470,6 +470,24 @@ TEST(StereoBatchRig, WithThePosesAPitchedVehicleSearchesTheLevelGround) {
   EXPECT_GT(ground_poses, 0.2 * 160 * 120);  // the ground up to the far limit (the top rows see the sky)
   EXPECT_LT(off_poses, 0.01 * ground_poses);
   EXPECT_LT(ground_level, 0.1 * ground_poses);  // the level search: none (and 338 points off it)
+  // --range-y with the poses: the interval's ground at the pair's attitude (was the level one's:
+  // the poses silently ignored).
+  const fs::path range_level = tmp.path() / "range-level", range_poses = tmp.path() / "range-poses";
+  ASSERT_EQ(RunTool("stereo-batch", args(range_level, {"--range-y", "3:6"}), tmp.path()).exit_code, 0);
+  const auto ranged = RunTool("stereo-batch", args(range_poses, {"--range-y", "3:6", "--poses", poses.string()}),
+                              tmp.path());
+  ASSERT_EQ(ranged.exit_code, 0) << ranged.stderr_text;
+  const nlohmann::json ranged_sidecar = io::ReadJson(range_poses / "disparity" / "a.json");
+  EXPECT_EQ(ranged_sidecar["result"]["window"]["source"], "range-y");
+  EXPECT_NEAR(ranged_sidecar["result"]["window"]["vehicle_attitude_deg"]["pitch"].get<double>(), kPitchDeg, 1e-9);
+  // The window is the interval's at the pair's attitude (its rows and disparities those of
+  // the ground 3-6 m ahead of the pitched vehicle), and finds twice the level window's ground.
+  EXPECT_NE(ranged_sidecar["result"]["window"]["rows"],
+            io::ReadJson(range_level / "disparity" / "a.json")["result"]["window"]["rows"]);
+  int ground_range = 0, off_range = 0, ground_range_level = 0, off_range_level = 0;
+  count(range_poses, &ground_range, &off_range);
+  count(range_level, &ground_range_level, &off_range_level);
+  EXPECT_GT(ground_range, 1.5 * ground_range_level);  // 5059 points of the ground against 2496
   // Every pair needs a pose: bad input naming the stem.
   std::ofstream(poses, std::ios::trunc) << "stem,t_s,x_m,y_m,z_m,heading_deg,pitch_deg,roll_deg\nb,0,0,0,0,0,0,0\n";
   const auto missing = RunTool("stereo-batch", args(tmp.path() / "missing", {"--poses", poses.string()}), tmp.path());
