@@ -226,7 +226,7 @@ MapLoopSummary RunMapLoop(const MapLoopOptions& options, const fs::path& rect_di
     } else {
       recorded.clear();  // past the recorded pairs, every request is planned afresh
       std::optional<MapLayers> map;
-      if (!options.open_loop && fs::is_regular_file(map_dir / "elevation.tif")) map = ReadMapElevation(map_dir);
+      if (!options.open_loop && fs::is_regular_file(map_dir / "elevation.tif")) map = ReadMapElevation(map_dir, false);  // it holds the pairs before this one only
       const std::vector<FramePose> past(poses.begin(), poses.begin() + static_cast<std::ptrdiff_t>(k) + 1);
       pair.plan = PlanWindows(past, options.vehicle, options.planner, map ? &*map : nullptr).back();
       pair.plan.y_min_m = AsWritten(pair.plan.y_min_m);

@@ -282,6 +282,9 @@ struct MapLayers {
   double x_west_m = 0, y_north_m = 0, cell_m = 0.25;
   cv::Mat elevation_m, min_m, max_m, count, roughness_m, sigma_m, last_t_s, frames;  ///< CV_32F, NaN = unmapped.
   cv::Mat obstacle;  ///< CV_32F: 0 free, 1 step, 2 slope, 3 both; NaN = not judged.
+  /// The time of the last pair that added points, exactly (CV_64F; a Float32 layer holds a Unix
+  /// time to a minute or two), or empty when not known (the planner's causal reading of a map).
+  cv::Mat last_t_exact_s;
   /// Cell (col, row) of world (x, y), or false when outside.
   bool CellOf(double x_m, double y_m, int* col, int* row) const;
 };

@@ -36,12 +36,15 @@ nlohmann::json WindowPlannerOptions::ToJson() const {
           {"gravity", calib::ToString(gravity)}};
 }
 
-double MappedReachAhead(const MapLayers& map, const FramePose& pose, double from_y_m, double to_y_m, double width_m) {
+double MappedReachAhead(const MapLayers& map, const FramePose& pose, double from_y_m, double to_y_m, double width_m,
+                        double before_t_s) {
   const double step = 0.5 * map.cell_m, s = std::sin(pose.heading_rad), c = std::cos(pose.heading_rad);
   const int across = std::max(1, static_cast<int>(std::floor(width_m / step)));
+  const bool timed = !map.last_t_exact_s.empty() && std::isfinite(before_t_s);
   auto mapped = [&](double x_m, double y_m) {
     int col = 0, row = 0;
-    return map.CellOf(x_m, y_m, &col, &row) && std::isfinite(map.elevation_m.at<float>(row, col));
+    return map.CellOf(x_m, y_m, &col, &row) && std::isfinite(map.elevation_m.at<float>(row, col)) &&
+           (!timed || map.last_t_exact_s.at<double>(row, col) < before_t_s);
   };
   for (double y = from_y_m; y < to_y_m; y += step) {
     int count = 0;
@@ -54,7 +57,7 @@ double MappedReachAhead(const MapLayers& map, const FramePose& pose, double from
   return to_y_m;
 }
 
-MapLayers ReadMapElevation(const std::filesystem::path& map_dir) {
+MapLayers ReadMapElevation(const std::filesystem::path& map_dir, bool exact_times) {
   const std::filesystem::path path = map_dir / "elevation.tif";
   const io::GeoRaster r = io::ReadGeoTiff(path);
   MapLayers l;
@@ -65,6 +68,20 @@ MapLayers ReadMapElevation(const std::filesystem::path& map_dir) {
     if (b.description == "elevation_m") b.pixels.convertTo(l.elevation_m, CV_32F);
   }
   LN_CHECK_INPUT(!l.elevation_m.empty()) << path.string() << ": no elevation_m band (not a terrain-map output)";
+  // Each cell's last time, exactly, from the sums.
+  const std::filesystem::path state_path = map_dir / "state.tif";
+  if (exact_times && std::filesystem::is_regular_file(state_path)) {
+    const TerrainGrid grid = TerrainGrid::FromStateRaster(io::ReadGeoTiff(state_path), state_path.string());
+    const auto i0 = static_cast<std::int64_t>(std::llround(l.x_west_m / l.cell_m));
+    const auto j1 = static_cast<std::int64_t>(std::llround(l.y_north_m / l.cell_m)) - 1;
+    l.last_t_exact_s = cv::Mat(l.elevation_m.size(), CV_64FC1, cv::Scalar(std::numeric_limits<double>::infinity()));
+    for (int row = 0; row < l.elevation_m.rows; ++row) {
+      for (int col = 0; col < l.elevation_m.cols; ++col) {
+        const std::optional<CellStats> c = grid.Find({i0 + col, j1 - row});
+        if (c && c->count > 0) l.last_t_exact_s.at<double>(row, col) = c->last_t_s;
+      }
+    }
+  }
   return l;
 }
 
@@ -99,7 +116,7 @@ std::vector<PlannedWindow> PlanWindows(const std::vector<FramePose>& poses, cons
     w.y_max_m = w.y_need_m + o.horizon_m + w.speed_mps * w.cycle_s;
     if (map != nullptr) {
       // The closed loop: what the map holds ahead, whatever was requested before.
-      w.covered_to_m = MappedReachAhead(*map, p, w.y_need_m, w.y_max_m, vehicle.width_m);
+      w.covered_to_m = MappedReachAhead(*map, p, w.y_need_m, w.y_max_m, vehicle.width_m, p.t_s);
       w.y_min_m = std::clamp(w.covered_to_m - o.overlap_m, w.y_need_m, std::max(w.y_need_m, w.y_max_m - o.overlap_m));
     } else if (k == 0) {
       w.covered_to_m = std::numeric_limits<double>::quiet_NaN();

@@ -49,11 +49,15 @@ struct WindowPlannerOptions {
 /// from from_y_m (vehicle frame) in half-cell steps, the distance of the first step whose
 /// cross-section (samples half a cell apart) is less than half mapped; to_y_m when every step
 /// up to it is mapped. The closed loop of sec. 3.3: the next request follows what the map
-/// actually holds, so ground a failed or blank pair left unmapped is asked for again.
-double MappedReachAhead(const MapLayers& map, const FramePose& pose, double from_y_m, double to_y_m, double width_m);
-/// The elevation layer (and its lattice) of a terrain-map output, DIR/elevation.tif.
-/// @throws InputError.
-MapLayers ReadMapElevation(const std::filesystem::path& map_dir);
+/// actually holds, so ground a failed or blank pair left unmapped is asked for again. Only the
+/// cells the map had before `before_t_s` count: with map.last_t_exact_s, a cell a pair at or
+/// after that time added points to is unmapped (the ground a later pair saw is not yet known).
+double MappedReachAhead(const MapLayers& map, const FramePose& pose, double from_y_m, double to_y_m, double width_m,
+                        double before_t_s = std::numeric_limits<double>::infinity());
+/// The elevation layer (and its lattice) of a terrain-map output, DIR/elevation.tif, and with
+/// `exact_times` each cell's exact last time from DIR/state.tif (last_t_exact_s; empty without
+/// one). @throws InputError.
+MapLayers ReadMapElevation(const std::filesystem::path& map_dir, bool exact_times = true);
 
 /// One pair's request and how it came about (vehicle frame at the pair's time, metres).
 struct PlannedWindow {
@@ -80,7 +84,9 @@ struct PlannedWindow {
 /// the ground driven over in one cycle plus the overlap; it moves out with v as d_stop does.
 /// With `map` (the map so far, for the pair to plan next), covered_to is the far edge of what
 /// the map holds in the vehicle's corridor ahead (MappedReachAhead from y_need), for every
-/// pair: ground a failed or blank pair left unmapped is requested again.
+/// pair: ground a failed or blank pair left unmapped is requested again. A map that holds
+/// later pairs too is read causally: for pair k only the cells no pair at or after its time
+/// added to (map->last_t_exact_s).
 /// @throws InputError naming the stem for a non-finite pose or time stamps that do not increase.
 std::vector<PlannedWindow> PlanWindows(const std::vector<FramePose>& poses, const calib::VehicleSpec& vehicle,
                                        const WindowPlannerOptions& options, const MapLayers* map = nullptr);

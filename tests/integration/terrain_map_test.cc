@@ -23,6 +23,7 @@
 #include "calib/rectified_rig.h"
 #include "calib/stereo_rig_io.h"
 #include "mapping/synthetic_frames.h"
+#include "mapping/window_planner.h"
 #include "sim/layered_scene.h"
 #include "stereo/window_requests.h"
 #include "positioning/trajectory_io.h"
@@ -587,6 +588,22 @@ TEST(TerrainMapTool, WithTheRigThePointsComeFromTheDisparityMapsAndAreTheXyzArra
   };
   const nlohmann::json from_disparity = map(stereo, rig_file, "m_disparity");
   EXPECT_EQ(from_disparity["inputs"]["points"], "disparity maps triangulated with the rig");
+  // The planner reads each cell's last time from state.tif exactly (the Float32 layer cannot
+  // hold 3.2 s): one of the pairs' times.
+  const mapping::MapLayers layers = mapping::ReadMapElevation(tmp.path() / "m_disparity");
+  ASSERT_EQ(layers.last_t_exact_s.size(), layers.elevation_m.size());
+  int timed = 0;
+  for (int r = 0; r < layers.elevation_m.rows; ++r) {
+    for (int c = 0; c < layers.elevation_m.cols; ++c) {
+      if (!std::isfinite(layers.elevation_m.at<float>(r, c))) continue;
+      const double t = layers.last_t_exact_s.at<double>(r, c);
+      bool a_pairs = false;  // within 1e-9 s (a Float32 time is 4e-7 s off at 9.6 s)
+      for (int k = 0; k < 4; ++k) a_pairs = a_pairs || std::abs(t - PoseOf(k).t_s) < 1e-9;
+      EXPECT_TRUE(a_pairs) << t;
+      ++timed;
+    }
+  }
+  EXPECT_GT(timed, 10);
   EXPECT_GT(from_disparity["counts"]["points_fused"].get<long>(), 1000);
   // The same directory without its disparity maps: the XYZ arrays are read.
   const fs::path arrays = tmp.path() / "arrays";

@@ -134,6 +134,37 @@ TEST(PlanWindows, WithAMapTheRequestReachesBackToItsFirstGap) {
   }
 }
 
+// Causal with a map too: a map that also holds later pairs' ground (cells whose last pair came
+// at or after a pair's time) is read, for that pair, without those cells.
+TEST(PlanWindows, AMapWithLaterPairsIsReadOnlyWithWhatCameBeforeEachPair) {
+  MapLayers map;
+  map.x_west_m = -5;
+  map.y_north_m = 20;
+  map.cell_m = 0.25;
+  map.elevation_m = cv::Mat(80, 40, CV_32FC1, cv::Scalar(0));  // x -5..5, y 0..20: all mapped
+  const calib::VehicleSpec vehicle;
+  WindowPlannerOptions o;
+  o.horizon_m = 10;
+  const auto poses = StraightRun(0.15, 3.2, 3);  // t 0, 3.2, 6.4 s
+  const auto untimed = PlanWindows(poses, vehicle, o, &map);
+  // The ground beyond y = 8 m was first added by a pair at 5 s: pair 2 (6.4 s) has it, pairs 0
+  // and 1 do not (their plans are those of a map without it).
+  map.last_t_exact_s = cv::Mat(map.elevation_m.size(), CV_64FC1, cv::Scalar(-1.0));  // before the run
+  map.last_t_exact_s.rowRange(0, 48).setTo(5.0);  // rows 0-47: y 8..20
+  const auto timed = PlanWindows(poses, vehicle, o, &map);
+  MapLayers before = map;
+  before.elevation_m = map.elevation_m.clone();
+  before.elevation_m.rowRange(0, 48).setTo(std::numeric_limits<float>::quiet_NaN());
+  before.last_t_exact_s = cv::Mat();
+  const auto cut = PlanWindows(poses, vehicle, o, &before);
+  for (int k : {0, 1}) {
+    EXPECT_EQ(timed[k].covered_to_m, cut[k].covered_to_m) << k;
+    EXPECT_EQ(timed[k].y_min_m, cut[k].y_min_m) << k;
+    EXPECT_LT(timed[k].covered_to_m, untimed[k].covered_to_m) << k;  // the later ground was counted before
+  }
+  EXPECT_EQ(timed[2].y_min_m, untimed[2].y_min_m);
+}
+
 TEST(PlanWindows, NonFinitePoseNamesTheStem) {
   auto poses = StraightRun(0.15, 3.2, 4);
   poses[2].x_m = std::nan("");
