@@ -320,8 +320,10 @@ TEST(TerrainGrid, AnUnsupportedRiseIsRejectedAndASeenFaceIsNot) {
 }
 
 // The step rule's tops are those a second pair or three points of one pair reach, its bottoms
-// those a second pair confirms: one pair's stray points in a flat cell make no step; a box every
-// pair sees does. The confirmed extremes merge exactly.
+// those a second pair confirms: one pair's two stray points in a flat cell make no step; a box
+// every pair sees does. The confirmed extremes merge exactly. (This checks the rule's threshold,
+// kTopSupport; that a patch of wrong matches the size real pairs leave makes no step is
+// Carving.ACellOnePairSawHighAndTheOthersSawThroughIsNoStep's, at the defaults.)
 TEST(TerrainGrid, ExtremesOfOnePairAloneMakeNoStep) {
   TerrainMapOptions o = GridFrameOptions();
   o.gate_k = std::numeric_limits<double>::infinity();  // the stray points reach the sums
@@ -713,6 +715,90 @@ TEST_F(Carving, ADitchSeenOverItsLipIsNotHidden) {
   int bottom = 0;
   for (const auto& [index, s] : f.cells) bottom += s.count > 0 && std::abs(s.Mean() + 0.4) < 0.02;
   EXPECT_GT(bottom, 8);
+}
+
+TEST_F(Carving, ACellOnePairSawHighAndTheOthersSawThroughIsNoStep) {
+  // Three pairs over flat ground at the defaults; pair 1's points in the cell at (0.1, 7.1), all
+  // of them (a wrong-match patch the speckle filter keeps: a cell's worth, past the gate and the
+  // three points a pair's top needs), 35 cm up. Pairs 0 and 2 see the ground there and beyond it.
+  const TerrainMapOptions o;
+  std::vector<std::pair<cv::Mat, FramePose>> frames;
+  int raised = 0;
+  for (int k = 0; k < 3; ++k) {
+    const FramePose p = Pose(0, 0.3 * k, 0, k);
+    cv::Mat xyz = RenderedXyz([](double, double) { return 0.0; }, p, camera_, 120, 200, -3, 3, 2, 12);
+    if (k == 1) {
+      for (auto it = xyz.begin<cv::Vec3f>(); it != xyz.end<cv::Vec3f>(); ++it) {
+        const Eigen::Vector3d w = p.WorldFromVehicle() * Eigen::Vector3d((*it)[0], (*it)[1], (*it)[2]);
+        if (w.x() >= 0 && w.x() < 0.25 && w.y() >= 7 && w.y() < 7.25) {
+          (*it)[2] += 0.35f;
+          ++raised;
+        }
+      }
+    }
+    frames.push_back({xyz, p});
+  }
+  ASSERT_GE(raised, 3);
+  // At the defaults: no step there or around (pair 1's own support rule sees a rise no face led
+  // to; the other pairs' rays pass beneath it).
+  const MapLayers l = ComputeLayers(Fuse(frames, o), o.obstacles, o.min_frames, o.carve_tolerance_m);
+  int col = 0, row = 0;
+  ASSERT_TRUE(l.CellOf(0.1, 7.1, &col, &row));
+  EXPECT_NEAR(l.elevation_m.at<float>(row, col), 0.0, 0.01);
+  for (int dr = -1; dr <= 1; ++dr) {
+    for (int dc = -1; dc <= 1; ++dc) EXPECT_EQ(l.obstacle.at<float>(row + dr, col + dc), 0) << dr << ", " << dc;
+  }
+  // Carving alone does it too (the support rule off); with neither, the patch is a step.
+  TerrainMapOptions no_support = o;
+  no_support.support_rise_m = std::numeric_limits<double>::infinity();
+  const TerrainGrid grid = Fuse(frames, no_support);
+  EXPECT_EQ(ComputeLayers(grid, o.obstacles, o.min_frames, o.carve_tolerance_m).obstacle.at<float>(row, col), 0);
+  EXPECT_EQ(ComputeLayers(grid, o.obstacles, o.min_frames).obstacle.at<float>(row, col), 1);
+}
+
+TEST_F(Carving, ABoxIsAnObstacleAtTheDefaultsEvenWithPartOfItsFaceUnmatched) {
+  // What a user runs (support rule, visibility, gate, carving, hidden observations all at
+  // their defaults) on a box 0.3 m tall seen by six pairs, rendered with its faces; in every
+  // pair the lower half of its front face matched nothing (NaN), as a dark or shadowed face does.
+  const TerrainMapOptions o;
+  const auto box = BoxOnPlane(0.0, -0.5, 0.25, 7.0, 7.5, 0.3);
+  auto frames = Drive(box, {});
+  int dropped = 0;
+  for (auto& [xyz, pose] : frames) {
+    for (auto it = xyz.begin<cv::Vec3f>(); it != xyz.end<cv::Vec3f>(); ++it) {
+      const Eigen::Vector3d w = pose.WorldFromVehicle() * Eigen::Vector3d((*it)[0], (*it)[1], (*it)[2]);
+      if (std::abs(w.y() - 7.0) < 0.01 && w.z() > 0.005 && w.z() < 0.15) {
+        *it = cv::Vec3f::all(std::numeric_limits<float>::quiet_NaN());
+        ++dropped;
+      }
+    }
+  }
+  ASSERT_GT(dropped, 50);
+  const TerrainGrid grid = Fuse(frames, o);
+  const MapLayers l = ComputeLayers(grid, o.obstacles, o.min_frames, o.carve_tolerance_m);
+  // The box's top cells are steps at its height; nothing a cell beyond its footprint is.
+  int steps_on_box = 0, steps_elsewhere = 0;
+  for (int r = 0; r < l.obstacle.rows; ++r) {
+    for (int c = 0; c < l.obstacle.cols; ++c) {
+      const float kind = l.obstacle.at<float>(r, c);
+      if (!(kind > 0)) continue;
+      const double x = l.x_west_m + (c + 0.5) * l.cell_m, y = l.y_north_m - (r + 0.5) * l.cell_m;
+      const bool near_box = x > -0.5 - l.cell_m && x < 0.25 + l.cell_m && y > 7.0 - l.cell_m && y < 7.5 + l.cell_m;
+      ++(near_box ? steps_on_box : steps_elsewhere);
+    }
+  }
+  EXPECT_EQ(steps_elsewhere, 0);
+  // Its front row, above the ground the pairs see before it, is a step at the box's height (the
+  // ground behind it is hidden: the back row's top has no lower neighbour to step from).
+  for (double x : {-0.375, -0.125, 0.125}) {
+    int col = 0, row = 0;
+    ASSERT_TRUE(l.CellOf(x, 7.125, &col, &row));
+    EXPECT_GT(l.obstacle.at<float>(row, col), 0) << x;
+  }
+  EXPECT_GE(steps_on_box, 3);
+  int col = 0, row = 0;
+  ASSERT_TRUE(l.CellOf(-0.125, 7.375, &col, &row));
+  EXPECT_NEAR(l.elevation_m.at<float>(row, col), 0.3, 0.02);
 }
 
 TEST(TerrainGrid, HeightBinsDependOnTheObservationsNotTheirOrder) {
