@@ -20,7 +20,10 @@
 #include "io/float_array_io.h"
 #include "io/geotiff_io.h"
 #include "io/json_io.h"
+#include "calib/paper_rig.h"
 #include "calib/rectified_rig.h"
+#include "calib/rectify.h"
+#include "mapping/elevation_error.h"
 #include "calib/stereo_rig_io.h"
 #include "mapping/synthetic_frames.h"
 #include "mapping/window_planner.h"
@@ -75,6 +78,52 @@ cv::Mat Band(const io::GeoRaster& r, const std::string& name) {
   const int i = r.BandIndex(name);
   EXPECT_GE(i, 0) << name;
   return i >= 0 ? r.bands[i].pixels : cv::Mat();
+}
+
+TEST(TerrainMapTool, AtItsDefaultsWithTheRigABoxSeenWithItsFacesIsTheOnlyObstacle) {
+  // What a user runs: the rig, every rule at its default (support, visibility, gate, carving,
+  // hidden observations). Four pairs of the paper's rig rendered with what stands in front
+  // hiding what lies behind (the box's faces seen), the box 0.3 m tall at x 1-1.5, y 6-6.5.
+  util::ScopedTempDir tmp;
+  const calib::StereoRig rig = calib::RectifyRig(calib::testing::PaperRig(), 0.0);
+  const fs::path rig_file = tmp.path() / "rig.json";
+  calib::WriteStereoRig(rig_file, rig);
+  const Eigen::Vector3d camera = mapping::ElevationErrorModel(rig, calib::ReferenceImage::kRight, 1.0).ReferenceCamera();
+  const auto surface = mapping::testing::BoxOnPlane(kGround, 1.0, 1.5, 6.0, 6.5, 0.3);
+  for (int k = 0; k < 4; ++k) {
+    const mapping::FramePose p = PoseOf(k);
+    io::WriteExrAtomic(tmp.path() / "stereo" / "xyz" / (p.stem + ".exr"),
+                       mapping::testing::RenderedXyz(surface, p, camera, 160, 240));
+  }
+  WritePoses(tmp.path() / "poses.csv", 4);
+  const fs::path out = tmp.path() / "map";
+  const auto run = RunTool("terrain-map", {(tmp.path() / "stereo").string(), "--poses",
+                                           (tmp.path() / "poses.csv").string(), "--rig", rig_file.string(), "-o",
+                                           out.string(), "-q"},
+                           tmp.path());
+  ASSERT_EQ(run.exit_code, 0) << run.stderr_text;
+  const io::GeoRaster map = io::ReadGeoTiff(out / "elevation.tif");
+  const cv::Mat elevation = Band(map, "elevation_m"), obstacle = Band(map, "obstacle");
+  int on_box = 0, elsewhere = 0;
+  for (int r = 0; r < elevation.rows; ++r) {
+    for (int c = 0; c < elevation.cols; ++c) {
+      if (!(obstacle.at<float>(r, c) > 0)) continue;
+      const double x = map.CellCentreX(c), y = map.CellCentreY(r);
+      if (x > 1.0 && x < 1.5 && y > 6.0 && y < 6.5) {
+        ++on_box;
+      } else if (!(x > 0.75 && x < 1.75 && y > 5.75 && y < 6.75)) {  // (its faces lie on cell edges)
+        ++elsewhere;
+      }
+    }
+  }
+  EXPECT_GE(on_box, 2);  // its front row at least (the ground behind it is hidden)
+  EXPECT_EQ(elsewhere, 0);
+  const mapping::MapLayers layers = mapping::ReadMapElevation(out, false);
+  int col = 0, row = 0;
+  ASSERT_TRUE(layers.CellOf(1.125, 6.375, &col, &row));  // a cell of its top (the front one holds its face too)
+  EXPECT_NEAR(layers.elevation_m.at<float>(row, col), kGround + 0.3, 0.02);
+  const nlohmann::json summary = io::ReadJson(out / "summary.json");
+  EXPECT_EQ(summary["counts"]["carving"]["observations_carved"], 0);  // nothing true is carved
 }
 
 TEST(TerrainMapTool, WritesAGeoTiffOfThePlaneWithTheBoxAsTheOnlyObstacle) {
