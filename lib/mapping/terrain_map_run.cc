@@ -334,11 +334,21 @@ TerrainMapRunSummary RunTerrainMap(const TerrainMapRunOptions& options, const fs
   // XYZ array, bit for bit, so that another rig falls back to reading the arrays.
   if (!todo.empty()) io::PreloadExrReader();
   auto disparity_path = [&](const std::string& stem) { return options.stereo_dir / "disparity" / (stem + ".pfm"); };
+  // A pair's points from its disparity map; a map of another size than the rig's rectified
+  // images is bad input naming the file.
+  auto triangulate = [&](const std::string& stem) {
+    const fs::path path = disparity_path(stem);
+    const cv::Mat disparity = io::ReadPfm(path);
+    LN_CHECK_INPUT(disparity.cols == rig->rectified->width_px && disparity.rows == rig->rectified->height_px)
+        << "stem " << stem << ": " << path.string() << " is " << disparity.cols << "x" << disparity.rows
+        << ", the rig's rectified images " << rig->rectified->width_px << "x" << rig->rectified->height_px;
+    return calib::TriangulateDisparity(*rig, disparity, options.reference);
+  };
   bool from_disparity = false;
-  if (rig && !todo.empty() && fs::is_regular_file(disparity_path(todo.front().stem))) {
+  if (rig && rig->rectified && !todo.empty() && fs::is_regular_file(disparity_path(todo.front().stem))) {
     const std::string& stem = todo.front().stem;
     const cv::Mat stored = io::ReadExr(options.stereo_dir / "xyz" / (stem + ".exr")).pixels;
-    const cv::Mat ours = calib::TriangulateDisparity(*rig, io::ReadPfm(disparity_path(stem)), options.reference);
+    const cv::Mat ours = triangulate(stem);
     from_disparity = stored.type() == CV_32FC3 && ours.size() == stored.size() &&
                      std::memcmp(ours.ptr(), stored.ptr(), ours.total() * ours.elemSize()) == 0;
     if (!from_disparity) {
@@ -365,7 +375,7 @@ TerrainMapRunSummary RunTerrainMap(const TerrainMapRunOptions& options, const fs
       const double read_start = util::ThreadCpuSeconds();
       io::ExrImage xyz;
       if (from_disparity && fs::is_regular_file(disparity_path(pose.stem))) {
-        xyz.pixels = calib::TriangulateDisparity(*rig, io::ReadPfm(disparity_path(pose.stem)), options.reference);
+        xyz.pixels = triangulate(pose.stem);
       } else {
         xyz = io::ReadExr(xyz_path);
       }

@@ -19,6 +19,7 @@
 #include "io/atomic_file.h"
 #include "io/float_array_io.h"
 #include "io/geotiff_io.h"
+#include "io/image_io.h"
 #include "io/json_io.h"
 #include "calib/paper_rig.h"
 #include "calib/rectified_rig.h"
@@ -680,6 +681,15 @@ TEST(TerrainMapTool, WithTheRigThePointsComeFromTheDisparityMapsAndAreTheXyzArra
   EXPECT_EQ(from_other["inputs"]["points"], "XYZ arrays");
   ASSERT_EQ(from_other["warnings"].size(), 1u);
   EXPECT_NE(from_other["warnings"][0].get<std::string>().find("another rig"), std::string::npos);
+  // A disparity map of another size than the rig's images: bad input naming the file, no map.
+  io::WriteImageAtomic(stereo / "disparity" / (PoseOf(2).stem + ".pfm"), cv::Mat(10, 10, CV_32FC1, cv::Scalar(5)));
+  const auto bad = RunTool("terrain-map", {stereo.string(), "--poses", poses, "--rig", rig_file.string(), "-o",
+                                           (tmp.path() / "m_bad").string(), "-q"},
+                           tmp.path());
+  EXPECT_EQ(bad.exit_code, 3) << bad.stderr_text;
+  EXPECT_EQ(bad.ErrorLines(), 1) << bad.stderr_text;
+  EXPECT_NE(bad.stderr_text.find(PoseOf(2).stem + ".pfm is 10x10"), std::string::npos) << bad.stderr_text;
+  EXPECT_FALSE(fs::exists(tmp.path() / "m_bad" / "elevation.tif"));
 }
 
 }  // namespace
