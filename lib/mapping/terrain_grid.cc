@@ -474,7 +474,9 @@ FrameContribution BinFrame(const cv::Mat& xyz, const cv::Mat& sigma, const Eigen
       if (cell.count > 0) lowest[static_cast<std::size_t>((index.j - j0) * nx + (index.i - i0))] = cell.z_min;
     }
     const Eigen::Isometry3d vehicle_from_world = world_from_vehicle.inverse();
-    for (auto& [index, cell] : out.cells) {
+    for (auto& entry : out.cells) {
+      const CellIndex index = entry.first;  // (a lambda below uses it)
+      CellStats& cell = entry.second;
       if (cell.count == 0) continue;
       const double x = (static_cast<double>(index.i) + 0.5) * o.cell_m, y = (static_cast<double>(index.j) + 0.5) * o.cell_m;
       const double z = cell.Mean();
