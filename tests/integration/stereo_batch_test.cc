@@ -204,14 +204,17 @@ TEST(StereoBatch, TwelveBitPairWithoutSbitIsToldFromItsData) {
   EXPECT_EQ(io::ReadJson(tmp.path() / "mixed" / "summary.json")["bit_depths"], nlohmann::json({{"12", 1}, {"16", 1}}));
 }
 
-// The paper preset is the paper's matcher, bit for bit, once the border rule (which the paper
-// does not have) is off: the CRC-32 of its disparity, confidence and rejection maps on the
-// testdata pairs, recorded when the median filter's neighbour count was corrected (filter 4
-// had missed the accepted neighbours whose own neighbourhood was fully accepted, and rejected
-// some matches as isolated that are not). With the rule (run after the median), the maps
-// differ only at the pixels it rejects, and no pixel whose true match lies beyond the left
-// image's edge (right reference: x + d > width - 1) is accepted.
-TEST(StereoBatch, PaperPresetKeepsThePaperMatchersOutputsBitForBit) {
+// A change detector, not a property (the properties, against the testdata's true disparities,
+// are MatchesTheTestdataPairsAgainstTheirGroundTruth's for both presets): the paper preset with
+// the border rule (which the paper does not have) off gives the same disparity, confidence and
+// rejection maps, bit for bit, as when their CRC-32 was recorded (after the median filter's
+// neighbour count was corrected: filter 4 had missed the accepted neighbours whose own
+// neighbourhood was fully accepted, and rejected some matches as isolated that are not). A
+// change to the paper's matcher that is meant shows here and gets a new CRC with its reason.
+// Then a property: with the rule (run after the median), the maps differ only at the pixels it
+// rejects, and no pixel whose true match lies beyond the left image's edge (right reference:
+// x + d > width - 1) is accepted.
+TEST(StereoBatch, ChangeDetectorPaperPresetMapsBitForBitAndTheBorderRuleRejectsOnlyBeyondTheEdge) {
   ScopedTempDir tmp;
   const fs::path out = tmp.path() / "out";
   const auto run = RunTool("stereo-batch", {TestDataPath("stereo_pairs").string(), "-o", out.string(), "-q",
