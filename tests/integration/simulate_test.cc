@@ -180,16 +180,18 @@ TEST(Simulate, PosfilterScreeningReportsEveryInjectedFaultWhereFaultsCsvSaysItIs
 }
 
 // The real-like presets (a small skid-steered rover with MEMS sensors, encoders at 10 Hz, the
-// IMU at 50 Hz, abrupt turns), with and without a compass, over six seeds: posfilter's
-// trajectory is on average closer to the truth than the plain baseline it writes beside it
-// (by `evaluate trajectory`, after a 2-D alignment; without a compass by 10 % or more), and
-// without a compass on no seed worse by more than a seed's spread; no screening
-// rule rejects more than its warning share; without a compass the gyro's scale is not
-// adapted. One seed alone is no test of this: the baseline and the filter share the errors
+// IMU at 50 Hz, abrupt turns), with and without a compass, over six seeds. What it checks: on
+// average posfilter's trajectory is closer to the truth than the plain baseline it writes
+// beside it (by `evaluate trajectory`, after a 2-D alignment; without a compass by 10 % or
+// more, with one not worse); it is not "no worse on every seed": the worst seed is bounded only
+// loosely, by a seed's spread (1.1 without a compass; 1.5 with one, whose magnetic wander made
+// seed 3 1.40 when measured), and those two bounds were set above the values measured; no
+// screening rule rejects more than its warning share; without a compass the gyro's scale is
+// not adapted. One seed alone is no test of this: the baseline and the filter share the errors
 // nothing in such a log shows (wheel slip, the gyro's scale), so a seed's ratio lies anywhere
 // from 0.2 to 1.2 (docs/posfilter.md), and a log that differs in one random draw (another
 // compiler's rounding, in the simulator) moves it by 0.1.
-TEST(Simulate, OnTheSkidSteerPresetsPosfilterIsNoWorseThanThePlainBaseline) {
+TEST(Simulate, OnTheSkidSteerPresetsPosfilterBeatsThePlainBaselineOnAverage) {
   util::ScopedTempDir tmp;
   for (const std::string preset : {"skid-steer", "skid-steer-compass"}) {
     double sum = 0, worst = 0;
