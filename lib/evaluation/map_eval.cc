@@ -468,7 +468,9 @@ MapEvalResult RunMapEvaluation(const fs::path& map_dir, const fs::path& sim_dir,
   std::vector<TrueRock> rocks = ReadRocksCsv(sim_dir / "truth" / "rocks.csv");
   std::vector<std::string> stems;
   if (options.requested_y_m.empty()) {
-    for (const mapping::FramePose& p : mapping::ReadPosesCsv(map_dir / "frames.csv")) stems.push_back(p.stem);
+    // The ground the truth's pairs saw, whichever the map holds: a map that dropped a pair is
+    // scored on that pair's ground too (its own frames.csv would leave it out of the count).
+    for (const mapping::FramePose& p : mapping::ReadPosesCsv(sim_dir / "truth" / "poses.csv")) stems.push_back(p.stem);
   } else {
     for (const auto& entry : options.requested_y_m) stems.push_back(entry.first);  // mapped or not
   }

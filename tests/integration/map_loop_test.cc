@@ -197,6 +197,36 @@ TEST_F(MapLoopTool, ItsMapIsTerrainMapOfItsOwnStereoOutputsAndRequests) {
   EXPECT_EQ(ReadFileBytes(loop / "map" / "frames.csv"), ReadFileBytes(remap / "frames.csv"));
 }
 
+TEST_F(MapLoopTool, EvaluateMapCountsTheTruthsGroundWhateverPairsTheMapDropped) {
+  // terrain-map over the loop's stereo outputs, and over them less one pair's: evaluate map
+  // scores both over the ground the truth's pairs saw (the same count), and the map without
+  // the pair covers less of it.
+  const fs::path loop = Dir() / "loop", less = Dir() / "stereo-less-one";
+  fs::copy(loop / "stereo", less, fs::copy_options::recursive);
+  const std::string dropped = "00000" + std::to_string(kBlank + 1);
+  fs::remove(less / "xyz" / (dropped + ".exr"));
+  fs::remove(less / "disparity" / (dropped + ".pfm"));
+  auto map_and_score = [&](const fs::path& stereo, const std::string& name) {
+    const fs::path map = Dir() / ("map-" + name), eval = Dir() / ("eval-" + name);
+    const auto made = RunTool("terrain-map",
+                              {stereo.string(), "--poses", (Dir() / "sim" / "truth" / "poses.csv").string(), "--rig",
+                               (Dir() / "rect" / "rig.json").string(), "-o", map.string(), "-q"},
+                              Dir());
+    EXPECT_EQ(made.exit_code, 0) << made.stderr_text;
+    const auto scored =
+        RunTool("evaluate", {"map", map.string(), "--truth", (Dir() / "sim").string(), "-o", eval.string(), "-q"}, Dir());
+    EXPECT_EQ(scored.exit_code, 0) << scored.stderr_text;
+    return io::ReadJson(eval / "summary.json");
+  };
+  const nlohmann::json all = map_and_score(loop / "stereo", "all"), some = map_and_score(less, "less");
+  EXPECT_EQ(all["inputs"]["frames"], kFrames);
+  EXPECT_EQ(some["inputs"]["frames"], kFrames);
+  for (const char* count : {"cells_seen", "rocks"}) {
+    EXPECT_EQ(all["result"][count], some["result"][count]) << count;
+  }
+  EXPECT_LT(some["result"]["cells_seen_mapped"].get<long>(), all["result"]["cells_seen_mapped"].get<long>());
+}
+
 TEST_F(MapLoopTool, AResumedLoopMakesTheMapOfAnUninterruptedOne) {
   // A loop stopped after the first pairs (only they were there), then resumed over all.
   const fs::path part = Dir() / "rect-part", out = Dir() / "resumed";
