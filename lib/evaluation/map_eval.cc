@@ -283,14 +283,19 @@ io::GeoRaster TrueRayCounts(const fs::path& sim_dir, const std::vector<std::stri
       y_lo = std::max(y_lo, it->second.first);
       y_hi = std::min(y_hi, it->second.second);
     }
+    // Distances ahead are horizontal (the level frame), as stereo-batch, the planner and
+    // terrain-map take a requested interval.
+    const Eigen::Vector2d heading = mapping::HeadingDirection(world_from_vehicle);
+    const Eigen::Vector3d origin = world_from_vehicle.translation();
     for (int y = 0; y < xyz.pixels.rows; ++y) {
       const auto* v = xyz.pixels.ptr<cv::Vec3f>(y);
       const auto* d = disparity.ptr<float>(y);
       for (int x = 0; x < xyz.pixels.cols; ++x) {
         // Both cameras see it (a finite true disparity), within the range ahead.
         if (!std::isfinite(d[x]) || !std::isfinite(v[x][1])) continue;
-        if (v[x][1] < y_lo || v[x][1] > y_hi) continue;
         const Eigen::Vector3d w = world_from_vehicle * Eigen::Vector3d(v[x][0], v[x][1], v[x][2]);
+        const double ahead = heading.dot((w - origin).head<2>());
+        if (ahead < y_lo || ahead > y_hi) continue;
         out.emplace_back(static_cast<std::int64_t>(std::floor(w.x() / cell_m)),
                          static_cast<std::int64_t>(std::floor(w.y() / cell_m)));
         if (rocks == nullptr) continue;
@@ -438,6 +443,9 @@ void MeasureCorridorGaps(const io::GeoRaster& map, const io::GeoRaster& seen, co
     LN_CHECK_INPUT(it != poses.end()) << "stem " << stem << ": no pose in " << poses_path.string();
     const mapping::FramePose& p = it->second;
     const Eigen::Isometry3d world_from_vehicle = TrueWorldFromVehicle(p);
+    // The corridor on the level: y ahead along the heading, x to its right.
+    const Eigen::Vector2d ahead = mapping::HeadingDirection(world_from_vehicle), right(ahead.y(), -ahead.x());
+    const Eigen::Vector2d origin = world_from_vehicle.translation().head<2>();
     const double y_lo = std::max(options.seen_min_y_m, interval.first);
     const double y_hi = std::min(options.seen_max_y_m, interval.second);
     int run = 0;
@@ -445,7 +453,7 @@ void MeasureCorridorGaps(const io::GeoRaster& map, const io::GeoRaster& seen, co
       int seen_samples = 0, mapped_samples = 0;
       for (int k = 0; k <= across; ++k) {
         const double x = -0.5 * options.corridor_width_m + options.corridor_width_m * k / across;
-        const Eigen::Vector3d w = world_from_vehicle * Eigen::Vector3d(x, y, 0.0);
+        const Eigen::Vector2d w = origin + y * ahead + x * right;
         seen_samples += BandAt(seen, rays, w.x(), w.y()) >= options.min_points;
         mapped_samples += BandAt(map, *count, w.x(), w.y()) >= options.min_points;
       }

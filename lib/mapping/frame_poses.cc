@@ -88,6 +88,13 @@ Eigen::Isometry3d WorldFromVehicle(double x_m, double y_m, double z_m, double he
   return t;
 }
 
+Eigen::Vector2d HeadingDirection(const Eigen::Isometry3d& world_from_vehicle) {
+  const Eigen::Vector3d forward = world_from_vehicle.linear() * Eigen::Vector3d::UnitY();
+  const Eigen::Vector2d level = forward.head<2>();
+  const double n = level.norm();
+  return n > 0 ? Eigen::Vector2d(level / n) : Eigen::Vector2d(0, 1);  // pitched 90 deg: no heading to speak of
+}
+
 Eigen::Isometry3d FramePose::WorldFromVehicle() const {
   return mapping::WorldFromVehicle(x_m, y_m, z_m, heading_rad, pitch_rad, roll_rad);
 }

@@ -25,6 +25,10 @@ Eigen::Isometry3d WorldFromVehicle(double x_m, double y_m, double z_m, double he
 /// the positioning module: heading clockwise from north, pitch nose up, roll right side down
 /// (radians). It places the vehicle frame of sec. 3.2 (X right, Y forward, Z up, origin at the
 /// mast base): X_world = T(x, y, z) Rz(-heading) Rx(pitch) Ry(roll) X_vehicle.
+/// The vehicle's heading laid level: the horizontal unit vector of its Y axis in the world (the
+/// level frame's Y: a point's horizontal distance ahead is its world offset along this).
+Eigen::Vector2d HeadingDirection(const Eigen::Isometry3d& world_from_vehicle);
+
 struct FramePose {
   std::string stem;
   double t_s = 0;

@@ -235,6 +235,10 @@ FrameContribution BinFrame(const cv::Mat& xyz, const cv::Mat& sigma, const Eigen
   const Eigen::Matrix3d r = world_from_vehicle.linear();
   const Eigen::Vector3d t = world_from_vehicle.translation();
   const double inv_cell = 1.0 / o.cell_m;
+  // A requested interval is of horizontal distance ahead (the level frame: the vehicle's frame
+  // turned by its pitch and roll), as stereo-batch and the planner take it.
+  const bool interval = std::isfinite(y_min_m) || std::isfinite(y_max_m);
+  const Eigen::Vector2d heading = HeadingDirection(world_from_vehicle);
   const double max_range2 = o.max_range_m * o.max_range_m;
   const double default_w = 1.0 / (o.default_sigma_m * o.default_sigma_m);
   const double max_h2 = o.max_horizontal_sigma_cells * o.cell_m * o.max_horizontal_sigma_cells * o.cell_m;
@@ -330,13 +334,20 @@ FrameContribution BinFrame(const cv::Mat& xyz, const cv::Mat& sigma, const Eigen
         ++out.points_out_of_range;
         continue;
       }
-      if (static_cast<double>(x) * x + static_cast<double>(y) * y > max_range2 || !(y >= y_min_m && y <= y_max_m)) {
+      if (static_cast<double>(x) * x + static_cast<double>(y) * y > max_range2) {
         ++out.points_out_of_range;
         continue;
       }
       const double wx = r(0, 0) * x + r(0, 1) * y + r(0, 2) * z + t.x();
       const double wy = r(1, 0) * x + r(1, 1) * y + r(1, 2) * z + t.y();
       const double wz = r(2, 0) * x + r(2, 1) * y + r(2, 2) * z + t.z();
+      if (interval) {  // the requested interval: horizontal distance ahead, in the level frame
+        const double ahead = heading.x() * (wx - t.x()) + heading.y() * (wy - t.y());
+        if (!(ahead >= y_min_m && ahead <= y_max_m)) {
+          ++out.points_out_of_range;
+          continue;
+        }
+      }
       if (!(std::abs(wx) <= kMaxWorldCoordinateM && std::abs(wy) <= kMaxWorldCoordinateM &&
             std::abs(wz) <= kMaxWorldCoordinateM)) {  // off any map (and off the int32 cell indices)
         ++out.points_out_of_range;

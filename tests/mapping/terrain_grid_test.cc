@@ -169,6 +169,25 @@ TEST(TerrainGrid, PointsOutsideTheRequestedIntervalAreLeftOut) {
     EXPECT_GE(cell.j, 16);  // y >= 4 m
     EXPECT_LT(cell.j, 24);  // y < 6 m
   }
+  // A vehicle pitched 19 deg nose down: the interval is of horizontal distance ahead (the level
+  // frame, as stereo-batch and the planner take it), not of the vehicle's own Y, which runs
+  // down the slope (cos 19 deg: 5 % apart).
+  FramePose pitched = Pose(0, 0, 0);
+  pitched.pitch_rad = -19 * M_PI / 180;
+  cv::Mat line(4000, 1, CV_32FC3);
+  for (int r = 0; r < line.rows; ++r) {
+    line.at<cv::Vec3f>(r, 0) = cv::Vec3f(0.f, static_cast<float>(7.0 - 4.0 * (r + 0.5) / line.rows), 0.f);  // Y 7..3 m
+  }
+  TerrainMapOptions plain = o;  // the points on a line: nothing for the column rules to judge
+  plain.visibility_k = plain.support_rise_m = std::numeric_limits<double>::infinity();
+  const FrameContribution level = BinFrame(line, cv::Mat(), pitched.WorldFromVehicle(), 0, plain, nullptr, 4.0, 6.0);
+  const double c = std::cos(19 * M_PI / 180);
+  // Kept: vehicle Y in [4 / cos, 6 / cos] = [4.23, 6.35] m, of the line's 4 m.
+  EXPECT_NEAR(static_cast<double>(level.points_fused) / line.rows, (6.0 / c - 4.0 / c) / 4.0, 0.002);
+  for (const auto& [cell, stats] : level.cells) {
+    EXPECT_GE((cell.j + 1) * o.cell_m, 4.0);
+    EXPECT_LE(cell.j * o.cell_m, 6.0);
+  }
 }
 
 // A point whose predicted horizontal error exceeds a cell could belong to any of the cells
