@@ -1010,7 +1010,9 @@ LidarEvalResult RunLidarMapEvaluation(const LidarMapCommand& cmd, const json& in
         {"standing_m", "the highest return over the plane through the 5 x 5 cells' low returns, m"},
         {"persistence", "the share of the sweeps that saw the cell in which something 20 cm tall stood there"},
         {"judged", "1 judged, 0 seen by a pair far in time from every sweep"},
-        {"band", "1 flat ground the coverage counts (a timely pair saw it in the band), 2 an object's top the recall counts, 0 neither"}};
+        {"band",
+         "1 flat ground the coverage counts (a timely pair saw it in the band), 2 an object's top the recall counts, 0 "
+         "neither"}};
     for (io::RasterBand& b : layers.bands) b.metadata["meaning"] = meaning.at(b.description);
     layers.metadata["lunarnav_content"] = "evaluate map --lidar: the LiDAR truth on the map's lattice";
     io::WriteGeoTiffAtomic(cmd.output_dir / "truth.tif", layers);

@@ -185,8 +185,9 @@ MapLoopSummary RunMapLoop(const MapLoopOptions& options, const fs::path& rect_di
   if (options.resume && fs::is_regular_file(plan_csv)) {
     RecordedPlan plan = ReadPlanCsv(plan_csv);
     if (plan.planner.is_null()) {
-      warnings.push_back(plan_csv.string() + " records no planner values (a loop of an earlier version): its requests "
-                                             "are kept as planned");
+      warnings.push_back(plan_csv.string() +
+                         " records no planner values (a loop of an earlier version): its requests "
+                         "are kept as planned");
     } else {
       for (const auto& [key, value] : planner.items()) {
         const bool same = plan.planner.contains(key) && plan.planner.at(key) == value;
@@ -226,7 +227,8 @@ MapLoopSummary RunMapLoop(const MapLoopOptions& options, const fs::path& rect_di
     } else {
       recorded.clear();  // past the recorded pairs, every request is planned afresh
       std::optional<MapLayers> map;
-      if (!options.open_loop && fs::is_regular_file(map_dir / "elevation.tif")) map = ReadMapElevation(map_dir, false);  // it holds the pairs before this one only
+      if (!options.open_loop && fs::is_regular_file(map_dir / "elevation.tif"))
+        map = ReadMapElevation(map_dir, false);  // it holds the pairs before this one only
       const std::vector<FramePose> past(poses.begin(), poses.begin() + static_cast<std::ptrdiff_t>(k) + 1);
       pair.plan = PlanWindows(past, options.vehicle, options.planner, map ? &*map : nullptr).back();
       pair.plan.y_min_m = AsWritten(pair.plan.y_min_m);

@@ -20,12 +20,12 @@ constexpr float kNaN = std::numeric_limits<float>::quiet_NaN();
 
 // The state raster of earlier versions: one set of sums per cell, these bands in order.
 const std::array<const char*, 11> kStateBandsV1 = {"sum_w",    "sum_wz",   "sum_wzz", "z_min",  "z_max", "count",
-                                                    "rejected", "last_t_s", "frames",  "z_min2", "z_max2"};
+                                                   "rejected", "last_t_s", "frames",  "z_min2", "z_max2"};
 // The state raster now: the cell's bands, then for each height-bin slot k (1, 2, ...) these
 // bands named "bin<k>_<name>" (count 0: the slot is empty).
 const std::array<const char*, 4> kStateCellBands = {"ceiling", "ceiling2", "rejected", "bin_level"};
-const std::array<const char*, 11> kStateBinBands = {"index",    "sum_w",  "sum_wz", "sum_wzz", "z_min", "z_max",
-                                                     "count",    "last_t_s", "frames", "z_min2",  "z_max2"};
+const std::array<const char*, 11> kStateBinBands = {"index", "sum_w",    "sum_wz", "sum_wzz", "z_min", "z_max",
+                                                    "count", "last_t_s", "frames", "z_min2",  "z_max2"};
 constexpr float kInfF = std::numeric_limits<float>::infinity();
 
 // The two lowest of {a1 <= a2} and {b1 <= b2}, into a1, a2.
@@ -119,7 +119,8 @@ int CastRay(const Eigen::Vector3d& camera, const Ray& ray, const TerrainMapOptio
     const std::int64_t li = i - i0, lj = j - j0;
     if (li >= 0 && lj >= 0 && li < nx && lj < ny) {
       float h = static_cast<float>(h_out);
-      for (float* t = ceilings + (lj * nx + li) * kCeilingSupport; t != ceilings + (lj * nx + li + 1) * kCeilingSupport; ++t) {
+      for (float* t = ceilings + (lj * nx + li) * kCeilingSupport; t != ceilings + (lj * nx + li + 1) * kCeilingSupport;
+           ++t) {
         if (h < *t) std::swap(h, *t);
       }
     }
@@ -364,7 +365,8 @@ FrameContribution BinFrame(const cv::Mat& xyz, const cv::Mat& sigma, const Eigen
       zs.push_back(static_cast<float>(wz));
       ws.push_back(static_cast<float>(w));
       if (carving && wz < camera.z() && zs.size() % kRayStride == 1) {
-        rays.push_back({wx, wy, static_cast<float>(wz), static_cast<float>(sigma_h), static_cast<std::uint32_t>(zs.size() - 1)});
+        rays.push_back(
+            {wx, wy, static_cast<float>(wz), static_cast<float>(sigma_h), static_cast<std::uint32_t>(zs.size() - 1)});
       }
     }
   }
@@ -489,7 +491,8 @@ FrameContribution BinFrame(const cv::Mat& xyz, const cv::Mat& sigma, const Eigen
       const CellIndex index = entry.first;  // (a lambda below uses it)
       CellStats& cell = entry.second;
       if (cell.count == 0) continue;
-      const double x = (static_cast<double>(index.i) + 0.5) * o.cell_m, y = (static_cast<double>(index.j) + 0.5) * o.cell_m;
+      const double x = (static_cast<double>(index.i) + 0.5) * o.cell_m,
+                   y = (static_cast<double>(index.j) + 0.5) * o.cell_m;
       const double z = cell.Mean();
       if (!(z < camera.z())) continue;
       const Eigen::Vector3d v = vehicle_from_world * Eigen::Vector3d(x, y, z);
@@ -527,7 +530,9 @@ FrameContribution BinFrame(const cv::Mat& xyz, const cv::Mat& sigma, const Eigen
   for (const Ray& ray : rays) {
     if (accepted[ray.point]) out.rays_cast += CastRay(camera, ray, o, i0, j0, nx, ny, ceilings.data());
   }
-  auto ceiling_of = [&](std::int64_t c) { return ceilings[static_cast<std::size_t>(c) * kCeilingSupport + kCeilingSupport - 1]; };
+  auto ceiling_of = [&](std::int64_t c) {
+    return ceilings[static_cast<std::size_t>(c) * kCeilingSupport + kCeilingSupport - 1];
+  };
   std::vector<std::pair<CellIndex, CellStats>>& seen = buf.seen;
   seen.clear();
   seen.swap(out.cells);
@@ -633,7 +638,8 @@ const TerrainGrid::Record* TerrainGrid::FindRecord(CellIndex c) const {
   const std::int64_t ti = FloorDiv(c.i, kTileShift), tj = FloorDiv(c.j, kTileShift);
   const auto it = tiles_.find(TileKey(ti, tj));
   if (it == tiles_.end()) return nullptr;
-  return &it->second->cells[static_cast<std::size_t>((c.j - (tj << kTileShift)) * kTileSize + (c.i - (ti << kTileShift)))];
+  return &it->second
+              ->cells[static_cast<std::size_t>((c.j - (tj << kTileShift)) * kTileSize + (c.i - (ti << kTileShift)))];
 }
 
 std::optional<CellStats> TerrainGrid::Find(CellIndex c, double carve_tolerance_m) const {
@@ -762,8 +768,16 @@ io::GeoRaster TerrainGrid::ToStateRaster() const {
       for (int k = 0; k < 4; ++k) r.bands[k].pixels.at<double>(row, col) = cell[k];
       for (std::size_t k = 0; k < rec->bins.size(); ++k) {
         const auto& [index, s] = rec->bins[k];
-        const double v[11] = {static_cast<double>(index), s.sum_w, s.sum_wz, s.sum_wzz, s.z_min, s.z_max,
-                              static_cast<double>(s.count), s.last_t_s, static_cast<double>(s.frames), s.z_min2,
+        const double v[11] = {static_cast<double>(index),
+                              s.sum_w,
+                              s.sum_wz,
+                              s.sum_wzz,
+                              s.z_min,
+                              s.z_max,
+                              static_cast<double>(s.count),
+                              s.last_t_s,
+                              static_cast<double>(s.frames),
+                              s.z_min2,
                               s.z_max2};
         for (int m = 0; m < 11; ++m) r.bands[4 + 11 * k + m].pixels.at<double>(row, col) = v[m];
       }
@@ -784,8 +798,8 @@ TerrainGrid TerrainGrid::FromStateRaster(const io::GeoRaster& r, const std::stri
         << source << ": not a terrain-map state file";
     for (std::size_t k = 0; k < r.bands.size(); ++k) {
       const std::string name = k < cell_bands ? std::string(kStateCellBands[k])
-                                               : "bin" + std::to_string((k - cell_bands) / bin_bands + 1) + "_" +
-                                                     kStateBinBands[(k - cell_bands) % bin_bands];
+                                              : "bin" + std::to_string((k - cell_bands) / bin_bands + 1) + "_" +
+                                                    kStateBinBands[(k - cell_bands) % bin_bands];
       LN_CHECK_INPUT(named(k, name)) << source << ": band " << k + 1 << " is not the state band '" << name << "'";
     }
   }
@@ -801,23 +815,24 @@ TerrainGrid TerrainGrid::FromStateRaster(const io::GeoRaster& r, const std::stri
     return static_cast<std::uint32_t>(v);
   };
   int at_col = 0, at_row = 0;
-  auto stats_of = [&](const double* v) {  // sum_w, sum_wz, sum_wzz, z_min, z_max, count, last_t_s, frames, z_min2, z_max2
-    CellStats s;
-    s.sum_w = v[0];
-    s.sum_wz = v[1];
-    s.sum_wzz = v[2];
-    s.z_min = static_cast<float>(v[3]);
-    s.z_max = static_cast<float>(v[4]);
-    s.count = count_of(v[5], at_col, at_row, "count");
-    s.last_t_s = v[6];
-    s.frames = count_of(v[7], at_col, at_row, "frames");
-    LN_CHECK_INPUT(std::isfinite(s.sum_w) && s.sum_w > 0 && std::isfinite(s.sum_wz) && std::isfinite(s.sum_wzz))
-        << source << ": cell (" << at_col << ", " << at_row << ") has sums " << s.sum_w << ", " << s.sum_wz << ", "
-        << s.sum_wzz << " (finite, weights > 0)";
-    s.z_min2 = static_cast<float>(v[8]);
-    s.z_max2 = static_cast<float>(v[9]);
-    return s;
-  };
+  auto stats_of =
+      [&](const double* v) {  // sum_w, sum_wz, sum_wzz, z_min, z_max, count, last_t_s, frames, z_min2, z_max2
+        CellStats s;
+        s.sum_w = v[0];
+        s.sum_wz = v[1];
+        s.sum_wzz = v[2];
+        s.z_min = static_cast<float>(v[3]);
+        s.z_max = static_cast<float>(v[4]);
+        s.count = count_of(v[5], at_col, at_row, "count");
+        s.last_t_s = v[6];
+        s.frames = count_of(v[7], at_col, at_row, "frames");
+        LN_CHECK_INPUT(std::isfinite(s.sum_w) && s.sum_w > 0 && std::isfinite(s.sum_wz) && std::isfinite(s.sum_wzz))
+            << source << ": cell (" << at_col << ", " << at_row << ") has sums " << s.sum_w << ", " << s.sum_wz << ", "
+            << s.sum_wzz << " (finite, weights > 0)";
+        s.z_min2 = static_cast<float>(v[8]);
+        s.z_max2 = static_cast<float>(v[9]);
+        return s;
+      };
   const std::size_t slots = v1 ? 0 : (r.bands.size() - cell_bands) / bin_bands;
   for (int row = 0; row < r.Height(); ++row) {
     for (int col = 0; col < r.Width(); ++col) {

@@ -210,7 +210,7 @@ struct FrameContribution {
   long points_floating = 0;  ///< Rejected by the visibility rule (a farther ray passes beneath).
   long points_unsupported = 0;  ///< Rejected by the support rule (a rise with no face seen below).
   long points_out_of_range = 0;
-  long rays_cast = 0;  ///< Rays that set ceilings (carving).
+  long rays_cast = 0;      ///< Rays that set ceilings (carving).
   long points_hidden = 0;  ///< Points of observations the ray to them shows hidden (left out).
 };
 
@@ -250,8 +250,7 @@ class TerrainGrid {
   /// The cell's accumulation, its observations more than `carve_tolerance_m` above its
   /// ceiling2 left out (counted in carved_points and carved_frames; infinity: none), or
   /// nothing when no point ever reached it.
-  std::optional<CellStats> Find(CellIndex c,
-                                double carve_tolerance_m = std::numeric_limits<double>::infinity()) const;
+  std::optional<CellStats> Find(CellIndex c, double carve_tolerance_m = std::numeric_limits<double>::infinity()) const;
   std::size_t TileCount() const;
   std::size_t MappedCells() const;  ///< Cells with at least one accepted point (carving aside).
   /// Smallest cell box containing every mapped cell: {i0, j0, i1, j1} inclusive, or nothing.

@@ -3,11 +3,11 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
+#include <cstring>
+#include <ctime>
 #include <limits>
 #include <map>
-#include <ctime>
 #include <optional>
-#include <cstring>
 #include <set>
 #include <sstream>
 
@@ -353,7 +353,8 @@ TerrainMapRunSummary RunTerrainMap(const TerrainMapRunOptions& options, const fs
                      std::memcmp(ours.ptr(), stored.ptr(), ours.total() * ours.elemSize()) == 0;
     if (!from_disparity) {
       summary.warnings.push_back("stem " + stem + ": the XYZ array differs from the disparity map triangulated with " +
-                                 options.rig.string() + " (stereo-batch used another rig or reference image?): the XYZ arrays are read");
+                                 options.rig.string() +
+                                 " (stereo-batch used another rig or reference image?): the XYZ arrays are read");
     }
   }
   summary.points_source = from_disparity ? "disparity maps triangulated with the rig" : "XYZ arrays";
@@ -476,19 +477,20 @@ TerrainMapRunSummary RunTerrainMap(const TerrainMapRunOptions& options, const fs
   summary.peak_memory_mib = util::PeakResidentMemoryMiB();
 
   json j = util::SummaryHead("terrain-map", invocation);
-  j["inputs"] = {{"stereo_dir", options.stereo_dir.string()},
-                 {"poses", options.poses_csv.string()},
-                 {"trajectory", options.trajectory.string()},
-                 {"frame_times", options.frame_times.string()},
-                 {"xyz_sigma", has_sigma},
-                 {"points", summary.points_source},
-                 {"rig", options.rig.string()},
-                 {"requests", options.requests.string()},
-                 {"errors", has_sigma            ? "xyz_sigma arrays"
-                            : error_model        ? "the rig's error model, sigma_d " + std::to_string(options.sigma_d_px) + " px"
-                                                 : "default sigma " + std::to_string(mo.default_sigma_m) + " m"},
-                 {"merge", json::array()},
-                 {"resume", options.resume}};
+  j["inputs"] = {
+      {"stereo_dir", options.stereo_dir.string()},
+      {"poses", options.poses_csv.string()},
+      {"trajectory", options.trajectory.string()},
+      {"frame_times", options.frame_times.string()},
+      {"xyz_sigma", has_sigma},
+      {"points", summary.points_source},
+      {"rig", options.rig.string()},
+      {"requests", options.requests.string()},
+      {"errors", has_sigma     ? "xyz_sigma arrays"
+                 : error_model ? "the rig's error model, sigma_d " + std::to_string(options.sigma_d_px) + " px"
+                               : "default sigma " + std::to_string(mo.default_sigma_m) + " m"},
+      {"merge", json::array()},
+      {"resume", options.resume}};
   for (const fs::path& p : options.merge_maps) j["inputs"]["merge"].push_back(p.string());
   j["options"] = mo.ToJson();
   j["threads"] = threads;
@@ -498,14 +500,19 @@ TerrainMapRunSummary RunTerrainMap(const TerrainMapRunOptions& options, const fs
                {"width", layers.elevation_m.cols},
                {"height", layers.elevation_m.rows},
                {"tiles", grid.TileCount()}};
-  j["counts"] = {{"frames_total", summary.frames_total},   {"frames_fused", summary.frames_fused},
-                 {"frames_resumed", summary.frames_resumed}, {"frames_merged", summary.frames_merged},
-                 {"points_in", summary.points_in},           {"points_fused", summary.points_fused},
-                 {"points_rejected", summary.points_rejected}, {"points_floating", summary.points_floating},
+  j["counts"] = {{"frames_total", summary.frames_total},
+                 {"frames_fused", summary.frames_fused},
+                 {"frames_resumed", summary.frames_resumed},
+                 {"frames_merged", summary.frames_merged},
+                 {"points_in", summary.points_in},
+                 {"points_fused", summary.points_fused},
+                 {"points_rejected", summary.points_rejected},
+                 {"points_floating", summary.points_floating},
                  {"points_unsupported", summary.points_unsupported},
                  {"points_hidden", summary.points_hidden},
                  {"points_out_of_range", summary.points_out_of_range},
-                 {"mapped_cells", summary.mapped_cells},     {"obstacle_cells", summary.obstacle_cells},
+                 {"mapped_cells", summary.mapped_cells},
+                 {"obstacle_cells", summary.obstacle_cells},
                  {"frames_without_points", summary.frames_without_points}};
   // Free-space carving (docs/terrain-map.md): the rays that set ceilings, and what the layers left out.
   j["counts"]["carving"] = {{"rays_cast", summary.rays_cast},

@@ -51,9 +51,9 @@ struct TerrainMapRunSummary {
        points_out_of_range = 0;
   long mapped_cells = 0, obstacle_cells = 0;
   long frames_without_points = 0;  ///< This run's pairs whose XYZ arrays held no valid point.
-  long rays_cast = 0;               ///< This run's rays that set ceilings (carving; with a rig only).
-  long points_hidden = 0;           ///< Points of observations the rays to them show hidden (with a rig only).
-  CarveCounts carved;               ///< What carving left out of the layers.
+  long rays_cast = 0;              ///< This run's rays that set ceilings (carving; with a rig only).
+  long points_hidden = 0;          ///< Points of observations the rays to them show hidden (with a rig only).
+  CarveCounts carved;              ///< What carving left out of the layers.
   std::vector<std::string> warnings;  ///< Printed as they arise and kept in summary.json.
   /// Where the points came from: the pairs' disparity maps triangulated with the rig, or the XYZ arrays.
   std::string points_source;

@@ -245,7 +245,7 @@ TEST(GridLidarTruth, AnOverhangWithTheGroundSeenBeneathIsNoObject) {
   const cv::Mat& standing = s.truth.bands[static_cast<std::size_t>(s.truth.BandIndex("standing_m"))].pixels;
   EXPECT_LT(standing.at<float>(CellAt(s.truth, -3.5, 9.5)), 0.15f);  // stands on nothing
   EXPECT_GT(standing.at<float>(CellAt(s.truth, -2.0, 9.5)), 2.0f);   // the post stands
-  EXPECT_EQ(s.Score().objects, 2);                                    // the box and the post
+  EXPECT_EQ(s.Score().objects, 2);                                   // the box and the post
   LidarEvalOptions tall = s.options;
   tall.overhang_m = 3.0;  // a vehicle 3 m tall: the canopy is in its way
   s.truth = GridLidarTruth(s.sweeps, s.map, tall);

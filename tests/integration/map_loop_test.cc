@@ -1,19 +1,19 @@
 // map-loop end to end on a small simulated traverse with one blank pair: the closed loop asks
 // again for the ground the blank pair lost (the open loop does not), its map is terrain-map's
 // map of its own stereo outputs and requests, and a resumed loop makes the same map.
+#include <gtest/gtest.h>
+
 #include <cmath>
 #include <filesystem>
 #include <fstream>
 #include <map>
 #include <memory>
+#include <nlohmann/json.hpp>
+#include <opencv2/core.hpp>
 #include <sstream>
 #include <string>
 #include <utility>
 #include <vector>
-
-#include <gtest/gtest.h>
-#include <nlohmann/json.hpp>
-#include <opencv2/core.hpp>
 
 #include "integration/run_tool.h"
 #include "io/atomic_file.h"
@@ -213,8 +213,8 @@ TEST_F(MapLoopTool, EvaluateMapCountsTheTruthsGroundWhateverPairsTheMapDropped) 
                                (Dir() / "rect" / "rig.json").string(), "-o", map.string(), "-q"},
                               Dir());
     EXPECT_EQ(made.exit_code, 0) << made.stderr_text;
-    const auto scored =
-        RunTool("evaluate", {"map", map.string(), "--truth", (Dir() / "sim").string(), "-o", eval.string(), "-q"}, Dir());
+    const auto scored = RunTool(
+        "evaluate", {"map", map.string(), "--truth", (Dir() / "sim").string(), "-o", eval.string(), "-q"}, Dir());
     EXPECT_EQ(scored.exit_code, 0) << scored.stderr_text;
     return io::ReadJson(eval / "summary.json");
   };

@@ -5,9 +5,8 @@
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
-#include <sstream>
-
 #include <nlohmann/json.hpp>
+#include <sstream>
 
 #include "integration/run_tool.h"
 #include "io/json_io.h"
@@ -169,8 +168,9 @@ TEST(Posfilter, OnTheRealRoverLogsNoRuleRejectsOnePercentOfAChannel) {
       continue;
     }
     util::ScopedTempDir tmp;
-    const auto run = RunTool("posfilter", {(log / "telemetry.csv").string(), "--sensors",
-                                           (log / "sensors.json").string(), "-o", (tmp.path() / "pf").string(), "-q"},
+    const auto run = RunTool("posfilter",
+                             {(log / "telemetry.csv").string(), "--sensors", (log / "sensors.json").string(), "-o",
+                              (tmp.path() / "pf").string(), "-q"},
                              tmp.path());
     ASSERT_EQ(run.exit_code, 0) << run.stderr_text;
     EXPECT_EQ(run.stderr_text.find("warning:"), std::string::npos) << run.stderr_text;

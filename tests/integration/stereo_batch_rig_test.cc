@@ -474,8 +474,8 @@ TEST(StereoBatchRig, WithThePosesAPitchedVehicleSearchesTheLevelGround) {
   // the poses silently ignored).
   const fs::path range_level = tmp.path() / "range-level", range_poses = tmp.path() / "range-poses";
   ASSERT_EQ(RunTool("stereo-batch", args(range_level, {"--range-y", "3:6"}), tmp.path()).exit_code, 0);
-  const auto ranged = RunTool("stereo-batch", args(range_poses, {"--range-y", "3:6", "--poses", poses.string()}),
-                              tmp.path());
+  const auto ranged =
+      RunTool("stereo-batch", args(range_poses, {"--range-y", "3:6", "--poses", poses.string()}), tmp.path());
   ASSERT_EQ(ranged.exit_code, 0) << ranged.stderr_text;
   const nlohmann::json ranged_sidecar = io::ReadJson(range_poses / "disparity" / "a.json");
   EXPECT_EQ(ranged_sidecar["result"]["window"]["source"], "range-y");

@@ -1,5 +1,7 @@
 // terrain-map and plan-windows end to end on synthetic stereo-batch outputs (a plane with a box,
 // seen from known poses).
+#include <gtest/gtest.h>
+
 #include <algorithm>
 #include <cmath>
 #include <cstdlib>
@@ -8,29 +10,27 @@
 #include <fstream>
 #include <iterator>
 #include <limits>
-
-#include <gtest/gtest.h>
 #include <nlohmann/json.hpp>
 #include <opencv2/core.hpp>
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
 
+#include "calib/paper_rig.h"
+#include "calib/rectified_rig.h"
+#include "calib/rectify.h"
+#include "calib/stereo_rig_io.h"
 #include "integration/run_tool.h"
 #include "io/atomic_file.h"
 #include "io/float_array_io.h"
 #include "io/geotiff_io.h"
 #include "io/image_io.h"
 #include "io/json_io.h"
-#include "calib/paper_rig.h"
-#include "calib/rectified_rig.h"
-#include "calib/rectify.h"
 #include "mapping/elevation_error.h"
-#include "calib/stereo_rig_io.h"
 #include "mapping/synthetic_frames.h"
 #include "mapping/window_planner.h"
+#include "positioning/trajectory_io.h"
 #include "sim/layered_scene.h"
 #include "stereo/window_requests.h"
-#include "positioning/trajectory_io.h"
 #include "util/format.h"
 #include "util/testing.h"
 
@@ -89,7 +89,8 @@ TEST(TerrainMapTool, AtItsDefaultsWithTheRigABoxSeenWithItsFacesIsTheOnlyObstacl
   const calib::StereoRig rig = calib::RectifyRig(calib::testing::PaperRig(), 0.0);
   const fs::path rig_file = tmp.path() / "rig.json";
   calib::WriteStereoRig(rig_file, rig);
-  const Eigen::Vector3d camera = mapping::ElevationErrorModel(rig, calib::ReferenceImage::kRight, 1.0).ReferenceCamera();
+  const Eigen::Vector3d camera =
+      mapping::ElevationErrorModel(rig, calib::ReferenceImage::kRight, 1.0).ReferenceCamera();
   const auto surface = mapping::testing::BoxOnPlane(kGround, 1.0, 1.5, 6.0, 6.5, 0.3);
   for (int k = 0; k < 4; ++k) {
     const mapping::FramePose p = PoseOf(k);
@@ -98,9 +99,9 @@ TEST(TerrainMapTool, AtItsDefaultsWithTheRigABoxSeenWithItsFacesIsTheOnlyObstacl
   }
   WritePoses(tmp.path() / "poses.csv", 4);
   const fs::path out = tmp.path() / "map";
-  const auto run = RunTool("terrain-map", {(tmp.path() / "stereo").string(), "--poses",
-                                           (tmp.path() / "poses.csv").string(), "--rig", rig_file.string(), "-o",
-                                           out.string(), "-q"},
+  const auto run = RunTool("terrain-map",
+                           {(tmp.path() / "stereo").string(), "--poses", (tmp.path() / "poses.csv").string(), "--rig",
+                            rig_file.string(), "-o", out.string(), "-q"},
                            tmp.path());
   ASSERT_EQ(run.exit_code, 0) << run.stderr_text;
   const io::GeoRaster map = io::ReadGeoTiff(out / "elevation.tif");
@@ -626,12 +627,13 @@ TEST(TerrainMapTool, WithTheRigThePointsComeFromTheDisparityMapsAndAreTheXyzArra
   const std::string poses = (tmp.path() / "poses.csv").string();
   WritePoses(poses, 4);
   const fs::path stereo = tmp.path() / "stereo";
-  const auto batch = RunTool("stereo-batch", {pairs.string(), "-o", stereo.string(), "-q", "--rig", rig_file.string()},
-                             tmp.path());
+  const auto batch =
+      RunTool("stereo-batch", {pairs.string(), "-o", stereo.string(), "-q", "--rig", rig_file.string()}, tmp.path());
   ASSERT_EQ(batch.exit_code, 0) << batch.stderr_text;
   auto map = [&](const fs::path& dir, const fs::path& rig_path, const std::string& out) {
-    const auto run = RunTool("terrain-map", {dir.string(), "--poses", poses, "--rig", rig_path.string(), "-o",
-                                             (tmp.path() / out).string(), "-q", "--no-preview"},
+    const auto run = RunTool("terrain-map",
+                             {dir.string(), "--poses", poses, "--rig", rig_path.string(), "-o",
+                              (tmp.path() / out).string(), "-q", "--no-preview"},
                              tmp.path());
     EXPECT_EQ(run.exit_code, 0) << run.stderr_text;
     return io::ReadJson(tmp.path() / out / "summary.json");
@@ -683,9 +685,10 @@ TEST(TerrainMapTool, WithTheRigThePointsComeFromTheDisparityMapsAndAreTheXyzArra
   EXPECT_NE(from_other["warnings"][0].get<std::string>().find("another rig"), std::string::npos);
   // A disparity map of another size than the rig's images: bad input naming the file, no map.
   io::WriteImageAtomic(stereo / "disparity" / (PoseOf(2).stem + ".pfm"), cv::Mat(10, 10, CV_32FC1, cv::Scalar(5)));
-  const auto bad = RunTool("terrain-map", {stereo.string(), "--poses", poses, "--rig", rig_file.string(), "-o",
-                                           (tmp.path() / "m_bad").string(), "-q"},
-                           tmp.path());
+  const auto bad = RunTool(
+      "terrain-map",
+      {stereo.string(), "--poses", poses, "--rig", rig_file.string(), "-o", (tmp.path() / "m_bad").string(), "-q"},
+      tmp.path());
   EXPECT_EQ(bad.exit_code, 3) << bad.stderr_text;
   EXPECT_EQ(bad.ErrorLines(), 1) << bad.stderr_text;
   EXPECT_NE(bad.stderr_text.find(PoseOf(2).stem + ".pfm is 10x10"), std::string::npos) << bad.stderr_text;

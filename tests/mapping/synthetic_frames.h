@@ -1,12 +1,10 @@
 // Test helper: stereo-batch-like XYZ maps of a known world surface seen from known poses.
 #pragma once
 
+#include <Eigen/Geometry>
 #include <cmath>
 #include <functional>
 #include <limits>
-
-#include <Eigen/Geometry>
-
 #include <opencv2/core.hpp>
 
 #include "mapping/frame_poses.h"
@@ -59,7 +57,8 @@ inline cv::Mat RenderedXyz(const HeightFn& height, const FramePose& pose, const 
           const Eigen::Vector3d mid = 0.5 * (lo + hi);
           (below(mid) ? hi : lo) = mid;
         }
-        xyz.at<cv::Vec3f>(r, c) = cv::Vec3f(static_cast<float>(hi.x()), static_cast<float>(hi.y()), static_cast<float>(hi.z()));
+        xyz.at<cv::Vec3f>(r, c) =
+            cv::Vec3f(static_cast<float>(hi.x()), static_cast<float>(hi.y()), static_cast<float>(hi.z()));
         break;
       }
     }

@@ -1,10 +1,10 @@
 #include "mapping/terrain_grid.h"
 
+#include <gtest/gtest.h>
+
 #include <algorithm>
 #include <cmath>
 #include <limits>
-
-#include <gtest/gtest.h>
 
 #include "calib/paper_rig.h"
 #include "calib/rectify.h"
@@ -274,7 +274,7 @@ TEST(TerrainGrid, AFramesPointsInACellAreOneObservation) {
   const double w_plain = 1.0 / (4e-4 + o.frame_floor_m * o.frame_floor_m);
   const Eigen::Vector3d centre = pose.WorldFromVehicle() * Eigen::Vector3d(0.1, 6.1, 0);
   const std::optional<CellStats> s = grid.Find({static_cast<std::int64_t>(std::floor(centre.x() / o.cell_m)),
-                                  static_cast<std::int64_t>(std::floor(centre.y() / o.cell_m))});
+                                                static_cast<std::int64_t>(std::floor(centre.y() / o.cell_m))});
   ASSERT_TRUE(s.has_value());
   EXPECT_NEAR(s->Mean(), 0.1 * w_precise / (w_precise + 4 * w_plain), 1e-6);
   EXPECT_NEAR(s->Sigma(), 1.0 / std::sqrt(w_precise + 4 * w_plain), 1e-9);
@@ -549,7 +549,6 @@ TEST(TerrainGrid, WindowKeepsTheSurroundingsOfTheVehicleOnly) {
   EXPECT_LE(grid.TileCount(), 9u);  // a 30 m window touches at most 3 x 3 tiles of 16 m
 }
 
-
 // Free-space carving (the scenes rendered from the paper's rig, what stands in front hiding what
 // lies behind, so that no true ray passes through a surface).
 class Carving : public ::testing::Test {
@@ -561,7 +560,8 @@ class Carving : public ::testing::Test {
 
   // Six frames driving north 0.5 m apart; frames listed in `with_phantom` also see `phantom`
   // (a slab 0.6 m up over x in [-0.5, 0.5), y in [7, 7.5)), the others `ground`.
-  std::vector<std::pair<cv::Mat, FramePose>> Drive(const testing::HeightFn& ground, std::vector<int> with_phantom) const {
+  std::vector<std::pair<cv::Mat, FramePose>> Drive(const testing::HeightFn& ground,
+                                                   std::vector<int> with_phantom) const {
     std::vector<std::pair<cv::Mat, FramePose>> frames;
     for (int k = 0; k < 6; ++k) {
       const FramePose p = Pose(0, 0.5 * k, 0, k);
@@ -569,7 +569,8 @@ class Carving : public ::testing::Test {
       const testing::HeightFn seen = [&, phantom](double x, double y) {
         return phantom && x >= -0.5 && x < 0.5 && y >= 7 && y < 7.5 ? 0.6 : ground(x, y);
       };
-      frames.push_back({RenderedXyz(seen, p, camera_, 120, 200, -3, 3, 2, 16), p});  // to 16 m: the top of what stands at 7 m
+      frames.push_back(
+          {RenderedXyz(seen, p, camera_, 120, 200, -3, 3, 2, 16), p});  // to 16 m: the top of what stands at 7 m
     }
     return frames;
   }

@@ -150,7 +150,7 @@ TEST(PlanWindows, AMapWithLaterPairsIsReadOnlyWithWhatCameBeforeEachPair) {
   // The ground beyond y = 8 m was first added by a pair at 5 s: pair 2 (6.4 s) has it, pairs 0
   // and 1 do not (their plans are those of a map without it).
   map.last_t_exact_s = cv::Mat(map.elevation_m.size(), CV_64FC1, cv::Scalar(-1.0));  // before the run
-  map.last_t_exact_s.rowRange(0, 48).setTo(5.0);  // rows 0-47: y 8..20
+  map.last_t_exact_s.rowRange(0, 48).setTo(5.0);                                     // rows 0-47: y 8..20
   const auto timed = PlanWindows(poses, vehicle, o, &map);
   MapLayers before = map;
   before.elevation_m = map.elevation_m.clone();
