@@ -64,6 +64,25 @@ void WriteStereoDir(const fs::path& dir, int first, int last) {
   }
 }
 
+// Rectified pairs 0..n-1 (PoseOf's stems) of a sloping plane for a 160 x 120 rig, in
+// DIR/left and DIR/right: what stereo-batch then matches.
+void WriteSlopingPlanePairs(const fs::path& dir, int n) {
+  for (const char* side : {"left", "right"}) fs::create_directories(dir / side);
+  sim::LayeredSceneOptions scene;
+  scene.width = 160;
+  scene.height = 120;
+  sim::PlaneLayer plane;
+  plane.d0_px = 20;
+  plane.slope_y = 0.3;
+  scene.layers = {plane};
+  const sim::RenderedPair pair = sim::RenderLayeredPair(scene);
+  for (int k = 0; k < n; ++k) {
+    const std::string stem = PoseOf(k).stem;
+    cv::imwrite((dir / "left" / (stem + ".png")).string(), pair.left);
+    cv::imwrite((dir / "right" / (stem + ".png")).string(), pair.right);
+  }
+}
+
 void WritePoses(const fs::path& path, int n, int nan_at = -1, int missing = -1) {
   std::string s = "stem,t_s,x_m,y_m,z_m,heading_deg,pitch_deg,roll_deg,fault\n";
   for (int k = 0; k < n; ++k) {
@@ -574,20 +593,7 @@ TEST(PlanWindowsTool, WritesRequestsThatStereoBatchReads) {
   const calib::StereoRig rig = calib::testing::IdealRectifiedRig(160, 120, 185);
   const fs::path pairs = tmp.path() / "pairs", rig_file = tmp.path() / "rig.json";
   calib::WriteStereoRig(rig_file, rig);
-  for (const char* side : {"left", "right"}) fs::create_directories(pairs / side);
-  sim::LayeredSceneOptions scene;
-  scene.width = 160;
-  scene.height = 120;
-  sim::PlaneLayer plane;
-  plane.d0_px = 20;
-  plane.slope_y = 0.3;
-  scene.layers = {plane};
-  const sim::RenderedPair pair = sim::RenderLayeredPair(scene);
-  for (int k = 0; k < 10; ++k) {
-    const std::string stem = PoseOf(k).stem;
-    cv::imwrite((pairs / "left" / (stem + ".png")).string(), pair.left);
-    cv::imwrite((pairs / "right" / (stem + ".png")).string(), pair.right);
-  }
+  WriteSlopingPlanePairs(pairs, 10);
   const fs::path out = tmp.path() / "stereo";
   const auto batch = RunTool("stereo-batch", {pairs.string(), "-o", out.string(), "-q", "--rig", rig_file.string(),
                                               "--requests", (tmp.path() / "plan" / "requests.csv").string()},
@@ -610,20 +616,7 @@ TEST(TerrainMapTool, WithTheRigThePointsComeFromTheDisparityMapsAndAreTheXyzArra
   const calib::StereoRig rig = calib::testing::IdealRectifiedRig(160, 120, 185);
   const fs::path pairs = tmp.path() / "pairs", rig_file = tmp.path() / "rig.json";
   calib::WriteStereoRig(rig_file, rig);
-  for (const char* side : {"left", "right"}) fs::create_directories(pairs / side);
-  sim::LayeredSceneOptions scene;
-  scene.width = 160;
-  scene.height = 120;
-  sim::PlaneLayer plane;
-  plane.d0_px = 20;
-  plane.slope_y = 0.3;
-  scene.layers = {plane};
-  const sim::RenderedPair pair = sim::RenderLayeredPair(scene);
-  for (int k = 0; k < 4; ++k) {
-    const std::string stem = PoseOf(k).stem;
-    cv::imwrite((pairs / "left" / (stem + ".png")).string(), pair.left);
-    cv::imwrite((pairs / "right" / (stem + ".png")).string(), pair.right);
-  }
+  WriteSlopingPlanePairs(pairs, 4);
   const std::string poses = (tmp.path() / "poses.csv").string();
   WritePoses(poses, 4);
   const fs::path stereo = tmp.path() / "stereo";
