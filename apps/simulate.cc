@@ -9,6 +9,7 @@
 #include "io/atomic_file.h"
 #include "io/json_io.h"
 #include "apps/simulate_chessboard_cli.h"
+#include "apps/simulate_field_log_cli.h"
 #include "apps/simulate_stereo_cli.h"
 #include "sim/rover_telemetry.h"
 #include "util/cli.h"
@@ -105,6 +106,8 @@ int main(int argc, char** argv) {
   const auto run_stereo = apps::RegisterStereoCommand(app);
   // `simulate chessboard` (calibration views) likewise.
   const auto run_chessboard = apps::RegisterChessboardCommand(app);
+  // `simulate field-log` (both halves of one drive) likewise.
+  const auto run_field_log = apps::RegisterFieldLogCommand(app);
   bool quiet = false;
   util::AddCommonFlags(&app, &quiet);
   if (const auto exit_code = util::ParseCommandLine(&app, argc, argv, quiet)) return *exit_code;
@@ -113,5 +116,6 @@ int main(int argc, char** argv) {
   if (app.got_subcommand(telemetry.sub)) return util::RunMain([&] { return telemetry.Run(invocation); });
   if (app.got_subcommand("stereo")) return run_stereo(invocation, quiet);
   if (app.got_subcommand("chessboard")) return run_chessboard(invocation, quiet);
+  if (app.got_subcommand("field-log")) return run_field_log(invocation, quiet);
   return util::RunMain([]() -> int { throw std::logic_error("simulate: no subcommand to run"); });
 }

@@ -4,11 +4,29 @@
 #pragma once
 
 #include <functional>
+#include <string>
+#include <vector>
 
 #include <CLI/CLI.hpp>
 #include <nlohmann/json.hpp>
 
+#include "sim/stereo_sim.h"
+
 namespace lunarnav::apps {
+
+/// The rig, scene and rendering options of a rendered sequence, as the command line gives them.
+struct StereoRenderFlags {
+  sim::StereoSimOptions options;
+  std::vector<std::string> faults;
+  bool no_distortion = false, no_rotation = false, no_exposure = false, no_quantize = false;
+  /// The options with the flags applied. @throws std::invalid_argument for a bad --fault.
+  sim::StereoSimOptions Resolved(bool quiet) const;
+};
+
+/// Adds the options `simulate stereo` and `simulate field-log` share: --fault, the rig
+/// (--width ... --tilt), the realism switches, --noise, --rays, the terrain and truth cells,
+/// --rock-density, --relief, --seed, -j.
+void AddStereoRenderOptions(CLI::App* cmd, StereoRenderFlags* flags);
 
 /// Adds `stereo` to `app` (options bound to state owned by the returned function). After
 /// parsing, when the subcommand was given, call the returned function with the command line

@@ -29,15 +29,17 @@ std::string Number(double v) {
 }
 
 // Heights of the four contact points (FL, FR, RL, RR) of a rover centred at (x, y).
-std::array<double, 4> ContactHeights(const GroundSurface& ground, const RoverOptions& o, double x, double y,
+std::array<double, 4> ContactHeights(const HeightFunction& ground, const RoverOptions& o, double x, double y,
                                      double heading) {
   const double fx = std::sin(heading), fy = std::cos(heading);  // forward
   const double rx = std::cos(heading), ry = -std::sin(heading);  // right
   const double a = 0.5 * o.wheelbase_m, b = 0.5 * o.track_m;
-  return {ground.HeightAt(x + a * fx - b * rx, y + a * fy - b * ry),
-          ground.HeightAt(x + a * fx + b * rx, y + a * fy + b * ry),
-          ground.HeightAt(x - a * fx - b * rx, y - a * fy - b * ry),
-          ground.HeightAt(x - a * fx + b * rx, y - a * fy + b * ry)};
+  const std::array<double, 4> z = {ground(x + a * fx - b * rx, y + a * fy - b * ry),
+                                   ground(x + a * fx + b * rx, y + a * fy + b * ry),
+                                   ground(x - a * fx - b * rx, y - a * fy - b * ry),
+                                   ground(x - a * fx + b * rx, y - a * fy + b * ry)};
+  for (double h : z) LN_CHECK(std::isfinite(h)) << "the rover left its ground at (" << x << ", " << y << ")";
+  return z;
 }
 
 struct Attitude {
@@ -213,7 +215,21 @@ nlohmann::json RoverOptions::ToJson() const {
           {"yaw_disturbance_tau_s", yaw_disturbance_tau_s}};
 }
 
+RoverAttitude RoverAttitudeOn(const HeightFunction& ground, const RoverOptions& rover, double x_m, double y_m,
+                              double heading_rad) {
+  const Attitude a = AttitudeFrom(ContactHeights(ground, rover, x_m, y_m, heading_rad), rover);
+  return {a.z, a.pitch, a.roll, a.pitch_left, a.pitch_right};
+}
+
 RoverDrive DriveRover(const std::vector<MotionCommand>& commands, const RoverOptions& o, const GroundSurface& ground,
+                      double initial_heading_deg, double rate_hz, std::optional<double> duration_s,
+                      std::uint64_t seed) {
+  return DriveRover(
+      commands, o, [&ground](double x, double y) { return ground.HeightAt(x, y); }, initial_heading_deg, rate_hz,
+      duration_s, seed);
+}
+
+RoverDrive DriveRover(const std::vector<MotionCommand>& commands, const RoverOptions& o, const HeightFunction& ground,
                       double initial_heading_deg, double rate_hz, std::optional<double> duration_s,
                       std::uint64_t seed) {
   o.Validate();

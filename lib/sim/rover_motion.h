@@ -11,6 +11,7 @@
 
 #include <array>
 #include <cstddef>
+#include <functional>
 #include <optional>
 #include <string>
 #include <vector>
@@ -123,6 +124,19 @@ struct RoverDrive {
   int trials_truncated = 0;          ///< Motions cut by the end of the log.
 };
 
+/// The ground a rover drives on: height (metres) at world (x, y); finite wherever it drives.
+using HeightFunction = std::function<double(double x_m, double y_m)>;
+
+/// Where the body of a rover standing at (x_m, y_m) with `heading_rad` sits on `ground`:
+/// its wheels' contact points (front and rear axles wheelbase_m apart, sides track_m apart)
+/// on the ground; z_m the mean of their heights (the vehicle frame's origin), the pitch of
+/// each side, their mean, and the roll from the sides' mean heights, with DriveRover's signs.
+struct RoverAttitude {
+  double z_m = 0, pitch_rad = 0, roll_rad = 0, pitch_left_rad = 0, pitch_right_rad = 0;
+};
+RoverAttitude RoverAttitudeOn(const HeightFunction& ground, const RoverOptions& rover, double x_m, double y_m,
+                              double heading_rad);
+
 /// Drives `commands` in order, starting at rest at the origin with `initial_heading_deg`,
 /// integrating at 100 Hz or faster and sampling at `rate_hz`. The speed and turn rate
 /// follow the commands within the acceleration limits; a straight or arc ends when its path
@@ -130,6 +144,11 @@ struct RoverDrive {
 /// differs from the commanded one by the wander and slip, as on a real vehicle).
 /// @param duration_s  length of the log; std::nullopt: until the commands are done.
 /// @param seed        seeds the slip and wander ("rover" stream).
+/// Sample z is relative to the start pose's (z = 0 at t = 0).
+RoverDrive DriveRover(const std::vector<MotionCommand>& commands, const RoverOptions& rover,
+                      const HeightFunction& ground, double initial_heading_deg, double rate_hz,
+                      std::optional<double> duration_s, std::uint64_t seed);
+/// The same on a GroundSurface.
 RoverDrive DriveRover(const std::vector<MotionCommand>& commands, const RoverOptions& rover,
                       const GroundSurface& ground, double initial_heading_deg, double rate_hz,
                       std::optional<double> duration_s, std::uint64_t seed);

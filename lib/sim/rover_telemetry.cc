@@ -333,6 +333,14 @@ RoverTelemetry SimulateRoverTelemetry(const RoverTelemetryOptions& options) {
   const double rate_hz = mems ? run.scenario.imu_rate_hz : options.rate_hz;
   run.drive = DriveRover(run.scenario.commands, run.scenario.rover, ground, run.scenario.initial_heading_deg,
                          rate_hz, duration, options.seed);
+  SenseDrive(options, &run);
+  return run;
+}
+
+void SenseDrive(const RoverTelemetryOptions& options, RoverTelemetry* run_ptr) {
+  RoverTelemetry& run = *run_ptr;
+  const bool mems = run.scenario.mems;
+  const double rate_hz = mems ? run.scenario.imu_rate_hz : options.rate_hz;
   LN_CHECK_ARG(run.drive.samples.size() <= kMaxRows) << "the log would exceed " << kMaxRows << " rows";
   run.sensor_model = mems ? MemsRoverSensorModel(run.scenario.compass) : SimulatedSensorModel(options.bits);
   run.raw = SimulateSensors(run.drive.samples, run.scenario.sensor_errors, run.sensor_model, rate_hz,
@@ -349,7 +357,6 @@ RoverTelemetry SimulateRoverTelemetry(const RoverTelemetryOptions& options) {
     }
   }
   run.faults = InjectFaults(options.faults, run.sensor_model, options.seed, &run.raw);
-  return run;
 }
 
 nlohmann::json RoverTelemetry::CountsJson() const {
@@ -455,8 +462,10 @@ nlohmann::json TrialsJson(const RoverTelemetry& run) {
 }
 
 void WriteRoverTelemetry(const std::filesystem::path& dir, const RoverTelemetry& run,
-                         const RoverTelemetryOptions& options) {
+                         const RoverTelemetryOptions& options, const std::filesystem::path& truth_dir_or_empty) {
+  const std::filesystem::path truth_dir = truth_dir_or_empty.empty() ? dir : truth_dir_or_empty;
   io::CreateOutputDirectory(dir);
+  io::CreateOutputDirectory(truth_dir);
   std::ostringstream description;
   description.imbue(std::locale::classic());
   description << "preset " << run.scenario.name << ", seed " << options.seed << ", " << options.bits << " bits, ";
@@ -477,9 +486,9 @@ void WriteRoverTelemetry(const std::filesystem::path& dir, const RoverTelemetry&
         "physical limits of the vehicle (generous): screening's rate limits derive from them";
   }
   io::WriteJsonAtomic(dir / "sensors.json", sensors);
-  WriteTruthCsv(dir / "truth.csv", run.drive.samples);
-  io::WriteJsonAtomic(dir / "trials.json", TrialsJson(run));
-  WriteFaultsCsv(dir / "faults.csv", run.faults);
+  WriteTruthCsv(truth_dir / (truth_dir == dir ? "truth.csv" : "trajectory.csv"), run.drive.samples);
+  io::WriteJsonAtomic(truth_dir / "trials.json", TrialsJson(run));
+  WriteFaultsCsv(truth_dir / "faults.csv", run.faults);
 }
 
 }  // namespace lunarnav::sim

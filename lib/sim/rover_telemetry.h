@@ -90,6 +90,12 @@ struct RoverTelemetry {
 /// Simulates the run the options describe. @throws std::invalid_argument for bad options.
 RoverTelemetry SimulateRoverTelemetry(const RoverTelemetryOptions& options);
 
+/// The sensor half of SimulateRoverTelemetry: with `run->scenario` and `run->drive` given
+/// (sampled at the scenario's IMU rate for MEMS scenarios, else at options.rate_hz), fills the
+/// sensor model, the raw log (encoders and compass decimated for MEMS), the error draws and
+/// the injected faults (options.seed, bits, faults).
+void SenseDrive(const RoverTelemetryOptions& options, RoverTelemetry* run);
+
 /// truth.csv: the ground truth per sample, in the columns of posfilter's trajectory.csv
 /// (t_s,x_m,y_m,z_m,heading_deg,pitch_deg,roll_deg,speed_mps: positioning::ReadTrajectoryCsv
 /// reads it) followed by pitch_left_deg,pitch_right_deg,turn_rate_dps,accel_mps2,distance_m
@@ -103,7 +109,9 @@ nlohmann::json TrialsJson(const RoverTelemetry& run);
 
 /// Writes telemetry.csv, sensors.json, truth.csv, trials.json and faults.csv into `dir`
 /// (created), each atomically. summary.json is the caller's (it knows the command line).
+/// With `truth_dir`, the truth goes there instead: trajectory.csv (truth.csv's content),
+/// trials.json, faults.csv.
 void WriteRoverTelemetry(const std::filesystem::path& dir, const RoverTelemetry& run,
-                         const RoverTelemetryOptions& options);
+                         const RoverTelemetryOptions& options, const std::filesystem::path& truth_dir = {});
 
 }  // namespace lunarnav::sim

@@ -314,28 +314,42 @@ std::string StereoSimSummary::BriefReport() const {
 StereoSimSummary RunStereoSimulation(const StereoSimOptions& options, const fs::path& output_dir,
                                      const json& invocation) {
   options.Validate();
+  io::CreateOutputDirectory(output_dir);  // an unusable directory is refused before the scene is built
+  tbb::task_arena arena(util::EffectiveThreadCount(options.num_threads));
+  util::Timer scene_timer;
+  std::unique_ptr<Scene> scene;
+  arena.execute([&] { scene = std::make_unique<Scene>(MakeSceneOptions(options)); });
+  const std::vector<VehiclePose> poses = MakeTrajectory(options, &scene->terrain());
+  std::vector<double> times_s(poses.size());
+  for (std::size_t k = 0; k < poses.size(); ++k) times_s[k] = static_cast<double>(k) * options.interval_s;
+  json head = util::SummaryHead("simulate", invocation);
+  head["subcommand"] = "stereo";
+  return RenderStereoSequence(options, *scene, poses, times_s, 0.0, output_dir, head, scene_timer.ElapsedSeconds());
+}
+
+StereoSimSummary RenderStereoSequence(const StereoSimOptions& options, const Scene& scene_ref,
+                                      const std::vector<VehiclePose>& poses, const std::vector<double>& times_s,
+                                      double z_origin_m, const fs::path& output_dir, const json& summary_head,
+                                      double scene_seconds) {
+  options.Validate();
+  LN_CHECK_ARG(static_cast<int>(poses.size()) == options.frames && times_s.size() == poses.size())
+      << "a sequence of " << options.frames << " frames needs as many poses and times";
   util::Timer total;
   StereoSimSummary summary;
+  summary.scene_seconds = scene_seconds;
+  const Scene* scene = &scene_ref;
   const calib::StereoRig rig = MakeSimulatedRig(options);
   const StereoRenderOptions render_options = MakeRenderOptions(options);
-
   io::CreateOutputDirectory(output_dir);
   for (const char* sub : {"left", "right", "truth", "truth/disparity", "truth/xyz", "truth/labels"}) {
     io::CreateOutputDirectory(output_dir / sub);
     io::RemoveStaleTempFiles(output_dir / sub);
   }
   io::RemoveStaleTempFiles(output_dir);
-
   tbb::task_arena arena(util::EffectiveThreadCount(options.num_threads));
   std::vector<FrameFault> faults(options.frames, FrameFault::kNone);
   for (const FrameFaultSpec& f : options.faults) faults[f.frame] = f.fault;
-
-  util::Timer scene_timer;
-  std::unique_ptr<Scene> scene;
-  arena.execute([&] { scene = std::make_unique<Scene>(MakeSceneOptions(options)); });
-  const std::vector<VehiclePose> poses = MakeTrajectory(options, &scene->terrain());
   const StereoRenderer renderer(rig, render_options);
-  summary.scene_seconds = scene_timer.ElapsedSeconds();
   LN_LOG(Info) << "scene: terrain " << scene->terrain().GridWidth() << " x " << scene->terrain().GridHeight()
                << " vertices, " << scene->boxes().size() << " boxes (" << summary.scene_seconds << " s)";
 
@@ -345,8 +359,15 @@ StereoSimSummary RunStereoSimulation(const StereoSimOptions& options, const fs::
   if (options.preset == "terrain") {
     util::Timer truth_timer;
     arena.execute([&] {
-      io::WriteGeoTiffAtomic(output_dir / "truth" / "terrain.tif",
-                             TerrainTruthRaster(scene->terrain(), options.truth_cell_m, TrueObstacleOptions()));
+      io::GeoRaster truth = TerrainTruthRaster(scene->terrain(), options.truth_cell_m, TrueObstacleOptions());
+      if (z_origin_m != 0) {
+        for (const char* band : {"elevation_m", "min_m", "max_m"}) {
+          const int b = truth.BandIndex(band);
+          LN_CHECK(b >= 0) << "truth raster without " << band;
+          truth.bands[b].pixels -= z_origin_m;  // NaN stays NaN
+        }
+      }
+      io::WriteGeoTiffAtomic(output_dir / "truth" / "terrain.tif", truth);
     });
     io::WriteFileAtomic(output_dir / "truth" / "rocks.csv", RocksCsv(scene->terrain()));
     LN_LOG(Info) << "truth: terrain.tif (" << options.truth_cell_m << " m cells) and rocks.csv ("
@@ -392,8 +413,8 @@ StereoSimSummary RunStereoSimulation(const StereoSimOptions& options, const fs::
   csv += "stem,t_s,x_m,y_m,z_m,heading_deg,pitch_deg,roll_deg,fault\n";
   for (int k = 0; k < options.frames; ++k) {
     const VehiclePose& p = poses[k];
-    csv += FrameStem(k) + "," + Format("%.3f", k * options.interval_s) + "," + Format("%.6f", p.x_m) + "," +
-           Format("%.6f", p.y_m) + "," + Format("%.6f", p.z_m) + "," + Format("%.6f", p.heading_rad / kDeg) + "," +
+    csv += FrameStem(k) + "," + Format("%.3f", times_s[k]) + "," + Format("%.6f", p.x_m) + "," +
+           Format("%.6f", p.y_m) + "," + Format("%.6f", p.z_m - z_origin_m) + "," + Format("%.6f", p.heading_rad / kDeg) + "," +
            Format("%.6f", p.pitch_rad / kDeg) + "," + Format("%.6f", p.roll_rad / kDeg) + "," + ToString(faults[k]) +
            "\n";
   }
@@ -436,8 +457,7 @@ StereoSimSummary RunStereoSimulation(const StereoSimOptions& options, const fs::
   }
   summary.frames = options.frames;
   summary.seconds = total.ElapsedSeconds();
-  json j = util::SummaryHead("simulate", invocation);
-  j["subcommand"] = "stereo";
+  json j = summary_head;
   j["output_dir"] = output_dir.string();
   j["options"] = options.ToJson();
   j["render"] = render_options.ToJson();

@@ -113,6 +113,16 @@ struct StereoSimSummary {
 StereoSimSummary RunStereoSimulation(const StereoSimOptions& options, const std::filesystem::path& output_dir,
                                      const nlohmann::json& invocation = nullptr);
 
+/// Renders and writes the frames of `poses` (world poses of the vehicle over `scene`, one per
+/// frame, options.frames of them) as RunStereoSimulation does, poses.csv's t_s from `times_s`;
+/// the written heights (poses.csv's z, terrain.tif's elevations) are taken relative to
+/// `z_origin_m`. `summary_head`: summary.json's first keys (the tool, version, command line,
+/// subcommand); `scene_seconds`: what building the scene took, for the timings.
+StereoSimSummary RenderStereoSequence(const StereoSimOptions& options, const Scene& scene,
+                                      const std::vector<VehiclePose>& poses, const std::vector<double>& times_s,
+                                      double z_origin_m, const std::filesystem::path& output_dir,
+                                      const nlohmann::json& summary_head, double scene_seconds);
+
 /// The file stem of frame k: six digits.
 std::string FrameStem(int k);
 
