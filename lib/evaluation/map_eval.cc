@@ -8,9 +8,11 @@
 #include <limits>
 #include <map>
 #include <mutex>
+#include <optional>
 #include <sstream>
 
 #include "evaluation/map_rasters.h"
+#include "evaluation/map_vehicle_eval.h"
 #include "io/atomic_file.h"
 #include "io/float_array_io.h"
 #include "io/image_io.h"
@@ -19,6 +21,7 @@
 #include "sim/vehicle_pose.h"
 #include "util/check.h"
 #include "util/errors.h"
+#include "util/log.h"
 #include "util/parallel.h"
 #include "util/summary.h"
 #include "util/timer.h"
@@ -241,7 +244,8 @@ MapEvalResult EvaluateMap(const io::GeoRaster& map, const io::GeoRaster& truth, 
 }
 
 io::GeoRaster TrueRayCounts(const fs::path& sim_dir, const std::vector<std::string>& stems, double cell_m,
-                            const MapEvalOptions& options, int num_threads, std::vector<TrueRock>* rocks) {
+                            const MapEvalOptions& options, int num_threads, std::vector<TrueRock>* rocks,
+                            std::vector<std::vector<std::pair<std::int64_t, std::int64_t>>>* frame_cells) {
   // The rocks by 1 m square (each listed in every square its ellipse's box touches).
   std::map<std::pair<std::int64_t, std::int64_t>, std::vector<std::size_t>> rocks_at;
   if (rocks != nullptr) {
@@ -340,6 +344,7 @@ io::GeoRaster TrueRayCounts(const fs::path& sim_dir, const std::vector<std::stri
     for (const auto& [i, j] : frame) band.pixels.at<float>(static_cast<int>(j_hi - j), static_cast<int>(i - i_lo)) += 1;
   }
   r.bands.push_back(std::move(band));
+  if (frame_cells != nullptr) *frame_cells = std::move(cells);
   return r;
 }
 
@@ -482,9 +487,20 @@ MapEvalResult RunMapEvaluation(const fs::path& map_dir, const fs::path& sim_dir,
   } else {
     for (const auto& entry : options.requested_y_m) stems.push_back(entry.first);  // mapped or not
   }
-  const io::GeoRaster seen = TrueRayCounts(sim_dir, stems, map.cell_m, options, num_threads, &rocks);
+  std::vector<std::vector<std::pair<std::int64_t, std::int64_t>>> frame_cells;
+  const io::GeoRaster seen = TrueRayCounts(sim_dir, stems, map.cell_m, options, num_threads, &rocks, &frame_cells);
   MapEvalResult result = EvaluateMap(map, truth, seen, rocks, options);
   MeasureCorridorGaps(map, seen, sim_dir, options, &result);
+  // In the pairs' frames, with the poses the map was made with (its frames.csv).
+  std::optional<VehicleFrameMapScore> local;
+  FramePoseErrors pose_errors;
+  const fs::path frames_path = map_dir / "frames.csv";
+  if (fs::exists(frames_path)) {
+    const std::vector<mapping::FramePose> used = mapping::ReadPosesCsv(frames_path);
+    const std::vector<mapping::FramePose> true_poses = mapping::ReadPosesCsv(sim_dir / "truth" / "poses.csv");
+    pose_errors = CompareFramePoses(used, true_poses);
+    local = EvaluateMapInVehicleFrames(map, truth, used, true_poses, stems, frame_cells, rocks, options, num_threads);
+  }
 
   io::CreateOutputDirectory(output_dir);
   const Table table = result.ToTable();
@@ -510,6 +526,17 @@ MapEvalResult RunMapEvaluation(const fs::path& map_dir, const fs::path& sim_dir,
   j["options"] = options.ToJson();
   j["result"] = result.ToJson();
   j["table"] = table.ToJson();
+  if (local) {
+    const Table scores = MapScoresTable(result, *local, pose_errors);
+    WriteTable(output_dir, "scores", scores);
+    j["vehicle_frame"] = local->ToJson();
+    j["poses_at_frames"] = pose_errors.ToJson();
+    j["scores_table"] = scores.ToJson();
+    LN_LOG(Info) << "in the pairs' frames: elevation RMSE " << 100 * local->rmse_m << " cm, largest "
+                 << 100 * local->max_abs_m << " cm, coverage " << 100 * local->coverage << " %, precision "
+                 << 100 * local->precision << " %, rocks " << local->rocks_every_view << "/" << local->rocks
+                 << "; the poses: " << 100 * pose_errors.final_horizontal_m << " cm off at the last pair";
+  }
   j["timings_s"] = {{"total", timer.ElapsedSeconds()}};
   io::WriteJsonAtomic(output_dir / "summary.json", j);
   return result;

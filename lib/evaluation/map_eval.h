@@ -3,6 +3,7 @@
 // elevation error, coverage of the ground the cameras saw, obstacle detection.
 #pragma once
 
+#include <cstdint>
 #include <filesystem>
 #include <map>
 #include <string>
@@ -115,10 +116,13 @@ MapEvalResult EvaluateMap(const io::GeoRaster& map, const io::GeoRaster& truth, 
 /// seen_max_y_m ahead (sim_dir/truth/xyz/<stem>.exr, vehicle frame, placed by
 /// sim_dir/truth/poses.csv with the simulator's pose convention), counted per world-anchored
 /// cell of `cell_m`, as a one-band raster ("count"). Code of its own: not the mapper's binning.
-/// With `rocks`, also each rock's top_rays: those points that land on its upper half.
+/// With `rocks`, also each rock's top_rays: those points that land on its upper half. With
+/// `frame_cells`, each frame's points' cells (floor(x / cell_m), floor(y / cell_m)), one entry
+/// a point, in the order of `stems`.
 io::GeoRaster TrueRayCounts(const std::filesystem::path& sim_dir, const std::vector<std::string>& stems,
                             double cell_m, const MapEvalOptions& options, int num_threads,
-                            std::vector<TrueRock>* rocks = nullptr);
+                            std::vector<TrueRock>* rocks = nullptr,
+                            std::vector<std::vector<std::pair<std::int64_t, std::int64_t>>>* frame_cells = nullptr);
 
 /// The longest corridor gap (MapEvalResult::corridor_gap_m) of `map` (terrain-map's layers;
 /// a cell is mapped with >= min_points) over the requested intervals: per pair, walking out
