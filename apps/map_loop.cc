@@ -54,6 +54,9 @@ int main(int argc, char** argv) {
   app.add_option("--sigma-d", opt.map.sigma_d_px, "disparity error of the rig's error model (the points' weights), px")
       ->capture_default_str();
   apps::AddFusionOptions(&app, &opt.map.map);
+  std::string align = "auto";
+  mapping::GroundAlignmentOptions align_options;
+  apps::AddAlignmentOptions(&app, &align, &align_options);
   app.add_flag("--open-loop", opt.open_loop,
                "plan from the past poses only, not from the map (each request starts at the previous one's far "
                "edge): the open loop, for comparison");
@@ -91,6 +94,7 @@ int main(int argc, char** argv) {
         calib::SelectGroundWindow(*opt.stereo.rig, opt.stereo.matcher.reference, ground, opt.stereo.window_selection);
     opt.map.rig = rig_path;  // the points' errors from the rig's geometry
     opt.map.reference = opt.stereo.matcher.reference;
+    opt.map.align = apps::ResolveAlignment(align, align_options, opt.map.trajectory);
     opt.map.write_preview = !no_preview;
     opt.map.num_threads = opt.stereo.num_threads;
     opt.show_progress = !quiet;

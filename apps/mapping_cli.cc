@@ -1,6 +1,29 @@
 #include "apps/mapping_cli.h"
 
+#include "mapping/kitti_trajectory.h"
+
 namespace lunarnav::apps {
+
+void AddAlignmentOptions(CLI::App* app, std::string* mode, mapping::GroundAlignmentOptions* options) {
+  app->add_option("--align-to-ground", *mode,
+                  "bring each pair onto the ground the pairs before it mapped (height, pitch, roll) before fusing "
+                  "it; auto: on for posfilter's trajectory.csv (dead reckoning's attitude), off for other poses")
+      ->check(CLI::IsMember({"auto", "on", "off"}))
+      ->capture_default_str();
+  app->add_option("--align-gain", options->gain, "the fraction of each alignment's correction applied, (0, 1]")
+      ->capture_default_str();
+}
+
+std::optional<mapping::GroundAlignmentOptions> ResolveAlignment(const std::string& mode,
+                                                                const mapping::GroundAlignmentOptions& options,
+                                                                const std::filesystem::path& trajectory) {
+  if (mode == "on") return options;
+  if (mode == "auto" && !trajectory.empty() &&
+      mapping::DetectTrajectoryFormat(trajectory) == mapping::TrajectoryFormat::kPosfilterCsv) {
+    return options;
+  }
+  return std::nullopt;
+}
 
 void AddFusionOptions(CLI::App* app, mapping::TerrainMapOptions* map) {
   app->add_option("--cell", map->cell_m, "cell size, m")->capture_default_str();

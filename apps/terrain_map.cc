@@ -48,6 +48,9 @@ int main(int argc, char** argv) {
                                        "max_slope_deg (default: 0.2 m, 30 deg)");
   app.add_option("--merge", opt.merge_maps, "terrain-map output directory of other frames to merge in "
                                             "(repeatable)");
+  std::string align = "auto";
+  mapping::GroundAlignmentOptions align_options;
+  apps::AddAlignmentOptions(&app, &align, &align_options);
   app.add_flag("--no-preview", no_preview, "do not write preview.png");
   app.add_flag("--resume", opt.resume, "continue the map in OUT_DIR: frames listed in its frames.csv are skipped");
   app.add_option("-j,--threads", opt.num_threads, "threads reading frames (0 = all cores)")->capture_default_str();
@@ -68,6 +71,7 @@ int main(int argc, char** argv) {
     if (opt.shard_count > 1) {
       output_dir /= "shard-" + std::to_string(opt.shard_index) + "-of-" + std::to_string(opt.shard_count);
     }
+    opt.align = apps::ResolveAlignment(align, align_options, opt.trajectory);
     opt.write_preview = !no_preview;
     opt.show_progress = !quiet;
     const mapping::TerrainMapRunSummary s =

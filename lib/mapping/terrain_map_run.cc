@@ -4,6 +4,7 @@
 #include <cmath>
 #include <cstdio>
 #include <cstring>
+#include <functional>
 #include <ctime>
 #include <limits>
 #include <map>
@@ -206,6 +207,45 @@ std::vector<std::string> ListStems(const fs::path& xyz_dir) {
   return stems;
 }
 
+// Attitude from the ground: the pairs in time order, each read (a sample of its pixels) and
+// brought onto the ground the aligner holds (the stored map's cells, then each aligned pair),
+// its pose in `todo` replaced by the corrected one. Reading runs in parallel blocks, the
+// alignment in order: the result does not depend on the threads.
+void AlignToGround(const TerrainMapRunOptions& options, const TerrainGrid& grid,
+                   const std::function<cv::Mat(const FramePose&)>& read_points, std::vector<FramePose>* todo,
+                   TerrainMapRunSummary* summary) {
+  GroundAligner aligner(options.map.cell_m, *options.align);
+  if (const auto bounds = grid.MappedBounds()) {
+    const double c = options.map.cell_m;
+    for (std::int64_t j = (*bounds)[1]; j <= (*bounds)[3]; ++j) {
+      for (std::int64_t i = (*bounds)[0]; i <= (*bounds)[2]; ++i) {
+        const std::optional<CellStats> cell = grid.Find({i, j}, options.map.carve_tolerance_m);
+        if (cell && cell->sum_w > 0) aligner.AddReference((i + 0.5) * c, (j + 0.5) * c, cell->Mean());
+      }
+    }
+  }
+  const int threads = util::EffectiveThreadCount(options.num_threads);
+  const std::size_t block = static_cast<std::size_t>(2 * threads);
+  for (std::size_t b0 = 0; b0 < todo->size(); b0 += block) {
+    const std::size_t n = std::min(block, todo->size() - b0);
+    std::vector<std::vector<Eigen::Vector3f>> samples(n);
+    util::ParallelForEachItem(n, threads, [&](std::size_t k) {
+      samples[k] = SampleXyz(read_points((*todo)[b0 + k]), options.align->stride_px);
+    });
+    for (std::size_t k = 0; k < n; ++k) {
+      GroundAlignment record;
+      (*todo)[b0 + k] = aligner.Align((*todo)[b0 + k], samples[k], &record);
+      if (record.contradicts) {
+        summary->warnings.push_back(util::Format(
+            "stem %s: its ground contradicts the map by more than %g deg or %g m (%s): fused with its own pose, "
+            "not aligned",
+            record.stem.c_str(), options.align->max_tilt_deg, options.align->max_shift_m, record.reason.c_str()));
+      }
+      summary->alignments.push_back(record);
+    }
+  }
+}
+
 }  // namespace
 
 void TerrainMapRunOptions::Validate() const {
@@ -217,6 +257,9 @@ void TerrainMapRunOptions::Validate() const {
     LN_CHECK_ARG(!by_trajectory || !frame_times.empty()) << "--trajectory needs --frame-times";
   }
   LN_CHECK_ARG(num_threads >= 0) << "threads: must be >= 0";
+  if (align) align->Validate();
+  LN_CHECK_ARG(!align || shard_count == 1)
+      << "--align-to-ground: each pair is brought onto the pairs before it; map the shards' frames in one run";
   io::CheckShard(shard_index, shard_count);
   LN_CHECK_ARG(shard_count == 1 || map.window_m <= 0)
       << "--window-m: a rolling window follows the vehicle over every frame; map the shards whole and merge them";
@@ -358,8 +401,25 @@ TerrainMapRunSummary RunTerrainMap(const TerrainMapRunOptions& options, const fs
     }
   }
   summary.points_source = from_disparity ? "disparity maps triangulated with the rig" : "XYZ arrays";
+  // The points of a pair: triangulated from its disparity map with the rig, or its XYZ array.
+  auto read_points = [&](const FramePose& pose) {
+    const fs::path xyz_path = options.stereo_dir / "xyz" / (pose.stem + ".exr");
+    io::ExrImage xyz;
+    if (from_disparity && fs::is_regular_file(disparity_path(pose.stem))) {
+      xyz.pixels = triangulate(pose.stem);
+    } else {
+      xyz = io::ReadExr(xyz_path);
+    }
+    LN_CHECK_INPUT(xyz.pixels.type() == CV_32FC3)
+        << "stem " << pose.stem << ": " << xyz_path.string() << " has " << xyz.pixels.channels()
+        << " channels, expected 3 (X, Y, Z)";
+    return xyz.pixels;
+  };
+
   util::Timer fuse_timer;
   const std::clock_t fuse_cpu_start = std::clock();  // the process's CPU time: the figure on a shared machine
+  // The alignment's reading and fitting count in the fusion's time (points per CPU second).
+  if (options.align && !todo.empty()) AlignToGround(options, grid, read_points, &todo, &summary);
   util::ProgressBar progress(todo.size(), "terrain-map frames", options.show_progress);
   const int threads = util::EffectiveThreadCount(options.num_threads);
   const std::size_t block = static_cast<std::size_t>(2 * threads);
@@ -372,17 +432,9 @@ TerrainMapRunSummary RunTerrainMap(const TerrainMapRunOptions& options, const fs
     std::vector<double> read_cpu(n, 0.0);
     util::ParallelForEachItem(n, threads, [&](std::size_t k) {
       const FramePose& pose = todo[b0 + k];
-      const fs::path xyz_path = options.stereo_dir / "xyz" / (pose.stem + ".exr");
       const double read_start = util::ThreadCpuSeconds();
       io::ExrImage xyz;
-      if (from_disparity && fs::is_regular_file(disparity_path(pose.stem))) {
-        xyz.pixels = triangulate(pose.stem);
-      } else {
-        xyz = io::ReadExr(xyz_path);
-      }
-      LN_CHECK_INPUT(xyz.pixels.type() == CV_32FC3)
-          << "stem " << pose.stem << ": " << xyz_path.string() << " has " << xyz.pixels.channels()
-          << " channels, expected 3 (X, Y, Z)";
+      xyz.pixels = read_points(pose);
       cv::Mat sigma;
       const fs::path sigma_path = options.stereo_dir / "xyz_sigma" / (pose.stem + ".exr");
       if (has_sigma && fs::is_regular_file(sigma_path)) {
@@ -520,6 +572,24 @@ TerrainMapRunSummary RunTerrainMap(const TerrainMapRunOptions& options, const fs
                             {"observations_carved", summary.carved.observations},
                             {"cells_changed", summary.carved.cells_changed},
                             {"cells_cleared", summary.carved.cells_cleared}};
+  if (options.align) {
+    long applied = 0;
+    double tilt2 = 0, shift2 = 0;
+    json pairs = json::array();
+    for (const GroundAlignment& a : summary.alignments) {
+      pairs.push_back(a.ToJson());
+      if (!a.applied) continue;
+      ++applied;
+      tilt2 += a.tilt_x_deg * a.tilt_x_deg + a.tilt_y_deg * a.tilt_y_deg;
+      shift2 += a.shift_m * a.shift_m;
+    }
+    j["alignment"] = {{"options", options.align->ToJson()},
+                      {"pairs", summary.alignments.size()},
+                      {"applied", applied},
+                      {"tilt_rms_deg", applied > 0 ? std::sqrt(tilt2 / (2.0 * applied)) : 0.0},
+                      {"shift_rms_m", applied > 0 ? std::sqrt(shift2 / applied) : 0.0},
+                      {"per_pair", pairs}};
+  }
   j["timings_s"] = {{"total", summary.seconds},
                     {"read_and_fuse", summary.fuse_seconds},
                     {"read_and_fuse_cpu", summary.fuse_cpu_seconds},

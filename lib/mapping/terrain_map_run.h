@@ -3,12 +3,14 @@
 #pragma once
 
 #include <filesystem>
+#include <optional>
 #include <string>
 #include <vector>
 
 #include <nlohmann/json.hpp>
 
 #include "calib/triangulation.h"
+#include "mapping/ground_alignment.h"
 #include "mapping/terrain_grid.h"
 
 namespace lunarnav::mapping {
@@ -35,6 +37,10 @@ struct TerrainMapRunOptions {
   /// Output directories of earlier runs on disjoint sets of frames, merged into this map.
   std::vector<std::filesystem::path> merge_maps;
   bool resume = false;       ///< Continue the map in the output directory, skipping fused frames.
+  /// Attitude from the ground (ground_alignment.h): each pair, in time order, brought onto the
+  /// ground the pairs before it mapped (resumed and merged maps included) before it is fused;
+  /// frames.csv then holds the corrected poses. Unset: the poses as given.
+  std::optional<GroundAlignmentOptions> align;
   bool write_preview = true;  ///< preview.png.
   int num_threads = 0;        ///< Frames read in parallel; 0 = all cores.
   /// Shard K of N of the stereo directory's frames (the stems in name order, every N-th from
@@ -54,6 +60,7 @@ struct TerrainMapRunSummary {
   long rays_cast = 0;              ///< This run's rays that set ceilings (carving; with a rig only).
   long points_hidden = 0;          ///< Points of observations the rays to them show hidden (with a rig only).
   CarveCounts carved;              ///< What carving left out of the layers.
+  std::vector<GroundAlignment> alignments;  ///< With options.align: one per pair fused, in time order.
   std::vector<std::string> warnings;  ///< Printed as they arise and kept in summary.json.
   /// Where the points came from: the pairs' disparity maps triangulated with the rig, or the XYZ arrays.
   std::string points_source;

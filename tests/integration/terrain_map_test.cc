@@ -26,6 +26,7 @@
 #include "io/image_io.h"
 #include "io/json_io.h"
 #include "mapping/elevation_error.h"
+#include "mapping/frame_poses.h"
 #include "mapping/synthetic_frames.h"
 #include "mapping/window_planner.h"
 #include "positioning/trajectory_io.h"
@@ -564,7 +565,7 @@ TEST(TerrainMapTool, ATrajectoryInterpolatedAtTheFrameTimesGivesTheMapOfThePoses
   const auto b = RunTool("terrain-map", {(tmp.path() / "stereo").string(), "--trajectory",
                                          (tmp.path() / "trajectory.csv").string(), "--frame-times",
                                          (tmp.path() / "times.csv").string(), "-o", (tmp.path() / "by_trajectory").string(),
-                                         "-q", "--no-preview"},
+                                         "-q", "--no-preview", "--align-to-ground", "off"},
                          tmp.path());
   ASSERT_EQ(a.exit_code, 0) << a.stderr_text;
   ASSERT_EQ(b.exit_code, 0) << b.stderr_text;
@@ -576,6 +577,61 @@ TEST(TerrainMapTool, ATrajectoryInterpolatedAtTheFrameTimesGivesTheMapOfThePoses
   double worst = 0;
   cv::minMaxLoc(diff, nullptr, &worst, nullptr, nullptr, ea == ea);
   EXPECT_LT(worst, 1e-4);  // the trajectory file's 0.1 mm positions
+}
+
+TEST(TerrainMapTool, ADeadReckonedPairNosedUpIsBroughtOntoTheGroundTheOthersMapped) {
+  // posfilter's trajectory with the inclinometers 1.5 deg off at pair 2 (an acceleration read
+  // as tilt): by default (dead reckoning's poses) the pair is aligned to the map of pairs 0-1
+  // and the map is the true poses' map; without the alignment the pair tilts its ground.
+  util::ScopedTempDir tmp;
+  WriteStereoDir(tmp.path() / "stereo", 0, 4);
+  const std::string poses = (tmp.path() / "poses.csv").string();
+  WritePoses(poses, 4);
+  std::vector<positioning::TrajectorySample> samples;
+  for (int k = 0; k <= 100; ++k) {
+    positioning::TrajectorySample s;
+    s.t_s = 0.1 * k;
+    s.y_m = 0.15 * s.t_s;
+    s.z_m = kGround;
+    if (std::abs(s.t_s - PoseOf(2).t_s) < 0.45) s.pitch_rad = 1.5 * M_PI / 180;
+    samples.push_back(s);
+  }
+  positioning::WriteTrajectoryCsv(tmp.path() / "trajectory.csv", samples);
+  std::string times = "stem,t_s\n";
+  for (int k = 0; k < 4; ++k) times += PoseOf(k).stem + "," + std::to_string(PoseOf(k).t_s) + "\n";
+  io::WriteFileAtomic(tmp.path() / "times.csv", times);
+  auto map = [&](const std::string& out, std::vector<std::string> extra) {
+    std::vector<std::string> args = {(tmp.path() / "stereo").string(), "-o", (tmp.path() / out).string(), "-q",
+                                     "--no-preview"};
+    args.insert(args.end(), extra.begin(), extra.end());
+    const auto run = RunTool("terrain-map", args, tmp.path());
+    EXPECT_EQ(run.exit_code, 0) << run.stderr_text;
+    return Band(io::ReadGeoTiff(tmp.path() / out / "elevation.tif"), "elevation_m");
+  };
+  const std::vector<std::string> trajectory = {"--trajectory", (tmp.path() / "trajectory.csv").string(),
+                                               "--frame-times", (tmp.path() / "times.csv").string()};
+  const cv::Mat truth = map("true", {"--poses", poses});
+  const cv::Mat aligned = map("aligned", trajectory);
+  std::vector<std::string> off = trajectory;
+  off.insert(off.end(), {"--align-to-ground", "off"});
+  const cv::Mat tilted = map("tilted", off);
+  ASSERT_EQ(truth.size(), aligned.size());
+  ASSERT_EQ(truth.size(), tilted.size());
+  auto worst = [&](const cv::Mat& m) {
+    cv::Mat diff;
+    cv::absdiff(truth, m, diff);
+    double w = 0;
+    cv::minMaxLoc(diff, nullptr, &w, nullptr, nullptr, (truth == truth) & (m == m));
+    return w;
+  };
+  EXPECT_GT(worst(tilted), 0.05);
+  EXPECT_LT(worst(aligned), 0.01);
+  const std::vector<mapping::FramePose> used = mapping::ReadPosesCsv(tmp.path() / "aligned" / "frames.csv");
+  ASSERT_EQ(used.size(), 4u);
+  EXPECT_NEAR(used[2].pitch_rad * 180 / M_PI, 0.0, 0.05);
+  const nlohmann::json s = io::ReadJson(tmp.path() / "aligned" / "summary.json");
+  EXPECT_EQ(s["alignment"]["applied"], 3);  // every pair but the first
+  EXPECT_FALSE(io::ReadJson(tmp.path() / "tilted" / "summary.json").contains("alignment"));
 }
 
 TEST(PlanWindowsTool, WritesRequestsThatStereoBatchReads) {
