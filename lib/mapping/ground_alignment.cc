@@ -39,13 +39,15 @@ void GroundAlignmentOptions::Validate() const {
       << "alignment largest tilt: must be in (0, 45) deg";
   LN_CHECK_ARG(std::isfinite(max_shift_m) && max_shift_m > 0) << "alignment largest shift: must be > 0 m";
   LN_CHECK_ARG(std::isfinite(gain) && gain > 0 && gain <= 1) << "alignment gain: must be in (0, 1]";
+  LN_CHECK_ARG(std::isfinite(tilt_prior_rad) && tilt_prior_rad > 0) << "alignment tilt prior: must be > 0";
 }
 
 nlohmann::json GroundAlignmentOptions::ToJson() const {
   return {{"stride_px", stride_px},         {"range_m", {min_range_m, max_range_m}},
           {"min_samples_per_cell", min_samples_per_cell}, {"min_cells", min_cells},
           {"robust_m", robust_m},           {"max_tilt_deg", max_tilt_deg},
-          {"max_shift_m", max_shift_m},     {"gain", gain}};
+          {"max_shift_m", max_shift_m},     {"gain", gain},
+          {"tilt_prior_deg", tilt_prior_rad * 180 / M_PI}};
 }
 
 nlohmann::json GroundAlignment::ToJson() const {
@@ -154,10 +156,13 @@ FramePose GroundAligner::Align(const FramePose& estimated, const std::vector<Eig
         a += w[i] * j * j.transpose();
         b += w[i] * rows[i].diff * j;
       }
-      const Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> eig(a);
-      // The cells must spread both ways (a strip of ground straight ahead fixes no roll).
-      if (eig.eigenvalues().minCoeff() <= 1e-6 * std::max(1.0, eig.eigenvalues().maxCoeff()) ||
-          eig.eigenvalues().minCoeff() < 1.0) {
+      // A prior on the tilt: ground in common that does not spread along the view (the band
+      // of one distance the loop asks for) fixes the shift there but not the pitch; the least
+      // tilt that explains it is taken (a full view outweighs the prior a hundredfold).
+      const double prior = (scale / options_.tilt_prior_rad) * (scale / options_.tilt_prior_rad);
+      a(1, 1) += prior;
+      a(2, 2) += prior;
+      if (!(a.determinant() > 0)) {
         solved = false;
         break;
       }
@@ -166,7 +171,7 @@ FramePose GroundAligner::Align(const FramePose& estimated, const std::vector<Eig
     }
     const double tilt = std::atan(std::hypot(x[1], x[2])) / kDeg;
     if (!solved) {
-      r.reason = "the ground in common does not spread across and along the view";
+      r.reason = "the fit is singular";
       x.setZero();
     } else if (tilt > options_.max_tilt_deg || std::abs(x[0]) > options_.max_shift_m) {
       r.reason = "the fit asks for more than the largest correction";

@@ -45,6 +45,10 @@ struct GroundAlignmentOptions {
   /// The fraction of the fitted correction applied, in (0, 1]: below 1, the inclinometers'
   /// absolute attitude keeps a hold on a chain of corrections.
   double gain = 1.0;
+  /// The tilt's prior (radians, RMS): with ground in common that spreads along the view it
+  /// weighs nothing; with a band of one distance (map-loop's requests) it picks the least tilt
+  /// that explains the shift there, > 0.
+  double tilt_prior_rad = 2.0 * M_PI / 180.0;
   void Validate() const;  ///< std::invalid_argument naming the field.
   nlohmann::json ToJson() const;
 };

@@ -35,12 +35,15 @@ constexpr double kMinEdgeDistanceM = 14.0;
 struct VehicleDefaults {
   double speed_mps, turn_rate_dps, interval_s, wheel_radius_m;
   double straight_min_m, straight_max_m, radius_min_m, radius_max_m;
+  double max_rock_m;  // the tallest rock it drives over (its route keeps clear of taller ones)
 };
 
 VehicleDefaults Defaults(FieldVehicle v) {
-  if (v == FieldVehicle::kSkidSteer) return {0.3, 20.0, 1.0, 0.1, 2.0, 5.0, 2.0, 6.0};
-  return {0.15, 10.0, 3.2, 0.25, 2.0, 6.0, 4.0, 12.0};
+  if (v == FieldVehicle::kSkidSteer) return {0.3, 20.0, 1.0, 0.1, 2.0, 5.0, 2.0, 6.0, 0.1};
+  return {0.15, 10.0, 3.2, 0.25, 2.0, 6.0, 4.0, 12.0, 0.2};  // sec. 3.1: an obstacle 20 cm tall
 }
+// The route's clearance beyond the wheels: what slip and wander may add to the commanded path.
+constexpr double kClearMarginM = 0.6;
 
 std::string Fixed(double v, int decimals) {
   char buf[64];
@@ -281,6 +284,17 @@ FieldLogSummary RunFieldLogSimulation(const FieldLogOptions& options_in, const f
   t.max_x_m = std::ceil((x1 + margin) / c) * c;
   t.min_y_m = std::floor((y0 - margin) / c) * c;
   t.max_y_m = std::ceil((y1 + margin) / c) * c;
+  // The route keeps clear of rocks the vehicle cannot drive over, as its planner would.
+  const VehicleDefaults vehicle = Defaults(o.vehicle);
+  double last_distance = -1;
+  for (const RoverSample& sample : commanded.samples) {
+    if (last_distance >= 0 && sample.distance_m - last_distance < 0.25) continue;
+    t.clear_path_m.emplace_back(sample.x_m, sample.y_m);
+    last_distance = sample.distance_m;
+  }
+  t.clear_path_m.emplace_back(commanded.samples.back().x_m, commanded.samples.back().y_m);
+  t.clear_half_width_m = 0.5 * scenario.rover.track_m + vehicle.wheel_radius_m + kClearMarginM;
+  t.clear_max_rock_height_m = vehicle.max_rock_m;
   t.slope_x = std::tan(o.slope_deg * kDeg) * std::sin(o.slope_azimuth_deg * kDeg);
   t.slope_y = std::tan(o.slope_deg * kDeg) * std::cos(o.slope_azimuth_deg * kDeg);
 
@@ -291,7 +305,7 @@ FieldLogSummary RunFieldLogSimulation(const FieldLogOptions& options_in, const f
   const double scene_seconds = scene_timer.ElapsedSeconds();
 
   // The drive over it, and what the sensors make of it.
-  log.wheel_radius_m = Defaults(o.vehicle).wheel_radius_m;
+  log.wheel_radius_m = vehicle.wheel_radius_m;
   const HeightFunction ground = WheelGround(scene->terrain(), log.wheel_radius_m);
   RoverTelemetry& run = log.telemetry;
   run.scenario = scenario;

@@ -46,7 +46,23 @@ double MaxRockRadius(const TerrainOptions& o) {
   return 0.5 * o.rock_max_height_m * o.rock_diameter_to_height * 1.25;
 }
 
-// The rocks of the 1 m tile (tx, ty): a pure function of the tile and the seed.
+// Whether rock r's footprint comes within the clear path's half width of its polyline.
+bool OnClearPath(const TerrainOptions& o, const Rock& r) {
+  const std::vector<Eigen::Vector2d>& p = o.clear_path_m;
+  if (p.empty()) return false;
+  const Eigen::Vector2d c(r.x, r.y);
+  const double reach = o.clear_half_width_m + r.r1;
+  if (p.size() == 1) return (c - p[0]).norm() <= reach;
+  for (std::size_t k = 1; k < p.size(); ++k) {
+    const Eigen::Vector2d d = p[k] - p[k - 1];
+    const double len2 = d.squaredNorm();
+    const double u = len2 > 0 ? std::clamp((c - p[k - 1]).dot(d) / len2, 0.0, 1.0) : 0.0;
+    if ((c - (p[k - 1] + u * d)).norm() <= reach) return true;
+  }
+  return false;
+}
+
+// The rocks of the 1 m tile (tx, ty): a pure function of the tile and the seed (and the clear path).
 void TileRocks(const TerrainOptions& o, std::int64_t tx, std::int64_t ty, std::vector<Rock>* out) {
   SplitMix64 rng(HashCoords(o.seed ^ kRockSalt, tx, ty));
   const double whole = std::floor(o.rock_density_per_m2);
@@ -65,6 +81,7 @@ void TileRocks(const TerrainOptions& o, std::int64_t tx, std::int64_t ty, std::v
     const double theta = rng.Uniform(0.0, M_PI);
     r.cos_t = std::cos(theta);
     r.sin_t = std::sin(theta);
+    if (r.height > o.clear_max_rock_height_m && OnClearPath(o, r)) continue;  // drawn all the same: the stream stays
     out->push_back(r);
   }
 }
@@ -78,6 +95,9 @@ void TerrainOptions::Validate() const {
   LN_CHECK_ARG(cell_m >= 0.005 && cell_m <= 0.5) << "terrain cell: must be in [0.005, 0.5] m, got " << cell_m;
   LN_CHECK_ARG(std::isfinite(slope_x) && std::isfinite(slope_y) && std::abs(slope_x) < 1 && std::abs(slope_y) < 1)
       << "terrain slope: must be below 1 (45 deg)";
+  LN_CHECK_ARG(std::isfinite(clear_half_width_m) && clear_half_width_m >= 0 && std::isfinite(clear_max_rock_height_m))
+      << "terrain clear path: half width >= 0 and a finite rock height";
+  for (const Eigen::Vector2d& q : clear_path_m) LN_CHECK_ARG(q.allFinite()) << "terrain clear path: not finite";
   LN_CHECK_ARG(relief_amplitude_m >= 0 && relief_amplitude_m <= 10) << "relief amplitude: must be in [0, 10] m";
   LN_CHECK_ARG(relief_wavelength_m >= 1) << "relief wavelength: must be >= 1 m";
   LN_CHECK_ARG(rock_density_per_m2 >= 0 && rock_density_per_m2 <= 20) << "rock density: must be in [0, 20] per m^2";
@@ -93,7 +113,7 @@ void TerrainOptions::Validate() const {
 }
 
 nlohmann::json TerrainOptions::ToJson() const {
-  return {{"seed", seed},
+  nlohmann::json j = {{"seed", seed},
           {"extent_m", {{"min_x", min_x_m}, {"max_x", max_x_m}, {"min_y", min_y_m}, {"max_y", max_y_m}}},
           {"cell_m", cell_m},
           {"slope_x", slope_x},
@@ -109,6 +129,12 @@ nlohmann::json TerrainOptions::ToJson() const {
           {"albedo_sigma", albedo_sigma},
           {"texture_finest_m", texture_finest_m},
           {"texture_octaves", texture_octaves}};
+  if (!clear_path_m.empty()) {
+    j["clear_path"] = {{"points", clear_path_m.size()},
+                       {"half_width_m", clear_half_width_m},
+                       {"max_rock_height_m", clear_max_rock_height_m}};
+  }
+  return j;
 }
 
 Terrain::Terrain(const TerrainOptions& options) : options_(options) {

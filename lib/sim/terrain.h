@@ -37,6 +37,12 @@ struct TerrainOptions {
   double rock_size_exponent = 2.0;
   /// Footprint diameter over height (the ellipse's mean axis), drawn in [0.8, 1.25] x this.
   double rock_diameter_to_height = 2.5;
+  /// A path kept clear of rocks a vehicle could not drive over (`simulate field-log`: its
+  /// route, as a rover's planner would keep it): rocks taller than clear_max_rock_height_m
+  /// whose footprint comes within clear_half_width_m of the polyline are not placed. Empty: none.
+  std::vector<Eigen::Vector2d> clear_path_m;
+  double clear_half_width_m = 0;
+  double clear_max_rock_height_m = 0;
 
   /// Albedo: mean + sigma * FractalNoise2 of world (x, y), clamped to [0.02, 1].
   double albedo_mean = 0.45;

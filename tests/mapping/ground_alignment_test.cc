@@ -34,12 +34,12 @@ FramePose TruePose(const std::string& stem, double y) {
 
 // What a pair at `pose` sees: ground points 1.5-11 m ahead over +-4 m, in its vehicle frame,
 // with 1 cm of noise.
-std::vector<Eigen::Vector3f> View(const FramePose& pose, std::uint64_t seed) {
+std::vector<Eigen::Vector3f> View(const FramePose& pose, std::uint64_t seed, double near_m = 1.5, double far_m = 11) {
   sim::PortableRandom rng(seed, "view");
   const Eigen::Isometry3d vehicle_from_world = pose.WorldFromVehicle().inverse();
   const double h = pose.heading_rad;
   std::vector<Eigen::Vector3f> points;
-  for (double ahead = 1.5; ahead < 11; ahead += 0.06) {
+  for (double ahead = near_m; ahead < far_m; ahead += 0.06) {
     for (double side = -4; side <= 4; side += 0.06) {
       const double x = pose.x_m + ahead * std::sin(h) + side * std::cos(h);
       const double y = pose.y_m + ahead * std::cos(h) - side * std::sin(h);
@@ -95,6 +95,27 @@ TEST(GroundAligner, BringsAPairWithAWrongAttitudeBackOntoTheMap) {
   damped.Align(a, View(a, 1), nullptr);
   const FramePose partly = damped.Align(wrong, View(b, 2), nullptr);
   EXPECT_NEAR((partly.pitch_rad - b.pitch_rad) / kDeg, 0.5, 0.05);
+}
+
+TEST(GroundAligner, ABandOfOneDistanceFixesTheHeightThereWithTheLeastTilt) {
+  // map-loop's requests: each pair matches a band of ground a metre or two deep, overlapping
+  // the last one's. The band fixes the height there and the roll, not the pitch: the prior
+  // takes the least tilt, so the pair lands on the map where they overlap.
+  GroundAligner aligner(0.25, GroundAlignmentOptions{});
+  const FramePose a = TruePose("a", 0);
+  aligner.Align(a, View(a, 1, 4.0, 6.5), nullptr);
+  const FramePose b = TruePose("b", 0.8);
+  FramePose wrong = b;
+  wrong.z_m += 0.06;
+  wrong.roll_rad += 0.8 * kDeg;
+  GroundAlignment record;
+  const FramePose fixed = aligner.Align(wrong, View(b, 2, 5.0, 6.5), &record);
+  ASSERT_TRUE(record.applied) << record.reason;
+  EXPECT_GT(record.rms_before_m, 0.04);
+  EXPECT_LT(record.rms_after_m, 0.015);
+  EXPECT_NEAR(fixed.roll_rad / kDeg, b.roll_rad / kDeg, 0.1);
+  // The pitch moves little (at most what the shift at 5.7 m ahead would ask alone).
+  EXPECT_LT(std::abs(fixed.pitch_rad - b.pitch_rad) / kDeg, 0.6);
 }
 
 TEST(GroundAligner, LeavesAPairAloneWithoutGroundInCommonOrForAnImplausibleFit) {
