@@ -23,6 +23,12 @@ using nlohmann::json;
 
 namespace {
 
+// The most items a batch's listing may declare: what the merge allocates a slot for (a shard
+// summary holds at most about 60,000 pairs, so this is 67 shards of them or more).
+constexpr std::int64_t kMaxListedItems = 4'000'000;
+// Error lines printed for missing shards and undone items; summary.json lists them all.
+constexpr std::size_t kMaxErrorLines = 20;
+
 // One shard's summary file.
 struct ShardFile {
   fs::path path;
@@ -93,6 +99,16 @@ void CheckShardSummary(const ShardFile& f) {
   LN_CHECK_INPUT(s.contains("listing") && s["listing"].is_object() && s["listing"].contains("entries") &&
                  s["listing"].contains("items") && s["listing"].contains("digest"))
       << file << ": no input listing (a summary written before shard-merge existed?); rerun this shard";
+  // What the merge reads of the listing, of the types it reads them as, before any message
+  // quotes them (a message built from a value of another type would throw in turn).
+  const json& listing = s["listing"];
+  LN_CHECK_INPUT(listing["entries"].is_string() && !listing["entries"].get<std::string>().empty() &&
+                 listing["digest"].is_string() && listing["items"].is_number_integer() &&
+                 (!listing.contains("kind") || listing["kind"].is_string()))
+      << file << ": its listing is malformed (entries and digest are texts, items a whole number)";
+  const auto items = listing["items"].get<std::int64_t>();
+  LN_CHECK_INPUT(items >= 0 && items <= kMaxListedItems)
+      << file << ": its listing declares " << items << " items; a batch lists 0 to " << kMaxListedItems;
   LN_CHECK_INPUT(s.value("shard", json()) == json({f.index, f.count}))
       << file << ": its shard " << s.value("shard", json()).dump() << " is not the one its name says";
   const std::string entries = s["listing"]["entries"].get<std::string>();
@@ -239,7 +255,9 @@ ShardMergeResult MergeShardSummaries(const fs::path& output_dir, const ShardMerg
     }
   }
   for (const auto& [count, indices] : present) {
-    for (int k = 0; k < count; ++k) {
+    // Shards K >= the items listed hold none: missing or not, nothing is lost with them.
+    const auto holding = static_cast<int>(std::min<std::int64_t>(count, result.items_listed));
+    for (int k = 0; k < holding; ++k) {
       if (indices.count(k) == 0) result.missing_shards.push_back(std::to_string(k) + "/" + std::to_string(count));
     }
   }
@@ -393,17 +411,27 @@ ShardMergeResult MergeShardSummaries(const fs::path& output_dir, const ShardMerg
   result.summary_path = output_dir / "summary.json";
   WriteJsonAtomic(result.summary_path, merged);
 
-  for (const std::string& shard : result.missing_shards) {
+  for (std::size_t i = 0; i < result.missing_shards.size() && i < kMaxErrorLines; ++i) {
+    const std::string& shard = result.missing_shards[i];
     const std::size_t slash = shard.find('/');
     LN_LOG(Error) << output_dir.string() << ": shard " << shard << " missing (no "
                   << SummaryFileName(std::stoi(shard.substr(0, slash)), std::stoi(shard.substr(slash + 1)))
                   << "); rerun it with --resume";
   }
+  if (result.missing_shards.size() > kMaxErrorLines) {
+    LN_LOG(Error) << output_dir.string() << ": " << result.missing_shards.size() - kMaxErrorLines
+                  << " more shards missing (summary.json lists them all)";
+  }
   // "pair" for "pairs": the word stereo-batch's own error lines use.
   const std::string entry = entries.size() > 1 && entries.back() == 's' ? entries.substr(0, entries.size() - 1) : entries;
-  for (const UndoneItem& item : result.undone) {
+  for (std::size_t i = 0; i < result.undone.size() && i < kMaxErrorLines; ++i) {
+    const UndoneItem& item = result.undone[i];
     LN_LOG(Error) << entry << " " << (item.name.empty() ? "#" + std::to_string(item.index) : item.name)
                   << " (shard " << item.shard << "): not done: " << item.reason;
+  }
+  if (result.undone.size() > kMaxErrorLines) {
+    LN_LOG(Error) << result.undone.size() - kMaxErrorLines << " more " << entries
+                  << " not done (summary.json lists them all)";
   }
   if (!result.done_twice.empty()) {
     LN_LOG(Warning) << result.done_twice.size() << " " << entries << " done by several shards (e.g. '"

@@ -24,7 +24,7 @@ class Thrower {
   }
   Thrower(const Thrower&) = delete;
   Thrower& operator=(const Thrower&) = delete;
-  ~Thrower() noexcept(false) { throw E(stream_.str()); }
+  ~Thrower() noexcept(false) { throw E(::lunarnav::EscapeControlBytes(stream_.str())); }
 
   template <typename T>
   Thrower& operator<<(const T& value) {

@@ -12,6 +12,7 @@
 #include <string>
 #include <vector>
 
+#include <nlohmann/json.hpp>
 #include <opencv2/core.hpp>
 
 #include "integration/hostile_files.h"
@@ -82,6 +83,12 @@ struct Case {
   std::vector<std::string> error_words;  ///< each in the error lines (the file, the reason)
   std::vector<std::string> done;         ///< outputs of the good items, relative to out/
 };
+
+// The first shard summary of the fuzz corpus's seed (stereo-batch, shard 0 of 2, 3 pairs).
+nlohmann::json FirstShardSummary() {
+  const std::string both = ReadFileBytes(TestDataPath("fuzz") / "shard_summary" / "stereo-batch-two-shards.json");
+  return nlohmann::json::parse(both.substr(0, both.find('\0')));
+}
 
 std::vector<Case> Cases() {
   const std::vector<std::string> kBatch = {"-q", "--preset", "paper"};
@@ -221,7 +228,8 @@ std::vector<Case> Cases() {
          WriteText(w.root / "log.csv", text);
          return std::vector<std::string>{w.At("log.csv"), "--sensors", w.At("sensors.json"), "-o", w.Out(), "-q"};
        },
-       3, {"log.csv:"}, {}},
+       // The reason after the NUL too (what() is a C string: the NUL is written \x00).
+       3, {"log.csv:", "\\x00", "is not"}, {}},
       {"posfilter: a column named twice", "posfilter",
        [](const Workspace& w) {
          Replace(w.root / "log.csv", "roll,gyro_z", "compass,gyro_z");
@@ -358,6 +366,44 @@ std::vector<Case> Cases() {
          return std::vector<std::string>{w.Out(), "-q"};
        },
        3, {"summary.shard-0-of-2.json", "shard"}, {}},
+      // Round three: what a shard summary declares is checked before it is used or quoted.
+      {"shard-merge: a listing whose items are a text", "shard-merge",
+       [](const Workspace& w) {
+         nlohmann::json s = FirstShardSummary();
+         s["listing"]["items"] = "three";
+         fs::create_directories(w.out);
+         WriteText(w.out / "summary.shard-0-of-2.json", s.dump());
+         return std::vector<std::string>{w.Out(), "-q"};
+       },
+       3, {"summary.shard-0-of-2.json", "listing is malformed"}, {}},
+      {"shard-merge: a listing whose digest is a number", "shard-merge",
+       [](const Workspace& w) {
+         nlohmann::json s = FirstShardSummary();
+         s["listing"]["digest"] = 12345;
+         fs::create_directories(w.out);
+         WriteText(w.out / "summary.shard-0-of-2.json", s.dump());
+         return std::vector<std::string>{w.Out(), "-q"};
+       },
+       3, {"summary.shard-0-of-2.json", "listing is malformed"}, {}},
+      {"shard-merge: a listing of 10^12 items", "shard-merge",
+       [](const Workspace& w) {
+         nlohmann::json s = FirstShardSummary();
+         s["listing"]["items"] = 1000000000000LL;
+         fs::create_directories(w.out);
+         WriteText(w.out / "summary.shard-0-of-2.json", s.dump());
+         return std::vector<std::string>{w.Out(), "-q"};
+       },
+       3, {"summary.shard-0-of-2.json", "declares 1000000000000 items"}, {}},
+      {"shard-merge: shard 0 of 2147483647", "shard-merge",
+       [](const Workspace& w) {
+         nlohmann::json s = FirstShardSummary();  // items 0 and 2 of 3 in shard 0/2
+         s["shard"] = {0, 2147483647};
+         s["pairs"] = nlohmann::json::array({s["pairs"][0]});
+         fs::create_directories(w.out);
+         WriteText(w.out / "summary.shard-0-of-2147483647.json", s.dump());
+         return std::vector<std::string>{w.Out(), "-q"};
+       },
+       4, {"shard 1/2147483647 missing", "shard 2/2147483647 missing"}, {"summary.json"}},
       {"evaluate trajectory: an RPE step of 1e-17 m", "evaluate",
        [](const Workspace& w) {
          const std::string truth = (TestDataPath("telemetry") / "trial-a" / "truth.csv").string();
