@@ -1,6 +1,9 @@
 #include "io/geotiff_io.h"
 
 #include <cmath>
+#include <cstdint>
+#include <cstdlib>
+#include <string>
 #include <memory>
 #include <mutex>
 
@@ -114,16 +117,61 @@ void WriteGeoTiffAtomic(const fs::path& path, const GeoRaster& raster) {
   CommitTempFile(temp, path);
 }
 
+namespace {
+// What ReadGeoTiff accepts (docs/reliability.md): the largest map terrain-map makes by default
+// is 2^22 cells in up to 48 bands of 8 bytes (its state).
+constexpr std::int64_t kMaxRasterCells = std::int64_t{1} << 25;
+constexpr int kMaxRasterBands = 64;
+constexpr std::int64_t kMaxRasterBytes = std::int64_t{2} << 30;
+constexpr double kMaxRasterOriginM = 1e7;
+constexpr double kMinRasterCellM = 1e-3, kMaxRasterCellM = 1e4;
+}  // namespace
+
 GeoRaster ReadGeoTiff(const fs::path& path) {
   RegisterGdal();
   LN_CHECK_INPUT(fs::is_regular_file(path)) << path.string() << ": no such file";
-  DatasetPtr ds(static_cast<GDALDataset*>(GDALOpen(path.c_str(), GA_ReadOnly)));
-  LN_CHECK_INPUT(ds != nullptr) << path.string() << ": not a readable raster (" << LastGdalError() << ")";
+  // Only GDAL's GeoTIFF driver: a VRT (a text file naming other files) or any other format
+  // GDAL would open is not what the tools write, and may declare what it does not hold.
+  const char* const drivers[] = {"GTiff", nullptr};
+  DatasetPtr ds(static_cast<GDALDataset*>(
+      GDALOpenEx(path.c_str(), GDAL_OF_RASTER | GDAL_OF_READONLY, drivers, nullptr, nullptr)));
+  LN_CHECK_INPUT(ds != nullptr) << path.string() << ": not a readable GeoTIFF (" << LastGdalError() << ")";
   double t[6];
   LN_CHECK_INPUT(ds->GetGeoTransform(t) == CE_None) << path.string() << ": no geotransform";
-  LN_CHECK_INPUT(t[2] == 0 && t[4] == 0 && t[1] > 0 && std::abs(t[5] + t[1]) <= 1e-9 * t[1])
-      << path.string() << ": expected a north-up grid of square cells (geotransform " << t[1] << ", " << t[2] << ", "
-      << t[4] << ", " << t[5] << ")";
+  LN_CHECK_INPUT(std::isfinite(t[0]) && std::isfinite(t[3]) && std::abs(t[0]) <= kMaxRasterOriginM &&
+                 std::abs(t[3]) <= kMaxRasterOriginM)
+      << path.string() << ": its origin (" << t[0] << ", " << t[3] << ") is not within " << kMaxRasterOriginM
+      << " m of the world origin";
+  LN_CHECK_INPUT(t[2] == 0 && t[4] == 0 && std::isfinite(t[1]) && t[1] >= kMinRasterCellM && t[1] <= kMaxRasterCellM &&
+                 std::abs(t[5] + t[1]) <= 1e-9 * t[1])
+      << path.string() << ": expected a north-up grid of square cells of " << kMinRasterCellM << " to "
+      << kMaxRasterCellM << " m (geotransform " << t[1] << ", " << t[2] << ", " << t[4] << ", " << t[5] << ")";
+  // What it declares, before anything is allocated: a size within the limits, and every block
+  // of every band present in the file (a sparse file of a few kilobytes can declare 10^10 cells).
+  const std::int64_t declared_w = ds->GetRasterXSize(), declared_h = ds->GetRasterYSize();
+  const int declared_bands = ds->GetRasterCount();
+  LN_CHECK_INPUT(declared_w >= 1 && declared_h >= 1 && declared_w * declared_h <= kMaxRasterCells &&
+                 declared_bands >= 1 && declared_bands <= kMaxRasterBands &&
+                 declared_w * declared_h * declared_bands * 8 <= kMaxRasterBytes)
+      << path.string() << ": declares " << declared_w << " x " << declared_h << " cells in " << declared_bands
+      << " bands; a map holds at most " << kMaxRasterCells << " cells and " << kMaxRasterBands << " bands ("
+      << (kMaxRasterBytes >> 20) << " MiB)";
+  for (int i = 1; i <= declared_bands; ++i) {
+    GDALRasterBand* band = ds->GetRasterBand(i);
+    int bw = 0, bh = 0;
+    band->GetBlockSize(&bw, &bh);
+    LN_CHECK_INPUT(bw >= 1 && bh >= 1) << path.string() << ": band " << i << " has no block size";
+    const std::int64_t nx = (declared_w + bw - 1) / bw, ny = (declared_h + bh - 1) / bh;
+    for (std::int64_t by = 0; by < ny; ++by) {
+      for (std::int64_t bx = 0; bx < nx; ++bx) {
+        const std::string key = "BLOCK_OFFSET_" + std::to_string(bx) + "_" + std::to_string(by);
+        const char* offset = band->GetMetadataItem(key.c_str(), "TIFF");
+        LN_CHECK_INPUT(offset != nullptr && std::strtoll(offset, nullptr, 10) > 0)
+            << path.string() << ": band " << i << " lacks block (" << bx << ", " << by
+            << "): a sparse file that declares more than it holds";
+      }
+    }
+  }
   GeoRaster r;
   r.x_west_m = t[0];
   r.y_north_m = t[3];

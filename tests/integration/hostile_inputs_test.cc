@@ -12,6 +12,7 @@
 #include <string>
 #include <vector>
 
+#include <gdal_priv.h>
 #include <nlohmann/json.hpp>
 #include <opencv2/core.hpp>
 
@@ -83,6 +84,31 @@ struct Case {
   std::vector<std::string> error_words;  ///< each in the error lines (the file, the reason)
   std::vector<std::string> done;         ///< outputs of the good items, relative to out/
 };
+
+// A GeoTIFF of width x height Float32 cells ("elevation_m") with the geotransform's origin
+// (x_west, y_north), 25 cm cells; with `sparse` none of its blocks is written (GDAL's
+// SPARSE_OK: a few hundred bytes declaring any size), else every cell 0.
+void WriteGeoTiff(const fs::path& path, int width, int height, bool sparse, double x_west = 0, double y_north = 10) {
+  GDALAllRegister();
+  GDALDriver* driver = GetGDALDriverManager()->GetDriverByName("GTiff");
+  char** options = nullptr;
+  options = CSLSetNameValue(options, "TILED", "YES");
+  options = CSLSetNameValue(options, "COMPRESS", "DEFLATE");
+  options = CSLSetNameValue(options, "BIGTIFF", "YES");
+  if (sparse) options = CSLSetNameValue(options, "SPARSE_OK", "TRUE");
+  GDALDataset* ds = driver->Create(path.c_str(), width, height, 1, GDT_Float32, options);
+  CSLDestroy(options);
+  ASSERT_NE(ds, nullptr) << path;
+  double t[6] = {x_west, 0.25, 0, y_north, 0, -0.25};
+  ds->SetGeoTransform(t);
+  GDALRasterBand* band = ds->GetRasterBand(1);
+  band->SetDescription("elevation_m");
+  if (!sparse) {
+    std::vector<float> zeros(static_cast<std::size_t>(width) * height, 0.0f);
+    ASSERT_EQ(band->RasterIO(GF_Write, 0, 0, width, height, zeros.data(), width, height, GDT_Float32, 0, 0), CE_None);
+  }
+  GDALClose(ds);
+}
 
 // The first shard summary of the fuzz corpus's seed (stereo-batch, shard 0 of 2, 3 pairs).
 nlohmann::json FirstShardSummary() {
@@ -335,6 +361,44 @@ std::vector<Case> Cases() {
       // poses 1e-300 s apart made an infinite one (rows stereo-batch then refused). The planner's
       // options are bounded (usage, exit 2, naming the option) and every request must reach less
       // than 1000 m (bad input, exit 3, naming the file and the stem).
+      // Round three: a map file is read only when what it declares is what it holds.
+      {"plan-windows --map: a sparse GeoTIFF declaring 10^10 cells", "plan-windows",
+       [](const Workspace& w) {
+         WriteText(w.root / "poses.csv",
+                   "stem,t_s,x_m,y_m,z_m,heading_deg,pitch_deg,roll_deg\n000000,0,0,0,0,0,0,0\n000001,3.2,0,0.48,0,0,0,0\n");
+         fs::create_directories(w.root / "map");
+         WriteGeoTiff(w.root / "map" / "elevation.tif", 100000, 100000, true);
+         return std::vector<std::string>{"--poses", w.At("poses.csv"), "--map", w.At("map"), "-o", w.Out(), "-q"};
+       },
+       3, {"elevation.tif", "declares 100000 x 100000"}, {}},
+      {"plan-windows --map: a sparse GeoTIFF of a sensible size", "plan-windows",
+       [](const Workspace& w) {
+         WriteText(w.root / "poses.csv",
+                   "stem,t_s,x_m,y_m,z_m,heading_deg,pitch_deg,roll_deg\n000000,0,0,0,0,0,0,0\n000001,3.2,0,0.48,0,0,0,0\n");
+         fs::create_directories(w.root / "map");
+         WriteGeoTiff(w.root / "map" / "elevation.tif", 1000, 1000, true);
+         return std::vector<std::string>{"--poses", w.At("poses.csv"), "--map", w.At("map"), "-o", w.Out(), "-q"};
+       },
+       3, {"elevation.tif", "sparse"}, {}},
+      {"plan-windows --map: a map whose origin is NaN", "plan-windows",
+       [](const Workspace& w) {
+         WriteText(w.root / "poses.csv",
+                   "stem,t_s,x_m,y_m,z_m,heading_deg,pitch_deg,roll_deg\n000000,0,0,0,0,0,0,0\n000001,3.2,0,0.48,0,0,0,0\n");
+         fs::create_directories(w.root / "map");
+         WriteGeoTiff(w.root / "map" / "elevation.tif", 40, 40, false, std::nan(""));
+         return std::vector<std::string>{"--poses", w.At("poses.csv"), "--map", w.At("map"), "-o", w.Out(), "-q"};
+       },
+       3, {"elevation.tif", "origin"}, {}},
+      {"evaluate map: a VRT text declaring 10^10 cells as the map", "evaluate",
+       [](const Workspace& w) {
+         fs::create_directories(w.root / "map");
+         WriteText(w.root / "map" / "elevation.tif",
+                   "<VRTDataset rasterXSize=\"100000\" rasterYSize=\"100000\"><GeoTransform>0, 0.25, 0, 10, 0, "
+                   "-0.25</GeoTransform><VRTRasterBand dataType=\"Float32\" band=\"1\"><Description>elevation_m"
+                   "</Description></VRTRasterBand></VRTDataset>\n");
+         return std::vector<std::string>{"map", w.At("map"), "--truth", w.At("sim"), "-o", w.Out(), "-q"};
+       },
+       3, {"elevation.tif", "not a readable GeoTIFF"}, {}},
       {"plan-windows: a stereo delay of 1e308 s", "plan-windows",
        [](const Workspace& w) {
          WriteText(w.root / "poses.csv",
