@@ -19,6 +19,7 @@
 #include "positioning/attitude.h"
 #include "positioning/trajectory_io.h"
 #include "util/check.h"
+#include "util/text_lines.h"
 #include "util/errors.h"
 #include "util/log.h"
 #include "util/parse.h"
@@ -159,18 +160,15 @@ ErrorStats ErrorStats::Of(std::vector<double> values) {
   return s;
 }
 
+// The farthest a position track's coordinate may lie from its origin, metres (beyond the Earth).
+constexpr double kMaxTrackCoordinateM = 1e7;
+
 // A position track: a CSV whose header names time, east (x) and north (y), optionally up (z);
 // nullopt when the header is not one.
 std::optional<std::vector<StampedPose>> ReadPositionTrack(const fs::path& path) {
-  std::ifstream in(path);
-  LN_CHECK_INPUT(in.good()) << path.string() << ": cannot open";
+  util::TextLines lines(path);
   std::string line;
-  long number = 0;
-  while (std::getline(in, line)) {
-    if (++number == 1) util::DropUtf8Bom(&line);
-    if (!line.empty() && line.back() == '\r') line.pop_back();
-    if (!line.empty() && line[0] != '#') break;
-  }
+  lines.Next(&line);
   std::vector<std::string> names;
   {
     std::stringstream header(line);
@@ -183,11 +181,9 @@ std::optional<std::vector<StampedPose>> ReadPositionTrack(const fs::path& path) 
   if (names.size() > 3 && names[3] == "z_m" && names.size() > 4 && names[4] == "heading_deg") return std::nullopt;
   const bool has_up = is(3, {"up", "z", "z_m"});
   std::vector<StampedPose> poses;
-  const long header_line = number;
-  while (std::getline(in, line)) {
-    ++number;
-    if (!line.empty() && line.back() == '\r') line.pop_back();
-    if (line.empty() || line[0] == '#') continue;
+  const long header_line = lines.number();
+  while (lines.Next(&line)) {
+    const long number = lines.number();
     std::stringstream row(line);
     row.imbue(std::locale::classic());
     double v[4] = {0, 0, 0, 0};
@@ -199,6 +195,10 @@ std::optional<std::vector<StampedPose>> ReadPositionTrack(const fs::path& path) 
       v[k] = std::strtod(cell.c_str(), &end);
       LN_CHECK_INPUT(!cell.empty() && end != cell.c_str() && std::isfinite(v[k]))
           << path.string() << ":" << number << ": '" << cell << "' is not a number (" << names[k] << ")";
+      // A position beyond the Earth (1e308 made every error infinite and every score null).
+      LN_CHECK_INPUT(k == 0 || std::abs(v[k]) <= kMaxTrackCoordinateM)
+          << path.string() << ":" << number << ": " << names[k] << " " << cell << " m is farther than "
+          << kMaxTrackCoordinateM << " m from the track's origin";
     }
     LN_CHECK_INPUT(poses.empty() || v[0] > poses.back().t_s)
         << path.string() << ":" << number << ": time stamps must increase";

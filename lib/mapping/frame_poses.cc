@@ -9,6 +9,7 @@
 #include "mapping/kitti_trajectory.h"
 #include "positioning/trajectory_io.h"
 #include "util/check.h"
+#include "util/text_lines.h"
 #include "util/errors.h"
 #include "util/parse.h"
 
@@ -46,15 +47,11 @@ double Number(const std::string& cell, const std::string& where) {
 // Rows of a CSV whose header starts with `columns`: calls fn(cells, "file:line").
 template <typename Fn>
 void ForEachRow(const fs::path& path, const std::vector<std::string>& columns, Fn fn) {
-  std::ifstream in(path);
-  LN_CHECK_INPUT(in.good()) << path.string() << ": cannot open";
-  std::string line;
+  util::TextLines lines(path);
+  std::string t;
   bool header = false;
-  for (long number = 1; std::getline(in, line); ++number) {
-    if (number == 1) util::DropUtf8Bom(&line);
-    const std::string t = Trim(line);
-    if (t.empty() || t[0] == '#') continue;
-    const std::string where = path.string() + ":" + std::to_string(number);
+  while (lines.Next(&t)) {
+    const std::string where = lines.Where();
     std::vector<std::string> cells = SplitCells(t);
     if (!header) {
       bool ok = cells.size() >= columns.size();

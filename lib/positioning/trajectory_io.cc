@@ -17,6 +17,7 @@
 #include "io/atomic_file.h"
 #include "positioning/attitude.h"
 #include "util/check.h"
+#include "util/text_lines.h"
 
 namespace lunarnav::positioning {
 namespace {
@@ -406,18 +407,13 @@ void WriteTrajectoryTum(const std::filesystem::path& path, const std::vector<Tra
 }
 
 std::vector<TrajectorySample> ReadTrajectoryCsv(const std::filesystem::path& path) {
-  std::ifstream in(path);
-  LN_CHECK_INPUT(in.good()) << path.string() << ": cannot open";
+  util::TextLines lines(path);
   std::vector<TrajectorySample> out;
   std::string line;
-  long number = 0;
   bool header = false;
-  while (std::getline(in, line)) {
-    ++number;
-    if (line.empty() || line[0] == '#') continue;
+  while (lines.Next(&line)) {
     if (!header) {
-      LN_CHECK_INPUT(line.rfind("t_s,x_m,y_m,z_m,heading_deg", 0) == 0)
-          << path.string() << ":" << number << ": not a lunarnav trajectory header";
+      LN_CHECK_INPUT(line.rfind("t_s,x_m,y_m,z_m,heading_deg", 0) == 0) << lines.Where() << ": not a lunarnav trajectory header";
       header = true;
       continue;
     }
@@ -428,7 +424,7 @@ std::vector<TrajectorySample> ReadTrajectoryCsv(const std::filesystem::path& pat
     char c1, c2, c3, c4, c5, c6, c7;
     row >> p.t_s >> c1 >> p.x_m >> c2 >> p.y_m >> c3 >> p.z_m >> c4 >> heading >> c5 >> pitch >> c6 >>
         roll >> c7 >> p.speed_mps;
-    LN_CHECK_INPUT(!row.fail()) << path.string() << ":" << number << ": malformed row";
+    LN_CHECK_INPUT(!row.fail()) << lines.Where() << ": malformed row";
     p.heading_rad = heading / kDeg;
     p.pitch_rad = pitch / kDeg;
     p.roll_rad = roll / kDeg;
@@ -439,13 +435,11 @@ std::vector<TrajectorySample> ReadTrajectoryCsv(const std::filesystem::path& pat
 }
 
 std::vector<TumPose> ReadTumPoses(const std::filesystem::path& path) {
-  std::ifstream in(path);
-  LN_CHECK_INPUT(in.good()) << path.string() << ": cannot open";
+  util::TextLines lines(path);
   std::vector<TumPose> poses;
   std::string line;
-  for (long number = 1; std::getline(in, line); ++number) {
-    const auto first = line.find_first_not_of(" \t\r");
-    if (first == std::string::npos || line[first] == '#') continue;
+  while (lines.Next(&line)) {
+    const long number = lines.number();
     std::istringstream fields(line);
     fields.imbue(std::locale::classic());
     double v[8];

@@ -6,6 +6,7 @@
 #include <sstream>
 
 #include "util/check.h"
+#include "util/text_lines.h"
 #include "util/errors.h"
 #include "util/parse.h"
 
@@ -41,18 +42,15 @@ double ParseMetres(const std::string& cell, const std::string& where, const char
 }  // namespace
 
 std::vector<WindowRequest> ReadWindowRequests(const std::filesystem::path& path) {
-  std::ifstream in(path);
-  LN_CHECK_INPUT(in.good()) << path.string() << ": cannot open the requests file";
-  const std::string source = path.string();
+  LN_CHECK_INPUT(std::ifstream(path).good()) << path.string() << ": cannot open the requests file";
+  util::TextLines lines(path);
   std::vector<WindowRequest> requests;
   std::map<std::string, long> first_line;
   bool have_header = false;
-  long line_number = 0;
-  for (std::string line; std::getline(in, line);) {
-    if (++line_number == 1) util::DropUtf8Bom(&line);
-    const std::string trimmed = Trim(line);
-    if (trimmed.empty() || trimmed[0] == '#') continue;
-    const std::string where = source + ":" + std::to_string(line_number);
+  std::string trimmed;
+  while (lines.Next(&trimmed)) {
+    const long line_number = lines.number();
+    const std::string where = lines.Where();
     const std::vector<std::string> cells = SplitCells(trimmed);
     if (!have_header) {
       LN_CHECK_INPUT(cells == std::vector<std::string>({"stem", "y_min_m", "y_max_m"}))
@@ -73,8 +71,7 @@ std::vector<WindowRequest> ReadWindowRequests(const std::filesystem::path& path)
     LN_CHECK_INPUT(inserted) << where << ": stem '" << r.stem << "' already requested on line " << it->second;
     requests.push_back(r);
   }
-  LN_CHECK_INPUT(!in.bad()) << source << ": read error";
-  LN_CHECK_INPUT(have_header) << source << ": no header line (the file is empty)";
+  LN_CHECK_INPUT(have_header) << path.string() << ": no header line (the file is empty)";
   return requests;
 }
 

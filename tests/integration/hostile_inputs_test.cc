@@ -399,6 +399,30 @@ std::vector<Case> Cases() {
          return std::vector<std::string>{"map", w.At("map"), "--truth", w.At("sim"), "-o", w.Out(), "-q"};
        },
        3, {"elevation.tif", "not a readable GeoTIFF"}, {}},
+      // One reader for every text file: a byte-order mark, CRLF and a trailing blank line are
+      // what spreadsheets write, and are read.
+      {"plan-windows: a trajectory with a byte-order mark, CRLF and a blank last line", "plan-windows",
+       [](const Workspace& w) {
+         WriteText(w.root / "trajectory.csv",
+                   "\xEF\xBB\xBFt_s,x_m,y_m,z_m,heading_deg,pitch_deg,roll_deg,speed_mps\r\n0,0,0,0,0,0,0,0\r\n"
+                   "10,0,1.5,0,0,0,0,0.15\r\n\r\n");
+         WriteText(w.root / "times.csv", "\xEF\xBB\xBFstem,t_s\r\n000000,1\r\n000001,4.2\r\n\r\n");
+         return std::vector<std::string>{"--trajectory", w.At("trajectory.csv"), "--frame-times", w.At("times.csv"),
+                                         "-o", w.Out(), "-q"};
+       },
+       0, {}, {"requests.csv"}},
+      {"evaluate trajectory: a GPS track with a coordinate of 1e308", "evaluate",
+       [](const Workspace& w) {
+         WriteText(w.root / "gps.csv", "t,east,north\n0,0,0\n10,1e308,1\n20,2,2\n");
+         return std::vector<std::string>{"trajectory",
+                                         "gps=" + w.At("gps.csv"),
+                                         "--truth",
+                                         (TestDataPath("telemetry") / "trial-a" / "truth.csv").string(),
+                                         "-o",
+                                         w.Out(),
+                                         "-q"};
+       },
+       3, {"gps.csv:3", "1e308"}, {}},
       {"plan-windows: a stereo delay of 1e308 s", "plan-windows",
        [](const Workspace& w) {
          WriteText(w.root / "poses.csv",
