@@ -90,6 +90,7 @@ int main(int argc, char** argv) {
     calib::GroundWindowOptions ground;
     ground.z_min_m = region.z_min_m;
     ground.z_max_m = region.z_max_m;
+    stereo::CheckRigAgainstPairs(*opt.stereo.rig, opt.stereo.rig_source, rect_dir);
     opt.stereo.ground =
         calib::SelectGroundWindow(*opt.stereo.rig, opt.stereo.matcher.reference, ground, opt.stereo.window_selection);
     opt.map.rig = rig_path;  // the points' errors from the rig's geometry

@@ -121,6 +121,7 @@ int main(int argc, char** argv) {
           << "--z-range: needs --range-y, --requests, or --rig without --disparity and --rows";
       std::tie(region.z_min_m, region.z_max_m) = util::ParseDoublePair(z_range, ':', "--z-range");
     }
+    if (opt.rig) stereo::CheckRigAgainstPairs(*opt.rig, opt.rig_source, input_dir);
     if (rig_default) {
       calib::GroundWindowOptions ground;
       ground.z_min_m = region.z_min_m;

@@ -127,9 +127,17 @@ Eigen::Isometry3d StereoRig::VehicleFromRight() const {
   return VehicleFromLeft() * right_from_left.inverse();
 }
 
+namespace {
+// The largest raw image side a rig may declare (32768: beyond any camera, within the images'
+// limits), and how far the rectified baseline may differ from the cameras' distance.
+constexpr int kMaxRigImageSidePx = 32768;
+constexpr double kBaselineAgreement = 0.02;
+}  // namespace
+
 void StereoRig::Validate(const std::string& source) const {
-  LN_CHECK_INPUT(width_px > 0 && height_px > 0 && width_px <= 100000 && height_px <= 100000)
-      << source << ".image_size_px: must be positive";
+  LN_CHECK_INPUT(width_px > 0 && height_px > 0 && width_px <= kMaxRigImageSidePx && height_px <= kMaxRigImageSidePx)
+      << source << ".image_size_px: " << width_px << " x " << height_px << " px; each side must be 1 to "
+      << kMaxRigImageSidePx << " px";
   left.Validate(width_px, height_px, source + ".left");
   right.Validate(width_px, height_px, source + ".right");
   CheckRotation(right_from_left_R, source + ".right_from_left.R");
@@ -150,16 +158,29 @@ void StereoRig::Validate(const std::string& source) const {
       << source << ".mast: not finite";
   LN_CHECK_INPUT(std::isfinite(mast.tilt_deg) && mast.tilt_deg > -90 && mast.tilt_deg < 90)
       << source << ".mast.tilt_deg: must be in (-90, 90), got " << mast.tilt_deg;
+  LN_CHECK_INPUT(mast.height_m >= 0)
+      << source << ".mast.height_m: " << mast.height_m << " m; the cameras stand at or above the ground (>= 0)";
   if (rectified) {
     const RectifiedGeometry& g = *rectified;
     CheckRotation(g.rect_from_left, source + ".rectified.rect_from_left");
     CheckRotation(g.rect_from_right, source + ".rectified.rect_from_right");
-    LN_CHECK_INPUT(g.width_px > 0 && g.height_px > 0) << source << ".rectified.size_px: must be positive";
+    // Declared sizes bound the work done before any image is read (a rig of 100000 x 100000
+    // rectified pixels kept stereo-batch busy for ever): the rectified images are at most
+    // twice the raw ones each way (rectify's alpha and scaling never ask for more).
+    LN_CHECK_INPUT(g.width_px > 0 && g.height_px > 0 && g.width_px <= 2 * width_px && g.height_px <= 2 * height_px)
+        << source << ".rectified.size_px: " << g.width_px << " x " << g.height_px << " px for raw images of "
+        << width_px << " x " << height_px << "; each side must be 1 to twice the raw one";
     LN_CHECK_INPUT(g.P_left.allFinite() && g.P_right.allFinite() && g.P_left(0, 0) > 0 &&
                    g.P_left(0, 0) == g.P_right(0, 0) && g.P_left(1, 2) == g.P_right(1, 2) &&
                    g.P_left(0, 3) == 0 && g.P_right(0, 3) != 0)
         << source << ".rectified: P_left and P_right must share focal length and principal row, "
         << "with the baseline term in P_right[0][3] only";
+    // The rectified baseline is the cameras' distance: a P_right that says otherwise would
+    // scale every point's range (150 m against a 0.9 m pose gave XYZ 166 times too far).
+    const double rectified_baseline = -g.P_right(0, 3) / g.P_right(0, 0);
+    LN_CHECK_INPUT(std::abs(rectified_baseline - BaselineM()) <= kBaselineAgreement * BaselineM())
+        << source << ".rectified.P_right: a baseline of " << rectified_baseline << " m, but right_from_left puts the "
+        << "cameras " << BaselineM() << " m apart (more than " << 100 * kBaselineAgreement << " % off)";
   }
 }
 

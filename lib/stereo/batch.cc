@@ -740,6 +740,25 @@ BatchSummary StereoBatchRun::Finish(const json& invocation) {
   return summary;
 }
 
+void CheckRigAgainstPairs(const calib::StereoRig& rig, const std::string& rig_source,
+                          const std::filesystem::path& input_dir) {
+  if (!rig.rectified) return;
+  for (const io::PairFiles& pair : io::ListStereoPairs(input_dir)) {
+    if (!pair.problem.empty()) continue;
+    cv::Mat left;
+    try {
+      left = io::ReadGreyImage(pair.left);
+    } catch (const InputError&) {
+      continue;  // the pair's own failure, reported in its turn
+    }
+    const calib::RectifiedGeometry& g = *rig.rectified;
+    LN_CHECK_INPUT(left.cols == g.width_px && left.rows == g.height_px)
+        << rig_source << ": declares rectified images of " << g.width_px << "x" << g.height_px << ", but "
+        << pair.left.string() << " is " << left.cols << "x" << left.rows << " (the rig of other images?)";
+    return;
+  }
+}
+
 BatchSummary RunStereoBatch(const BatchOptions& options, const fs::path& input_dir, const fs::path& output_dir,
                             const json& invocation) {
   StereoBatchRun run(options, input_dir, output_dir);

@@ -141,6 +141,13 @@ class StereoBatchRun {
   std::unique_ptr<Impl> impl_;
 };
 
+/// The rig's declared rectified size against the first readable pair of `input_dir`, before
+/// the work the size sets (the ground window's rows and bands): a rig of other images is bad
+/// input naming the rig and the image (a rig declaring 100000 x 100000 pixels kept the tools
+/// busy for ever). Nothing when the directory holds no readable pair (each pair says so).
+void CheckRigAgainstPairs(const calib::StereoRig& rig, const std::string& rig_source,
+                          const std::filesystem::path& input_dir);
+
 /// Matches every pair of the shard, writes OUT_DIR/{disparity,confidence,rejections}/<stem>.*
 /// (and, with a rig, xyz/<stem>.exr, cloud/<stem>.ply, xyz_sigma/<stem>.exr as enabled) and
 /// the run summary, which records the window (row band, disparity range) each pair used. A pair that cannot be read or is blank, saturated, mismatched or

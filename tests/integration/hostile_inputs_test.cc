@@ -423,6 +423,39 @@ std::vector<Case> Cases() {
                                          "-q"};
        },
        3, {"gps.csv:3", "1e308"}, {}},
+      // Round three: what a rig declares must agree with itself and with the images.
+      {"stereo-batch: a rig declaring rectified images of 100000 x 100000", "stereo-batch",
+       [](const Workspace& w) {
+         nlohmann::json rig = nlohmann::json::parse(ReadFileBytes(w.root / "rig.json"));
+         rig["rectified"]["size_px"] = {100000, 100000};
+         WriteText(w.root / "rig.json", rig.dump());
+         return std::vector<std::string>{w.boxes.string(), "-o", w.Out(), "--rig", w.At("rig.json"), "-q"};
+       },
+       3, {"rig.json", "rectified.size_px", "100000 x 100000"}, {}},
+      {"stereo-batch: a rig of 640 x 480 rectified pixels for 320 x 240 pairs", "stereo-batch",
+       [](const Workspace& w) {
+         nlohmann::json rig = nlohmann::json::parse(ReadFileBytes(w.root / "rig.json"));
+         rig["rectified"]["size_px"] = {640, 480};
+         WriteText(w.root / "rig.json", rig.dump());
+         return std::vector<std::string>{w.boxes.string(), "-o", w.Out(), "--rig", w.At("rig.json"), "-q"};
+       },
+       3, {"rig.json", "640x480", "000000.png", "320x240"}, {}},
+      {"stereo-batch: a rectified baseline of 150 m for cameras 0.9 m apart", "stereo-batch",
+       [](const Workspace& w) {
+         nlohmann::json rig = nlohmann::json::parse(ReadFileBytes(w.root / "rig.json"));
+         rig["rectified"]["P_right"][0][3] = -150 * rig["rectified"]["P_right"][0][0].get<double>();
+         WriteText(w.root / "rig.json", rig.dump());
+         return std::vector<std::string>{w.boxes.string(), "-o", w.Out(), "--rig", w.At("rig.json"), "-q"};
+       },
+       3, {"rig.json", "P_right", "150 m"}, {}},
+      {"stereo-batch: a rig whose mast is 1.5 m below the ground", "stereo-batch",
+       [](const Workspace& w) {
+         nlohmann::json rig = nlohmann::json::parse(ReadFileBytes(w.root / "rig.json"));
+         rig["mast"]["height_m"] = -1.5;
+         WriteText(w.root / "rig.json", rig.dump());
+         return std::vector<std::string>{w.boxes.string(), "-o", w.Out(), "--rig", w.At("rig.json"), "-q"};
+       },
+       3, {"rig.json", "mast.height_m"}, {}},
       {"plan-windows: a stereo delay of 1e308 s", "plan-windows",
        [](const Workspace& w) {
          WriteText(w.root / "poses.csv",

@@ -544,15 +544,18 @@ TEST(StereoBatchRig, BadRigsAndRequestsHaveTheirExitCodes) {
   EXPECT_EQ(RunTool("stereo-batch", fx.Args(out, {"--requests", (fx.tmp.path() / "none.csv").string()}), fx.tmp.path())
                 .exit_code, 3);
 
-  // A rig for other images: each pair fails (exit 4), naming the sizes.
+  // A rig for other images is refused before the work its declared size sets (exit 3), naming
+  // the rig, its size and the image's.
   const calib::StereoRig big = calib::testing::IdealRectifiedRig(320, 240, 370);
   const fs::path big_file = fx.tmp.path() / "big.json";
   calib::WriteStereoRig(big_file, big);
   const auto mismatch = RunTool("stereo-batch", {fx.in.string(), "-o", out.string(), "--rig", big_file.string()},
                                 fx.tmp.path());
-  EXPECT_EQ(mismatch.exit_code, 4);
-  EXPECT_EQ(mismatch.ErrorLines(), 2);
-  EXPECT_NE(mismatch.stderr_text.find("rectified size 320x240"), std::string::npos) << mismatch.stderr_text;
+  EXPECT_EQ(mismatch.exit_code, 3);
+  EXPECT_EQ(mismatch.ErrorLines(), 1);
+  EXPECT_NE(mismatch.stderr_text.find("big.json: declares rectified images of 320x240"), std::string::npos)
+      << mismatch.stderr_text;
+  EXPECT_NE(mismatch.stderr_text.find("is 160x120"), std::string::npos) << mismatch.stderr_text;
 }
 
 }  // namespace
