@@ -87,6 +87,11 @@ Eigen::Isometry3d TrueWorldFromVehicle(const mapping::FramePose& p) {
 
 }  // namespace
 
+namespace {
+// The largest rock a truth may list, metres (the simulator's are under a metre).
+constexpr double kMaxRockAxisM = 100.0;
+}  // namespace
+
 bool TrueRock::InUpperHalf(double x, double y) const {
   const double a = angle_deg * M_PI / 180.0, dx = x - x_m, dy = y - y_m;
   const double u = (std::cos(a) * dx + std::sin(a) * dy) / semi_major_m;
@@ -118,6 +123,14 @@ std::vector<TrueRock> ReadRocksCsv(const fs::path& path) {
     LN_CHECK_INPUT(!row.fail() && c1 == ',' && c2 == ',' && c3 == ',' && c4 == ',' && c5 == ',' &&
                    r.semi_major_m > 0 && r.semi_minor_m > 0)
         << path.string() << ":" << number << ": malformed row";
+    // Bounds before the work a rock sets (TrueRayCounts lists it in every 1 m square of its
+    // ellipse's box: a semi-major axis of 1e5 m took 2.8 GB).
+    LN_CHECK_INPUT(std::abs(r.x_m) <= mapping::kMaxWorldCoordinateM && std::abs(r.y_m) <= mapping::kMaxWorldCoordinateM &&
+                   r.semi_major_m <= kMaxRockAxisM && r.semi_minor_m <= kMaxRockAxisM && std::isfinite(r.height_m) &&
+                   std::abs(r.height_m) <= kMaxRockAxisM && std::isfinite(r.angle_deg))
+        << path.string() << ":" << number << ": a rock at (" << r.x_m << ", " << r.y_m << ") m of semi-axes "
+        << r.semi_major_m << " and " << r.semi_minor_m << " m and height " << r.height_m
+        << " m; a rock lies within 1000 km of the origin, its axes and height at most " << kMaxRockAxisM << " m";
     rocks.push_back(r);
   }
   LN_CHECK_INPUT(header) << path.string() << ": no header";

@@ -803,6 +803,13 @@ TerrainGrid TerrainGrid::FromStateRaster(const io::GeoRaster& r, const std::stri
       LN_CHECK_INPUT(named(k, name)) << source << ": band " << k + 1 << " is not the state band '" << name << "'";
     }
   }
+  // The map's world: cells within the poses' 1,000 km of the origin (the grid's tile keys hold
+  // that at the finest cell; a state moved beyond it is no map of this world).
+  const double far_x = std::max(std::abs(r.x_west_m), std::abs(r.x_west_m + r.Width() * r.cell_m));
+  const double far_y = std::max(std::abs(r.y_north_m), std::abs(r.y_north_m - r.Height() * r.cell_m));
+  LN_CHECK_INPUT(std::max(far_x, far_y) <= kMaxWorldCoordinateM && r.cell_m >= 0.01)
+      << source << ": its cells reach (" << far_x << ", " << far_y << ") m from the world origin, or are "
+      << r.cell_m << " m; a map lies within " << kMaxWorldCoordinateM << " m, in cells of 1 cm or more";
   TerrainGrid grid(r.cell_m);
   const double fi = r.x_west_m / r.cell_m, fj = r.y_north_m / r.cell_m;
   LN_CHECK_INPUT(std::abs(fi - std::round(fi)) < 1e-6 && std::abs(fj - std::round(fj)) < 1e-6)

@@ -456,6 +456,17 @@ std::vector<Case> Cases() {
          return std::vector<std::string>{w.boxes.string(), "-o", w.Out(), "--rig", w.At("rig.json"), "-q"};
        },
        3, {"rig.json", "mast.height_m"}, {}},
+      {"evaluate map: a rock of 100 km", "evaluate",
+       [](const Workspace& w) {
+         fs::create_directories(w.root / "map");
+         fs::create_directories(w.root / "sim" / "truth");
+         WriteGeoTiff(w.root / "map" / "elevation.tif", 40, 40, false);
+         WriteGeoTiff(w.root / "sim" / "truth" / "terrain.tif", 40, 40, false);
+         WriteText(w.root / "sim" / "truth" / "rocks.csv",
+                   "x_m,y_m,height_m,semi_major_m,semi_minor_m,angle_deg\n1,2,0.3,0.4,0.3,10\n3,4,0.3,100000,0.3,0\n");
+         return std::vector<std::string>{"map", w.At("map"), "--truth", w.At("sim"), "-o", w.Out(), "-q"};
+       },
+       3, {"rocks.csv:3", "at most 100 m"}, {}},
       {"plan-windows: a stereo delay of 1e308 s", "plan-windows",
        [](const Workspace& w) {
          WriteText(w.root / "poses.csv",

@@ -1,4 +1,5 @@
 #include "mapping/terrain_grid.h"
+#include "util/errors.h"
 
 #include <gtest/gtest.h>
 
@@ -511,6 +512,24 @@ TEST(TerrainGrid, PoseErrorOfKnownSizeShiftsTheMapByThatAmount) {
   EXPECT_GT(lb.obstacle.at<float>(row, col), 0);
   ASSERT_TRUE(lb.CellOf(1.1, 6.1, &col, &row));
   EXPECT_EQ(lb.obstacle.at<float>(row, col), 0);
+}
+
+TEST(TerrainGrid, AStateMovedOutOfTheWorldIsRefused) {
+  // A state whose origin was moved 2,000 km (or 2^38 m, where 32-bit tile keys would wrap it
+  // onto the unmoved map) is no map of this world: refused naming the file.
+  const TerrainMapOptions o;
+  const FramePose p = Pose(0.3, 0.2, 10, 4.5);
+  const TerrainGrid grid = Fuse({{SurfaceXyz([](double x, double y) { return 0.2 * x - 0.1 * y; }, p), p}}, o);
+  for (const double shift : {2e6, 274877906944.0}) {
+    io::GeoRaster moved = grid.ToStateRaster();
+    moved.x_west_m += shift;
+    try {
+      TerrainGrid::FromStateRaster(moved, "moved/state.tif");
+      ADD_FAILURE() << "accepted a state moved by " << shift << " m";
+    } catch (const lunarnav::InputError& e) {
+      EXPECT_NE(std::string(e.what()).find("moved/state.tif"), std::string::npos) << e.what();
+    }
+  }
 }
 
 TEST(TerrainGrid, StateRasterRoundTripsExactly) {
