@@ -240,8 +240,22 @@ MapLoopSummary RunMapLoop(const MapLoopOptions& options, const fs::path& rect_di
     io::WriteFileAtomic(plan_csv, kPlannerLine + planner.dump() + "\n" + PlanCsv(plan));
     summary.plan_seconds += timer.ElapsedSeconds();
 
-    // 3. Stereo in the requested window.
-    stereo_run.Request({pose.stem, pair.plan.y_min_m, pair.plan.y_max_m, static_cast<long>(k) + 2});
+    // 3. Stereo in the requested window. A pair whose cameras, at its attitude, see none of its
+    // request (a vehicle pitched 60 deg up) is a failed pair, as stereo-batch fails one: the
+    // loop goes on (exit 4 at the end).
+    try {
+      stereo_run.Request({pose.stem, pair.plan.y_min_m, pair.plan.y_max_m, static_cast<long>(k) + 2});
+    } catch (const InputError&) {
+      pair.status = "failed";
+      ++summary.pairs_failed;
+      pair.error = util::Format("at pitch %g deg, roll %g deg its cameras see none of its request (Y %g to %g m)",
+                                pose.pitch_rad * 180 / M_PI, pose.roll_rad * 180 / M_PI, pair.plan.y_min_m,
+                                pair.plan.y_max_m);
+      LN_LOG(Error) << "pair " << pose.stem << ": " << pair.error;
+      summary.pairs.push_back(pair);
+      progress.Increment();
+      continue;
+    }
     const stereo::PairOutcome& outcome = stereo_run.Process(pair_index.at(pose.stem));
     pair.stereo_seconds = outcome.seconds;
     pair.match_seconds = outcome.match_seconds;

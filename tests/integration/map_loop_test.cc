@@ -288,6 +288,32 @@ TEST_F(MapLoopTool, AResumedLoopKeepsItsRequestsOnlyFromTheSamePlannerAndASoundP
   EXPECT_EQ(Loop(out, {"--resume"}).exit_code, 4);  // the blank pair fails again; the others are kept
 }
 
+TEST_F(MapLoopTool, APairWhoseCamerasSeeNoneOfItsRequestFailsAloneAndTheLoopGoesOn) {
+  // Pair 2 pitched 60 deg up: its cameras see none of the ground the planner asks for. As in
+  // stereo-batch, that pair fails (named, with its attitude); the others are matched and mapped.
+  const auto rows = ReadCsv(Dir() / "sim" / "truth" / "poses.csv");
+  std::string text = "stem,t_s,x_m,y_m,z_m,heading_deg,pitch_deg,roll_deg\n";
+  for (std::size_t k = 0; k < rows.size(); ++k) {
+    text += rows[k].at("stem") + "," + rows[k].at("t_s") + "," + rows[k].at("x_m") + "," + rows[k].at("y_m") + "," +
+            rows[k].at("z_m") + "," + rows[k].at("heading_deg") + "," + (k == 2 ? "60" : rows[k].at("pitch_deg")) +
+            "," + rows[k].at("roll_deg") + "\n";
+  }
+  const fs::path poses = Dir() / "pitched.csv";
+  io::WriteFileAtomic(poses, text);
+  const auto run = RunTool("map-loop",
+                           {(Dir() / "rect").string(), "--rig", (Dir() / "rect" / "rig.json").string(), "--poses",
+                            poses.string(), "-o", (Dir() / "pitched").string(), "-q"},
+                           Dir());
+  EXPECT_EQ(run.exit_code, 4) << run.stderr_text;
+  EXPECT_NE(run.stderr_text.find("pair 000002: at pitch 60 deg"), std::string::npos) << run.stderr_text;
+  EXPECT_EQ(run.stderr_text.find("requests.csv"), std::string::npos) << run.stderr_text;  // not its own file's fault
+  const auto loop = ReadCsv(Dir() / "pitched" / "loop.csv");
+  ASSERT_EQ(loop.size(), static_cast<std::size_t>(kFrames));
+  EXPECT_EQ(loop[2].at("status"), "failed");
+  EXPECT_EQ(loop[3].at("status"), "ok");
+  EXPECT_TRUE(fs::exists(Dir() / "pitched" / "map" / "elevation.tif"));
+}
+
 TEST_F(MapLoopTool, BadInputsHaveTheirExitCodesAndWriteNoMap) {
   EXPECT_EQ(RunTool("map-loop", {"--help"}, Dir()).exit_code, 0);
   const fs::path rect = Dir() / "rect", rig = rect / "rig.json";
