@@ -113,12 +113,24 @@ bool OutputsComplete(const BatchOptions& batch, const PairOutputPaths& paths, co
   } catch (const InputError&) {
     return false;
   }
-  if (sidecar->value("format", "") != kSidecarFormat || !sidecar->contains("options") ||
-      (*sidecar)["options"] != options) {
+  // A sidecar damaged in any way the batch would read is no record of a complete pair: the
+  // pair is redone (a value of another type ended the whole batch with a JSON type error).
+  const json& j = *sidecar;
+  if (!j.is_object() || !j.contains("format") || !j["format"].is_string() || j["format"] != kSidecarFormat ||
+      !j.contains("options") || j["options"] != options || !j.contains("result") || !j["result"].is_object() ||
+      (j.contains("file_bytes") && !j["file_bytes"].is_object())) {
+    return false;
+  }
+  const json& result = j["result"];
+  for (const char* count : {"pixels_evaluated", "pixels_accepted", "points"}) {
+    if (result.contains(count) && !result[count].is_number_unsigned()) return false;
+  }
+  if (result.contains("bit_depth") &&
+      !(result["bit_depth"].is_number_integer() && result["bit_depth"] >= 1 && result["bit_depth"] <= 32)) {
     return false;
   }
   // Every output has the size it was written with (a file cut or replaced since is redone).
-  const json sizes = sidecar->value("file_bytes", json::object());
+  const json sizes = j.value("file_bytes", json::object());
   for (const fs::path& p : files) {
     const auto it = sizes.find(OutputKey(p));
     if (it == sizes.end() || !it->is_number_unsigned() || it->get<std::uintmax_t>() != fs::file_size(p, ec) || ec) {

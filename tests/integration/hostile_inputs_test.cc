@@ -467,6 +467,23 @@ std::vector<Case> Cases() {
          return std::vector<std::string>{"map", w.At("map"), "--truth", w.At("sim"), "-o", w.Out(), "-q"};
        },
        3, {"rocks.csv:3", "at most 100 m"}, {}},
+      // A damaged sidecar is no record of a complete pair: --resume redoes that pair.
+      {"stereo-batch --resume: sidecars of the wrong types", "stereo-batch",
+       [=](const Workspace& w) {
+         const auto first = RunTool("stereo-batch", batch(w), w.root);
+         EXPECT_EQ(first.exit_code, 0) << first.stderr_text;
+         nlohmann::json a = nlohmann::json::parse(ReadFileBytes(w.out / "disparity" / "frame0000.json"));
+         a["format"] = 5;
+         WriteText(w.out / "disparity" / "frame0000.json", a.dump());
+         nlohmann::json b = nlohmann::json::parse(ReadFileBytes(w.out / "disparity" / "frame0001.json"));
+         b["result"]["pixels_evaluated"] = "many";
+         WriteText(w.out / "disparity" / "frame0001.json", b.dump());
+         WriteText(w.out / "disparity" / "frame0002.json", "[1, 2, 3]");
+         std::vector<std::string> args = batch(w);
+         args.push_back("--resume");
+         return args;
+       },
+       0, {}, {"disparity/frame0000.pfm", "disparity/frame0001.json", "disparity/frame0002.json", "summary.json"}},
       {"plan-windows: a stereo delay of 1e308 s", "plan-windows",
        [](const Workspace& w) {
          WriteText(w.root / "poses.csv",
