@@ -1,6 +1,7 @@
 #include "stereo/batch.h"
 
 #include <algorithm>
+#include <new>
 #include <cmath>
 #include <cstdint>
 #include <exception>
@@ -620,6 +621,15 @@ void StereoBatchRun::Request(const WindowRequest& request) {
   impl_->requested.insert_or_assign(request.stem, impl_->RequestWindow(request));
 }
 
+namespace {
+void FailForMemory(const PairFiles& pair, PairOutcome* outcome) {
+  outcome->status = PairOutcome::Status::kFailed;
+  outcome->error = pair.left.string() + ": not enough memory to match this pair (its images are too large for this "
+                   "machine: --max-pixels, or a smaller --disparity range)";
+  LN_LOG(Error) << "pair " << pair.stem << ": " << outcome->error;
+}
+}  // namespace
+
 const PairOutcome& StereoBatchRun::Process(std::size_t k) {
   Impl& run = *impl_;
   LN_CHECK(k < run.shard.size()) << "pair index " << k << " of " << run.shard.size();
@@ -644,6 +654,13 @@ const PairOutcome& StereoBatchRun::Process(std::size_t k) {
       outcome.status = PairOutcome::Status::kFailed;
       outcome.error = util::BoundedMessage(e.what());
       LN_LOG(Error) << "pair " << pair.stem << ": " << e.what();
+    } catch (const std::bad_alloc&) {
+      // One oversize pair (an 8192 x 8192 16-bit pair asked 6.4 GB) fails alone: its memory
+      // is freed as the exception leaves, and the batch goes on (exit 4 at the end).
+      FailForMemory(pair, &outcome);
+    } catch (const cv::Exception& e) {
+      if (e.code != cv::Error::StsNoMem) throw;
+      FailForMemory(pair, &outcome);
     }
   }
   outcome.seconds = run.timings[k].read_s + run.timings[k].match_s + run.timings[k].write_s + run.timings[k].xyz_s;
