@@ -1,5 +1,7 @@
 #include "calib/stereo_rig_io.h"
 
+#include "calib/opencv_storage.h"
+
 #include <set>
 #include <string_view>
 #include <tuple>
@@ -73,115 +75,6 @@ std::pair<int, int> SizeFrom(const nlohmann::json& v, const std::string& where) 
   LN_CHECK_INPUT(v.is_array() && v.size() == 2 && v[0].is_number_integer() && v[1].is_number_integer())
       << where << ": expected [width, height] in pixels";
   return {v[0].get<int>(), v[1].get<int>()};
-}
-
-// The largest matrix of a calibration file: 3x4 (P1, P2) or a distortion vector of up to 14
-// coefficients (OpenCV's rational, thin-prism and tilted models) in either orientation.
-constexpr int kMaxMatrixSide = 16;
-
-// What OpenCV 4.6's FileStorage parsers cannot be given (bad input they crash or hang on,
-// fuzz findings), checked on the whole text first:
-// - XML that does not end with a closing tag (cut short): the parser read past the end of a
-//   file cut just after an attribute's '=' (`<?xml version=`: a null pointer).
-// - YAML whose top-level mapping does not start at column 0, or with a line at column 0
-//   that is neither a key (`name: value`, the colon outside quotes) nor a comment, directive
-//   or document marker: keys written indented, then a line further left, sent the parser into
-//   an endless loop (`%YAML:1.0`, ` s: 0`, `Jan-x`, `c`; also with keys further left). OpenCV
-//   writes every top-level key at column 0 and indents everything else (a matrix's fields,
-//   the continuation lines of its data), and refuses a continuation at column 0 itself.
-void CheckForOpenCvParser(const std::string& text, const std::string& file) {
-  const std::size_t first = text.find_first_not_of(" \t\r\n\xEF\xBB\xBF");  // a UTF-8 byte-order mark too
-  if (first == std::string::npos) return;  // empty: OpenCV says so
-  if (text[first] == '<') {
-    LN_CHECK_INPUT(text[text.find_last_not_of(" \t\r\n")] == '>')
-        << file << ": not an OpenCV XML file (it does not end with a closing tag: cut short?)";
-    return;
-  }
-  if (text[first] == '{') return;  // JSON, which OpenCV also writes
-  long line = 0;
-  bool content = false;  // a key seen
-  for (std::size_t begin = 0; begin < text.size();) {
-    std::size_t end = text.find('\n', begin);
-    if (end == std::string::npos) end = text.size();
-    ++line;
-    const std::string_view row(text.data() + begin, end - begin);
-    begin = end + 1;
-    const std::size_t indent = row.find_first_not_of(" \t\r");
-    if (indent == std::string_view::npos || row[indent] == '#' || row[0] == '%' || row.substr(0, 3) == "---" ||
-        row.substr(0, 3) == "...") {
-      continue;  // blank, a comment, a directive, a document marker
-    }
-    LN_CHECK_INPUT(indent == 0 || content)
-        << file << ": line " << line << ": not an OpenCV YAML file (its first key is not at column 0)";
-    content = true;
-    if (indent > 0) continue;
-    bool key = false;
-    char quote = 0;
-    for (std::size_t i = 0; i < row.size() && !key; ++i) {
-      const char c = row[i];
-      if (quote != 0) {
-        if (c == quote) quote = 0;
-      } else if (c == '"' || c == '\'') {
-        quote = c;
-      } else if (c == '#') {
-        break;
-      } else {
-        key = c == ':';
-      }
-    }
-    LN_CHECK_INPUT(key) << file << ": line " << line
-                        << ": not an OpenCV YAML file (a line at column 0 that is not 'name: value')";
-  }
-}
-
-// Reads an OpenCV matrix node (`!!opencv-matrix` in YAML, `type_id="opencv-matrix"` in XML)
-// element by element: its header (rows, cols) is checked against kMaxMatrixSide and its data
-// count before anything is allocated, so that a header claiming billions of elements is bad
-// input, not a 16 GB allocation inside OpenCV's own `>>` (a fuzz finding).
-cv::Mat ReadMatNode(const cv::FileStorage& fs, const char* name, const std::string& file, bool required) {
-  const std::string what = file + ": matrix '" + name + "'";
-  const cv::FileNode node = fs[name];
-  if (node.empty() || node.isNone()) {
-    LN_CHECK_INPUT(!required) << file << ": missing matrix '" << name << "'";
-    return {};
-  }
-  LN_CHECK_INPUT(node.isMap()) << what << ": expected an opencv-matrix (rows, cols, dt, data)";
-  const cv::FileNode rows = node["rows"], cols = node["cols"], data = node["data"];
-  LN_CHECK_INPUT(rows.isInt() && cols.isInt()) << what << ": rows and cols must be integers";
-  const int r = static_cast<int>(rows), c = static_cast<int>(cols);
-  LN_CHECK_INPUT(r >= 1 && c >= 1 && r <= kMaxMatrixSide && c <= kMaxMatrixSide)
-      << what << ": " << r << " x " << c << " is not the size of a calibration matrix (1.." << kMaxMatrixSide
-      << " rows and columns)";
-  LN_CHECK_INPUT(data.isSeq() || (r * c == 1 && (data.isReal() || data.isInt())))
-      << what << ": data must be a list of numbers";
-  const int count = data.isSeq() ? static_cast<int>(data.size()) : 1;
-  LN_CHECK_INPUT(count == r * c) << what << ": " << r << " x " << c << " needs " << r * c << " values, data has "
-                                 << count;
-  cv::Mat m(r, c, CV_64F);
-  if (!data.isSeq()) {
-    m.at<double>(0) = static_cast<double>(data);
-    return m;
-  }
-  int i = 0;
-  for (cv::FileNodeIterator it = data.begin(); it != data.end(); ++it, ++i) {
-    const cv::FileNode v = *it;
-    LN_CHECK_INPUT(v.isReal() || v.isInt()) << what << ": value " << i + 1 << " is not a number";
-    m.at<double>(i) = static_cast<double>(v);
-  }
-  return m;
-}
-
-// ReadMatNode with whatever OpenCV's file nodes throw on a malformed file turned into bad input.
-cv::Mat ReadMat(const cv::FileStorage& fs, const char* name, const std::string& file, bool required) {
-  try {
-    return ReadMatNode(fs, name, file, required);
-  } catch (const InputError&) {
-    throw;
-  } catch (const cv::Exception& e) {
-    throw InputError(file + ": matrix '" + name + "' is malformed (" + e.err + ")");
-  } catch (const std::exception& e) {
-    throw InputError(file + ": matrix '" + name + "' is malformed (" + e.what() + ")");
-  }
 }
 
 }  // namespace
@@ -268,30 +161,19 @@ StereoRig ReadOpenCvCalibration(const std::filesystem::path& intrinsics,
                                 const std::filesystem::path& extrinsics, int width_px,
                                 int height_px, double metres_per_unit, const MastPose& mast) {
   LN_CHECK_ARG(metres_per_unit > 0) << "metres per unit: must be > 0";
+  // Never given to OpenCV's FileStorage: read by parsers that bound their own depth, the
+  // matrices built from what they read (opencv_storage.h). The file is read whole, bounded.
   auto open = [](const std::filesystem::path& p) {
-    // Read whole and checked first: OpenCV's parsers recurse once per nesting level (a file
-    // nested 50,000 deep overflowed the stack) and size their buffers from the file.
-    const std::string text = io::ReadConfigText(p);
-    CheckForOpenCvParser(text, p.string());
-    cv::FileStorage fs;
-    try {
-      fs.open(text, cv::FileStorage::READ | cv::FileStorage::MEMORY);
-    } catch (const cv::Exception& e) {
-      throw InputError(p.string() + ": not an OpenCV YAML/XML file (" + e.msg + ")");
-    } catch (const std::exception& e) {  // e.g. std::length_error from the parser's buffers
-      throw InputError(p.string() + ": not an OpenCV YAML/XML file (" + e.what() + ")");
-    }
-    LN_CHECK_INPUT(fs.isOpened()) << p.string() << ": not an OpenCV YAML/XML file";
-    return fs;
+    return OpenCvStorage::Parse(io::ReadConfigText(p, io::kMaxConfigBytes, /*check_nesting=*/false), p.string());
   };
-  cv::FileStorage in = open(intrinsics), ex = open(extrinsics);
+  const OpenCvStorage in = open(intrinsics), ex = open(extrinsics);
   const std::string in_name = intrinsics.string(), ex_name = extrinsics.string();
   StereoRig rig;
   rig.width_px = width_px;
   rig.height_px = height_px;
   rig.mast = mast;
   auto camera = [&](const char* m_name, const char* d_name) {
-    const cv::Mat m = ReadMat(in, m_name, in_name, true), d = ReadMat(in, d_name, in_name, false);
+    const cv::Mat m = in.Matrix(m_name, true), d = in.Matrix(d_name, false);
     LN_CHECK_INPUT(m.rows == 3 && m.cols == 3) << in_name << ": " << m_name << " must be 3x3";
     CameraIntrinsics c;
     cv::cv2eigen(m, c.K);
@@ -301,13 +183,13 @@ StereoRig ReadOpenCvCalibration(const std::filesystem::path& intrinsics,
   };
   rig.left = camera("M1", "D1");
   rig.right = camera("M2", "D2");
-  const cv::Mat r = ReadMat(ex, "R", ex_name, true), t = ReadMat(ex, "T", ex_name, true);
+  const cv::Mat r = ex.Matrix("R", true), t = ex.Matrix("T", true);
   LN_CHECK_INPUT(r.rows == 3 && r.cols == 3) << ex_name << ": R must be 3x3";
   LN_CHECK_INPUT(t.total() == 3) << ex_name << ": T must have 3 elements";
   cv::cv2eigen(r, rig.right_from_left_R);
   for (int i = 0; i < 3; ++i) rig.right_from_left_t_m[i] = t.at<double>(i) * metres_per_unit;
-  const cv::Mat r1 = ReadMat(ex, "R1", ex_name, false), r2 = ReadMat(ex, "R2", ex_name, false);
-  const cv::Mat p1 = ReadMat(ex, "P1", ex_name, false), p2 = ReadMat(ex, "P2", ex_name, false);
+  const cv::Mat r1 = ex.Matrix("R1", false), r2 = ex.Matrix("R2", false);
+  const cv::Mat p1 = ex.Matrix("P1", false), p2 = ex.Matrix("P2", false);
   if (!r1.empty() && !r2.empty() && !p1.empty() && !p2.empty()) {
     for (const auto& [m, name, cols] : {std::tuple{&r1, "R1", 3}, {&r2, "R2", 3}, {&p1, "P1", 4}, {&p2, "P2", 4}}) {
       LN_CHECK_INPUT(m->rows == 3 && m->cols == cols) << ex_name << ": " << name << " must be 3x" << cols;

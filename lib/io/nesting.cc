@@ -112,7 +112,7 @@ void CheckNestingDepth(std::string_view text, const std::string& file, int max_d
   }
 }
 
-std::string ReadConfigText(const std::filesystem::path& path, std::uintmax_t max_bytes) {
+std::string ReadConfigText(const std::filesystem::path& path, std::uintmax_t max_bytes, bool check_nesting) {
   std::error_code ec;
   LN_CHECK_INPUT(std::filesystem::is_regular_file(path, ec)) << path.string() << ": no such file";
   const std::uintmax_t size = std::filesystem::file_size(path, ec);
@@ -124,7 +124,7 @@ std::string ReadConfigText(const std::filesystem::path& path, std::uintmax_t max
   std::string text(static_cast<std::size_t>(size), '\0');
   in.read(text.data(), static_cast<std::streamsize>(size));
   LN_CHECK_INPUT(in.gcount() == static_cast<std::streamsize>(size)) << path.string() << ": read failed";
-  CheckNestingDepth(text, path.string());
+  if (check_nesting) CheckNestingDepth(text, path.string());
   return text;
 }
 

@@ -30,8 +30,10 @@ void CheckNestingDepth(std::string_view text, const std::string& file, int max_d
 inline constexpr std::uintmax_t kMaxConfigBytes = std::uintmax_t{16} << 20;
 
 /// Reads a calibration or configuration file whole, after checking its size against
-/// `max_bytes` (before reading) and then its nesting (CheckNestingDepth).
+/// `max_bytes` (before reading) and then, with `check_nesting`, its nesting
+/// (CheckNestingDepth; off for texts given to parsers that bound their depth themselves).
 /// @throws InputError naming the file: missing, unreadable, too large or nested too deep.
-std::string ReadConfigText(const std::filesystem::path& path, std::uintmax_t max_bytes = kMaxConfigBytes);
+std::string ReadConfigText(const std::filesystem::path& path, std::uintmax_t max_bytes = kMaxConfigBytes,
+                           bool check_nesting = true);
 
 }  // namespace lunarnav::io

@@ -347,7 +347,36 @@ std::vector<Case> Cases() {
          return std::vector<std::string>{"--from", "opencv", deep, deep, "--image-size", "640x480",
                                          "--square", "0.01", "-o", w.At("out/rig.json")};
        },
-       3, {"deep.yml", "line 3", "nested deeper than 64"}, {}},
+       3, {"deep.yml", "line 3", "nested more than"}, {}},
+      // Round three: texts the old scanner in front of OpenCV's parser read otherwise than the
+      // parser did (a quote it took as a string's start, an attribute it took for a closing
+      // tag): 60,000 levels reached OpenCV's recursion (SIGSEGV). No OpenCV parser now.
+      {"calibrate --from opencv: 60,000 brackets after an unmatched quote", "calibrate",
+       [](const Workspace& w) {
+         WriteText(w.root / "quote.yml", "%YAML:1.0\n---\nX1: [ab \"c, " + std::string(60000, '[') + "\n");
+         const std::string f = (w.root / "quote.yml").string();
+         return std::vector<std::string>{"--from", "opencv", f, f, "--image-size", "640x480",
+                                         "--square", "0.01", "-o", w.At("out/rig.json")};
+       },
+       3, {"quote.yml"}, {}},
+      {"calibrate --from opencv: an XML element with a '/>' attribute, 60,000 deep", "calibrate",
+       [](const Workspace& w) {
+         std::string text = "<?xml version=\"1.0\"?>\n<opencv_storage>";
+         for (int i = 0; i < 60000; ++i) text += "<a b=\"/>\">";
+         WriteText(w.root / "nested.xml", text + "\n");
+         const std::string f = (w.root / "nested.xml").string();
+         return std::vector<std::string>{"--from", "opencv", f, f, "--image-size", "640x480",
+                                         "--square", "0.01", "-o", w.At("out/rig.json")};
+       },
+       3, {"nested.xml", "nested more than 64"}, {}},
+      {"calibrate --from opencv: a JSON file nested 60,000 deep", "calibrate",
+       [](const Workspace& w) {
+         WriteText(w.root / "deep.json", "{\"M1\": " + std::string(60000, '[') + std::string(60000, ']') + "}\n");
+         const std::string f = (w.root / "deep.json").string();
+         return std::vector<std::string>{"--from", "opencv", f, f, "--image-size", "640x480",
+                                         "--square", "0.01", "-o", w.At("out/rig.json")};
+       },
+       3, {"deep.json", "nested more than 64"}, {}},
       {"calibrate --from ros: a YAML mapping nested 5,000 levels by indentation", "calibrate",
        [](const Workspace& w) {
          std::string text;
