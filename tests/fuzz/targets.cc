@@ -10,11 +10,13 @@
 #include "calib/stereo_rig_io.h"
 #include "calib/vehicle.h"
 #include "io/float_array_io.h"
+#include "io/geotiff_io.h"
 #include "io/image_io.h"
 #include "io/shard_merge.h"
 #include "io/point_cloud_io.h"
 #include "mapping/frame_poses.h"
 #include "mapping/kitti_trajectory.h"
+#include "mapping/terrain_grid.h"
 #include "mapping/window_planner.h"
 #include "positioning/trajectory_io.h"
 #include "stereo/window_requests.h"
@@ -249,12 +251,43 @@ bool PointCloud(const std::uint8_t* data, std::size_t size) {
   return Refusing([&] { io::ReadPointCloud(path); });
 }
 
+// A map directory's rasters (GeoTIFF, or whatever GDAL would open): the first byte picks
+// plan-windows' reading of elevation.tif, or terrain-map's (and plan-windows') reading of a
+// stored state.
+bool MapRaster(const std::uint8_t* data, std::size_t size) {
+  if (size == 0) return false;
+  const std::string_view bytes = Bytes(data + 1, size - 1);
+  const fs::path dir = ScratchDir() / "map";
+  std::error_code ignored;
+  fs::remove_all(dir, ignored);
+  fs::create_directories(dir);
+  WriteScratch("map/elevation.tif", bytes);
+  WriteScratch("map/state.tif", bytes);
+  if (data[0] % 2 == 0) return Refusing([&] { mapping::ReadMapElevation(dir, false); });
+  return Refusing([&] { mapping::TerrainGrid::FromStateRaster(io::ReadGeoTiff(dir / "state.tif"), "state.tif"); });
+}
+
+// A trajectory (posfilter's CSV, or TUM) and a frame-times file, split at the first NUL: the
+// poses every tool's --trajectory --frame-times reads.
+bool TrajectoryFrameTimes(const std::uint8_t* data, std::size_t size) {
+  if (size == 0) return false;
+  const auto [trajectory, times] = SplitTwo(Bytes(data + 1, size - 1));
+  const fs::path a = WriteScratch(data[0] % 2 == 0 ? "trajectory.csv" : "trajectory.tum", trajectory);
+  const fs::path b = WriteScratch("frame_times.csv", times);
+  return Refusing([&] {
+    std::vector<mapping::FramePose> frames = mapping::ReadFrameTimes(b);
+    if (frames.size() > 1000) frames.resize(1000);
+    for (const mapping::FramePose& p : mapping::InterpolateTrajectory(a, frames)) p.Validate(a.string());
+  });
+}
+
 const std::vector<NamedTarget>& AllTargets() {
   static const std::vector<NamedTarget> targets = {
       {"telemetry_csv", TelemetryCsv}, {"sensor_json", SensorJson},   {"rig_json", RigJson},
       {"vehicle_json", VehicleJson},   {"rig_import", RigImport},     {"image", Image},
       {"requests_csv", RequestsCsv},   {"trajectory_csv", TrajectoryCsv}, {"poses_csv", PosesCsv},
-      {"shard_summary", ShardSummary}, {"kitti_trajectory", KittiTrajectory}, {"point_cloud", PointCloud}};
+      {"shard_summary", ShardSummary}, {"kitti_trajectory", KittiTrajectory}, {"point_cloud", PointCloud},
+      {"map_raster", MapRaster},       {"trajectory_frame_times", TrajectoryFrameTimes}};
   return targets;
 }
 

@@ -38,6 +38,11 @@ bool ShardSummary(const std::uint8_t* data, std::size_t size);
 bool KittiTrajectory(const std::uint8_t* data, std::size_t size);
 /// evaluate map --lidar's clouds: the first byte picks .bin (KITTI), .pcd or .ply.
 bool PointCloud(const std::uint8_t* data, std::size_t size);
+/// A map's rasters: the first byte picks plan-windows --map's reading of elevation.tif or a
+/// stored state's (terrain-map --merge, --resume; plan-windows' exact times).
+bool MapRaster(const std::uint8_t* data, std::size_t size);
+/// A trajectory (posfilter's CSV or TUM, the first byte picks) and frame times, split at a NUL.
+bool TrajectoryFrameTimes(const std::uint8_t* data, std::size_t size);
 
 struct NamedTarget {
   const char* name;  ///< also the folder of its corpus under testdata/fuzz
