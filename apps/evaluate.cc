@@ -263,8 +263,9 @@ Subcommand AddMap(CLI::App* app) {
                   "the ground scored for coverage and recall: true points both cameras see MIN:MAX m ahead")
       ->capture_default_str();
   cmd->add_option("--requests", c->requests,
-                  "the requests the pairs were matched with (map-loop's requests.csv): score only each pair's "
-                  "requested ground, over every listed pair, and measure the corridor's gaps");
+                  "the requests the pairs were matched with (map-loop's requests.csv): beside the score of all the "
+                  "ground seen, a second view over each listed pair's requested ground (requested.md), with the "
+                  "corridor's gaps");
   cmd->add_option("--corridor-width", c->options.corridor_width_m, "width of the corridor whose gaps are measured, m")
       ->capture_default_str();
   cmd->add_option("-j,--threads", c->threads, "threads (0 = all cores)")->capture_default_str();

@@ -491,19 +491,29 @@ MapEvalResult RunMapEvaluation(const fs::path& map_dir, const fs::path& sim_dir,
   util::Timer timer;
   const io::GeoRaster map = io::ReadGeoTiff(map_dir / "elevation.tif");
   const io::GeoRaster truth = io::ReadGeoTiff(sim_dir / "truth" / "terrain.tif");
-  std::vector<TrueRock> rocks = ReadRocksCsv(sim_dir / "truth" / "rocks.csv");
+  const std::vector<TrueRock> true_rocks = ReadRocksCsv(sim_dir / "truth" / "rocks.csv");
+  // The score: the ground the truth's pairs saw, whichever the map holds (a map that dropped a
+  // pair is scored on that pair's ground too), whatever the pairs were asked for.
   std::vector<std::string> stems;
-  if (options.requested_y_m.empty()) {
-    // The ground the truth's pairs saw, whichever the map holds: a map that dropped a pair is
-    // scored on that pair's ground too (its own frames.csv would leave it out of the count).
-    for (const mapping::FramePose& p : mapping::ReadPosesCsv(sim_dir / "truth" / "poses.csv")) stems.push_back(p.stem);
-  } else {
-    for (const auto& entry : options.requested_y_m) stems.push_back(entry.first);  // mapped or not
-  }
+  for (const mapping::FramePose& p : mapping::ReadPosesCsv(sim_dir / "truth" / "poses.csv")) stems.push_back(p.stem);
+  MapEvalOptions all_ground = options;
+  all_ground.requested_y_m.clear();
+  std::vector<TrueRock> rocks = true_rocks;
   std::vector<std::vector<std::pair<std::int64_t, std::int64_t>>> frame_cells;
-  const io::GeoRaster seen = TrueRayCounts(sim_dir, stems, map.cell_m, options, num_threads, &rocks, &frame_cells);
-  MapEvalResult result = EvaluateMap(map, truth, seen, rocks, options);
-  MeasureCorridorGaps(map, seen, sim_dir, options, &result);
+  const io::GeoRaster seen = TrueRayCounts(sim_dir, stems, map.cell_m, all_ground, num_threads, &rocks, &frame_cells);
+  MapEvalResult result = EvaluateMap(map, truth, seen, rocks, all_ground);
+  // With the requests the pairs were matched with: a second, labelled view, over the ground
+  // each listed pair was asked for (mapped or not), with the corridor's gaps.
+  std::optional<MapEvalResult> requested;
+  if (!options.requested_y_m.empty()) {
+    std::vector<std::string> listed;
+    for (const auto& entry : options.requested_y_m) listed.push_back(entry.first);
+    std::vector<TrueRock> requested_rocks = true_rocks;
+    const io::GeoRaster requested_seen =
+        TrueRayCounts(sim_dir, listed, map.cell_m, options, num_threads, &requested_rocks);
+    requested = EvaluateMap(map, truth, requested_seen, requested_rocks, options);
+    MeasureCorridorGaps(map, requested_seen, sim_dir, options, &*requested);
+  }
   // In the pairs' frames, with the poses the map was made with (its frames.csv).
   std::optional<VehicleFrameMapScore> local;
   FramePoseErrors pose_errors;
@@ -539,6 +549,14 @@ MapEvalResult RunMapEvaluation(const fs::path& map_dir, const fs::path& sim_dir,
   j["options"] = options.ToJson();
   j["result"] = result.ToJson();
   j["table"] = table.ToJson();
+  if (requested) {
+    Table view = requested->ToTable();
+    view.title += " over the requested ground";
+    WriteTable(output_dir, "requested", view);
+    j["requested"] = requested->ToJson();
+    j["requested_table"] = view.ToJson();
+    LN_LOG(Info) << "over the requested ground: " << requested->BriefReport();
+  }
   if (local) {
     const Table scores = MapScoresTable(result, *local, pose_errors);
     WriteTable(output_dir, "scores", scores);

@@ -41,10 +41,11 @@ struct MapEvalOptions {
   /// saw (a finite true disparity) this far ahead of the vehicle (vehicle-frame Y), metres.
   double seen_min_y_m = 2.0, seen_max_y_m = 10.0;
   /// The requests the pairs were matched with (a window-selection run, map-loop's
-  /// requests.csv), by stem: when given, the ground scored is each listed pair's true points
-  /// with Y in its interval (within the seen range), over the listed pairs whether the map
-  /// holds them or not (a failed pair's ground counts against coverage), and the corridor
-  /// gaps are measured. Empty: every pair of the map, the whole seen range.
+  /// requests.csv), by stem: for EvaluateMap and TrueRayCounts, the ground scored is each listed
+  /// pair's true points with Y in its interval (within the seen range), over the listed pairs
+  /// whether the map holds them or not (a failed pair's ground counts against coverage), and
+  /// the corridor gaps are measured; RunMapEvaluation scores all the ground seen and gives
+  /// this as a second view. Empty: every pair of the truth, the whole seen range.
   std::map<std::string, std::pair<double, double>> requested_y_m;
   /// Width of the vehicle's corridor in which gaps are measured, m (the Ratler's 4/3 m).
   double corridor_width_m = 1.3333;
@@ -135,7 +136,9 @@ void MeasureCorridorGaps(const io::GeoRaster& map, const io::GeoRaster& seen, co
                          const MapEvalOptions& options, MapEvalResult* result);
 
 /// `evaluate map`: reads MAP_DIR/elevation.tif and frames.csv and the simulated run's truth,
-/// writes OUT_DIR/map.{csv,json,md} and summary.json. Returns the result.
+/// writes OUT_DIR/map.{csv,json,md} and summary.json. Returns the result: the score over the
+/// ground the truth's pairs saw, whatever options.requested_y_m lists; with requests, also
+/// the view over the requested ground (requested.{csv,json,md}, summary.json "requested").
 MapEvalResult RunMapEvaluation(const std::filesystem::path& map_dir, const std::filesystem::path& sim_dir,
                                const MapEvalOptions& options, const std::filesystem::path& output_dir,
                                int num_threads, const nlohmann::json& invocation);

@@ -157,7 +157,21 @@ TEST_F(MapLoopTool, TheClosedLoopAsksAgainForTheGroundOfABlankPairAndTheOpenLoop
                                  "--requests", (Dir() / "closed" / "requests.csv").string(), "-o", eval.string(), "-q"},
                                 Dir());
   ASSERT_EQ(evaluate.exit_code, 0) << evaluate.stderr_text;
-  const nlohmann::json r = io::ReadJson(eval / "summary.json").at("result");
+  const nlohmann::json r = io::ReadJson(eval / "summary.json").at("requested");
+  // The requests are a second view: the score itself is over all the ground the truth's pairs
+  // saw, as without them (the judged run does not choose its denominator).
+  const auto plain = RunTool("evaluate",
+                             {"map", (Dir() / "closed" / "map").string(), "--truth", (Dir() / "sim").string(), "-o",
+                              (Dir() / "closed-eval-plain").string(), "-q"},
+                             Dir());
+  ASSERT_EQ(plain.exit_code, 0) << plain.stderr_text;
+  const nlohmann::json all = io::ReadJson(eval / "summary.json").at("result");
+  const nlohmann::json without = io::ReadJson(Dir() / "closed-eval-plain" / "summary.json").at("result");
+  for (const char* count : {"cells_seen", "cells_seen_mapped", "cells_compared", "obstacle_cells_true"}) {
+    EXPECT_EQ(all.at(count), without.at(count)) << count;
+  }
+  EXPECT_LT(r.at("cells_seen").get<long>(), all.at("cells_seen").get<long>());
+  EXPECT_TRUE(fs::exists(eval / "requested.md"));
   EXPECT_LE(r.at("corridor_gap_m").get<double>(), 0.25);
   EXPECT_LT(r.at("elevation_rmse_m").get<double>(), 0.03);
   EXPECT_EQ(r.at("cells_large_error").get<long>(), 0);
