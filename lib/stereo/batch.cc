@@ -101,6 +101,8 @@ std::vector<fs::path> EnabledOutputs(const BatchOptions& batch, const PairOutput
 }
 
 // True when the outputs of `stem` are complete and were made with the same options.
+}  // namespace
+
 bool OutputsComplete(const BatchOptions& batch, const PairOutputPaths& paths, const json& options,
                      json* sidecar) {
   const std::vector<fs::path> files = EnabledOutputs(batch, paths);
@@ -140,6 +142,9 @@ bool OutputsComplete(const BatchOptions& batch, const PairOutputPaths& paths, co
   }
   return true;
 }
+
+namespace {
+
 
 // The byte sizes of a pair's written outputs, by OutputKey, for --resume's check.
 json FileSizes(const std::vector<fs::path>& files) {

@@ -141,6 +141,13 @@ class StereoBatchRun {
   std::unique_ptr<Impl> impl_;
 };
 
+/// --resume's test of one pair: its sidecar (read into `sidecar`) is one the batch wrote with
+/// `options` (format, options, a result whose counts and bit depth are of the types the batch
+/// reads them as: a damaged sidecar is an incomplete pair, redone), and every output `batch`
+/// enables exists with the size the sidecar recorded.
+bool OutputsComplete(const BatchOptions& batch, const PairOutputPaths& paths, const nlohmann::json& options,
+                     nlohmann::json* sidecar);
+
 /// The rig's declared rectified size against the first readable pair of `input_dir`, before
 /// the work the size sets (the ground window's rows and bands): a rig of other images is bad
 /// input naming the rig and the image (a rig declaring 100000 x 100000 pixels kept the tools

@@ -19,6 +19,7 @@
 #include "mapping/terrain_grid.h"
 #include "mapping/window_planner.h"
 #include "positioning/trajectory_io.h"
+#include "stereo/batch.h"
 #include "stereo/window_requests.h"
 #include "telemetry/screening.h"
 #include "telemetry/sensor_model.h"
@@ -281,13 +282,39 @@ bool TrajectoryFrameTimes(const std::uint8_t* data, std::size_t size) {
   });
 }
 
+// A stereo-batch sidecar as --resume reads it: the pair's outputs present (empty files), the
+// run's options those the sidecar records; when the pair counts as complete, the batch's
+// summary reads its result.
+bool BatchSidecar(const std::uint8_t* data, std::size_t size) {
+  const fs::path dir = ScratchDir() / "batch";
+  std::error_code ignored;
+  fs::remove_all(dir, ignored);
+  stereo::BatchOptions batch;
+  const stereo::PairOutputPaths paths = stereo::OutputPathsFor(dir, "frame0000");
+  for (const fs::path& p : {paths.disparity, paths.confidence, paths.rejections}) {
+    fs::create_directories(p.parent_path());
+    WriteScratch(fs::relative(p, ScratchDir()).string(), "");
+  }
+  WriteScratch(fs::relative(paths.sidecar, ScratchDir()).string(), Bytes(data, size));
+  const nlohmann::json parsed = nlohmann::json::parse(Bytes(data, size), nullptr, false);
+  const nlohmann::json options = parsed.is_object() && parsed.contains("options") ? parsed["options"] : nlohmann::json();
+  nlohmann::json sidecar;
+  if (!stereo::OutputsComplete(batch, paths, options, &sidecar)) return false;
+  const nlohmann::json& result = sidecar["result"];
+  long long total = result.value("pixels_evaluated", 0LL) + result.value("pixels_accepted", 0LL) +
+                    result.value("points", 0LL);
+  if (result.contains("bit_depth")) total += result["bit_depth"].get<int>();
+  return total >= 0;
+}
+
 const std::vector<NamedTarget>& AllTargets() {
   static const std::vector<NamedTarget> targets = {
       {"telemetry_csv", TelemetryCsv}, {"sensor_json", SensorJson},   {"rig_json", RigJson},
       {"vehicle_json", VehicleJson},   {"rig_import", RigImport},     {"image", Image},
       {"requests_csv", RequestsCsv},   {"trajectory_csv", TrajectoryCsv}, {"poses_csv", PosesCsv},
       {"shard_summary", ShardSummary}, {"kitti_trajectory", KittiTrajectory}, {"point_cloud", PointCloud},
-      {"map_raster", MapRaster},       {"trajectory_frame_times", TrajectoryFrameTimes}};
+      {"map_raster", MapRaster},       {"trajectory_frame_times", TrajectoryFrameTimes},
+      {"batch_sidecar", BatchSidecar}};
   return targets;
 }
 

@@ -43,6 +43,8 @@ bool PointCloud(const std::uint8_t* data, std::size_t size);
 bool MapRaster(const std::uint8_t* data, std::size_t size);
 /// A trajectory (posfilter's CSV or TUM, the first byte picks) and frame times, split at a NUL.
 bool TrajectoryFrameTimes(const std::uint8_t* data, std::size_t size);
+/// A stereo-batch sidecar as --resume reads it (its outputs present, its own options the run's).
+bool BatchSidecar(const std::uint8_t* data, std::size_t size);
 
 struct NamedTarget {
   const char* name;  ///< also the folder of its corpus under testdata/fuzz
