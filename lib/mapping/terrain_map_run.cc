@@ -216,9 +216,20 @@ void AlignToGround(const TerrainMapRunOptions& options, const TerrainGrid& grid,
                    TerrainMapRunSummary* summary) {
   GroundAligner aligner(options.map.cell_m, *options.align);
   if (const auto bounds = grid.MappedBounds()) {
-    const double c = options.map.cell_m;
-    for (std::int64_t j = (*bounds)[1]; j <= (*bounds)[3]; ++j) {
-      for (std::int64_t i = (*bounds)[0]; i <= (*bounds)[2]; ++i) {
+    // Only the stored cells the new pairs' samples can reach (map-loop adds one pair at a time
+    // to a map that grows: seeding from all of it would cost the whole map each pair).
+    const double c = options.map.cell_m, reach = options.align->max_range_m + c;
+    double x0 = todo->front().x_m, x1 = x0, y0 = todo->front().y_m, y1 = y0;
+    for (const FramePose& p : *todo) {
+      x0 = std::min(x0, p.x_m), x1 = std::max(x1, p.x_m);
+      y0 = std::min(y0, p.y_m), y1 = std::max(y1, p.y_m);
+    }
+    const std::int64_t i0 = std::max((*bounds)[0], static_cast<std::int64_t>(std::floor((x0 - reach) / c)));
+    const std::int64_t i1 = std::min((*bounds)[2], static_cast<std::int64_t>(std::floor((x1 + reach) / c)));
+    const std::int64_t j0 = std::max((*bounds)[1], static_cast<std::int64_t>(std::floor((y0 - reach) / c)));
+    const std::int64_t j1 = std::min((*bounds)[3], static_cast<std::int64_t>(std::floor((y1 + reach) / c)));
+    for (std::int64_t j = j0; j <= j1; ++j) {
+      for (std::int64_t i = i0; i <= i1; ++i) {
         const std::optional<CellStats> cell = grid.Find({i, j}, options.map.carve_tolerance_m);
         if (cell && cell->sum_w > 0) aligner.AddReference((i + 0.5) * c, (j + 0.5) * c, cell->Mean());
       }
