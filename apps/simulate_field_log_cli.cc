@@ -23,6 +23,7 @@ std::function<int(const nlohmann::json&, bool)> RegisterFieldLogCommand(CLI::App
   };
   auto state = std::make_shared<State>();
   state->flags.options.interval_s = 0;  // the vehicle's default
+  state->flags.options.frames = 40;     // a traverse (docs/simulate.md)
   sim::FieldLogOptions& o = state->options;
   CLI::App* cmd = app.add_subcommand(
       "field-log",
