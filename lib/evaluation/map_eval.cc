@@ -521,6 +521,9 @@ MapEvalResult RunMapEvaluation(const fs::path& map_dir, const fs::path& sim_dir,
   if (fs::exists(frames_path)) {
     const std::vector<mapping::FramePose> used = mapping::ReadPosesCsv(frames_path);
     const std::vector<mapping::FramePose> true_poses = mapping::ReadPosesCsv(sim_dir / "truth" / "poses.csv");
+    // Every pose finite and in the world before a cell is computed from it.
+    for (const mapping::FramePose& p : used) p.Validate(frames_path.string());
+    for (const mapping::FramePose& p : true_poses) p.Validate((sim_dir / "truth" / "poses.csv").string());
     pose_errors = CompareFramePoses(used, true_poses);
     local = EvaluateMapInVehicleFrames(map, truth, used, true_poses, stems, frame_cells, rocks, options, num_threads);
   }

@@ -198,7 +198,10 @@ VehicleFrameMapScore EvaluateMapInVehicleFrames(
 
   std::vector<std::size_t> pairs;
   for (std::size_t k = 0; k < truth_stems.size(); ++k) {
-    if (est.count(truth_stems[k]) > 0 && tru.count(truth_stems[k]) > 0) pairs.push_back(k);
+    const auto e = est.find(truth_stems[k]);
+    const auto t = tru.find(truth_stems[k]);
+    // A pose that is not finite places nothing (RunMapEvaluation refuses it first, by name).
+    if (e != est.end() && t != tru.end() && e->second.IsFinite() && t->second.IsFinite()) pairs.push_back(k);
   }
   std::vector<PairScore> scores(pairs.size());
   util::ParallelForEachItem(pairs.size(), num_threads, [&](std::size_t n) {

@@ -144,6 +144,16 @@ TEST(EvaluateMapInVehicleFrames, APairWhosePoseDisagreesWithTheMapCostsInItsFram
   EXPECT_LT(f.Score(f.MapMovedBy(0, 0), f.truth).rmse_m, 1e-5);
 }
 
+TEST(EvaluateMapInVehicleFrames, APoseThatIsNotFinitePlacesNothing) {
+  const Fixture f;
+  std::vector<mapping::FramePose> estimated = f.truth;
+  estimated[1].x_m = std::nan("");
+  const VehicleFrameMapScore v = f.Score(f.MapMovedBy(0, 0), estimated);
+  EXPECT_EQ(v.pairs, 1);
+  EXPECT_EQ(v.seen, 16 * 12);
+  EXPECT_LT(v.rmse_m, 1e-5);
+}
+
 TEST(EvaluateMapInVehicleFrames, AnObstacleWhereThePairBelievesNoReliefIsAFalseAlarm) {
   Fixture f;
   f.obstacle.at<float>(20, 20) = 0;
