@@ -35,6 +35,7 @@ namespace {
 constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
 
 using internal::LatticeOffset;
+using internal::TrueWorldFromVehicle;
 using internal::Number;
 using internal::Ratio;
 const cv::Mat& Band(const io::GeoRaster& r, const std::string& name, const std::string& what) {
@@ -70,22 +71,6 @@ json MapEvalOptions::ToJson() const {
           {"corridor_width_m", corridor_width_m}};
 }
 
-namespace {
-
-// A pose of truth/poses.csv placed with the simulator's convention, with which it wrote the
-// truth (code of the evaluation's own, not the mapper's).
-Eigen::Isometry3d TrueWorldFromVehicle(const mapping::FramePose& p) {
-  sim::VehiclePose pose;
-  pose.x_m = p.x_m;
-  pose.y_m = p.y_m;
-  pose.z_m = p.z_m;
-  pose.heading_rad = p.heading_rad;
-  pose.pitch_rad = p.pitch_rad;
-  pose.roll_rad = p.roll_rad;
-  return pose.WorldFromVehicle();
-}
-
-}  // namespace
 
 namespace {
 // The largest rock a truth may list, metres (the simulator's are under a metre).

@@ -10,6 +10,8 @@
 #include <opencv2/core.hpp>
 
 #include "io/geotiff_io.h"
+#include "mapping/frame_poses.h"
+#include "sim/vehicle_pose.h"
 #include "util/check.h"
 
 namespace lunarnav::evaluation::internal {
@@ -48,5 +50,18 @@ inline double Ratio(long a, long b) {
 
 /// A number for summary.json: null when not finite.
 inline nlohmann::json Number(double v) { return std::isfinite(v) ? nlohmann::json(v) : nlohmann::json(nullptr); }
+
+/// A pose placed with the simulator's convention, with which it wrote the truth (code of the
+/// evaluation's own, not the mapper's).
+inline Eigen::Isometry3d TrueWorldFromVehicle(const mapping::FramePose& p) {
+  sim::VehiclePose pose;
+  pose.x_m = p.x_m;
+  pose.y_m = p.y_m;
+  pose.z_m = p.z_m;
+  pose.heading_rad = p.heading_rad;
+  pose.pitch_rad = p.pitch_rad;
+  pose.roll_rad = p.roll_rad;
+  return pose.WorldFromVehicle();
+}
 
 }  // namespace lunarnav::evaluation::internal

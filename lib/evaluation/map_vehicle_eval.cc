@@ -8,7 +8,6 @@
 #include <unordered_map>
 
 #include "evaluation/map_rasters.h"
-#include "sim/vehicle_pose.h"
 #include "util/check.h"
 #include "util/parallel.h"
 
@@ -19,18 +18,7 @@ constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
 constexpr double kDeg = M_PI / 180.0;
 using internal::Number;
 using internal::Ratio;
-
-// A pose placed with the simulator's convention (the evaluation's own code, not the mapper's).
-Eigen::Isometry3d WorldFromVehicle(const mapping::FramePose& p) {
-  sim::VehiclePose pose;
-  pose.x_m = p.x_m;
-  pose.y_m = p.y_m;
-  pose.z_m = p.z_m;
-  pose.heading_rad = p.heading_rad;
-  pose.pitch_rad = p.pitch_rad;
-  pose.roll_rad = p.roll_rad;
-  return pose.WorldFromVehicle();
-}
+using internal::TrueWorldFromVehicle;
 
 double WrapDeg(double rad) { return std::remainder(rad / kDeg, 360.0); }
 
@@ -206,8 +194,8 @@ VehicleFrameMapScore EvaluateMapInVehicleFrames(
   std::vector<PairScore> scores(pairs.size());
   util::ParallelForEachItem(pairs.size(), num_threads, [&](std::size_t n) {
     const std::size_t k = pairs[n];
-    const Eigen::Isometry3d estimated_pose = WorldFromVehicle(est.at(truth_stems[k]));
-    const Eigen::Isometry3d true_pose = WorldFromVehicle(tru.at(truth_stems[k]));
+    const Eigen::Isometry3d estimated_pose = TrueWorldFromVehicle(est.at(truth_stems[k]));
+    const Eigen::Isometry3d true_pose = TrueWorldFromVehicle(tru.at(truth_stems[k]));
     // True world -> where the pair believes it is, and back.
     const Eigen::Isometry3d believed_from_true = estimated_pose * true_pose.inverse();
     const Eigen::Isometry3d true_from_believed = believed_from_true.inverse();

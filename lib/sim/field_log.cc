@@ -2,7 +2,6 @@
 
 #include <algorithm>
 #include <cmath>
-#include <cstdio>
 #include <memory>
 #include <sstream>
 
@@ -12,6 +11,7 @@
 #include "sim/portable_random.h"
 #include "sim/scene.h"
 #include "util/check.h"
+#include "util/format.h"
 #include "util/log.h"
 #include "util/parallel.h"
 #include "util/summary.h"
@@ -44,12 +44,6 @@ VehicleDefaults Defaults(FieldVehicle v) {
 }
 // The route's clearance beyond the wheels: what slip and wander may add to the commanded path.
 constexpr double kClearMarginM = 0.6;
-
-std::string Fixed(double v, int decimals) {
-  char buf[64];
-  std::snprintf(buf, sizeof buf, "%.*f", decimals, v == 0 ? 0.0 : v);
-  return buf;
-}
 
 // The ground a wheel of radius r rests on: the highest point of the surface under a disc
 // of the wheel's radius, each sample lowered by the wheel's curvature there (a rim rolling
@@ -328,7 +322,7 @@ FieldLogSummary RunFieldLogSimulation(const FieldLogOptions& options_in, const f
   WriteRoverTelemetry(output_dir, run, telemetry_options, output_dir / "truth");
   std::string times = "# lunarnav field log: each stereo pair's time on the telemetry clock (telemetry.csv's t_s), s\n";
   times += "stem,t_s\n";
-  for (int k = 0; k < frames; ++k) times += FrameStem(k) + "," + Fixed(log.frame_times_s[k], 6) + "\n";
+  for (int k = 0; k < frames; ++k) times += FrameStem(k) + "," + util::Format("%.6f", log.frame_times_s[k]) + "\n";
   io::WriteFileAtomic(output_dir / "frame_times.csv", times);
 
   const RoverSample& last = run.drive.samples.back();

@@ -95,6 +95,25 @@ void WritePoses(const fs::path& path, int n, int nan_at = -1, int missing = -1) 
   io::WriteFileAtomic(path, s);
 }
 
+// posfilter's trajectory.csv at 10 Hz along PoseOf's straight line (DIR/trajectory.csv) and
+// the frame times of pairs 0..n-1 (DIR/times.csv); with `nosed_up_pair`, the trajectory's
+// pitch is 1.5 deg around that pair's time (inclinometers reading an acceleration).
+void WriteTrajectoryAndTimes(const fs::path& dir, int n, int nosed_up_pair = -1) {
+  std::vector<positioning::TrajectorySample> samples;
+  for (int k = 0; k <= 100; ++k) {
+    positioning::TrajectorySample s;
+    s.t_s = 0.1 * k;
+    s.y_m = 0.15 * s.t_s;
+    s.z_m = kGround;
+    if (nosed_up_pair >= 0 && std::abs(s.t_s - PoseOf(nosed_up_pair).t_s) < 0.45) s.pitch_rad = 1.5 * M_PI / 180;
+    samples.push_back(s);
+  }
+  positioning::WriteTrajectoryCsv(dir / "trajectory.csv", samples);
+  std::string times = "stem,t_s\n";
+  for (int k = 0; k < n; ++k) times += PoseOf(k).stem + "," + std::to_string(PoseOf(k).t_s) + "\n";
+  io::WriteFileAtomic(dir / "times.csv", times);
+}
+
 cv::Mat Band(const io::GeoRaster& r, const std::string& name) {
   const int i = r.BandIndex(name);
   EXPECT_GE(i, 0) << name;
@@ -547,18 +566,7 @@ TEST(TerrainMapTool, ATrajectoryInterpolatedAtTheFrameTimesGivesTheMapOfThePoses
   const std::string poses = (tmp.path() / "poses.csv").string();
   WritePoses(poses, 4);
   // posfilter's trajectory.csv at 10 Hz along the same straight line, and the frame times.
-  std::vector<positioning::TrajectorySample> samples;
-  for (int k = 0; k <= 100; ++k) {
-    positioning::TrajectorySample s;
-    s.t_s = 0.1 * k;
-    s.y_m = 0.15 * s.t_s;
-    s.z_m = kGround;
-    samples.push_back(s);
-  }
-  positioning::WriteTrajectoryCsv(tmp.path() / "trajectory.csv", samples);
-  std::string times = "stem,t_s\n";
-  for (int k = 0; k < 4; ++k) times += PoseOf(k).stem + "," + std::to_string(PoseOf(k).t_s) + "\n";
-  io::WriteFileAtomic(tmp.path() / "times.csv", times);
+  WriteTrajectoryAndTimes(tmp.path(), 4);
   const auto a = RunTool("terrain-map", {(tmp.path() / "stereo").string(), "--poses", poses, "-o",
                                          (tmp.path() / "by_poses").string(), "-q", "--no-preview"},
                          tmp.path());
@@ -587,19 +595,7 @@ TEST(TerrainMapTool, ADeadReckonedPairNosedUpIsBroughtOntoTheGroundTheOthersMapp
   WriteStereoDir(tmp.path() / "stereo", 0, 4);
   const std::string poses = (tmp.path() / "poses.csv").string();
   WritePoses(poses, 4);
-  std::vector<positioning::TrajectorySample> samples;
-  for (int k = 0; k <= 100; ++k) {
-    positioning::TrajectorySample s;
-    s.t_s = 0.1 * k;
-    s.y_m = 0.15 * s.t_s;
-    s.z_m = kGround;
-    if (std::abs(s.t_s - PoseOf(2).t_s) < 0.45) s.pitch_rad = 1.5 * M_PI / 180;
-    samples.push_back(s);
-  }
-  positioning::WriteTrajectoryCsv(tmp.path() / "trajectory.csv", samples);
-  std::string times = "stem,t_s\n";
-  for (int k = 0; k < 4; ++k) times += PoseOf(k).stem + "," + std::to_string(PoseOf(k).t_s) + "\n";
-  io::WriteFileAtomic(tmp.path() / "times.csv", times);
+  WriteTrajectoryAndTimes(tmp.path(), 4, /*nosed_up_pair=*/2);
   auto map = [&](const std::string& out, std::vector<std::string> extra) {
     std::vector<std::string> args = {(tmp.path() / "stereo").string(), "-o", (tmp.path() / out).string(), "-q",
                                      "--no-preview"};
