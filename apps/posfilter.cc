@@ -40,7 +40,10 @@ int main(int argc, char** argv) {
   app.add_option("--filter", filter, "low-pass filter type")->check(CLI::IsMember({"butterworth", "bessel"}))
       ->capture_default_str();
   app.add_option("--order", opt.filter_order, "low-pass filter order")->capture_default_str();
-  app.add_option("--cutoff", opt.cutoff_hz, "low-pass cut-off, Hz")->capture_default_str();
+  app.add_option("--cutoff", opt.cutoff_hz, "the compass's low-pass cut-off (--heading lowpass), Hz")
+      ->capture_default_str();
+  app.add_option("--tilt-cutoff", opt.tilt_cutoff_hz, "the pitch and roll inclinometers' low-pass cut-off, Hz")
+      ->capture_default_str();
   app.add_flag("--zero-phase", zero_phase, "filter forward and backward (no delay; for logs processed afterwards)");
   app.add_option("--heading", heading, "heading filter")->check(CLI::IsMember({"kalman", "lowpass"}))
       ->capture_default_str();

@@ -16,6 +16,8 @@ namespace {
 
 using telemetry::Channel;
 constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
+// The tilt's low-pass cut-off is at most this fraction of the sample rate.
+constexpr double kTiltCutoffMaxFraction = 0.4;
 
 }  // namespace
 
@@ -29,6 +31,7 @@ void PosfilterOptions::Validate() const {
   kalman.Validate();
   LN_CHECK_ARG(filter_order >= 1 && filter_order <= 8) << "order: must be in 1..8";
   LN_CHECK_ARG(cutoff_hz > 0 && std::isfinite(cutoff_hz)) << "cutoff: must be > 0 Hz";
+  LN_CHECK_ARG(tilt_cutoff_hz > 0 && std::isfinite(tilt_cutoff_hz)) << "tilt cutoff: must be > 0 Hz";
   LN_CHECK_ARG(stationary_min_s > 0) << "stationary time: must be > 0";
   LN_CHECK_ARG(block_rows >= 1) << "block rows: must be >= 1";
   LN_CHECK_ARG(baseline_interval_s > 0 && baseline_drift_fraction > 0 && baseline_heading_drift_dps >= 0)
@@ -39,7 +42,7 @@ void PosfilterOptions::Validate() const {
 nlohmann::json PosfilterOptions::ToJson() const {
   return {{"screening", screening.ToJson()},
           {"filter", {{"type", telemetry::ToString(filter)}, {"order", filter_order}, {"cutoff_hz", cutoff_hz},
-                      {"mode", ToString(mode)}}},
+                      {"tilt_cutoff_hz", tilt_cutoff_hz}, {"mode", ToString(mode)}}},
           {"heading", ToString(heading)},
           {"kalman", kalman.ToJson()},
           {"slip", {{"fraction", dead_reckoning.slip_fraction}, {"min_m", dead_reckoning.slip_min_m},
@@ -185,6 +188,11 @@ PosfilterResult Run(ScreenedRows& input, const std::string& source, const teleme
       << source << ": the cut-off " << options.cutoff_hz << " Hz is not below half the sample rate ("
       << r.sample_rate_hz << " Hz)";
   r.design = telemetry::DesignLowPass(options.filter, options.filter_order, options.cutoff_hz, r.sample_rate_hz);
+  // The tilt's cut-off, at most kTiltCutoffMaxFraction of the sample rate (slow telemetry,
+  // e.g. 2.5 Hz: 1 Hz).
+  r.tilt_design = telemetry::DesignLowPass(options.filter, options.filter_order,
+                                           std::min(options.tilt_cutoff_hz, kTiltCutoffMaxFraction * r.sample_rate_hz),
+                                           r.sample_rate_hz);
 
   // Which channels are used: those with two valid samples (the gyro: one), which may take
   // reading on. The first compass reading starts the heading filter.
@@ -223,8 +231,9 @@ PosfilterResult Run(ScreenedRows& input, const std::string& source, const teleme
   };
   std::vector<FilteredChannel*> look_ahead;  // channels whose gaps are filled
   std::vector<FilledChannel*> wheel_look_ahead;
-  auto filtered = [&](Channel c, std::optional<FilteredChannel>* channel) {
-    channel->emplace(s, c, r.design, options.mode);
+  auto filtered = [&](Channel c, std::optional<FilteredChannel>* channel,
+                      const telemetry::LowPassDesign& design) {
+    channel->emplace(s, c, design, options.mode);
     look_ahead.push_back(&**channel);
   };
 
@@ -246,16 +255,28 @@ PosfilterResult Run(ScreenedRows& input, const std::string& source, const teleme
   }
   LN_CHECK_INPUT(wheel_count > 0) << source << ": no usable encoder channel";
 
-  // Pitch: the mean of the filtered left and right inclinometers.
-  std::optional<FilteredChannel> pitch_left, pitch_right, roll, heading_lowpass;
-  if (usable(Channel::kPitchLeft)) filtered(Channel::kPitchLeft, &pitch_left);
-  if (usable(Channel::kPitchRight)) filtered(Channel::kPitchRight, &pitch_right);
-  if (pitch_left.has_value() != pitch_right.has_value()) {
+  // Pitch: the mean of the filtered left and right inclinometers. Twice: through the paper's
+  // low-pass for the dead reckoning (sec. 4.2: it integrates the path, where a rover's tilt
+  // vibration would bias the cosine) and through the tilt's for the attitude reported.
+  struct Tilt {
+    std::optional<FilteredChannel> motion, attitude;
+    explicit operator bool() const { return motion.has_value(); }
+  };
+  Tilt pitch_left, pitch_right, roll;
+  std::optional<FilteredChannel> heading_lowpass;
+  auto tilt = [&](Channel c, Tilt* t) {
+    if (!usable(c)) return;
+    filtered(c, &t->motion, r.design);
+    filtered(c, &t->attitude, r.tilt_design);
+  };
+  tilt(Channel::kPitchLeft, &pitch_left);
+  tilt(Channel::kPitchRight, &pitch_right);
+  if (static_cast<bool>(pitch_left) != static_cast<bool>(pitch_right)) {
     r.notes.push_back("one pitch inclinometer: pitch from the other");
   } else if (!pitch_left) {
     r.notes.push_back("no pitch inclinometers: flat ground (z = 0)");
   }
-  if (usable(Channel::kRoll)) filtered(Channel::kRoll, &roll);
+  tilt(Channel::kRoll, &roll);
 
   // Heading.
   const bool have_compass = valid[compass] >= 2;
@@ -265,7 +286,7 @@ PosfilterResult Run(ScreenedRows& input, const std::string& source, const teleme
   std::optional<telemetry::HeadingKalman> kalman;
   double constant_heading = 0;
   if (options.heading == HeadingMethod::kLowPass && have_compass) {
-    filtered(Channel::kCompass, &heading_lowpass);
+    filtered(Channel::kCompass, &heading_lowpass, r.design);
   } else if (have_compass || have_gyro) {
     if (options.heading == HeadingMethod::kLowPass) {
       r.notes.push_back("no compass: heading from the gyro by the Kalman filter");
@@ -314,7 +335,7 @@ PosfilterResult Run(ScreenedRows& input, const std::string& source, const teleme
   double still_since_t = 0;  // start of the current stretch with no wheel moving
   PoseOutput out;
   out.heading_rate_radps = kNaN;
-  HalfAngleTracker roll_half;  // for the attitude
+  HalfAngleTracker pitch_half, roll_half;  // for the attitude
   std::size_t k = 0;
   while (true) {
     const ScreeningStream::Rows rows = s.rows();
@@ -341,15 +362,18 @@ PosfilterResult Run(ScreenedRows& input, const std::string& source, const teleme
         if (k > 0 && std::abs(metres - wheel_m[w]) > 1e-9) moved = true;
         wheel_m[w] = metres;
       }
-      double pitch = 0;
-      if (pitch_left && pitch_right) {
-        const double left = pitch_left->At(k);
-        pitch = 0.5 * (left + pitch_right->At(k));
-      } else if (pitch_left) {
-        pitch = pitch_left->At(k);
-      } else if (pitch_right) {
-        pitch = pitch_right->At(k);
-      }
+      // The pitch through either low-pass.
+      auto pitch_of = [&](std::optional<FilteredChannel> Tilt::*which) {
+        if (pitch_left && pitch_right) {
+          const double left = (pitch_left.*which)->At(k);
+          return 0.5 * (left + (pitch_right.*which)->At(k));
+        }
+        if (pitch_left) return (pitch_left.*which)->At(k);
+        if (pitch_right) return (pitch_right.*which)->At(k);
+        return 0.0;
+      };
+      const double pitch = pitch_of(&Tilt::motion), attitude_pitch = pitch_of(&Tilt::attitude);
+      const double roll_motion = roll ? roll.motion->At(k) : 0.0, attitude_roll = roll ? roll.attitude->At(k) : 0.0;
       double heading = constant_heading;
       if (heading_lowpass) {
         heading = heading_lowpass->At(k);
@@ -367,7 +391,9 @@ PosfilterResult Run(ScreenedRows& input, const std::string& source, const teleme
           r.heading.heading_sigma_rad.push_back(e.heading_sigma_rad);
         }
       }
-      const TrajectorySample& pose = reckoner.Step(tk, heading, pitch, roll ? roll->At(k) : 0.0, wheel_m);
+      TrajectorySample pose = reckoner.Step(tk, heading, pitch, roll_motion, wheel_m);
+      pose.pitch_rad = attitude_pitch;
+      pose.roll_rad = attitude_roll;
       std::array<double, 4> counts;
       for (int w = 0; w < 4; ++w) counts[w] = have_wheel[w] ? rows.raw[wheel_index[w]][i] : kNaN;
       baseline.Step(tk, counts, have_gyro ? gyro_raw[i] : kNaN);
@@ -387,7 +413,7 @@ PosfilterResult Run(ScreenedRows& input, const std::string& source, const teleme
       } else {  // the attitude from the half angles the dead reckoning has made already
         out.pose = pose;
         out.enu_from_body =
-            EnuFromBody(reckoner.half_heading(), reckoner.half_pitch(), roll_half(pose.roll_rad));
+            EnuFromBody(reckoner.half_heading(), pitch_half(pose.pitch_rad), roll_half(pose.roll_rad));
         out.compass_count = compass_raw != nullptr ? compass_raw[i] : kNaN;
         out.gyro_count = gyro_raw != nullptr ? gyro_raw[i] : kNaN;
         sink(out);
@@ -545,6 +571,7 @@ nlohmann::json PosfilterResult::SummaryJson() const {
   j["notes"] = notes;
   j["screening"] = screened.ReportJson();
   j["lowpass"] = design.ToJson();
+  j["lowpass_tilt"] = tilt_design.ToJson();
   if (kalman_used) {
     j["heading_kalman"] = {{"compass_updates", heading.compass_updates},
                            {"gyro_updates", heading.gyro_updates},

@@ -35,7 +35,12 @@ struct PosfilterOptions {
   telemetry::ScreeningOptions screening;
   telemetry::LowPassType filter = telemetry::LowPassType::kButterworth;
   int filter_order = 2;
-  double cutoff_hz = 0.25;  ///< The paper's compass noise cut-off.
+  double cutoff_hz = 0.25;  ///< The paper's compass noise cut-off (the heading's low-pass).
+  /// The pitch and roll inclinometers' cut-off. The paper gives its cut-off for the compass
+  /// (sec. 4.1); at 0.25 Hz the inclinometers lag the body's pitching over rocks by 0.9 s
+  /// (pitch errors of 0.4-0.7 deg RMS at the frames of bench-field-log's paper drives, against
+  /// 0.16-0.46 at 1.5 Hz: docs/posfilter.md). At most 0.4 of the sample rate (slower logs).
+  double tilt_cutoff_hz = 1.5;
   FilterMode mode = FilterMode::kCausal;
   HeadingMethod heading = HeadingMethod::kKalman;
   telemetry::HeadingKalmanOptions kalman;
@@ -63,7 +68,8 @@ struct PosfilterResult {
   DeadReckoningResult motion;
   std::size_t rows_read = 0;                 ///< Rows in the log (kept or not).
   telemetry::ScreenedLog screened;           ///< Counts and events (no arrays).
-  telemetry::LowPassDesign design;           ///< Low-pass used for pitch, roll (and heading).
+  telemetry::LowPassDesign design;           ///< Low-pass of the heading (--heading lowpass).
+  telemetry::LowPassDesign tilt_design;      ///< Low-pass of pitch and roll.
   telemetry::HeadingEstimate heading;        ///< When the Kalman filter ran.
   bool kalman_used = false;
   double kalman_rate_walk_dps2 = 0;          ///< The heading rate's process noise used.

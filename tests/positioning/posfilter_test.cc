@@ -59,10 +59,41 @@ TEST(RunPosfilter, OneInclinometerOnEitherSideGivesItsFilteredPitch) {
     EXPECT_EQ(a[k].pitch_rad, b[k].pitch_rad) << k;
     EXPECT_EQ(a[k].z_m, b[k].z_m) << k;
   }
-  // Filtered: the step's first sample moves the pitch by far less than the step (10 deg).
+  // Filtered by the tilt's low-pass: the step's first sample moves the pitch by the filter's
+  // first coefficient times the step (10 deg), far less than the step.
   const double deg = M_PI / 180.0;
-  EXPECT_LT(b[200].pitch_rad - b[199].pitch_rad, 1.0 * deg);
+  ASSERT_EQ(right.tilt_design.sections.size(), 1u);
+  const double step = (b.back().pitch_rad - b[199].pitch_rad);
+  EXPECT_NEAR(b[200].pitch_rad - b[199].pitch_rad, right.tilt_design.sections[0].b0 * step, 1e-9);
+  EXPECT_LT(b[200].pitch_rad - b[199].pitch_rad, 0.2 * step);
   EXPECT_NEAR(b.back().pitch_rad, 114 * 0.087890625 * deg, 0.001 * deg);
+}
+
+// The tilt's low-pass sets the attitude reported, not the path: the dead reckoning integrates
+// the pitch through the paper's low-pass (--cutoff) whatever --tilt-cutoff is, so x, y and z
+// are the same bit for bit, while the pitch reported follows the step sooner.
+TEST(RunPosfilter, TheTiltCutoffChangesTheAttitudeNotThePath) {
+  const telemetry::SensorModel model = Model("pitch_left");
+  const telemetry::TelemetryLog log = OneInclinometerLog(model, telemetry::Channel::kPitchLeft);
+  PosfilterOptions slow, fast;
+  slow.tilt_cutoff_hz = slow.cutoff_hz;
+  fast.tilt_cutoff_hz = 2.0;
+  const PosfilterResult a = RunPosfilter(log, model, slow), b = RunPosfilter(log, model, fast);
+  ASSERT_EQ(a.motion.trajectory.size(), b.motion.trajectory.size());
+  for (std::size_t k = 0; k < a.motion.trajectory.size(); ++k) {
+    EXPECT_EQ(a.motion.trajectory[k].x_m, b.motion.trajectory[k].x_m) << k;
+    EXPECT_EQ(a.motion.trajectory[k].y_m, b.motion.trajectory[k].y_m) << k;
+    EXPECT_EQ(a.motion.trajectory[k].z_m, b.motion.trajectory[k].z_m) << k;
+  }
+  // One second after the 10 deg step: the 0.25 Hz pitch has risen by a little over half of
+  // it (its 0.9 s delay), the 2 Hz one has settled.
+  const double deg = M_PI / 180.0, step = 114 * 0.087890625 * deg;
+  EXPECT_LT(a.motion.trajectory[209].pitch_rad, 0.75 * step);
+  EXPECT_NEAR(b.motion.trajectory[209].pitch_rad, step, 0.03 * step);
+  // At most 0.4 of the sample rate: 2 Hz at 10 Hz stays 2 Hz; 20 Hz is taken as 4 Hz.
+  EXPECT_DOUBLE_EQ(b.tilt_design.cutoff_hz, 2.0);
+  fast.tilt_cutoff_hz = 20.0;
+  EXPECT_NEAR(RunPosfilter(log, model, fast).tilt_design.cutoff_hz, 4.0, 1e-9);
 }
 
 // A small skid-steered rover (0.45 m track) without a compass, 50 Hz rows: 3 s at rest, then
