@@ -6,6 +6,8 @@
 #include <fstream>
 #include <string_view>
 
+#include <Eigen/Geometry>
+
 #include "calib/rig_import.h"
 #include "calib/stereo_rig_io.h"
 #include "calib/vehicle.h"
@@ -275,10 +277,18 @@ bool TrajectoryFrameTimes(const std::uint8_t* data, std::size_t size) {
   const auto [trajectory, times] = SplitTwo(Bytes(data + 1, size - 1));
   const fs::path a = WriteScratch(data[0] % 2 == 0 ? "trajectory.csv" : "trajectory.tum", trajectory);
   const fs::path b = WriteScratch("frame_times.csv", times);
+  // As the tools read it: the frame times beside it (KITTI's pose files take their times from
+  // there) and a rig's left camera 1.65 m over the vehicle's base, looking ahead (camera x
+  // right, y down, z forward), which KITTI's camera poses need.
+  mapping::TrajectoryContext context;
+  context.frame_times = b;
+  Eigen::Matrix3d vehicle_from_camera_rotation;
+  vehicle_from_camera_rotation << 1, 0, 0, 0, 0, 1, 0, -1, 0;
+  context.vehicle_from_camera = Eigen::Translation3d(0, 0, 1.65) * Eigen::Isometry3d(vehicle_from_camera_rotation);
   return Refusing([&] {
     std::vector<mapping::FramePose> frames = mapping::ReadFrameTimes(b);
     if (frames.size() > 1000) frames.resize(1000);
-    for (const mapping::FramePose& p : mapping::InterpolateTrajectory(a, frames)) p.Validate(a.string());
+    for (const mapping::FramePose& p : mapping::InterpolateTrajectory(a, frames, context)) p.Validate(a.string());
   });
 }
 
