@@ -161,6 +161,26 @@ void CheckSameBatch(const ShardFile& first, const ShardFile& f) {
 // A numeric JSON value as a double (0 for anything else).
 double Number(const json& v) { return v.is_number() ? v.get<double>() : 0.0; }
 
+// Per-stage timings ([{"stage", "seconds"}, ...], stereo-batch's stages_sum) summed stage by
+// stage, in the order the stages first appear; entries of another shape are left out, and at
+// most kMaxStages stages are kept (a summary is input: its arrays are bounded here).
+json MergeStageTimes(const json& sum, const json& add) {
+  constexpr std::size_t kMaxStages = 64;
+  json out = sum.is_array() ? sum : json::array();
+  for (const json& entry : add) {
+    if (!entry.is_object() || !entry.contains("stage") || !entry["stage"].is_string()) continue;
+    const std::string stage = entry["stage"].get<std::string>();
+    const double seconds = Number(entry.value("seconds", json()));
+    auto at = std::find_if(out.begin(), out.end(), [&](const json& e) { return e["stage"] == stage; });
+    if (at != out.end()) {
+      (*at)["seconds"] = Number((*at)["seconds"]) + seconds;
+    } else if (out.size() < kMaxStages) {
+      out.push_back({{"stage", stage}, {"seconds", seconds}});
+    }
+  }
+  return out;
+}
+
 }  // namespace
 
 std::string ListingDigest(const std::vector<std::string>& names) {
@@ -381,7 +401,11 @@ ShardMergeResult MergeShardSummaries(const fs::path& output_dir, const ShardMerg
   for (const ShardFile& f : files) {
     const json shard_timings = f.summary.value("timings_s", json::object());
     for (const auto& [key, value] : shard_timings.items()) {
-      timings[key] = Number(timings.value(key, json(0.0))) + Number(value);
+      if (value.is_array()) {
+        timings[key] = MergeStageTimes(timings.value(key, json::array()), value);
+      } else {
+        timings[key] = Number(timings.value(key, json(0.0))) + Number(value);
+      }
     }
     peak_mib = std::max(peak_mib, Number(f.summary.value("peak_memory_mib", json())));
     json shard = {{"file", f.Name()}, {"shard", {f.index, f.count}}};

@@ -1,6 +1,7 @@
 #include "stereo/batch.h"
 
 #include <algorithm>
+#include <array>
 #include <new>
 #include <cmath>
 #include <cstdint>
@@ -155,7 +156,18 @@ json FileSizes(const std::vector<fs::path>& files) {
 
 struct PairTimings {
   double read_s = 0, match_s = 0, write_s = 0, xyz_s = 0;
+  /// Every stage in the order it ran (the matcher's prefixed "match: "); the writers that run
+  /// side by side each with its own wall time.
+  util::StageTimes stages;
 };
+
+// Runs `fn` and adds its wall time to `stages` as `name`.
+template <typename Fn>
+void Timed(util::StageTimes* stages, const char* name, Fn&& fn) {
+  util::Timer timer;
+  fn();
+  stages->emplace_back(name, timer.ElapsedSeconds());
+}
 
 // The 8-bit grey levels of the reference image, for the point cloud's colour.
 cv::Mat Grey8(const cv::Mat& image) {
@@ -168,16 +180,17 @@ cv::Mat Grey8(const cv::Mat& image) {
 // Triangulates the pair's disparity map and writes the enabled geometry outputs; returns their
 // description for the sidecar and adds the number of points to `result`.
 json WriteGeometry(const BatchOptions& options, const std::string& stem, const NccResult& match,
-                   const cv::Mat& reference_image, const PairOutputPaths& out, json* result) {
+                   const cv::Mat& reference_image, const PairOutputPaths& out, json* result, util::StageTimes* stages) {
   const calib::StereoRig& rig = *options.rig;
   const calib::ReferenceImage reference = options.matcher.reference;
-  const cv::Mat xyz = calib::TriangulateDisparity(rig, match.disparity_px, reference);
+  cv::Mat xyz;
+  Timed(stages, "triangulate", [&] { xyz = calib::TriangulateDisparity(rig, match.disparity_px, reference); });
   const std::map<std::string, std::string> attributes = {
       {"lunarnav:quantity", "XYZ"},  {"lunarnav:channels", "R=X G=Y B=Z"},
       {"lunarnav:units", "m"},       {"lunarnav:frame", kVehicleFrame},
       {"lunarnav:reference", ToString(reference)}, {"lunarnav:invalid", "NaN"},
       {"lunarnav:stem", stem}};
-  io::WriteExrAtomic(out.xyz, xyz, {}, attributes);
+  Timed(stages, "write xyz (EXR)", [&] { io::WriteExrAtomic(out.xyz, xyz, {}, attributes); });
   const int points = cv::countNonZero(match.disparity_px == match.disparity_px);  // not NaN
   json j;
   j["xyz"] = {{"file", fs::relative(out.xyz, out.sidecar.parent_path()).string()},
@@ -194,18 +207,24 @@ json WriteGeometry(const BatchOptions& options, const std::string& stem, const N
   (*result)["points"] = finite_points;
   (*result)["disparities_beyond_infinity"] = points - finite_points;
   if (options.write_ply) {
-    const std::int64_t written = io::WritePlyAtomic(
-        out.cloud, xyz, Grey8(reference_image),
-        {"lunarnav stereo-batch " + std::string(kVersion), "pair " + stem,
-         std::string("frame ") + kVehicleFrame, "colour: grey level of the " + ToString(reference) + " image"});
+    std::int64_t written = 0;
+    Timed(stages, "write cloud (PLY)", [&] {
+      written = io::WritePlyAtomic(
+          out.cloud, xyz, Grey8(reference_image),
+          {"lunarnav stereo-batch " + std::string(kVersion), "pair " + stem, std::string("frame ") + kVehicleFrame,
+           "colour: grey level of the " + ToString(reference) + " image"});
+    });
     j["cloud"] = {{"file", fs::relative(out.cloud, out.sidecar.parent_path()).string()}, {"points", written}};
   }
   if (options.xyz_sigma_px) {
-    const cv::Mat sigma = calib::PredictXyzSigma(rig, match.disparity_px, reference, *options.xyz_sigma_px);
+    cv::Mat sigma;
+    Timed(stages, "predict xyz_sigma", [&] {
+      sigma = calib::PredictXyzSigma(rig, match.disparity_px, reference, *options.xyz_sigma_px);
+    });
     std::map<std::string, std::string> sigma_attributes = attributes;
     sigma_attributes["lunarnav:quantity"] = "predicted XYZ error of a disparity error of sigma_d";
     sigma_attributes["lunarnav:sigma_d_px"] = std::to_string(*options.xyz_sigma_px);
-    io::WriteExrAtomic(out.xyz_sigma, sigma, {}, sigma_attributes);
+    Timed(stages, "write xyz_sigma (EXR)", [&] { io::WriteExrAtomic(out.xyz_sigma, sigma, {}, sigma_attributes); });
     j["xyz_sigma"] = {{"file", fs::relative(out.xyz_sigma, out.sidecar.parent_path()).string()},
                       {"dtype", "float32"},
                       {"channels", {"sigma_X", "sigma_Y", "sigma_Z"}},
@@ -275,6 +294,7 @@ json ProcessPair(const BatchOptions& options, const PairFiles& pair, const PairO
       << "rows: " << *options.matcher.min_row << ":" << *options.matcher.max_row << " lies outside the images' "
       << left.rows << " rows (0:" << left.rows - 1 << ")";
   timings->read_s = timer.ElapsedSeconds();
+  timings->stages.emplace_back("decode and check", timings->read_s);
   timer.Restart();
   NccOptions matcher = options.matcher;
   matcher.num_threads = 0;  // the batch's arena
@@ -295,32 +315,40 @@ json ProcessPair(const BatchOptions& options, const PairFiles& pair, const PairO
   }
   MatchStereoPair(matcher, left, right, result);
   timings->match_s = timer.ElapsedSeconds();
+  for (const auto& [stage, seconds] : result->summary.stage_seconds) timings->stages.emplace_back("match: " + stage, seconds);
 
   timer.Restart();
-  // The maps are encoded and written side by side.
+  // The maps are encoded and written side by side, each timed on its own.
+  std::array<util::StageTimes, 4> written;
   tbb::parallel_invoke(
       [&] {
-        cv::Mat disparity_pfm = result->disparity_px.clone();
-        cv::patchNaNs(disparity_pfm, std::numeric_limits<double>::infinity());
-        io::WriteImageAtomic(out.disparity, disparity_pfm);
+        Timed(&written[0], "write disparity (PFM)", [&] {
+          cv::Mat disparity_pfm = result->disparity_px.clone();
+          cv::patchNaNs(disparity_pfm, std::numeric_limits<double>::infinity());
+          io::WriteImageAtomic(out.disparity, disparity_pfm);
+        });
       },
-      [&] { io::WriteImageAtomic(out.confidence, result->correlation); },
-      [&] { io::WriteImageAtomic(out.rejections, result->rejection); },
+      [&] { Timed(&written[1], "write confidence (TIFF)", [&] { io::WriteImageAtomic(out.confidence, result->correlation); }); },
+      [&] { Timed(&written[2], "write rejections (PNG)", [&] { io::WriteImageAtomic(out.rejections, result->rejection); }); },
       [&] {
         if (!options.write_preview) return;
-        const cv::Mat& reference = options.matcher.reference == ReferenceImage::kRight ? right : left;
-        io::WriteImageAtomic(out.preview, DisparityPreview(*result, reference, bits.bits, matcher.step_x_px,
-                                                           matcher.step_y_px, matcher.min_disparity_px,
-                                                           matcher.max_disparity_px));
+        Timed(&written[3], "write preview (PNG)", [&] {
+          const cv::Mat& reference = options.matcher.reference == ReferenceImage::kRight ? right : left;
+          io::WriteImageAtomic(out.preview, DisparityPreview(*result, reference, bits.bits, matcher.step_x_px,
+                                                             matcher.step_y_px, matcher.min_disparity_px,
+                                                             matcher.max_disparity_px));
+        });
       });
   timings->write_s = timer.ElapsedSeconds();
+  for (const util::StageTimes& w : written) timings->stages.insert(timings->stages.end(), w.begin(), w.end());
 
   json result_extra;
   json geometry;
   if (options.rig) {
     timer.Restart();
     geometry = WriteGeometry(options, pair.stem, *result,
-                             options.matcher.reference == ReferenceImage::kRight ? right : left, out, &result_extra);
+                             options.matcher.reference == ReferenceImage::kRight ? right : left, out, &result_extra,
+                             &timings->stages);
     timings->xyz_s = timer.ElapsedSeconds();
   }
 
@@ -704,6 +732,15 @@ BatchSummary StereoBatchRun::Finish(const json& invocation) {
     summary.match_seconds += run.timings[k].match_s;
     summary.write_seconds += run.timings[k].write_s;
     summary.xyz_seconds += run.timings[k].xyz_s;
+    for (const std::pair<std::string, double>& stage : run.timings[k].stages) {
+      auto at = std::find_if(summary.stage_seconds.begin(), summary.stage_seconds.end(),
+                             [&](const auto& s) { return s.first == stage.first; });
+      if (at == summary.stage_seconds.end()) {
+        summary.stage_seconds.push_back(stage);
+      } else {
+        at->second += stage.second;
+      }
+    }
     if (outcome.status != PairOutcome::Status::kFailed) {
       summary.points += outcome.result.value("points", 0LL);
     }
@@ -749,6 +786,11 @@ BatchSummary StereoBatchRun::Finish(const json& invocation) {
                     {"read_sum", summary.read_seconds},
                     {"match_sum", summary.match_seconds},
                     {"write_sum", summary.write_seconds}};
+  // Per stage, summed over the pairs, in the order the stages ran (docs/performance.md's
+  // profile): wall seconds of each, the writers that run side by side each on its own.
+  json stages = json::array();
+  for (const auto& [stage, seconds] : summary.stage_seconds) stages.push_back({{"stage", stage}, {"seconds", seconds}});
+  j["timings_s"]["stages_sum"] = std::move(stages);
   if (options.rig) {
     j["counts"]["points"] = summary.points;
     j["timings_s"]["xyz_sum"] = summary.xyz_seconds;

@@ -93,6 +93,7 @@ struct BatchSummary {
   int pairs_in_shard = 0;
   int pairs_ok = 0, pairs_resumed = 0, pairs_failed = 0;
   double seconds = 0, read_seconds = 0, match_seconds = 0, write_seconds = 0, xyz_seconds = 0;
+  util::StageTimes stage_seconds;  ///< Per stage, summed over the pairs, in the order they ran.
   long long pixels_evaluated = 0, pixels_accepted = 0;
   long long points = 0;     ///< Triangulated points (with a rig).
   std::vector<PairOutcome> pairs;  ///< Name order.

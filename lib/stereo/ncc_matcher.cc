@@ -172,6 +172,7 @@ namespace {
 void MatchWindowInCurrentArena(const NccOptions& options, const cv::Mat& left, const cv::Mat& right,
                                int bit_depth, NccResult* out) {
   util::Timer timer;
+  util::StageClock clock;  // the working pair (16-bit, shifted) counts with the correlation
   const int width = left.cols, height = left.rows;
   const int dx = options.step_x_px, dy = options.step_y_px;
   const bool flip = options.reference == ReferenceImage::kLeft;
@@ -236,6 +237,7 @@ void MatchWindowInCurrentArena(const NccOptions& options, const cv::Mat& left, c
     // Filters 1-3 and the sub-pixel interpolation run in the kernel's row sink.
     RunKernelParallel(in, &grid);
   }
+  clock.Lap("correlation");  // C over the window and disparities, filters 1-3, sub-pixel
   cv::Mat& grid_disp = grid.disparity;
   cv::Mat& grid_corr = grid.correlation;
   cv::Mat& grid_reason = grid.rejection;
@@ -244,6 +246,7 @@ void MatchWindowInCurrentArena(const NccOptions& options, const cv::Mat& left, c
     RejectMatchesBeyondTheBorder(in.x0, dx, width, std::vector<int>(grid_disp.rows, options.max_disparity_px + in.mx * dx),
                                  in.mx * dx, options.border_tolerance_px, &grid_disp, &grid_reason);
   }
+  clock.Lap("filters");  // median (filter 4), border rule
 
   // Everything outside the grid rows, then the grid scattered into the reference image's
   // columns (unless the kernel wrote into the maps directly).
@@ -297,6 +300,8 @@ void MatchWindowInCurrentArena(const NccOptions& options, const cv::Mat& left, c
   s.pixels_by_reason[static_cast<int>(Rejection::kNotEvaluated)] =
       width * height - s.evaluated_pixels;
   s.accepted_pixels = s.pixels_by_reason[static_cast<int>(Rejection::kAccepted)];
+  clock.Lap("scatter");
+  s.stage_seconds = clock.Take();
   s.match_seconds = timer.ElapsedSeconds();
 }
 

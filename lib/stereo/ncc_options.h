@@ -12,6 +12,7 @@
 #include <opencv2/core.hpp>
 
 #include "calib/triangulation.h"
+#include "util/timer.h"
 
 namespace lunarnav::stereo {
 
@@ -190,6 +191,8 @@ struct NccSummary {
   int working_shift_bits = 0;  ///< Right shift applied to 16-bit data to keep sums exact.
   int bit_depth = 8;           ///< Significant bits the grey-level thresholds were scaled for.
   double match_seconds = 0;
+  /// The matcher's stages in the order they ran (name, wall seconds): where match_seconds goes.
+  util::StageTimes stage_seconds;
   /// e.g. "accepted 41.2% of 307200 px (low_texture 3.1%, ...) in 12.3 ms".
   std::string BriefReport() const;
   nlohmann::json ToJson() const;

@@ -58,6 +58,7 @@ int CeilToMultiple(int value, int step) { return (value + step - 1) / step * ste
 void MatchSemiGlobal(const NccOptions& options, const cv::Mat& left, const cv::Mat& right, int bit_depth,
                      NccResult* out) {
   util::Timer timer;
+  util::StageClock clock;
   const SemiGlobalOptions& g = options.semi_global;
   const int width = left.cols, height = left.rows;
   const int dx = options.step_x_px, dy = options.step_y_px;
@@ -106,6 +107,7 @@ void MatchSemiGlobal(const NccOptions& options, const cv::Mat& left, const cv::M
   const cv::Range census_rows(num_rows > 0 ? grid_lo : 0, num_rows > 0 ? grid_hi + 1 : 0);
   CensusTransform(ref, g.census_half_x_px, g.census_half_y_px, census_rows, &ws.ref_census);
   CensusTransform(tgt, g.census_half_x_px, g.census_half_y_px, census_rows, &ws.tgt_census);
+  clock.Lap("census");
   SgmInput in;
   in.ref_census = ws.ref_census.data();
   in.tgt_census = ws.tgt_census.data();
@@ -151,6 +153,7 @@ void MatchSemiGlobal(const NccOptions& options, const cv::Mat& left, const cv::M
     in.gradient_cap = 16 * g.gradient_cap_levels;
   }
   SemiGlobalAggregate(in, &ws.cost);
+  clock.Lap("aggregation");  // with the gradient term's derivatives and the edge-aware P2's grey levels
 
   // Texture (filter 1) over the census window, on the true bit depth's scale.
   cv::Mat ref_f;
@@ -161,6 +164,7 @@ void MatchSemiGlobal(const NccOptions& options, const cv::Mat& left, const cv::M
   cv::boxFilter(ref_f.mul(ref_f), mean_sq, CV_32F, texture_window, {-1, -1}, true, cv::BORDER_REPLICATE);
   const double sigma_min = options.min_sigma * GreyScaleFactor(bit_depth);
   const float min_var = static_cast<float>(sigma_min * sigma_min);
+  clock.Lap("texture");
 
   NccOptions confidence_options = options;
   confidence_options.step_x_px = confidence_options.step_y_px = 1;
@@ -231,6 +235,7 @@ void MatchSemiGlobal(const NccOptions& options, const cv::Mat& left, const cv::M
       disp[i] = static_cast<float>(d_lo + best + offset);
     }
   });
+  clock.Lap("selection");  // winner-take-all, ambiguity, confidence C, sub-pixel
   if (lr_check) {
     tbb::parallel_for(0, num_rows, [&](int j) {
       const int* tgt_k = tgt_best.ptr<int>(j);
@@ -249,6 +254,7 @@ void MatchSemiGlobal(const NccOptions& options, const cv::Mat& left, const cv::M
       }
     });
   }
+  clock.Lap("left_right");
   if (banded && (!options.row_accept_min_px.empty() || !options.row_accept_max_px.empty())) {
     // Matches in the guard below a row's accepted disparities lie beyond the far limit; in the
     // guard above them, nearer than the near limit.
@@ -307,6 +313,7 @@ void MatchSemiGlobal(const NccOptions& options, const cv::Mat& left, const cv::M
     }
   }
 
+  clock.Lap("filters");  // guard band, median, border rule, speckle
   // Full-size maps: the grid scattered into the reference image's columns.
   NccResult& result = *out;
   result.summary = NccSummary{};
@@ -342,6 +349,8 @@ void MatchSemiGlobal(const NccOptions& options, const cv::Mat& left, const cv::M
   sum.evaluated_pixels = num_rows * num_cols;
   sum.pixels_by_reason[static_cast<int>(Rejection::kNotEvaluated)] = width * height - sum.evaluated_pixels;
   sum.accepted_pixels = sum.pixels_by_reason[static_cast<int>(Rejection::kAccepted)];
+  clock.Lap("scatter");
+  sum.stage_seconds = clock.Take();
   sum.match_seconds = timer.ElapsedSeconds();
 }
 

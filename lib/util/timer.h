@@ -3,6 +3,9 @@
 
 #include <chrono>
 #include <ctime>
+#include <string>
+#include <utility>
+#include <vector>
 
 namespace lunarnav::util {
 
@@ -26,5 +29,21 @@ inline double ThreadCpuSeconds() {
   clock_gettime(CLOCK_THREAD_CPUTIME_ID, &t);
   return static_cast<double>(t.tv_sec) + 1e-9 * static_cast<double>(t.tv_nsec);
 }
+
+/// Named stages' wall times, in the order they ran: Lap(name) ends the stage that began at the
+/// last Lap (or at construction) and names it (docs/performance.md's per-stage profiles).
+using StageTimes = std::vector<std::pair<std::string, double>>;
+class StageClock {
+ public:
+  void Lap(std::string name) {
+    stages_.emplace_back(std::move(name), timer_.ElapsedSeconds());
+    timer_.Restart();
+  }
+  StageTimes Take() { return std::move(stages_); }
+
+ private:
+  Timer timer_;
+  StageTimes stages_;
+};
 
 }  // namespace lunarnav::util

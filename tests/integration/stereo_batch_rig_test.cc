@@ -160,6 +160,25 @@ TEST(StereoBatchRig, XyzAgreesWithTheGroundAndThePredictedErrorScalesIt) {
   EXPECT_LT(Quantile(height_m, 0.5), 0.05);     // the ground is flat at Z = 0
   const nlohmann::json summary = io::ReadJson(out / "summary.json");
   EXPECT_EQ(summary["counts"]["points"], points + summary["pairs"][1]["result"]["points"].get<int>());
+  // Where the time went (docs/performance.md's profile): every stage in the order it ran,
+  // summed over the pairs; the matcher's stages add up to its match time, and every output
+  // written has its stage.
+  std::vector<std::string> stages;
+  double match_stages = 0;
+  for (const nlohmann::json& st : summary["timings_s"]["stages_sum"]) {
+    stages.push_back(st["stage"]);
+    EXPECT_GE(st["seconds"].get<double>(), 0.0) << stages.back();
+    if (stages.back().rfind("match: ", 0) == 0) match_stages += st["seconds"].get<double>();
+  }
+  const std::vector<std::string> expected = {
+      "decode and check",         "match: census",          "match: aggregation",     "match: texture",
+      "match: selection",         "match: left_right",      "match: filters",         "match: scatter",
+      "write disparity (PFM)",    "write confidence (TIFF)", "write rejections (PNG)", "triangulate",
+      "write xyz (EXR)",          "write cloud (PLY)",      "predict xyz_sigma",      "write xyz_sigma (EXR)"};
+  EXPECT_EQ(stages, expected);
+  const double match_sum = summary["timings_s"]["match_sum"].get<double>();
+  EXPECT_LE(match_stages, match_sum);
+  EXPECT_GE(match_stages, 0.9 * match_sum);
 
   // The point cloud holds the same points, in row order, grey from the right image.
   const io::PlyPointCloud cloud = io::ReadPly(out / "cloud" / "a.ply");

@@ -81,6 +81,29 @@ TEST(MergeShardSummaries, ACompleteSetIsTheSingleRunInListingOrder) {
   EXPECT_EQ(s["merge"]["shards"].size(), 3u);
 }
 
+// stereo-batch's per-stage timings (an array of {stage, seconds}) add up stage by stage, in
+// the order the stages first appear; entries of another shape are left out.
+TEST(MergeShardSummaries, SumsThePerStageTimingsStageByStage) {
+  util::ScopedTempDir tmp;
+  for (int k = 0; k < 2; ++k) {
+    json summary = ShardSummary(k, 2);
+    summary["timings_s"]["stages_sum"] = json::array({{{"stage", "decode"}, {"seconds", 1.0 + k}},
+                                                      {{"stage", "match: census"}, {"seconds", 0.5}}});
+    if (k == 1) {
+      summary["timings_s"]["stages_sum"].push_back({{"stage", "write xyz (EXR)"}, {"seconds", 0.25}});
+      summary["timings_s"]["stages_sum"].push_back(7);  // not a stage
+    }
+    Write(tmp.path(), k, 2, summary);
+  }
+  MergeShardSummaries(tmp.path(), NoRelisting());
+  const json s = ReadJson(tmp.path() / "summary.json");
+  const json expected = json::array({{{"stage", "decode"}, {"seconds", 3.0}},
+                                     {{"stage", "match: census"}, {"seconds", 1.0}},
+                                     {{"stage", "write xyz (EXR)"}, {"seconds", 0.25}}});
+  EXPECT_EQ(s["timings_s"]["stages_sum"], expected);
+  EXPECT_DOUBLE_EQ(s["timings_s"]["total"].get<double>(), 3.0);
+}
+
 TEST(MergeShardSummaries, NamesTheItemsOfAMissingShardFromTheInput) {
   util::ScopedTempDir tmp;
   Write(tmp.path(), 0, 2, ShardSummary(0, 2));
