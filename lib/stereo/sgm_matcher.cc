@@ -52,6 +52,35 @@ LN_SGM_CLONES void TargetMinimum(const std::uint16_t* s, int k_lo, int k_hi, std
 
 int CeilToMultiple(int value, int step) { return (value + step - 1) / step * step; }
 
+// The paper's C over the window of half-size (mx, my) between the working reference at (x, y)
+// and the working target at (x + d, y), from integer sums; NaN without variance. Every sum is
+// of integers, which Correlation's doubles hold exactly too, and the final expression is
+// Correlation's own, so C is the same value bit for bit (the working images are the originals
+// mirrored for a left reference: the same pairs of pixels). The window must lie inside both
+// images. Sum is a type that holds (2 mx + 1)(2 my + 1) squared grey levels exactly.
+template <typename Pixel, typename Sum>
+double WindowCorrelation(const cv::Mat& ref, const cv::Mat& tgt, int mx, int my, int x, int y, int d) {
+  Sum s_ref = 0, s_oth = 0, s_rr = 0, s_oo = 0, s_ro = 0;
+  for (int j = -my; j <= my; ++j) {
+    const Pixel* r = ref.ptr<Pixel>(y + j) + x;
+    const Pixel* o = tgt.ptr<Pixel>(y + j) + x + d;
+    for (int i = -mx; i <= mx; ++i) {
+      const Sum a = r[i], b = o[i];
+      s_ref += a;
+      s_oth += b;
+      s_rr += a * a;
+      s_oo += b * b;
+      s_ro += a * b;
+    }
+  }
+  const int n = (2 * mx + 1) * (2 * my + 1);
+  const double mean_r = static_cast<double>(s_ref) / n, mean_o = static_cast<double>(s_oth) / n;
+  const double var_r = static_cast<double>(s_rr) / n - mean_r * mean_r;
+  const double var_o = static_cast<double>(s_oo) / n - mean_o * mean_o;
+  if (!(var_r > 0 && var_o > 0)) return std::numeric_limits<double>::quiet_NaN();
+  return (static_cast<double>(s_ro) / n - mean_r * mean_o) / std::sqrt(var_r * var_o);
+}
+
 
 }  // namespace
 
@@ -168,6 +197,9 @@ void MatchSemiGlobal(const NccOptions& options, const cv::Mat& left, const cv::M
 
   NccOptions confidence_options = options;
   confidence_options.step_x_px = confidence_options.step_y_px = 1;
+  // 8-bit windows whose squared grey levels sum within 32 bits.
+  const bool small_window = (2.0 * options.half_window_x_px + 1) * (2.0 * options.half_window_y_px + 1) * 255 * 255 <
+                            2147483647.0;
   // Winner-take-all, sub-pixel vertex, lobe-aware ambiguity and the correlation filter.
   const float nan = std::numeric_limits<float>::quiet_NaN();
   const float inf = std::numeric_limits<float>::infinity();
@@ -217,7 +249,22 @@ void MatchSemiGlobal(const NccOptions& options, const cv::Mat& left, const cv::M
       // The paper's C at the chosen disparity (in the images' own columns), over the whole
       // window at full resolution whatever the grid's steps (a window of 7 x 7 subsampled by
       // 5 x 4 would be a single pixel).
-      const auto c = static_cast<float>(Correlation(left, right, confidence_options, flip ? width - 1 - x : x, y, d_best));
+      // Inside both images, from integer sums (the same value); at their edges, Correlation
+      // itself (NaN).
+      const int mx = confidence_options.half_window_x_px, my = confidence_options.half_window_y_px;
+      const bool inside = y >= my && y + my < height && x >= mx && x + mx < width && x + d_best >= mx &&
+                          x + d_best + mx < width;
+      double c_value;
+      if (!inside) {
+        c_value = Correlation(left, right, confidence_options, flip ? width - 1 - x : x, y, d_best);
+      } else if (ref.depth() == CV_8U && small_window) {
+        c_value = WindowCorrelation<std::uint8_t, std::int32_t>(ref, tgt, mx, my, x, y, d_best);
+      } else if (ref.depth() == CV_8U) {
+        c_value = WindowCorrelation<std::uint8_t, std::int64_t>(ref, tgt, mx, my, x, y, d_best);
+      } else {
+        c_value = WindowCorrelation<std::uint16_t, std::int64_t>(ref, tgt, mx, my, x, y, d_best);
+      }
+      const auto c = static_cast<float>(c_value);
       corr[i] = c;
       if (!(c >= options.min_correlation)) {
         reason[i] = static_cast<std::uint8_t>(Rejection::kLowCorrelation);

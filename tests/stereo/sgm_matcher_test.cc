@@ -13,6 +13,7 @@
 #include <vector>
 
 #include "sim/layered_scene.h"
+#include "stereo/correlation_curve.h"
 #include "stereo/disparity_filters.h"
 #include "stereo/ncc_matcher.h"
 #include "stereo/semi_global.h"
@@ -391,6 +392,44 @@ TEST(SemiGlobal, TwelveBitDataMatchesLikeItsEightBitScaling) {
   o.bit_depth = 16;
   const NccResult wrong = MatchStereoPair(o, left12, right12);
   EXPECT_LT(wrong.summary.accepted_pixels, r12.summary.accepted_pixels / 2);
+}
+
+// The confidence C the quality preset writes is the paper's correlation (Correlation, the
+// literal reference) at the chosen whole disparity, bit for bit: inside the images it is
+// summed in integers, which hold the same values; at the edges Correlation itself is used.
+// 8- and 16-bit data, either reference.
+TEST(SemiGlobal, TheConfidenceIsThePapersCorrelationAtTheChosenDisparity) {
+  const auto pair = RenderLayeredPair(Scene({Plane(9.0, 0.03, 0.1)}, 160, 120));
+  cv::Mat left12, right12;
+  pair.left.convertTo(left12, CV_16U, 16.0);
+  pair.right.convertTo(right12, CV_16U, 16.0);
+  for (const bool deep : {false, true}) {
+    for (const ReferenceImage reference : {ReferenceImage::kRight, ReferenceImage::kLeft}) {
+      NccOptions o = Quality(31);
+      o.reference = reference;
+      if (deep) o.bit_depth = 12;
+      const cv::Mat& left = deep ? left12 : pair.left;
+      const cv::Mat& right = deep ? right12 : pair.right;
+      const NccResult r = MatchStereoPair(o, left, right);
+      NccOptions window = o;
+      window.step_x_px = window.step_y_px = 1;
+      int checked = 0;
+      for (int y = 0; y < r.disparity_px.rows; ++y) {
+        for (int x = 0; x < r.disparity_px.cols; ++x) {
+          const float d = r.disparity_px.at<float>(y, x);
+          if (!std::isfinite(d)) continue;
+          // The whole disparity C was taken at: the sub-pixel vertex lies within half a pixel.
+          const float c = r.correlation.at<float>(y, x);
+          const float below = static_cast<float>(Correlation(left, right, window, x, y, static_cast<int>(std::floor(d))));
+          const float above = static_cast<float>(Correlation(left, right, window, x, y, static_cast<int>(std::ceil(d))));
+          ASSERT_TRUE(c == below || c == above) << x << "," << y << " d " << d << " C " << c << " vs " << below << ", "
+                                                << above << (deep ? " (12-bit)" : "") << " " << ToString(reference);
+          ++checked;
+        }
+      }
+      EXPECT_GT(checked, 10000);
+    }
+  }
 }
 
 // Ambiguity on a cost curve: a single minimum is kept even when its flanks ripple (the paper's
