@@ -427,10 +427,18 @@ TerrainMapRunSummary RunTerrainMap(const TerrainMapRunOptions& options, const fs
     return xyz.pixels;
   };
 
+  // The inputs read and checked (poses, rig, the pairs listed, a resumed or merged map, the
+  // first pair's points against its XYZ array).
+  summary.stage_seconds.emplace_back("read and check the inputs", total.ElapsedSeconds());
   util::Timer fuse_timer;
   const std::clock_t fuse_cpu_start = std::clock();  // the process's CPU time: the figure on a shared machine
   // The alignment's reading and fitting count in the fusion's time (points per CPU second).
-  if (options.align && !todo.empty()) AlignToGround(options, grid, read_points, &todo, &summary);
+  if (options.align && !todo.empty()) {
+    util::Timer align_timer;
+    AlignToGround(options, grid, read_points, &todo, &summary);
+    summary.stage_seconds.emplace_back("align to the ground", align_timer.ElapsedSeconds());
+  }
+  double bin_cpu_seconds = 0, add_seconds = 0;
   util::ProgressBar progress(todo.size(), "terrain-map frames", options.show_progress);
   const int threads = util::EffectiveThreadCount(options.num_threads);
   const std::size_t block = static_cast<std::size_t>(2 * threads);
@@ -440,7 +448,7 @@ TerrainMapRunSummary RunTerrainMap(const TerrainMapRunOptions& options, const fs
     const std::size_t n = std::min(block, todo.size() - b0);
     std::vector<FrameContribution> parts(n);
     std::vector<cv::Size> sizes(n);
-    std::vector<double> read_cpu(n, 0.0);
+    std::vector<double> read_cpu(n, 0.0), bin_cpu(n, 0.0);
     util::ParallelForEachItem(n, threads, [&](std::size_t k) {
       const FramePose& pose = todo[b0 + k];
       const double read_start = util::ThreadCpuSeconds();
@@ -459,14 +467,18 @@ TerrainMapRunSummary RunTerrainMap(const TerrainMapRunOptions& options, const fs
       sizes[k] = xyz.pixels.size();
       const auto interval = y_interval.find(pose.stem);
       constexpr double kInf = std::numeric_limits<double>::infinity();
+      const double bin_start = util::ThreadCpuSeconds();
       parts[k] = BinFrame(xyz.pixels, sigma, pose.WorldFromVehicle(), pose.t_s, mo, error_model ? &*error_model : nullptr,
                           interval != y_interval.end() ? interval->second.first : -kInf,
                           interval != y_interval.end() ? interval->second.second : kInf);
+      bin_cpu[k] = util::ThreadCpuSeconds() - bin_start;
       progress.Increment();
     });
+    util::Timer add_timer;
     for (std::size_t k = 0; k < n; ++k) {
       const FramePose& pose = todo[b0 + k];
       summary.read_cpu_seconds += read_cpu[k];
+      bin_cpu_seconds += bin_cpu[k];
       if (first_stem.empty()) {
         first_stem = pose.stem;
         first_size = sizes[k];
@@ -491,7 +503,11 @@ TerrainMapRunSummary RunTerrainMap(const TerrainMapRunOptions& options, const fs
       ++summary.frames_fused;
       if (c.points_in == 0 && summary.frames_without_points++ == 0) first_empty = pose.stem;
     }
+    add_seconds += add_timer.ElapsedSeconds();
   }
+  summary.stage_seconds.emplace_back("read the points (CPU)", summary.read_cpu_seconds);
+  summary.stage_seconds.emplace_back("transform, bin and the per-pair rules (CPU)", bin_cpu_seconds);
+  summary.stage_seconds.emplace_back("add to the grid", add_seconds);
   summary.fuse_seconds = fuse_timer.ElapsedSeconds();
   summary.fuse_cpu_seconds = static_cast<double>(std::clock() - fuse_cpu_start) / CLOCKS_PER_SEC;
   std::stable_sort(fused.begin(), fused.end(),
@@ -513,7 +529,9 @@ TerrainMapRunSummary RunTerrainMap(const TerrainMapRunOptions& options, const fs
   util::Timer write_timer;
   io::CreateOutputDirectory(out);
   io::RemoveStaleTempFiles(out);
+  util::StageClock clock;
   const MapLayers layers = ComputeLayers(grid, mo.obstacles, mo.min_frames, mo.carve_tolerance_m, &summary.carved);
+  clock.Lap("layers (carving, obstacles)");
   summary.mapped_cells = static_cast<long>(grid.MappedCells());
   if (!layers.obstacle.empty()) {
     summary.obstacle_cells = cv::countNonZero(layers.obstacle > 0);
@@ -523,18 +541,22 @@ TerrainMapRunSummary RunTerrainMap(const TerrainMapRunOptions& options, const fs
     raster.metadata["lunarnav_tool"] = "terrain-map";
     io::WriteGeoTiffAtomic(out / "elevation.tif", raster);
   }
+  clock.Lap("write elevation.tif");
   // The commit: the sums with the frames they hold and the fusion values, in one file renamed
   // into place; frames.csv, after it, is the same list for people and tools.
   io::GeoRaster state = grid.ToStateRaster();
   state.metadata["lunarnav_frames"] = FramesJson(fused).dump();
   state.metadata["lunarnav_fusion"] = fusion.dump();
   io::WriteGeoTiffAtomic(out / "state.tif", state);
+  clock.Lap("write state.tif");
   io::WriteFileAtomic(out / "frames.csv", FramesCsv(fused));
   if (options.write_preview) {
     std::vector<Eigen::Vector2d> path;
     for (const FusedFrame& f : fused) path.emplace_back(f.pose.x_m, f.pose.y_m);
     io::WriteImageAtomic(out / "preview.png", RenderMapPreview(layers, path));
   }
+  clock.Lap("write frames.csv and preview.png");
+  for (auto& stage : clock.Take()) summary.stage_seconds.push_back(std::move(stage));
   summary.write_seconds = write_timer.ElapsedSeconds();
   summary.seconds = total.ElapsedSeconds();
   summary.peak_memory_mib = util::PeakResidentMemoryMiB();
@@ -606,6 +628,9 @@ TerrainMapRunSummary RunTerrainMap(const TerrainMapRunOptions& options, const fs
                     {"read_and_fuse_cpu", summary.fuse_cpu_seconds},
                     {"read_cpu", summary.read_cpu_seconds},
                     {"write", summary.write_seconds}};
+  json stages = json::array();
+  for (const auto& [stage, seconds] : summary.stage_seconds) stages.push_back({{"stage", stage}, {"seconds", seconds}});
+  j["timings_s"]["stages"] = std::move(stages);
   // Points (valid XYZ) read and fused per second of wall time, and per second of CPU time
   // (with -j 1, one core's rate even when other processes share the machine).
   j["points_per_second"] = summary.fuse_seconds > 0 ? summary.points_in / summary.fuse_seconds : 0.0;

@@ -12,6 +12,7 @@
 #include "calib/triangulation.h"
 #include "mapping/ground_alignment.h"
 #include "mapping/terrain_grid.h"
+#include "util/timer.h"
 
 namespace lunarnav::mapping {
 
@@ -68,6 +69,9 @@ struct TerrainMapRunSummary {
   /// Of fuse_cpu_seconds, the CPU time the threads spent getting the points (the EXR decoding, or the
   /// disparity maps read and triangulated).
   double read_cpu_seconds = 0;
+  /// Every stage in the order it ran (docs/performance.md's profile): the per-pair stages as
+  /// their threads' CPU time summed over the pairs, the others as wall time.
+  util::StageTimes stage_seconds;
   double peak_memory_mib = 0;
   std::string BriefReport() const;  ///< e.g. "40 frames, 9.1 M points fused; 12,345 cells, 17 obstacle cells; 3.2 s".
 };

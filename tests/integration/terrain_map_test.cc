@@ -165,6 +165,24 @@ TEST(TerrainMapTool, AtItsDefaultsWithTheRigABoxSeenWithItsFacesIsTheOnlyObstacl
   EXPECT_NEAR(layers.elevation_m.at<float>(row, col), kGround + 0.3, 0.02);
   const nlohmann::json summary = io::ReadJson(out / "summary.json");
   EXPECT_EQ(summary["counts"]["carving"]["observations_carved"], 0);  // nothing true is carved
+  // Where the time went (docs/performance.md's profile): every stage, in the order it ran.
+  std::vector<std::string> stages;
+  double seconds = 0;
+  for (const nlohmann::json& st : summary["timings_s"]["stages"]) {
+    stages.push_back(st["stage"]);
+    EXPECT_GE(st["seconds"].get<double>(), 0.0) << stages.back();
+    seconds += st["seconds"].get<double>();
+  }
+  const std::vector<std::string> expected = {"read and check the inputs",
+                                             "read the points (CPU)",
+                                             "transform, bin and the per-pair rules (CPU)",
+                                             "add to the grid",
+                                             "layers (carving, obstacles)",
+                                             "write elevation.tif",
+                                             "write state.tif",
+                                             "write frames.csv and preview.png"};
+  EXPECT_EQ(stages, expected);
+  EXPECT_GT(seconds, 0.0);
 }
 
 TEST(TerrainMapTool, WritesAGeoTiffOfThePlaneWithTheBoxAsTheOnlyObstacle) {
