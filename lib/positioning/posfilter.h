@@ -38,8 +38,8 @@ struct PosfilterOptions {
   double cutoff_hz = 0.25;  ///< The paper's compass noise cut-off (the heading's low-pass).
   /// The pitch and roll inclinometers' cut-off. The paper gives its cut-off for the compass
   /// (sec. 4.1); at 0.25 Hz the inclinometers lag the body's pitching over rocks by 0.9 s
-  /// (pitch errors of 0.4-0.7 deg RMS at the frames of bench-field-log's paper drives, against
-  /// 0.16-0.46 at 1.5 Hz: docs/posfilter.md). At most 0.4 of the sample rate (slower logs).
+  /// (pitch errors of 0.39-0.74 deg RMS at the frames of bench-field-log's paper drives, against
+  /// 0.19-0.46 at 1.5 Hz: docs/posfilter.md). At most 0.4 of the sample rate (slower logs).
   double tilt_cutoff_hz = 1.5;
   FilterMode mode = FilterMode::kCausal;
   HeadingMethod heading = HeadingMethod::kKalman;

@@ -62,10 +62,7 @@ double CorrelationOf(const cv::Mat& left, const cv::Mat& right, const NccOptions
       ++n;
     }
   }
-  const double mean_r = s_ref / n, mean_o = s_oth / n;
-  const double var_r = s_rr / n - mean_r * mean_r, var_o = s_oo / n - mean_o * mean_o;
-  if (!(var_r > 0 && var_o > 0)) return NAN;
-  return (s_ro / n - mean_r * mean_o) / std::sqrt(var_r * var_o);
+  return CorrelationFromSums(s_ref, s_oth, s_rr, s_oo, s_ro, n);
 }
 
 }  // namespace

@@ -2,6 +2,8 @@
 // a time): the reference for the fast matcher and the data of the paper's Figure 5.
 #pragma once
 
+#include <cmath>
+#include <limits>
 #include <vector>
 
 #include <opencv2/core.hpp>
@@ -18,6 +20,16 @@ namespace lunarnav::stereo {
 /// @param left, right  rectified grey images of one size and type (8- or 16-bit).
 /// @return C, or NaN when the window leaves an image or has zero variance in either image.
 double Correlation(const cv::Mat& left, const cv::Mat& right, const NccOptions& options, int x, int y, int d);
+
+/// C from a window's sums over its n pixel pairs (reference a, other b: sums of a, b, a^2, b^2,
+/// a b): the one expression Correlation and the quality preset's integer sums share, so that
+/// exact sums give the same C bit for bit. NaN when either window has no variance.
+inline double CorrelationFromSums(double s_ref, double s_oth, double s_rr, double s_oo, double s_ro, int n) {
+  const double mean_r = s_ref / n, mean_o = s_oth / n;
+  const double var_r = s_rr / n - mean_r * mean_r, var_o = s_oo / n - mean_o * mean_o;
+  if (!(var_r > 0 && var_o > 0)) return std::numeric_limits<double>::quiet_NaN();
+  return (s_ro / n - mean_r * mean_o) / std::sqrt(var_r * var_o);
+}
 
 /// One correlation curve and its peak.
 struct CorrelationCurve {

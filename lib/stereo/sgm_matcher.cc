@@ -55,7 +55,7 @@ int CeilToMultiple(int value, int step) { return (value + step - 1) / step * ste
 // The paper's C over the window of half-size (mx, my) between the working reference at (x, y)
 // and the working target at (x + d, y), from integer sums; NaN without variance. Every sum is
 // of integers, which Correlation's doubles hold exactly too, and the final expression is
-// Correlation's own, so C is the same value bit for bit (the working images are the originals
+// Correlation's own (CorrelationFromSums), so C is the same value bit for bit (the working images are the originals
 // mirrored for a left reference: the same pairs of pixels). The window must lie inside both
 // images. Sum is a type that holds (2 mx + 1)(2 my + 1) squared grey levels exactly.
 template <typename Pixel, typename Sum>
@@ -73,12 +73,8 @@ double WindowCorrelation(const cv::Mat& ref, const cv::Mat& tgt, int mx, int my,
       s_ro += a * b;
     }
   }
-  const int n = (2 * mx + 1) * (2 * my + 1);
-  const double mean_r = static_cast<double>(s_ref) / n, mean_o = static_cast<double>(s_oth) / n;
-  const double var_r = static_cast<double>(s_rr) / n - mean_r * mean_r;
-  const double var_o = static_cast<double>(s_oo) / n - mean_o * mean_o;
-  if (!(var_r > 0 && var_o > 0)) return std::numeric_limits<double>::quiet_NaN();
-  return (static_cast<double>(s_ro) / n - mean_r * mean_o) / std::sqrt(var_r * var_o);
+  return CorrelationFromSums(static_cast<double>(s_ref), static_cast<double>(s_oth), static_cast<double>(s_rr),
+                             static_cast<double>(s_oo), static_cast<double>(s_ro), (2 * mx + 1) * (2 * my + 1));
 }
 
 

@@ -48,6 +48,15 @@ const fs::path& ScratchDir() {
   return scratch.dir;
 }
 
+// An empty directory `name` in the scratch directory (what an earlier input left there removed).
+fs::path FreshScratchDir(const std::string& name) {
+  const fs::path dir = ScratchDir() / name;
+  std::error_code ignored;
+  fs::remove_all(dir, ignored);
+  fs::create_directories(dir);
+  return dir;
+}
+
 fs::path WriteScratch(const std::string& name, std::string_view bytes) {
   const fs::path path = ScratchDir() / name;
   std::ofstream out(path, std::ios::binary | std::ios::trunc);
@@ -199,10 +208,7 @@ bool PosesCsv(const std::uint8_t* data, std::size_t size) {
 
 bool ShardSummary(const std::uint8_t* data, std::size_t size) {
   const auto [first, second] = SplitTwo(Bytes(data, size));
-  const fs::path dir = ScratchDir() / "shards";
-  std::error_code ignored;
-  fs::remove_all(dir, ignored);
-  fs::create_directories(dir);
+  const fs::path dir = FreshScratchDir("shards");
   WriteScratch("shards/summary.shard-0-of-2.json", first);
   WriteScratch("shards/summary.shard-1-of-2.json", second);
   io::ShardMergeOptions options;
@@ -260,10 +266,7 @@ bool PointCloud(const std::uint8_t* data, std::size_t size) {
 bool MapRaster(const std::uint8_t* data, std::size_t size) {
   if (size == 0) return false;
   const std::string_view bytes = Bytes(data + 1, size - 1);
-  const fs::path dir = ScratchDir() / "map";
-  std::error_code ignored;
-  fs::remove_all(dir, ignored);
-  fs::create_directories(dir);
+  const fs::path dir = FreshScratchDir("map");
   WriteScratch("map/elevation.tif", bytes);
   WriteScratch("map/state.tif", bytes);
   if (data[0] % 2 == 0) return Refusing([&] { mapping::ReadMapElevation(dir, false); });
@@ -296,9 +299,7 @@ bool TrajectoryFrameTimes(const std::uint8_t* data, std::size_t size) {
 // run's options those the sidecar records; when the pair counts as complete, the batch's
 // summary reads its result.
 bool BatchSidecar(const std::uint8_t* data, std::size_t size) {
-  const fs::path dir = ScratchDir() / "batch";
-  std::error_code ignored;
-  fs::remove_all(dir, ignored);
+  const fs::path dir = FreshScratchDir("batch");
   stereo::BatchOptions batch;
   const stereo::PairOutputPaths paths = stereo::OutputPathsFor(dir, "frame0000");
   for (const fs::path& p : {paths.disparity, paths.confidence, paths.rejections}) {
