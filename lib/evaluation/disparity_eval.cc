@@ -6,7 +6,6 @@
 #include <map>
 #include <sstream>
 
-#include <opencv2/imgcodecs.hpp>
 
 #include "io/atomic_file.h"
 #include "io/image_io.h"
@@ -183,10 +182,7 @@ cv::Mat ReadTruthDisparity(const fs::path& path, double png_scale) {
     LN_CHECK_INPUT(truth.channels() == 1) << path.string() << ": a 1-channel PFM expected";
     return truth;
   }
-  std::error_code ec;
-  LN_CHECK_INPUT(fs::is_regular_file(path, ec)) << path.string() << ": no such file";
-  const cv::Mat raw = cv::imread(path.string(), cv::IMREAD_UNCHANGED);
-  LN_CHECK_INPUT(!raw.empty()) << path.string() << ": unreadable image";
+  const cv::Mat raw = io::ReadImage(path);  // names the file and the reason when it cannot
   LN_CHECK_INPUT(raw.type() == CV_16UC1)
       << path.string() << ": a 16-bit single-channel PNG expected (disparity x " << png_scale << ")";
   cv::Mat truth;

@@ -6,14 +6,17 @@
 #include <atomic>
 #include <bit>
 #include <cctype>
+#include <cstdarg>
 #include <cstdint>
 #include <fstream>
 #include <memory>
+#include <mutex>
+#include <stdexcept>
 #include <vector>
 
 #include <png.h>
 #include <zlib.h>
-#include <opencv2/imgcodecs.hpp>
+#include <tiffio.h>
 #include <opencv2/imgproc.hpp>
 
 #include "io/atomic_file.h"
@@ -62,20 +65,6 @@ std::string PngStructureProblem(const fs::path& path) {
   }
   return "truncated (no IEND chunk)";
 }
-
-namespace {
-// Adds an sBIT chunk (the same depth for every channel; alpha too) after the IHDR chunk of
-// an encoded PNG.
-void InsertPngSignificantBits(std::vector<uchar>* png, int bits, int channels) {
-  constexpr std::size_t kAfterHeader = 8 + 4 + 4 + 13 + 4;  // signature, IHDR chunk
-  if (png->size() < kAfterHeader) return;
-  std::vector<uchar> chunk = {0, 0, 0, static_cast<uchar>(channels), 's', 'B', 'I', 'T'};
-  for (int c = 0; c < channels; ++c) chunk.push_back(static_cast<uchar>(bits));
-  const uLong crc = crc32(crc32(0L, Z_NULL, 0), chunk.data() + 4, static_cast<uInt>(4 + channels));
-  for (int shift = 24; shift >= 0; shift -= 8) chunk.push_back(static_cast<uchar>((crc >> shift) & 0xFF));
-  png->insert(png->begin() + kAfterHeader, chunk.begin(), chunk.end());
-}
-}  // namespace
 
 int PngSignificantBits(const fs::path& path) {
   std::ifstream in(path, std::ios::binary);
@@ -259,20 +248,140 @@ cv::Mat ReadGreyImage(const fs::path& path, SignificantBits* bits) {
   return grey;
 }
 
+namespace {
+
+// The encoders of WriteImageAtomic: libpng and libtiff directly, and PFM by hand, so that a
+// tool that writes images does not load OpenCV's image codecs (with GDAL and some 120 shared
+// libraries behind them: 40 ms at every start of every tool).
+
+// PNG through libpng, zlib level 3; OpenCV's BGR(A) to the file's RGB(A); sBIT when asked.
+std::string EncodePng(const cv::Mat& image, int significant_bits) {
+  LN_CHECK(image.depth() == CV_8U || image.depth() == CV_16U) << "PNG: 8- or 16-bit images only";
+  LN_CHECK(image.channels() >= 1 && image.channels() <= 4) << "PNG: 1 to 4 channels";
+  std::string bytes;
+  PngMessages messages;
+  png_structp png = png_create_write_struct(PNG_LIBPNG_VER_STRING, &messages, &PngError, &PngWarning);
+  png_infop info = png != nullptr ? png_create_info_struct(png) : nullptr;
+  std::vector<png_bytep> rows(image.rows);
+  for (int y = 0; y < image.rows; ++y) rows[y] = const_cast<png_bytep>(image.ptr(y));
+  volatile bool ok = false;  // read after a longjmp from libpng's error handler
+  if (png != nullptr && info != nullptr && setjmp(messages.jump) == 0) {
+    png_set_write_fn(
+        png, &bytes,
+        [](png_structp p, png_bytep data, png_size_t length) {
+          static_cast<std::string*>(png_get_io_ptr(p))->append(reinterpret_cast<const char*>(data), length);
+        },
+        nullptr);
+    static const int kColourTypes[] = {PNG_COLOR_TYPE_GRAY, PNG_COLOR_TYPE_GRAY_ALPHA, PNG_COLOR_TYPE_RGB,
+                                       PNG_COLOR_TYPE_RGB_ALPHA};
+    const int bit_depth = image.depth() == CV_16U ? 16 : 8;
+    png_set_IHDR(png, info, static_cast<png_uint_32>(image.cols), static_cast<png_uint_32>(image.rows), bit_depth,
+                 kColourTypes[image.channels() - 1], PNG_INTERLACE_NONE, PNG_COMPRESSION_TYPE_DEFAULT,
+                 PNG_FILTER_TYPE_DEFAULT);
+    png_set_compression_level(png, 3);
+    if (bit_depth == 16 && significant_bits >= 1 && significant_bits < 16) {
+      png_color_8 sbit{};
+      sbit.red = sbit.green = sbit.blue = sbit.gray = sbit.alpha = static_cast<png_byte>(significant_bits);
+      png_set_sBIT(png, info, &sbit);
+    }
+    png_write_info(png, info);
+    if (image.channels() >= 3) png_set_bgr(png);
+    if (bit_depth == 16 && std::endian::native == std::endian::little) png_set_swap(png);
+    png_write_image(png, rows.data());
+    png_write_end(png, nullptr);
+    ok = true;
+  }
+  png_destroy_write_struct(png != nullptr ? &png : nullptr, info != nullptr ? &info : nullptr);
+  if (!ok) throw std::runtime_error("cannot encode PNG (" + messages.error + ")");
+  return bytes;
+}
+
+// PFM as the Middlebury benchmark writes it: rows bottom to top, little-endian (scale -1),
+// three channels in RGB order.
+std::string EncodePfm(const cv::Mat& image) {
+  LN_CHECK(image.type() == CV_32FC1 || image.type() == CV_32FC3) << "PFM: float32, 1 or 3 channels";
+  static_assert(std::endian::native == std::endian::little, "PFM files are written little-endian");
+  cv::Mat rgb;  // a new array: converting into one that shares the image's pixels would alter them
+  if (image.channels() == 3) {
+    cv::cvtColor(image, rgb, cv::COLOR_BGR2RGB);
+  } else {
+    rgb = image;
+  }
+  std::string bytes = (image.channels() == 3 ? "PF\n" : "Pf\n") + std::to_string(image.cols) + " " +
+                      std::to_string(image.rows) + "\n-1\n";
+  const std::size_t row_bytes = static_cast<std::size_t>(image.cols) * image.elemSize();
+  bytes.reserve(bytes.size() + row_bytes * image.rows);
+  for (int y = image.rows - 1; y >= 0; --y) bytes.append(reinterpret_cast<const char*>(rgb.ptr(y)), row_bytes);
+  return bytes;
+}
+
+// libtiff's messages, kept for the error line instead of printed on stderr.
+thread_local std::string tiff_error;
+void TiffError(const char* module, const char* format, va_list args) {
+  char message[512];
+  std::vsnprintf(message, sizeof message, format, args);
+  tiff_error = (module != nullptr ? std::string(module) + ": " : std::string()) + message;
+}
+void TiffWarning(const char*, const char*, va_list) {}
+
+// TIFF through libtiff, as OpenCV wrote it: float32 uncompressed, 8/16-bit LZW; one or three
+// (RGB) channels.
+void WriteTiffAtomic(const fs::path& path, const cv::Mat& image) {
+  const int depth = image.depth();
+  LN_CHECK(depth == CV_8U || depth == CV_16U || depth == CV_32F) << "TIFF: 8-, 16-bit or float32 images only";
+  LN_CHECK(image.channels() == 1 || image.channels() == 3) << "TIFF: 1 or 3 channels";
+  static std::once_flag handlers;
+  std::call_once(handlers, [] {
+    TIFFSetErrorHandler(&TiffError);
+    TIFFSetWarningHandler(&TiffWarning);
+  });
+  cv::Mat pixels;  // a new array: converting into one that shares the image's pixels would alter them
+  if (image.channels() == 3) {
+    cv::cvtColor(image, pixels, cv::COLOR_BGR2RGB);
+  } else {
+    pixels = image;
+  }
+  if (!path.parent_path().empty()) fs::create_directories(path.parent_path());
+  const fs::path temp = TempPathFor(path);
+  tiff_error.clear();
+  TIFF* tiff = TIFFOpen(temp.c_str(), "w");
+  bool ok = tiff != nullptr;
+  if (ok) {
+    TIFFSetField(tiff, TIFFTAG_IMAGEWIDTH, static_cast<std::uint32_t>(pixels.cols));
+    TIFFSetField(tiff, TIFFTAG_IMAGELENGTH, static_cast<std::uint32_t>(pixels.rows));
+    TIFFSetField(tiff, TIFFTAG_BITSPERSAMPLE, static_cast<std::uint16_t>(8 * pixels.elemSize1()));
+    TIFFSetField(tiff, TIFFTAG_SAMPLESPERPIXEL, static_cast<std::uint16_t>(pixels.channels()));
+    TIFFSetField(tiff, TIFFTAG_SAMPLEFORMAT, depth == CV_32F ? SAMPLEFORMAT_IEEEFP : SAMPLEFORMAT_UINT);
+    TIFFSetField(tiff, TIFFTAG_PHOTOMETRIC, pixels.channels() == 3 ? PHOTOMETRIC_RGB : PHOTOMETRIC_MINISBLACK);
+    TIFFSetField(tiff, TIFFTAG_PLANARCONFIG, PLANARCONFIG_CONTIG);
+    TIFFSetField(tiff, TIFFTAG_COMPRESSION, depth == CV_32F ? COMPRESSION_NONE : COMPRESSION_LZW);
+    TIFFSetField(tiff, TIFFTAG_ROWSPERSTRIP, TIFFDefaultStripSize(tiff, 0));
+    for (int y = 0; ok && y < pixels.rows; ++y) {
+      ok = TIFFWriteScanline(tiff, const_cast<uchar*>(pixels.ptr(y)), static_cast<std::uint32_t>(y), 0) == 1;
+    }
+    TIFFClose(tiff);  // writes the directory
+    ok = ok && tiff_error.empty();
+  }
+  if (!ok) {
+    std::error_code ec;
+    fs::remove(temp, ec);
+    throw std::runtime_error(path.string() + ": cannot write TIFF (" +
+                             (tiff_error.empty() ? std::string("cannot create the file") : tiff_error) + ")");
+  }
+  CommitTempFile(temp, path);
+}
+
+}  // namespace
+
 void WriteImageAtomic(const fs::path& path, const cv::Mat& image, int significant_bits) {
   const std::string ext = LowerExtension(path);
   LN_CHECK(ext == ".png" || ext == ".tif" || ext == ".tiff" || ext == ".pfm")
       << "unsupported output format " << ext;
-  std::vector<uchar> bytes;
-  std::vector<int> params;
-  if (ext == ".png") params = {cv::IMWRITE_PNG_COMPRESSION, 3};
-  if (!cv::imencode(ext, image, bytes, params)) {
-    throw std::runtime_error(path.string() + ": cannot encode image");
+  if (ext == ".tif" || ext == ".tiff") {
+    WriteTiffAtomic(path, image);
+    return;
   }
-  if (ext == ".png" && image.depth() == CV_16U && significant_bits >= 1 && significant_bits < 16) {
-    InsertPngSignificantBits(&bytes, significant_bits, image.channels());
-  }
-  WriteFileAtomic(path, std::string_view(reinterpret_cast<const char*>(bytes.data()), bytes.size()));
+  WriteFileAtomic(path, ext == ".png" ? EncodePng(image, significant_bits) : EncodePfm(image));
 }
 
 cv::Mat ReadPfm(const fs::path& path) {

@@ -3,10 +3,11 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
+#include <fstream>
+#include <iterator>
 #include <limits>
 #include <sstream>
 
-#include <opencv2/imgcodecs.hpp>
 #include <tbb/parallel_for.h>
 #include <tbb/task_arena.h>
 
@@ -72,13 +73,13 @@ cv::Mat ApplyFault(const cv::Mat& image, FrameFault fault) {
 }
 
 void WriteImage(const fs::path& path, const cv::Mat& image, bool truncate) {
-  if (!truncate) {
-    io::WriteImageAtomic(path, image);
-    return;
-  }
-  std::vector<uchar> bytes;
-  LN_CHECK(cv::imencode(path.extension().string(), image, bytes)) << path.string() << ": cannot encode";
-  io::WriteFileAtomic(path, std::string_view(reinterpret_cast<const char*>(bytes.data()), bytes.size() / 2));
+  io::WriteImageAtomic(path, image);
+  if (!truncate) return;
+  // The first half of the encoded file, replacing it.
+  std::ifstream in(path, std::ios::binary);
+  const std::string bytes((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+  LN_CHECK(in.good() || in.eof()) << path.string() << ": cannot read back";
+  io::WriteFileAtomic(path, std::string_view(bytes).substr(0, bytes.size() / 2));
 }
 
 json RigSummary(const calib::StereoRig& rig) {

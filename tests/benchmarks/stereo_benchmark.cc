@@ -1,4 +1,5 @@
-// Speed of the NCC matcher, side by side with OpenCV's StereoBM on the same images, in one run.
+// Speed of the NCC matcher, side by side with OpenCV's StereoBM on the same images, in one run
+// (and of the quality preset beside StereoSGBM: BM_QualityBesideSGBM).
 //
 //   build/bin/stereo_benchmark
 //
@@ -128,6 +129,68 @@ void BM_SideBySide(benchmark::State& state) {
   state.SetLabel(stereo::ActiveKernelName());
 }
 BENCHMARK(BM_SideBySide)->Arg(2)->Arg(1)->UseManualTime()->Iterations(60)
+    ->Unit(benchmark::kMillisecond);
+
+// A pair of KITTI's size (1242 x 375): ground from disparity 5 at the top row to 99 at the
+// bottom, and a box.
+const sim::RenderedPair& KittiSizedScene() {
+  static const sim::RenderedPair pair = [] {
+    sim::LayeredSceneOptions scene;
+    scene.width = 1242;
+    scene.height = 375;
+    sim::PlaneLayer ground;
+    ground.d0_px = 5.0;
+    ground.slope_y = 0.25;
+    sim::PlaneLayer box;
+    box.d0_px = 60.3;
+    box.support_right = cv::Rect2d(500, 120, 200, 120);
+    box.seed = 3;
+    scene.layers = {ground, box};
+    scene.noise_sigma = 1.0;
+    return sim::RenderLayeredPair(scene);
+  }();
+  return pair;
+}
+
+// The quality preset in process (left reference, 128 disparities, the stated threads) beside
+// OpenCV's StereoSGBM (MODE_HH, block 5, the penalties of scripts/bench-stereo-real, one
+// thread) on a pair of KITTI's size, alternating within every iteration; counters are medians
+// of the per-iteration times and of their ratio (issue 44's target is a whole process on real
+// pairs: scripts/bench-stereo-real; this is the matcher alone, for development).
+void BM_QualityBesideSGBM(benchmark::State& state) {
+  const int threads = static_cast<int>(state.range(0));
+  stereo::NccOptions options = stereo::PresetOptions("quality");
+  options.reference = stereo::ReferenceImage::kLeft;
+  options.min_disparity_px = 0;
+  options.max_disparity_px = 127;
+  options.num_threads = threads;
+  stereo::NccResult result;
+  auto sgbm = cv::StereoSGBM::create(0, 128, 5, 8 * 25, 32 * 25, 0, 0, 10, 100, 2, cv::StereoSGBM::MODE_HH);
+  cv::Mat disparity;
+  std::vector<double> quality_ms, sgbm_ms, ratio;
+  using Clock = std::chrono::steady_clock;
+  for (auto _ : state) {
+    const auto t0 = Clock::now();
+    stereo::MatchStereoPair(options, KittiSizedScene().left, KittiSizedScene().right, &result);
+    const auto t1 = Clock::now();
+    cv::setNumThreads(1);
+    sgbm->compute(KittiSizedScene().left, KittiSizedScene().right, disparity);
+    const auto t2 = Clock::now();
+    quality_ms.push_back(std::chrono::duration<double, std::milli>(t1 - t0).count());
+    sgbm_ms.push_back(std::chrono::duration<double, std::milli>(t2 - t1).count());
+    ratio.push_back(quality_ms.back() / sgbm_ms.back());
+    state.SetIterationTime(std::chrono::duration<double>(t2 - t0).count());
+  }
+  auto median = [](std::vector<double> v) {
+    std::nth_element(v.begin(), v.begin() + v.size() / 2, v.end());
+    return v[v.size() / 2];
+  };
+  state.counters["quality_ms"] = median(quality_ms);
+  state.counters["sgbm_ms"] = median(sgbm_ms);
+  state.counters["ratio"] = median(ratio);
+  for (const auto& [stage, seconds] : result.summary.stage_seconds) state.counters[stage] = 1e3 * seconds;
+}
+BENCHMARK(BM_QualityBesideSGBM)->Arg(2)->Arg(1)->UseManualTime()->Iterations(20)
     ->Unit(benchmark::kMillisecond);
 
 }  // namespace

@@ -5,6 +5,9 @@
 #include <cmath>
 #include <fstream>
 #include <limits>
+#include <string>
+#include <utility>
+#include <vector>
 
 #include <opencv2/imgcodecs.hpp>
 
@@ -105,6 +108,60 @@ TEST(WritePfm, RoundTripsWithInfinityAndMiddleburyLayout) {
   const cv::Mat back = ReadPfm(path);
   EXPECT_TRUE(std::isinf(back.at<float>(0, 0)));
   EXPECT_EQ(back.at<float>(1, 2), 2.5f);
+}
+
+// The project's own encoders (libpng, libtiff, PFM by hand) read back bit for bit by OpenCV's
+// decoders, an independent reader: every depth and channel count the writers take, NaN and
+// infinity in float arrays, colour in OpenCV's BGR order.
+TEST(WriteImageAtomic, EveryFormatReadsBackExactlyThroughAnotherDecoder) {
+  util::ScopedTempDir tmp;
+  cv::RNG rng(4);
+  auto random = [&](int type) {
+    cv::Mat m(13, 17, type);
+    if (CV_MAT_DEPTH(type) == CV_32F) {
+      rng.fill(m, cv::RNG::UNIFORM, -1e3, 1e3);
+      m.at<float>(2, 3) = std::numeric_limits<float>::quiet_NaN();
+      m.at<float>(5, 7) = std::numeric_limits<float>::infinity();
+    } else {
+      rng.fill(m, cv::RNG::UNIFORM, 0, CV_MAT_DEPTH(type) == CV_8U ? 256 : 65536);
+    }
+    return m;
+  };
+  auto same = [](const cv::Mat& a, const cv::Mat& b) {  // bit for bit, NaN included
+    return a.type() == b.type() && a.size() == b.size() &&
+           std::equal(a.datastart, a.dataend, b.datastart, b.dataend);
+  };
+  const std::vector<std::pair<std::string, std::vector<int>>> cases = {
+      {".png", {CV_8UC1, CV_16UC1, CV_8UC3, CV_16UC3, CV_8UC4}},
+      {".tif", {CV_8UC1, CV_16UC1, CV_32FC1, CV_8UC3, CV_32FC3}},
+      {".pfm", {CV_32FC1, CV_32FC3}}};
+  for (const auto& [ext, types] : cases) {
+    for (const int type : types) {
+      const cv::Mat m = random(type);
+      const fs::path path = tmp.path() / ("m" + std::to_string(type) + ext);
+      WriteImageAtomic(path, m);
+      const cv::Mat back = cv::imread(path.string(), cv::IMREAD_UNCHANGED);
+      ASSERT_EQ(back.type(), m.type()) << path;
+      if (!same(back, m)) {
+        cv::Mat a, b;
+        back.reshape(1).convertTo(a, CV_64F);
+        m.reshape(1).convertTo(b, CV_64F);
+        int k = 0;
+        while (k < static_cast<int>(a.total()) && (a.at<double>(k) == b.at<double>(k) ||
+                                                   (std::isnan(a.at<double>(k)) && std::isnan(b.at<double>(k))))) {
+          ++k;
+        }
+        ADD_FAILURE() << path << ": value " << k << " of " << a.total() << " reads " << a.at<double>(k)
+                      << ", written " << b.at<double>(k);
+      }
+    }
+  }
+  // A refused write leaves nothing, not even a temporary file.
+  EXPECT_THROW(WriteImageAtomic(tmp.path() / "x.tif", cv::Mat(2, 2, CV_64FC1)), std::exception);
+  EXPECT_FALSE(fs::exists(tmp.path() / "x.tif"));
+  for (const auto& entry : fs::directory_iterator(tmp.path())) {
+    EXPECT_EQ(entry.path().filename().string().find("lunarnav-tmp"), std::string::npos) << entry.path();
+  }
 }
 
 // A 12-bit camera's grey levels in 16-bit words: the depth travels in the PNG's sBIT chunk
