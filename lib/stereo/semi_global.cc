@@ -14,6 +14,7 @@
 #include <tbb/partitioner.h>
 #include <tbb/task_arena.h>
 
+#include "stereo/census_hamming.h"
 #include "util/check.h"
 
 namespace lunarnav::stereo::internal {
@@ -89,23 +90,20 @@ inline __attribute__((always_inline)) std::int16_t Start(const std::uint8_t* cos
   return new_min;
 }
 
-// Costs of the grid pixels [i_begin, i_end) of row j, n per pixel from cost[0].
-inline __attribute__((always_inline)) void FillCosts(const SgmInput& in, int j, int i_begin, int i_end,
-                                                     std::uint8_t* cost) {
+// Costs of the grid pixels [i_begin, i_end) of row j, n per pixel from cost[0]: the census
+// distances by the CPU's kernel, then the gradient term and the edges.
+inline __attribute__((always_inline)) void FillCosts(const SgmInput& in, HammingFn hamming, int j, int i_begin,
+                                                     int i_end, std::uint8_t* cost) {
+  hamming(in, j, i_begin, i_end, cost);
   const int n = in.RowDisp(j), width = in.width;
   const int d_min = in.d_min + in.Shift(j);
   const int y = in.y0 + j * in.step_y;
-  const std::uint64_t* ref = in.ref_census + static_cast<std::size_t>(y) * width;
-  const std::uint64_t* tgt = in.tgt_census + static_cast<std::size_t>(y) * width;
   for (int i = i_begin; i < i_end; ++i) {
     const int x = in.x0 + i * in.step_x;
     std::uint8_t* c = cost + static_cast<std::size_t>(i - i_begin) * n;
     // Target x + d_min + k inside [0, width): k in [k_lo, k_hi).
     const int k_lo = std::clamp(-x - d_min, 0, n);
     const int k_hi = std::clamp(width - x - d_min, k_lo, n);
-    const std::uint64_t r = ref[x];
-    const std::uint64_t* t = tgt + x + d_min;
-    for (int k = k_lo; k < k_hi; ++k) c[k] = static_cast<std::uint8_t>(__builtin_popcountll(r ^ t[k]));
     if (in.ref_gradient != nullptr) {
       // |gradient difference| <= 8160 and the term <= 64 bits: no int16 overflow.
       const std::int16_t gr = in.ref_gradient[static_cast<std::size_t>(y) * width + x];
@@ -151,41 +149,71 @@ inline const std::int16_t* GreyRow(const SgmInput& in, int j) {
   return in.ref_grey + static_cast<std::size_t>(in.y0 + j * in.step_y) * in.width + in.x0;
 }
 
-// Per-thread scratch: one row's costs and the horizontal paths' two pixels.
+// Per-thread scratch: one row's costs and each horizontal path's last two pixels.
 struct RowScratch {
   std::vector<std::uint8_t> cost;
-  std::vector<std::int16_t> line[2];
+  std::vector<std::int16_t> line[4];
   void Init(int cols, int n) {
     if (cost.size() < static_cast<std::size_t>(cols) * n) cost.resize(static_cast<std::size_t>(cols) * n);
     for (auto& l : line) l.assign(n + 2, kSentinel);
   }
 };
 
-// Both horizontal paths of row j: from the left (assigns the sums) and from the right (adds).
-LN_SGM_CLONES void HorizontalRow(const SgmInput& in, const EdgePenalties& edge, int j, RowScratch* scratch,
-                                 std::uint16_t* sum) {
+// One horizontal path along a row: its last two pixels' L (with sentinels) and minimum.
+struct HorizontalChain {
+  std::int16_t* line[2];
+  std::int16_t m = 0;
+};
+
+// The path's t-th pixel, column i (its predecessor in column `from`).
+template <SumMode kMode>
+inline __attribute__((always_inline)) void HorizontalStep(const std::uint8_t* cost, const std::int16_t* grey,
+                                                          const EdgePenalties& edge, int sx, int n, int t, int i,
+                                                          int from, std::int16_t p1, std::int16_t p2,
+                                                          HorizontalChain* chain, std::uint16_t* row_sum) {
+  const std::uint8_t* c = cost + static_cast<std::size_t>(i) * n;
+  std::uint16_t* s = row_sum + static_cast<std::size_t>(i) * n;
+  std::int16_t* out = chain->line[t & 1];
+  if (t == 0) {
+    chain->m = Start<kMode>(c, n, out, s);
+  } else {
+    const std::int16_t p2_here = grey == nullptr ? p2 : edge(grey[i * sx], grey[from * sx]);
+    chain->m = Step<kMode>(c, chain->line[(t & 1) ^ 1], chain->m, p1, p2_here, n, out, s);
+  }
+}
+
+// Both horizontal paths of row j, from the left and from the right, a pixel of each per step:
+// each path's step waits for its predecessor's minimum, so two independent chains keep the
+// processor busy where one left it waiting. A pixel's sums are assigned by the first path to
+// reach it and added to by the second (the same sums as one path after the other).
+LN_SGM_CLONES void HorizontalRow(const SgmInput& in, HammingFn hamming, const EdgePenalties& edge, int j,
+                                 RowScratch* scratch, std::uint16_t* sum) {
   const int n = in.RowDisp(j), cols = in.num_cols;
   const auto p1 = static_cast<std::int16_t>(in.penalty_small);
   const auto p2 = static_cast<std::int16_t>(in.penalty_large);
-  FillCosts(in, j, 0, cols, scratch->cost.data());
+  const std::uint8_t* cost = scratch->cost.data();
+  FillCosts(in, hamming, j, 0, cols, scratch->cost.data());
   const std::int16_t* grey = GreyRow(in, j);
   const int sx = in.step_x;
   std::uint16_t* row_sum = sum;  // row j's sums (the caller's offset)
-  std::int16_t* l[2] = {scratch->line[0].data() + 1, scratch->line[1].data() + 1};
-  std::int16_t m = 0;
-  for (int i = 0; i < cols; ++i) {
-    const std::uint8_t* c = scratch->cost.data() + static_cast<std::size_t>(i) * n;
-    std::uint16_t* s = row_sum + static_cast<std::size_t>(i) * n;
-    const std::int16_t p2_here = i == 0 || grey == nullptr ? p2 : edge(grey[i * sx], grey[(i - 1) * sx]);
-    m = i == 0 ? Start<SumMode::kAssign>(c, n, l[i & 1], s)
-               : Step<SumMode::kAssign>(c, l[(i & 1) ^ 1], m, p1, p2_here, n, l[i & 1], s);
+  HorizontalChain left{{scratch->line[0].data() + 1, scratch->line[1].data() + 1}};
+  HorizontalChain right{{scratch->line[2].data() + 1, scratch->line[3].data() + 1}};
+  // Steps t < half: both paths on pixels the other has not reached; with an odd width they
+  // meet on the middle pixel at t = half; after it both add.
+  const int half = cols / 2;
+  int t = 0;
+  for (; t < half; ++t) {
+    HorizontalStep<SumMode::kAssign>(cost, grey, edge, sx, n, t, t, t - 1, p1, p2, &left, row_sum);
+    HorizontalStep<SumMode::kAssign>(cost, grey, edge, sx, n, t, cols - 1 - t, cols - t, p1, p2, &right, row_sum);
   }
-  for (int i = cols - 1; i >= 0; --i) {
-    const std::uint8_t* c = scratch->cost.data() + static_cast<std::size_t>(i) * n;
-    std::uint16_t* s = row_sum + static_cast<std::size_t>(i) * n;
-    const std::int16_t p2_here = i == cols - 1 || grey == nullptr ? p2 : edge(grey[i * sx], grey[(i + 1) * sx]);
-    m = i == cols - 1 ? Start<SumMode::kAdd>(c, n, l[i & 1], s)
-                      : Step<SumMode::kAdd>(c, l[(i & 1) ^ 1], m, p1, p2_here, n, l[i & 1], s);
+  if (cols % 2 == 1) {
+    HorizontalStep<SumMode::kAssign>(cost, grey, edge, sx, n, t, t, t - 1, p1, p2, &left, row_sum);
+    HorizontalStep<SumMode::kAdd>(cost, grey, edge, sx, n, t, cols - 1 - t, cols - t, p1, p2, &right, row_sum);
+    ++t;
+  }
+  for (; t < cols; ++t) {
+    HorizontalStep<SumMode::kAdd>(cost, grey, edge, sx, n, t, t, t - 1, p1, p2, &left, row_sum);
+    HorizontalStep<SumMode::kAdd>(cost, grey, edge, sx, n, t, cols - 1 - t, cols - t, p1, p2, &right, row_sum);
   }
 }
 
@@ -218,7 +246,8 @@ struct VerticalRows {
 // The vertical path (and with 8 paths the two diagonals) of the grid pixels [i_begin, i_end)
 // of row j, from the previous row of the direction of travel (none when first); adds to the
 // sums. Columns are independent given the previous row, so chunks of a row run in parallel.
-LN_SGM_CLONES void VerticalChunk(const SgmInput& in, const EdgePenalties& edge, int j, bool down, bool first, int cur,
+LN_SGM_CLONES void VerticalChunk(const SgmInput& in, HammingFn hamming, const EdgePenalties& edge, int j, bool down,
+                                 bool first, int cur,
                                  int i_begin, int i_end,
                                  std::uint8_t* cost, VerticalRows* b, std::uint16_t* sum) {
   const int n = in.RowDisp(j), cols = in.num_cols;
@@ -228,7 +257,7 @@ LN_SGM_CLONES void VerticalChunk(const SgmInput& in, const EdgePenalties& edge, 
   // Index k of this row is index k + shift of the previous row of the direction of travel.
   const int shift = first ? 0 : in.Shift(j) - in.Shift(down ? j - 1 : j + 1);
   const bool banded = in.row_num_disp != nullptr;
-  FillCosts(in, j, i_begin, i_end, cost);
+  FillCosts(in, hamming, j, i_begin, i_end, cost);
   const auto p2 = static_cast<std::int16_t>(in.penalty_large);
   const std::int16_t* grey = GreyRow(in, j);
   const std::int16_t* grey_from = first ? nullptr : GreyRow(in, down ? j - 1 : j + 1);
@@ -360,12 +389,13 @@ void SemiGlobalAggregate(const SgmInput& in, AggregatedCost* out) {
   std::uint16_t* sum = out->sum_.data();
   auto row_sum = [&](int j) { return sum + out->Index(0, j); };
   const EdgePenalties edge(in);
+  static const HammingFn hamming = SelectHammingKernel();
   // The horizontal paths: rows are independent.
   tbb::enumerable_thread_specific<RowScratch> scratch;
   tbb::parallel_for(0, in.num_rows, [&](int j) {
     RowScratch& s = scratch.local();
     s.Init(in.num_cols, in.num_disp);
-    HorizontalRow(in, edge, j, &s, row_sum(j));
+    HorizontalRow(in, hamming, edge, j, &s, row_sum(j));
   });
   // The vertical and diagonal paths, down then up: row after row, each row's columns in as
   // many chunks as the arena has threads.
@@ -381,7 +411,7 @@ void SemiGlobalAggregate(const SgmInput& in, AggregatedCost* out) {
         const int end = static_cast<int>(static_cast<long>(in.num_cols) * (chunk + 1) / chunks);
         RowScratch& s = scratch.local();
         s.Init(in.num_cols, in.num_disp);
-        VerticalChunk(in, edge, j, down, jj == 0, cur, begin, end, s.cost.data(), &rows, row_sum(j));
+        VerticalChunk(in, hamming, edge, j, down, jj == 0, cur, begin, end, s.cost.data(), &rows, row_sum(j));
       };
       if (chunks == 1) {
         run(0);

@@ -52,31 +52,20 @@ LN_SGM_CLONES void TargetMinimum(const std::uint16_t* s, int k_lo, int k_hi, std
 
 int CeilToMultiple(int value, int step) { return (value + step - 1) / step * step; }
 
-// The paper's C over the window of half-size (mx, my) between the working reference at (x, y)
-// and the working target at (x + d, y), from integer sums; NaN without variance. Every sum is
-// of integers, which Correlation's doubles hold exactly too, and the final expression is
-// Correlation's own (CorrelationFromSums), so C is the same value bit for bit (the working images are the originals
-// mirrored for a left reference: the same pairs of pixels). The window must lie inside both
-// images. Sum is a type that holds (2 mx + 1)(2 my + 1) squared grey levels exactly.
+// The cross term of the paper's C over the window of half-size (mx, my) between the working
+// reference at (x, y) and the working target at (x + d, y): the sum of the products of grey
+// levels, in integers. The window must lie inside both images. Sum is a type that holds
+// (2 mx + 1)(2 my + 1) products of grey levels exactly.
 template <typename Pixel, typename Sum>
-double WindowCorrelation(const cv::Mat& ref, const cv::Mat& tgt, int mx, int my, int x, int y, int d) {
-  Sum s_ref = 0, s_oth = 0, s_rr = 0, s_oo = 0, s_ro = 0;
+Sum WindowCrossSum(const cv::Mat& ref, const cv::Mat& tgt, int mx, int my, int x, int y, int d) {
+  Sum s_ro = 0;
   for (int j = -my; j <= my; ++j) {
     const Pixel* r = ref.ptr<Pixel>(y + j) + x;
     const Pixel* o = tgt.ptr<Pixel>(y + j) + x + d;
-    for (int i = -mx; i <= mx; ++i) {
-      const Sum a = r[i], b = o[i];
-      s_ref += a;
-      s_oth += b;
-      s_rr += a * a;
-      s_oo += b * b;
-      s_ro += a * b;
-    }
+    for (int i = -mx; i <= mx; ++i) s_ro += static_cast<Sum>(r[i]) * static_cast<Sum>(o[i]);
   }
-  return CorrelationFromSums(static_cast<double>(s_ref), static_cast<double>(s_oth), static_cast<double>(s_rr),
-                             static_cast<double>(s_oo), static_cast<double>(s_ro), (2 * mx + 1) * (2 * my + 1));
+  return s_ro;
 }
-
 
 // The matcher's sample grid (partial subsampling: grid pixel (i, j) is working-image pixel
 // (x0 + i dx, grid_lo + j dy)) and its search: per grid row, the first disparity and how many
@@ -225,15 +214,7 @@ struct GridMaps {
 class RowSelector {
  public:
   RowSelector(const NccOptions& options, const SearchGrid& grid, const Texture& texture, const cv::Mat& left,
-              const cv::Mat& right, const cv::Mat& ref, const cv::Mat& tgt, GridMaps* maps)
-      : options_(options), grid_(grid), texture_(texture), left_(left), right_(right), ref_(ref), tgt_(tgt),
-        maps_(*maps) {
-    confidence_options_ = options;
-    confidence_options_.step_x_px = confidence_options_.step_y_px = 1;
-    // 8-bit windows whose squared grey levels sum within 32 bits.
-    small_window_ =
-        (2.0 * options.half_window_x_px + 1) * (2.0 * options.half_window_y_px + 1) * 255 * 255 < 2147483647.0;
-  }
+              const cv::Mat& right, const cv::Mat& ref, const cv::Mat& tgt, GridMaps* maps);
   bool LeftRightCheck() const { return options_.semi_global.left_right_max_diff_px >= 0 && grid_.dx == 1; }
   void operator()(int j, const std::uint16_t* sums) const;
 
@@ -246,23 +227,58 @@ class RowSelector {
   const Texture& texture_;
   const cv::Mat &left_, &right_, &ref_, &tgt_;
   GridMaps& maps_;
+  // The sums of C that do not depend on the disparity: each working image's grey levels and
+  // their squares over the window around every pixel of rows [sums_row0_, ...), from box
+  // filters in double (sums of integers below 2^53: exact, whatever their order).
+  int sums_row0_ = 0;
+  cv::Mat ref_sum_, ref_sq_sum_, tgt_sum_, tgt_sq_sum_;
 };
+
+RowSelector::RowSelector(const NccOptions& options, const SearchGrid& grid, const Texture& texture,
+                         const cv::Mat& left, const cv::Mat& right, const cv::Mat& ref, const cv::Mat& tgt,
+                         GridMaps* maps)
+    : options_(options), grid_(grid), texture_(texture), left_(left), right_(right), ref_(ref), tgt_(tgt),
+      maps_(*maps) {
+  confidence_options_ = options;
+  confidence_options_.step_x_px = confidence_options_.step_y_px = 1;
+  const int mx = options.half_window_x_px, my = options.half_window_y_px;
+  // 8-bit windows whose products of grey levels sum within 32 bits.
+  small_window_ = (2.0 * mx + 1) * (2.0 * my + 1) * 255 * 255 < 2147483647.0;
+  if (grid.num_rows == 0) return;
+  // The grid's rows and their windows' rows.
+  sums_row0_ = std::max(0, grid.grid_lo - my);
+  const cv::Range rows(sums_row0_, std::min(grid.height, grid.grid_hi + my + 1));
+  const cv::Size window(2 * mx + 1, 2 * my + 1);
+  cv::boxFilter(ref.rowRange(rows), ref_sum_, CV_64F, window, {-1, -1}, false, cv::BORDER_REPLICATE);
+  cv::sqrBoxFilter(ref.rowRange(rows), ref_sq_sum_, CV_64F, window, {-1, -1}, false, cv::BORDER_REPLICATE);
+  cv::boxFilter(tgt.rowRange(rows), tgt_sum_, CV_64F, window, {-1, -1}, false, cv::BORDER_REPLICATE);
+  cv::sqrBoxFilter(tgt.rowRange(rows), tgt_sq_sum_, CV_64F, window, {-1, -1}, false, cv::BORDER_REPLICATE);
+}
 
 // The paper's C at working-image pixel (x, y) and disparity d_best (in the images' own
 // columns), over the whole window at full resolution whatever the grid's steps (a window of
-// 7 x 7 subsampled by 5 x 4 would be a single pixel). Inside both images, from integer sums
-// (the same value); at their edges, Correlation itself (NaN).
+// 7 x 7 subsampled by 5 x 4 would be a single pixel). Inside both images, from the window
+// sums: every one a sum of integers, which Correlation's doubles hold exactly too, put through
+// Correlation's own final expression (CorrelationFromSums), so C is the same value bit for
+// bit (the working images are the originals mirrored for a left reference: the same pairs of
+// pixels). At the images' edges, Correlation itself (NaN).
 double RowSelector::Confidence(int x, int y, int d_best) const {
   const int width = grid_.width;
   const int mx = confidence_options_.half_window_x_px, my = confidence_options_.half_window_y_px;
   const bool inside = y >= my && y + my < grid_.height && x >= mx && x + mx < width && x + d_best >= mx &&
                       x + d_best + mx < width;
   if (!inside) return Correlation(left_, right_, confidence_options_, grid_.flip ? width - 1 - x : x, y, d_best);
+  double s_ro;
   if (ref_.depth() == CV_8U && small_window_) {
-    return WindowCorrelation<std::uint8_t, std::int32_t>(ref_, tgt_, mx, my, x, y, d_best);
+    s_ro = WindowCrossSum<std::uint8_t, std::int32_t>(ref_, tgt_, mx, my, x, y, d_best);
+  } else if (ref_.depth() == CV_8U) {
+    s_ro = static_cast<double>(WindowCrossSum<std::uint8_t, std::int64_t>(ref_, tgt_, mx, my, x, y, d_best));
+  } else {
+    s_ro = static_cast<double>(WindowCrossSum<std::uint16_t, std::int64_t>(ref_, tgt_, mx, my, x, y, d_best));
   }
-  if (ref_.depth() == CV_8U) return WindowCorrelation<std::uint8_t, std::int64_t>(ref_, tgt_, mx, my, x, y, d_best);
-  return WindowCorrelation<std::uint16_t, std::int64_t>(ref_, tgt_, mx, my, x, y, d_best);
+  const int r = y - sums_row0_, xt = x + d_best;
+  return CorrelationFromSums(ref_sum_.at<double>(r, x), tgt_sum_.at<double>(r, xt), ref_sq_sum_.at<double>(r, x),
+                             tgt_sq_sum_.at<double>(r, xt), s_ro, (2 * mx + 1) * (2 * my + 1));
 }
 
 void RowSelector::operator()(int j, const std::uint16_t* sums) const {

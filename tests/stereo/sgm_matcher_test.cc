@@ -10,12 +10,14 @@
 #include <functional>
 #include <limits>
 #include <string>
+#include <random>
 #include <vector>
 
 #include "sim/layered_scene.h"
 #include "stereo/correlation_curve.h"
 #include "stereo/disparity_filters.h"
 #include "stereo/ncc_matcher.h"
+#include "stereo/census_hamming.h"
 #include "stereo/semi_global.h"
 
 namespace lunarnav::stereo {
@@ -503,6 +505,52 @@ TEST(CensusTransform, MatchesTheDefinitionWithReplicatedBorders) {
         }
       }
       EXPECT_EQ(codes[y * 11 + x], expected) << x << "," << y;
+    }
+  }
+}
+
+// Every census Hamming kernel the CPU runs (baseline, AVX2, AVX-512) against popcount itself,
+// on rows whose targets leave the image on either side (spans of every length, shorter than
+// a vector too), with a subsampled grid and per-row bands; entries outside the image untouched.
+TEST(CensusHamming, EveryKernelCountsTheBitsOfEveryInsideTarget) {
+  const int w = 61, h = 3;
+  std::vector<std::uint64_t> ref(static_cast<std::size_t>(w) * h), tgt(ref.size());
+  std::mt19937_64 rng(7);
+  for (auto& v : ref) v = rng();
+  for (auto& v : tgt) v = rng() & rng();  // fewer bits set: distances of every size
+  const std::vector<int> shift = {0, 9, 3}, width = {37, 20, 33};
+  for (const auto& [name, kernel] : internal::RunnableHammingKernels()) {
+    for (const bool banded : {false, true}) {
+      for (const int step : {1, 2}) {
+        SCOPED_TRACE(std::string(name) + (banded ? " banded" : "") + " step " + std::to_string(step));
+        internal::SgmInput in;
+        in.ref_census = ref.data();
+        in.tgt_census = tgt.data();
+        in.width = w;
+        in.x0 = step - 1;
+        in.step_x = step;
+        in.num_cols = (w - in.x0 + step - 1) / step;
+        in.num_rows = h;
+        in.d_min = -17;
+        in.num_disp = 41;
+        if (banded) {
+          in.row_shift = shift.data();
+          in.row_num_disp = width.data();
+        }
+        for (int j = 0; j < h; ++j) {
+          const int n = in.RowDisp(j), d0 = in.d_min + in.Shift(j);
+          std::vector<std::uint8_t> cost(static_cast<std::size_t>(in.num_cols) * n, 0xEE);
+          kernel(in, j, 0, in.num_cols, cost.data());
+          for (int i = 0; i < in.num_cols; ++i) {
+            const int x = in.x0 + i * step;
+            for (int k = 0; k < n; ++k) {
+              const int xt = x + d0 + k;
+              const int expected = xt >= 0 && xt < w ? __builtin_popcountll(ref[j * w + x] ^ tgt[j * w + xt]) : 0xEE;
+              ASSERT_EQ(cost[static_cast<std::size_t>(i) * n + k], expected) << "row " << j << " x " << x << " k " << k;
+            }
+          }
+        }
+      }
     }
   }
 }
