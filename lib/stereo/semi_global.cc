@@ -5,6 +5,7 @@
 #include <cstring>
 #include <limits>
 #include <new>
+#include <type_traits>
 
 #include <sys/mman.h>
 
@@ -20,22 +21,45 @@
 namespace lunarnav::stereo::internal {
 namespace {
 
+// Row y's codes: one pass over the row per neighbour of the window (the codes stay in L1).
+template <typename T>
+inline __attribute__((always_inline)) void CensusRow(const cv::Mat& padded, int half_x, int half_y, int width,
+                                                     int py, std::uint64_t* out) {
+  std::fill(out, out + width, std::uint64_t{0});
+  for (int wy = -half_y; wy <= half_y; ++wy) {
+    const T* centre = padded.ptr<T>(py) + half_x;
+    const T* row = padded.ptr<T>(py + wy) + half_x;
+    for (int wx = -half_x; wx <= half_x; ++wx) {
+      if (wx == 0 && wy == 0) continue;
+      for (int x = 0; x < width; ++x) {
+        out[x] = (out[x] << 1) | static_cast<std::uint64_t>(row[x + wx] < centre[x]);
+      }
+    }
+  }
+}
+LN_SGM_CLONES void CensusRow8(const cv::Mat& padded, int half_x, int half_y, int width, int py, std::uint64_t* out) {
+  CensusRow<std::uint8_t>(padded, half_x, half_y, width, py, out);
+}
+LN_SGM_CLONES void CensusRow16(const cv::Mat& padded, int half_x, int half_y, int width, int py, std::uint64_t* out) {
+  CensusRow<std::uint16_t>(padded, half_x, half_y, width, py, out);
+}
+LN_SGM_CLONES void CensusRow16s(const cv::Mat& padded, int half_x, int half_y, int width, int py,
+                                std::uint64_t* out) {
+  CensusRow<std::int16_t>(padded, half_x, half_y, width, py, out);
+}
+
 template <typename T>
 void CensusRows(const cv::Mat& padded, int half_x, int half_y, int width, const cv::Range& rows,
                 int pad_row0, std::uint64_t* codes) {
   tbb::parallel_for(rows.start, rows.end, [&](int y) {
     const int py = y - pad_row0 + half_y;  // row of the centre in `padded`
     std::uint64_t* out = codes + static_cast<std::size_t>(y) * width;
-    std::fill(out, out + width, std::uint64_t{0});
-    for (int wy = -half_y; wy <= half_y; ++wy) {
-      const T* centre = padded.ptr<T>(py) + half_x;
-      const T* row = padded.ptr<T>(py + wy) + half_x;
-      for (int wx = -half_x; wx <= half_x; ++wx) {
-        if (wx == 0 && wy == 0) continue;
-        for (int x = 0; x < width; ++x) {
-          out[x] = (out[x] << 1) | static_cast<std::uint64_t>(row[x + wx] < centre[x]);
-        }
-      }
+    if constexpr (std::is_same_v<T, std::uint8_t>) {
+      CensusRow8(padded, half_x, half_y, width, py, out);
+    } else if constexpr (std::is_same_v<T, std::uint16_t>) {
+      CensusRow16(padded, half_x, half_y, width, py, out);
+    } else {
+      CensusRow16s(padded, half_x, half_y, width, py, out);
     }
   });
 }

@@ -9,6 +9,7 @@
 #include <opencv2/calib3d.hpp>
 #include <opencv2/imgproc.hpp>
 #include <tbb/parallel_for.h>
+#include <tbb/parallel_invoke.h>
 
 #include "stereo/correlation_curve.h"
 #include "stereo/disparity_filters.h"
@@ -249,10 +250,11 @@ RowSelector::RowSelector(const NccOptions& options, const SearchGrid& grid, cons
   sums_row0_ = std::max(0, grid.grid_lo - my);
   const cv::Range rows(sums_row0_, std::min(grid.height, grid.grid_hi + my + 1));
   const cv::Size window(2 * mx + 1, 2 * my + 1);
-  cv::boxFilter(ref.rowRange(rows), ref_sum_, CV_64F, window, {-1, -1}, false, cv::BORDER_REPLICATE);
-  cv::sqrBoxFilter(ref.rowRange(rows), ref_sq_sum_, CV_64F, window, {-1, -1}, false, cv::BORDER_REPLICATE);
-  cv::boxFilter(tgt.rowRange(rows), tgt_sum_, CV_64F, window, {-1, -1}, false, cv::BORDER_REPLICATE);
-  cv::sqrBoxFilter(tgt.rowRange(rows), tgt_sq_sum_, CV_64F, window, {-1, -1}, false, cv::BORDER_REPLICATE);
+  tbb::parallel_invoke(
+      [&] { cv::boxFilter(ref.rowRange(rows), ref_sum_, CV_64F, window, {-1, -1}, false, cv::BORDER_REPLICATE); },
+      [&] { cv::sqrBoxFilter(ref.rowRange(rows), ref_sq_sum_, CV_64F, window, {-1, -1}, false, cv::BORDER_REPLICATE); },
+      [&] { cv::boxFilter(tgt.rowRange(rows), tgt_sum_, CV_64F, window, {-1, -1}, false, cv::BORDER_REPLICATE); },
+      [&] { cv::sqrBoxFilter(tgt.rowRange(rows), tgt_sq_sum_, CV_64F, window, {-1, -1}, false, cv::BORDER_REPLICATE); });
 }
 
 // The paper's C at working-image pixel (x, y) and disparity d_best (in the images' own
@@ -386,18 +388,18 @@ void RejectSpeckles(const SemiGlobalOptions& g, const SearchGrid& grid, GridMaps
   const float nan = std::numeric_limits<float>::quiet_NaN();
   constexpr int kInvalid = std::numeric_limits<std::int16_t>::min();
   cv::Mat fixed(grid.num_rows, grid.num_cols, CV_16SC1);
-  for (int j = 0; j < grid.num_rows; ++j) {
+  tbb::parallel_for(0, grid.num_rows, [&](int j) {
     const float* d = maps->disp.ptr<float>(j);
     auto* f = fixed.ptr<std::int16_t>(j);
     for (int i = 0; i < grid.num_cols; ++i) {
       f[i] = std::isfinite(d[i]) ? cv::saturate_cast<std::int16_t>(std::lround(16.0 * (d[i] - grid.d_min)))
                                  : static_cast<std::int16_t>(kInvalid);
     }
-  }
+  });
   // The size is given in pixels of the image; on the subsampling grid a cell stands for dx dy.
   const int max_cells = std::max(1, g.speckle_max_size_px / (grid.dx * grid.dy));
   cv::filterSpeckles(fixed, kInvalid, max_cells, 16.0 * g.speckle_range_px);
-  for (int j = 0; j < grid.num_rows; ++j) {
+  tbb::parallel_for(0, grid.num_rows, [&](int j) {
     const auto* f = fixed.ptr<std::int16_t>(j);
     auto* d = maps->disp.ptr<float>(j);
     auto* reason = maps->reason.ptr<std::uint8_t>(j);
@@ -407,7 +409,7 @@ void RejectSpeckles(const SemiGlobalOptions& g, const SearchGrid& grid, GridMaps
         reason[i] = static_cast<std::uint8_t>(Rejection::kSpeckle);
       }
     }
-  }
+  });
 }
 
 // The filters after selection, in order: guard band, median, border rule, speckle.
