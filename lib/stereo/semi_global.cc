@@ -183,6 +183,11 @@ struct RowScratch {
   }
 };
 
+// How far ahead (in pixels) the path loops ask for the sums they will read or write: the
+// paths' steps take long enough for them to arrive, where the processor's own prefetching left
+// the sums' loop waiting on memory.
+constexpr int kSumsAhead = 3;
+
 // One horizontal path along a row: its last two pixels' L (with sentinels) and minimum.
 struct HorizontalChain {
   std::int16_t* line[2];
@@ -227,6 +232,15 @@ LN_SGM_CLONES void HorizontalRow(const SgmInput& in, HammingFn hamming, const Ed
   const int half = cols / 2;
   int t = 0;
   for (; t < half; ++t) {
+    if (t + kSumsAhead < half) {  // the sums about to be assigned, asked for ahead (as in VerticalChunk)
+      const char* ahead_left = reinterpret_cast<const char*>(row_sum + static_cast<std::size_t>(t + kSumsAhead) * n);
+      const char* ahead_right =
+          reinterpret_cast<const char*>(row_sum + static_cast<std::size_t>(cols - 1 - t - kSumsAhead) * n);
+      for (int line = 0; line < n * 2; line += 64) {
+        __builtin_prefetch(ahead_left + line, 1);
+        __builtin_prefetch(ahead_right + line, 1);
+      }
+    }
     HorizontalStep<SumMode::kAssign>(cost, grey, edge, sx, n, t, t, t - 1, p1, p2, &left, row_sum);
     HorizontalStep<SumMode::kAssign>(cost, grey, edge, sx, n, t, cols - 1 - t, cols - t, p1, p2, &right, row_sum);
   }
@@ -289,6 +303,11 @@ LN_SGM_CLONES void VerticalChunk(const SgmInput& in, HammingFn hamming, const Ed
   for (int i = i_begin; i < i_end; ++i) {
     const std::uint8_t* c = cost + static_cast<std::size_t>(i - i_begin) * n;
     std::uint16_t* s = sum + static_cast<std::size_t>(i) * n;  // row j's sums (the caller's offset)
+    // The sums of a pixel a few ahead asked for now (kSumsAhead).
+    if (i + kSumsAhead < i_end) {
+      const char* ahead = reinterpret_cast<const char*>(s + static_cast<std::size_t>(kSumsAhead) * n);
+      for (int line = 0; line < n * 2; line += 64) __builtin_prefetch(ahead + line, 1);
+    }
     for (int dir = diagonals ? 0 : 1; dir < (diagonals ? 3 : 2); ++dir) {
       const int from = i + dir - 1;  // column of the predecessor in the previous row
       std::int16_t* out = b->Row(dir, cur, i);

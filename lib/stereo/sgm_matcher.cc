@@ -9,7 +9,6 @@
 #include <opencv2/calib3d.hpp>
 #include <opencv2/imgproc.hpp>
 #include <tbb/parallel_for.h>
-#include <tbb/parallel_invoke.h>
 
 #include "stereo/correlation_curve.h"
 #include "stereo/disparity_filters.h"
@@ -212,6 +211,12 @@ struct GridMaps {
 // the winner, the target image's minima for the left-right check, then the filters in order
 // (texture, range edge, lobe-aware ambiguity, the paper's C at the chosen disparity), and the
 // sub-pixel vertex. Rows are independent.
+// One row's window sums of one image (RowWindowSums) and their scratch.
+struct WindowSumsRow {
+  std::vector<std::int64_t> column, column_sq;
+  std::vector<double> sum, sq;
+};
+
 class RowSelector {
  public:
   RowSelector(const NccOptions& options, const SearchGrid& grid, const Texture& texture, const cv::Mat& left,
@@ -220,7 +225,7 @@ class RowSelector {
   void operator()(int j, const std::uint16_t* sums) const;
 
  private:
-  double Confidence(int x, int y, int d_best) const;
+  double Confidence(int x, int y, int d_best, const WindowSumsRow& ref_sums, const WindowSumsRow& tgt_sums) const;
   const NccOptions& options_;
   NccOptions confidence_options_;
   bool small_window_ = false;
@@ -228,11 +233,6 @@ class RowSelector {
   const Texture& texture_;
   const cv::Mat &left_, &right_, &ref_, &tgt_;
   GridMaps& maps_;
-  // The sums of C that do not depend on the disparity: each working image's grey levels and
-  // their squares over the window around every pixel of rows [sums_row0_, ...), from box
-  // filters in double (sums of integers below 2^53: exact, whatever their order).
-  int sums_row0_ = 0;
-  cv::Mat ref_sum_, ref_sq_sum_, tgt_sum_, tgt_sq_sum_;
 };
 
 RowSelector::RowSelector(const NccOptions& options, const SearchGrid& grid, const Texture& texture,
@@ -245,16 +245,42 @@ RowSelector::RowSelector(const NccOptions& options, const SearchGrid& grid, cons
   const int mx = options.half_window_x_px, my = options.half_window_y_px;
   // 8-bit windows whose products of grey levels sum within 32 bits.
   small_window_ = (2.0 * mx + 1) * (2.0 * my + 1) * 255 * 255 < 2147483647.0;
-  if (grid.num_rows == 0) return;
-  // The grid's rows and their windows' rows.
-  sums_row0_ = std::max(0, grid.grid_lo - my);
-  const cv::Range rows(sums_row0_, std::min(grid.height, grid.grid_hi + my + 1));
-  const cv::Size window(2 * mx + 1, 2 * my + 1);
-  tbb::parallel_invoke(
-      [&] { cv::boxFilter(ref.rowRange(rows), ref_sum_, CV_64F, window, {-1, -1}, false, cv::BORDER_REPLICATE); },
-      [&] { cv::sqrBoxFilter(ref.rowRange(rows), ref_sq_sum_, CV_64F, window, {-1, -1}, false, cv::BORDER_REPLICATE); },
-      [&] { cv::boxFilter(tgt.rowRange(rows), tgt_sum_, CV_64F, window, {-1, -1}, false, cv::BORDER_REPLICATE); },
-      [&] { cv::sqrBoxFilter(tgt.rowRange(rows), tgt_sq_sum_, CV_64F, window, {-1, -1}, false, cv::BORDER_REPLICATE); });
+}
+
+// The sums of C over the window that do not depend on the disparity, along row y of a
+// working image: for every column x whose window lies inside the image, its grey levels and
+// their squares summed (integers, exact in double); the other columns are left alone. The
+// window's rows must lie inside the image.
+template <typename Pixel>
+void RowWindowSums(const cv::Mat& image, int y, int mx, int my, WindowSumsRow* out) {
+  const int width = image.cols;
+  std::vector<std::int64_t>& column = out->column;
+  std::vector<std::int64_t>& column_sq = out->column_sq;
+  column.assign(width, 0);
+  column_sq.assign(width, 0);
+  for (int j = -my; j <= my; ++j) {
+    const Pixel* p = image.ptr<Pixel>(y + j);
+    for (int x = 0; x < width; ++x) {
+      const std::int64_t v = p[x];
+      column[x] += v;
+      column_sq[x] += v * v;
+    }
+  }
+  out->sum.resize(width);
+  out->sq.resize(width);
+  if (2 * mx + 1 > width) return;
+  std::int64_t s = 0, q = 0;
+  for (int x = 0; x < 2 * mx + 1; ++x) {
+    s += column[x];
+    q += column_sq[x];
+  }
+  for (int x = mx;; ++x) {
+    out->sum[x] = static_cast<double>(s);
+    out->sq[x] = static_cast<double>(q);
+    if (x + mx + 1 >= width) break;
+    s += column[x + mx + 1] - column[x - mx];
+    q += column_sq[x + mx + 1] - column_sq[x - mx];
+  }
 }
 
 // The paper's C at working-image pixel (x, y) and disparity d_best (in the images' own
@@ -264,7 +290,8 @@ RowSelector::RowSelector(const NccOptions& options, const SearchGrid& grid, cons
 // Correlation's own final expression (CorrelationFromSums), so C is the same value bit for
 // bit (the working images are the originals mirrored for a left reference: the same pairs of
 // pixels). At the images' edges, Correlation itself (NaN).
-double RowSelector::Confidence(int x, int y, int d_best) const {
+double RowSelector::Confidence(int x, int y, int d_best, const WindowSumsRow& ref_sums,
+                               const WindowSumsRow& tgt_sums) const {
   const int width = grid_.width;
   const int mx = confidence_options_.half_window_x_px, my = confidence_options_.half_window_y_px;
   const bool inside = y >= my && y + my < grid_.height && x >= mx && x + mx < width && x + d_best >= mx &&
@@ -278,9 +305,9 @@ double RowSelector::Confidence(int x, int y, int d_best) const {
   } else {
     s_ro = static_cast<double>(WindowCrossSum<std::uint16_t, std::int64_t>(ref_, tgt_, mx, my, x, y, d_best));
   }
-  const int r = y - sums_row0_, xt = x + d_best;
-  return CorrelationFromSums(ref_sum_.at<double>(r, x), tgt_sum_.at<double>(r, xt), ref_sq_sum_.at<double>(r, x),
-                             tgt_sq_sum_.at<double>(r, xt), s_ro, (2 * mx + 1) * (2 * my + 1));
+  const int xt = x + d_best;
+  return CorrelationFromSums(ref_sums.sum[x], tgt_sums.sum[xt], ref_sums.sq[x], tgt_sums.sq[xt], s_ro,
+                             (2 * mx + 1) * (2 * my + 1));
 }
 
 void RowSelector::operator()(int j, const std::uint16_t* sums) const {
@@ -294,6 +321,18 @@ void RowSelector::operator()(int j, const std::uint16_t* sums) const {
   auto* reason = maps_.reason.ptr<std::uint8_t>(j);
   int* tgt_k = maps_.tgt_best.ptr<int>(j);
   const int d_lo = grid_.RowDMin(j), nj = grid_.RowNum(j);
+  // The confidence's window sums along this row (when its window's rows are inside).
+  WindowSumsRow ref_sums, tgt_sums;
+  const int my = confidence_options_.half_window_y_px, mx = confidence_options_.half_window_x_px;
+  if (y >= my && y + my < grid_.height) {
+    if (ref_.depth() == CV_8U) {
+      RowWindowSums<std::uint8_t>(ref_, y, mx, my, &ref_sums);
+      RowWindowSums<std::uint8_t>(tgt_, y, mx, my, &tgt_sums);
+    } else {
+      RowWindowSums<std::uint16_t>(ref_, y, mx, my, &ref_sums);
+      RowWindowSums<std::uint16_t>(tgt_, y, mx, my, &tgt_sums);
+    }
+  }
   for (int i = 0; i < grid_.num_cols; ++i) {
     const int x = grid_.X(i);
     const int k_lo = std::clamp(-x - d_lo, 0, nj);
@@ -320,7 +359,7 @@ void RowSelector::operator()(int j, const std::uint16_t* sums) const {
       reason[i] = static_cast<std::uint8_t>(Rejection::kAmbiguous);
       continue;
     }
-    const auto c = static_cast<float>(Confidence(x, y, d_lo + best));
+    const auto c = static_cast<float>(Confidence(x, y, d_lo + best, ref_sums, tgt_sums));
     corr[i] = c;
     if (!(c >= options_.min_correlation)) {
       reason[i] = static_cast<std::uint8_t>(Rejection::kLowCorrelation);
