@@ -254,8 +254,9 @@ namespace {
 // tool that writes images does not load OpenCV's image codecs (with GDAL and some 120 shared
 // libraries behind them: 40 ms at every start of every tool).
 
-// PNG through libpng, zlib level 3; OpenCV's BGR(A) to the file's RGB(A); sBIT when asked.
-std::string EncodePng(const cv::Mat& image, int significant_bits) {
+// PNG through libpng, OpenCV's BGR(A) to the file's RGB(A); sBIT when asked. Photographs:
+// zlib level 3 with libpng's adaptive row filters; labels: level 1, no filter.
+std::string EncodePng(const cv::Mat& image, int significant_bits, bool labels) {
   LN_CHECK(image.depth() == CV_8U || image.depth() == CV_16U) << "PNG: 8- or 16-bit images only";
   LN_CHECK(image.channels() >= 1 && image.channels() <= 4) << "PNG: 1 to 4 channels";
   std::string bytes;
@@ -278,7 +279,8 @@ std::string EncodePng(const cv::Mat& image, int significant_bits) {
     png_set_IHDR(png, info, static_cast<png_uint_32>(image.cols), static_cast<png_uint_32>(image.rows), bit_depth,
                  kColourTypes[image.channels() - 1], PNG_INTERLACE_NONE, PNG_COMPRESSION_TYPE_DEFAULT,
                  PNG_FILTER_TYPE_DEFAULT);
-    png_set_compression_level(png, 3);
+    png_set_compression_level(png, labels ? 1 : 3);
+    if (labels) png_set_filter(png, 0, PNG_FILTER_NONE);
     if (bit_depth == 16 && significant_bits >= 1 && significant_bits < 16) {
       png_color_8 sbit{};
       sbit.red = sbit.green = sbit.blue = sbit.gray = sbit.alpha = static_cast<png_byte>(significant_bits);
@@ -381,7 +383,15 @@ void WriteImageAtomic(const fs::path& path, const cv::Mat& image, int significan
     WriteTiffAtomic(path, image);
     return;
   }
-  WriteFileAtomic(path, ext == ".png" ? EncodePng(image, significant_bits) : EncodePfm(image));
+  WriteFileAtomic(path, ext == ".png" ? EncodePng(image, significant_bits, /*labels=*/false) : EncodePfm(image));
+}
+
+void WriteLabelImageAtomic(const fs::path& path, const cv::Mat& labels) {
+  if (LowerExtension(path) != ".png") {
+    WriteImageAtomic(path, labels);
+    return;
+  }
+  WriteFileAtomic(path, EncodePng(labels, 0, /*labels=*/true));
 }
 
 cv::Mat ReadPfm(const fs::path& path) {

@@ -60,6 +60,11 @@ bool HasImageExtension(const std::filesystem::path& path);
 /// camera's data stays known as such; 0 = none.
 void WriteImageAtomic(const std::filesystem::path& path, const cv::Mat& image, int significant_bits = 0);
 
+/// As WriteImageAtomic, for a map of a few labels (rejection reasons, truth labels): a PNG is
+/// written without row filters and at zlib's fastest level, which on such maps is a third of
+/// the time and a quarter smaller than the settings that suit photographs.
+void WriteLabelImageAtomic(const std::filesystem::path& path, const cv::Mat& labels);
+
 /// Reads a PFM file into CV_32FC1 or CV_32FC3 (top row first, as in memory).
 /// @throws InputError when the file is missing or is not a PFM.
 cv::Mat ReadPfm(const std::filesystem::path& path);

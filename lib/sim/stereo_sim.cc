@@ -392,7 +392,7 @@ StereoSimSummary RenderStereoSequence(const StereoSimOptions& options, const Sce
       io::WriteExrAtomic(output_dir / "truth" / "xyz" / (stem + ".exr"), frame.truth_xyz_m, {},
                          {{"lunarnav:quantity", "XYZ"}, {"lunarnav:channels", "R=X G=Y B=Z"}, {"lunarnav:units", "m"},
                           {"lunarnav:frame", "vehicle"}, {"lunarnav:invalid", "NaN"}, {"lunarnav:stem", stem}});
-      io::WriteImageAtomic(output_dir / "truth" / "labels" / (stem + ".png"), frame.truth_label);
+      io::WriteLabelImageAtomic(output_dir / "truth" / "labels" / (stem + ".png"), frame.truth_label);
       json boxes = json::array();
       for (const BoxTruth& b : BoxTruthInVehicle(*scene, poses[k])) boxes.push_back(b.ToJson());
       box_frames[k] = {{"stem", stem}, {"boxes", boxes}};

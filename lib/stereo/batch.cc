@@ -329,7 +329,7 @@ json ProcessPair(const BatchOptions& options, const PairFiles& pair, const PairO
         });
       },
       [&] { Timed(&written[1], "write confidence (TIFF)", [&] { io::WriteImageAtomic(out.confidence, result->correlation); }); },
-      [&] { Timed(&written[2], "write rejections (PNG)", [&] { io::WriteImageAtomic(out.rejections, result->rejection); }); },
+      [&] { Timed(&written[2], "write rejections (PNG)", [&] { io::WriteLabelImageAtomic(out.rejections, result->rejection); }); },
       [&] {
         if (!options.write_preview) return;
         Timed(&written[3], "write preview (PNG)", [&] {

@@ -10,6 +10,7 @@
 #include <vector>
 
 #include <opencv2/imgcodecs.hpp>
+#include <opencv2/imgproc.hpp>
 
 #include "util/errors.h"
 #include "util/testing.h"
@@ -156,6 +157,11 @@ TEST(WriteImageAtomic, EveryFormatReadsBackExactlyThroughAnotherDecoder) {
       }
     }
   }
+  // Label maps (the writer without filters) read back the same.
+  cv::Mat labels(40, 50, CV_8UC1, cv::Scalar(0));
+  cv::rectangle(labels, cv::Rect(5, 5, 20, 10), cv::Scalar(3), cv::FILLED);
+  WriteLabelImageAtomic(tmp.path() / "labels.png", labels);
+  EXPECT_TRUE(same(cv::imread((tmp.path() / "labels.png").string(), cv::IMREAD_UNCHANGED), labels));
   // A refused write leaves nothing, not even a temporary file.
   EXPECT_THROW(WriteImageAtomic(tmp.path() / "x.tif", cv::Mat(2, 2, CV_64FC1)), std::exception);
   EXPECT_FALSE(fs::exists(tmp.path() / "x.tif"));
