@@ -7,6 +7,7 @@
 #include <iomanip>
 #include <limits>
 #include <map>
+#include <set>
 #include <mutex>
 #include <optional>
 #include <sstream>
@@ -241,34 +242,61 @@ MapEvalResult EvaluateMap(const io::GeoRaster& map, const io::GeoRaster& truth, 
   return r;
 }
 
-io::GeoRaster TrueRayCounts(const fs::path& sim_dir, const std::vector<std::string>& stems, double cell_m,
-                            const MapEvalOptions& options, int num_threads, std::vector<TrueRock>* rocks,
-                            std::vector<std::vector<std::pair<std::int64_t, std::int64_t>>>* frame_cells) {
-  // The rocks by 1 m square (each listed in every square its ellipse's box touches).
-  std::map<std::pair<std::int64_t, std::int64_t>, std::vector<std::size_t>> rocks_at;
-  if (rocks != nullptr) {
-    for (std::size_t k = 0; k < rocks->size(); ++k) {
-      TrueRock& rock = (*rocks)[k];
+std::vector<io::GeoRaster> TrueRayCountViews(const fs::path& sim_dir, const std::vector<std::string>& stems,
+                                             double cell_m, const std::vector<RayCountView>& views,
+                                             int num_threads) {
+  const std::size_t num_views = views.size();
+  // Per view, the rocks by 1 m square (each listed in every square its ellipse's box touches).
+  std::vector<std::map<std::pair<std::int64_t, std::int64_t>, std::vector<std::size_t>>> rocks_at(num_views);
+  for (std::size_t v = 0; v < num_views; ++v) {
+    if (views[v].rocks == nullptr) continue;
+    for (std::size_t k = 0; k < views[v].rocks->size(); ++k) {
+      TrueRock& rock = (*views[v].rocks)[k];
       rock.top_rays = 0;
       const double reach = rock.semi_major_m;
       for (auto i = static_cast<std::int64_t>(std::floor(rock.x_m - reach));
            i <= static_cast<std::int64_t>(std::floor(rock.x_m + reach)); ++i) {
         for (auto j = static_cast<std::int64_t>(std::floor(rock.y_m - reach));
              j <= static_cast<std::int64_t>(std::floor(rock.y_m + reach)); ++j) {
-          rocks_at[{i, j}].push_back(k);
+          rocks_at[v][{i, j}].push_back(k);
         }
       }
     }
   }
-  std::vector<std::vector<long>> top_rays(stems.size());
   const fs::path poses_path = sim_dir / "truth" / "poses.csv";
   const auto poses = mapping::IndexByStem(mapping::ReadPosesCsv(poses_path));
   for (const std::string& stem : stems) {
     LN_CHECK_INPUT(poses.count(stem) > 0) << "stem " << stem << ": no pose in " << poses_path.string();
   }
-  // Per frame, the world cells (i, j) = floor(x / cell), floor(y / cell) of its points.
-  std::vector<std::vector<std::pair<std::int64_t, std::int64_t>>> cells(stems.size());
+  for (const RayCountView& view : views) {
+    if (view.stems == nullptr) continue;
+    for (const std::string& stem : *view.stems) {
+      LN_CHECK_INPUT(std::find(stems.begin(), stems.end(), stem) != stems.end())
+          << "stem " << stem << ": no pose in " << poses_path.string();
+    }
+  }
+  // Per view and frame, the world cells (i, j) = floor(x / cell), floor(y / cell) of its
+  // points, and the rays on each rock's top. Each frame's truth is read once for every view.
+  std::vector<std::vector<std::vector<std::pair<std::int64_t, std::int64_t>>>> cells(
+      num_views, std::vector<std::vector<std::pair<std::int64_t, std::int64_t>>>(stems.size()));
+  std::vector<std::vector<std::vector<long>>> top_rays(num_views, std::vector<std::vector<long>>(stems.size()));
   util::ParallelForEachItem(stems.size(), num_threads, [&](std::size_t k) {
+    // The views that count this frame, and the range ahead each takes.
+    std::vector<std::size_t> counting;
+    std::vector<std::pair<double, double>> range(num_views);
+    for (std::size_t v = 0; v < num_views; ++v) {
+      if (views[v].stems != nullptr && views[v].stems->count(stems[k]) == 0) continue;
+      counting.push_back(v);
+      const MapEvalOptions& options = *views[v].options;
+      double y_lo = options.seen_min_y_m, y_hi = options.seen_max_y_m;
+      if (const auto it = options.requested_y_m.find(stems[k]); it != options.requested_y_m.end()) {
+        y_lo = std::max(y_lo, it->second.first);
+        y_hi = std::min(y_hi, it->second.second);
+      }
+      range[v] = {y_lo, y_hi};
+      if (views[v].rocks != nullptr) top_rays[v][k].assign(views[v].rocks->size(), 0);
+    }
+    if (counting.empty()) return;
     const mapping::FramePose& p = poses.at(stems[k]);
     const Eigen::Isometry3d world_from_vehicle = TrueWorldFromVehicle(p);
     const fs::path xyz_path = sim_dir / "truth" / "xyz" / (stems[k] + ".exr");
@@ -278,72 +306,84 @@ io::GeoRaster TrueRayCounts(const fs::path& sim_dir, const std::vector<std::stri
     const cv::Mat disparity = io::ReadPfm(disparity_path);
     LN_CHECK_INPUT(disparity.size() == xyz.pixels.size())
         << disparity_path.string() << ": not the size of " << xyz_path.string();
-    auto& out = cells[k];
-    if (rocks != nullptr) top_rays[k].assign(rocks->size(), 0);
-    double y_lo = options.seen_min_y_m, y_hi = options.seen_max_y_m;
-    if (const auto it = options.requested_y_m.find(stems[k]); it != options.requested_y_m.end()) {
-      y_lo = std::max(y_lo, it->second.first);
-      y_hi = std::min(y_hi, it->second.second);
-    }
     // Distances ahead are horizontal (the level frame), as stereo-batch, the planner and
     // terrain-map take a requested interval.
     const Eigen::Vector2d heading = mapping::HeadingDirection(world_from_vehicle);
     const Eigen::Vector3d origin = world_from_vehicle.translation();
     for (int y = 0; y < xyz.pixels.rows; ++y) {
-      const auto* v = xyz.pixels.ptr<cv::Vec3f>(y);
+      const auto* pv = xyz.pixels.ptr<cv::Vec3f>(y);
       const auto* d = disparity.ptr<float>(y);
       for (int x = 0; x < xyz.pixels.cols; ++x) {
         // Both cameras see it (a finite true disparity), within the range ahead.
-        if (!std::isfinite(d[x]) || !std::isfinite(v[x][1])) continue;
-        const Eigen::Vector3d w = world_from_vehicle * Eigen::Vector3d(v[x][0], v[x][1], v[x][2]);
+        if (!std::isfinite(d[x]) || !std::isfinite(pv[x][1])) continue;
+        const Eigen::Vector3d w = world_from_vehicle * Eigen::Vector3d(pv[x][0], pv[x][1], pv[x][2]);
         const double ahead = heading.dot((w - origin).head<2>());
-        if (ahead < y_lo || ahead > y_hi) continue;
-        out.emplace_back(static_cast<std::int64_t>(std::floor(w.x() / cell_m)),
-                         static_cast<std::int64_t>(std::floor(w.y() / cell_m)));
-        if (rocks == nullptr) continue;
-        const auto near = rocks_at.find({static_cast<std::int64_t>(std::floor(w.x())),
-                                         static_cast<std::int64_t>(std::floor(w.y()))});
-        if (near == rocks_at.end()) continue;
-        for (std::size_t r : near->second) top_rays[k][r] += (*rocks)[r].InUpperHalf(w.x(), w.y());
+        const std::pair<std::int64_t, std::int64_t> cell(static_cast<std::int64_t>(std::floor(w.x() / cell_m)),
+                                                         static_cast<std::int64_t>(std::floor(w.y() / cell_m)));
+        for (const std::size_t v : counting) {
+          if (ahead < range[v].first || ahead > range[v].second) continue;
+          cells[v][k].push_back(cell);
+          if (views[v].rocks == nullptr) continue;
+          const auto near = rocks_at[v].find({static_cast<std::int64_t>(std::floor(w.x())),
+                                              static_cast<std::int64_t>(std::floor(w.y()))});
+          if (near == rocks_at[v].end()) continue;
+          for (std::size_t r : near->second) top_rays[v][k][r] += (*views[v].rocks)[r].InUpperHalf(w.x(), w.y());
+        }
       }
     }
   });
-  if (rocks != nullptr) {
-    for (const auto& frame : top_rays) {
-      for (std::size_t r = 0; r < frame.size(); ++r) (*rocks)[r].top_rays += frame[r];
-    }
-  }
-  std::int64_t i_lo = 0, i_hi = -1, j_lo = 0, j_hi = -1;
-  bool any = false;
-  for (const auto& frame : cells) {
-    for (const auto& [i, j] : frame) {
-      if (!any) {
-        i_lo = i_hi = i;
-        j_lo = j_hi = j;
-        any = true;
+  std::vector<io::GeoRaster> counts;
+  for (std::size_t v = 0; v < num_views; ++v) {
+    if (views[v].rocks != nullptr) {
+      for (const auto& frame : top_rays[v]) {
+        for (std::size_t r = 0; r < frame.size(); ++r) (*views[v].rocks)[r].top_rays += frame[r];
       }
-      i_lo = std::min(i_lo, i);
-      i_hi = std::max(i_hi, i);
-      j_lo = std::min(j_lo, j);
-      j_hi = std::max(j_hi, j);
     }
+    std::int64_t i_lo = 0, i_hi = -1, j_lo = 0, j_hi = -1;
+    bool any = false;
+    for (const auto& frame : cells[v]) {
+      for (const auto& [i, j] : frame) {
+        if (!any) {
+          i_lo = i_hi = i;
+          j_lo = j_hi = j;
+          any = true;
+        }
+        i_lo = std::min(i_lo, i);
+        i_hi = std::max(i_hi, i);
+        j_lo = std::min(j_lo, j);
+        j_hi = std::max(j_hi, j);
+      }
+    }
+    LN_CHECK_INPUT(!any || (i_hi - i_lo < 100000 && j_hi - j_lo < 100000))
+        << sim_dir.string() << ": the true points span more than 100000 cells";
+    io::GeoRaster r;
+    r.cell_m = cell_m;
+    r.x_west_m = static_cast<double>(i_lo) * cell_m;
+    r.y_north_m = static_cast<double>(j_hi + 1) * cell_m;
+    io::RasterBand band;
+    band.description = "count";
+    band.pixels = cv::Mat(any ? static_cast<int>(j_hi - j_lo + 1) : 1, any ? static_cast<int>(i_hi - i_lo + 1) : 1,
+                          CV_32FC1, cv::Scalar(0));
+    for (const auto& frame : cells[v]) {
+      for (const auto& [i, j] : frame) {
+        band.pixels.at<float>(static_cast<int>(j_hi - j), static_cast<int>(i - i_lo)) += 1;
+      }
+    }
+    r.bands.push_back(std::move(band));
+    if (views[v].frame_cells != nullptr) *views[v].frame_cells = std::move(cells[v]);
+    counts.push_back(std::move(r));
   }
-  LN_CHECK_INPUT(!any || (i_hi - i_lo < 100000 && j_hi - j_lo < 100000))
-      << sim_dir.string() << ": the true points span more than 100000 cells";
-  io::GeoRaster r;
-  r.cell_m = cell_m;
-  r.x_west_m = static_cast<double>(i_lo) * cell_m;
-  r.y_north_m = static_cast<double>(j_hi + 1) * cell_m;
-  io::RasterBand band;
-  band.description = "count";
-  band.pixels = cv::Mat(any ? static_cast<int>(j_hi - j_lo + 1) : 1, any ? static_cast<int>(i_hi - i_lo + 1) : 1,
-                        CV_32FC1, cv::Scalar(0));
-  for (const auto& frame : cells) {
-    for (const auto& [i, j] : frame) band.pixels.at<float>(static_cast<int>(j_hi - j), static_cast<int>(i - i_lo)) += 1;
-  }
-  r.bands.push_back(std::move(band));
-  if (frame_cells != nullptr) *frame_cells = std::move(cells);
-  return r;
+  return counts;
+}
+
+io::GeoRaster TrueRayCounts(const fs::path& sim_dir, const std::vector<std::string>& stems, double cell_m,
+                            const MapEvalOptions& options, int num_threads, std::vector<TrueRock>* rocks,
+                            std::vector<std::vector<std::pair<std::int64_t, std::int64_t>>>* frame_cells) {
+  RayCountView view;
+  view.options = &options;
+  view.rocks = rocks;
+  view.frame_cells = frame_cells;
+  return std::move(TrueRayCountViews(sim_dir, stems, cell_m, {view}, num_threads).front());
 }
 
 json MapEvalResult::ToJson() const {
@@ -485,17 +525,29 @@ MapEvalResult RunMapEvaluation(const fs::path& map_dir, const fs::path& sim_dir,
   all_ground.requested_y_m.clear();
   std::vector<TrueRock> rocks = true_rocks;
   std::vector<std::vector<std::pair<std::int64_t, std::int64_t>>> frame_cells;
-  const io::GeoRaster seen = TrueRayCounts(sim_dir, stems, map.cell_m, all_ground, num_threads, &rocks, &frame_cells);
+  // With the requests the pairs were matched with, a second, labelled view, over the ground
+  // each listed pair was asked for (mapped or not), with the corridor's gaps: counted in the
+  // same reading of the truth.
+  std::vector<RayCountView> views(1);
+  views[0].options = &all_ground;
+  views[0].rocks = &rocks;
+  views[0].frame_cells = &frame_cells;
+  std::set<std::string> listed;
+  std::vector<TrueRock> requested_rocks = true_rocks;
+  if (!options.requested_y_m.empty()) {
+    for (const auto& entry : options.requested_y_m) listed.insert(entry.first);
+    RayCountView view;
+    view.options = &options;
+    view.stems = &listed;
+    view.rocks = &requested_rocks;
+    views.push_back(view);
+  }
+  std::vector<io::GeoRaster> counts = TrueRayCountViews(sim_dir, stems, map.cell_m, views, num_threads);
+  const io::GeoRaster& seen = counts[0];
   MapEvalResult result = EvaluateMap(map, truth, seen, rocks, all_ground);
-  // With the requests the pairs were matched with: a second, labelled view, over the ground
-  // each listed pair was asked for (mapped or not), with the corridor's gaps.
   std::optional<MapEvalResult> requested;
   if (!options.requested_y_m.empty()) {
-    std::vector<std::string> listed;
-    for (const auto& entry : options.requested_y_m) listed.push_back(entry.first);
-    std::vector<TrueRock> requested_rocks = true_rocks;
-    const io::GeoRaster requested_seen =
-        TrueRayCounts(sim_dir, listed, map.cell_m, options, num_threads, &requested_rocks);
+    const io::GeoRaster& requested_seen = counts[1];
     requested = EvaluateMap(map, truth, requested_seen, requested_rocks, options);
     MeasureCorridorGaps(map, requested_seen, sim_dir, options, &*requested);
   }

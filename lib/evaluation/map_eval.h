@@ -6,6 +6,7 @@
 #include <cstdint>
 #include <filesystem>
 #include <map>
+#include <set>
 #include <string>
 #include <utility>
 #include <limits>
@@ -124,6 +125,22 @@ io::GeoRaster TrueRayCounts(const std::filesystem::path& sim_dir, const std::vec
                             double cell_m, const MapEvalOptions& options, int num_threads,
                             std::vector<TrueRock>* rocks = nullptr,
                             std::vector<std::vector<std::pair<std::int64_t, std::int64_t>>>* frame_cells = nullptr);
+
+/// One count of TrueRayCountViews: the range ahead of each frame (`options`' seen range,
+/// narrowed by its requested interval when it has one), the frames it counts (null: all), and
+/// what it fills as TrueRayCounts does.
+struct RayCountView {
+  const MapEvalOptions* options = nullptr;
+  const std::set<std::string>* stems = nullptr;
+  std::vector<TrueRock>* rocks = nullptr;
+  std::vector<std::vector<std::pair<std::int64_t, std::int64_t>>>* frame_cells = nullptr;
+};
+
+/// TrueRayCounts for several views at once, each frame's truth read once: one raster per view.
+/// A view's frames must be among `stems` (InputError naming the stem, as for a missing pose).
+std::vector<io::GeoRaster> TrueRayCountViews(const std::filesystem::path& sim_dir,
+                                             const std::vector<std::string>& stems, double cell_m,
+                                             const std::vector<RayCountView>& views, int num_threads);
 
 /// The longest corridor gap (MapEvalResult::corridor_gap_m) of `map` (terrain-map's layers;
 /// a cell is mapped with >= min_points) over the requested intervals: per pair, walking out
