@@ -252,7 +252,7 @@ namespace {
 
 // The encoders of WriteImageAtomic: libpng and libtiff directly, and PFM by hand, so that a
 // tool that writes images does not load OpenCV's image codecs (with GDAL and some 120 shared
-// libraries behind them: 40 ms at every start of every tool).
+// libraries behind them, loaded at every start of every tool).
 
 // PNG through libpng, OpenCV's BGR(A) to the file's RGB(A); sBIT when asked. Photographs:
 // zlib level 3 with libpng's adaptive row filters; labels: level 1, no filter.
