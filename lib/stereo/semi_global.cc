@@ -379,24 +379,6 @@ void CensusTransform(const cv::Mat& image, int half_x, int half_y, const cv::Ran
   }
 }
 
-namespace {
-LN_SGM_CLONES std::uint16_t RangeMinimum(const std::uint16_t* s, int begin, int end) {
-  std::uint16_t m = std::numeric_limits<std::uint16_t>::max();
-  for (int k = begin; k < end; ++k) m = std::min(m, s[k]);
-  return m;
-}
-}  // namespace
-
-bool IsAmbiguousMinimum(const std::uint16_t* s, int k_lo, int k_hi, int best, double uniqueness) {
-  int lo = best;
-  while (lo > k_lo && s[lo - 1] >= s[lo]) --lo;
-  int hi = best;
-  while (hi < k_hi && s[hi + 1] >= s[hi]) ++hi;
-  if (lo == k_lo && hi == k_hi) return false;  // no disparity outside the lobe
-  const std::uint16_t rival = std::min(RangeMinimum(s, k_lo, lo), RangeMinimum(s, hi + 1, k_hi + 1));
-  return static_cast<double>(rival) < (1.0 + uniqueness) * s[best];
-}
-
 void SemiGlobalAggregate(const SgmInput& in, AggregatedCost* out) {
   LN_CHECK(in.num_paths == 4 || in.num_paths == 8);
   LN_CHECK(in.num_disp >= 1 && in.num_cols >= 0 && in.num_rows >= 0);

@@ -116,7 +116,19 @@ class AggregatedCost {
 /// does not fall again; the rival is the lowest cost outside the lobe. True when
 /// rival < (1 + uniqueness) s[best]. A single minimum, however broad or rippled its flanks
 /// are near the top, has no rival; a repeated pattern has one at its period.
-bool IsAmbiguousMinimum(const std::uint16_t* s, int k_lo, int k_hi, int best, double uniqueness);
+/// (Inline: it runs inside the selection's loop, compiled for the same instruction sets.)
+inline __attribute__((always_inline)) bool IsAmbiguousMinimum(const std::uint16_t* s, int k_lo, int k_hi, int best,
+                                                              double uniqueness) {
+  int lo = best;
+  while (lo > k_lo && s[lo - 1] >= s[lo]) --lo;
+  int hi = best;
+  while (hi < k_hi && s[hi + 1] >= s[hi]) ++hi;
+  if (lo == k_lo && hi == k_hi) return false;  // no disparity outside the lobe
+  std::uint16_t rival = 0xffff;
+  for (int k = k_lo; k < lo; ++k) rival = s[k] < rival ? s[k] : rival;
+  for (int k = hi + 1; k <= k_hi; ++k) rival = s[k] < rival ? s[k] : rival;
+  return static_cast<double>(rival) < (1.0 + uniqueness) * s[best];
+}
 
 /// Matching cost of the disparities of a pixel none of whose targets is inside the image (a
 /// pixel with some inside repeats the nearest inside cost for the others).

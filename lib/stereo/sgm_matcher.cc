@@ -35,7 +35,7 @@ SgmWorkspace& ThreadSgmWorkspace() {
 }
 
 // The first k in [k_lo, k_hi] of the smallest s[k].
-LN_SGM_CLONES int ArgMin(const std::uint16_t* s, int k_lo, int k_hi) {
+inline __attribute__((always_inline)) int ArgMin(const std::uint16_t* s, int k_lo, int k_hi) {
   std::uint16_t smallest = std::numeric_limits<std::uint16_t>::max();
   for (int k = k_lo; k <= k_hi; ++k) smallest = std::min(smallest, s[k]);
   int k = k_lo;
@@ -46,7 +46,8 @@ LN_SGM_CLONES int ArgMin(const std::uint16_t* s, int k_lo, int k_hi) {
 // The left-right check's view from the target image: target column shift + k keeps the
 // smallest cost any reference pixel gives it, and that pixel's k (`cost` and `index` point at
 // column `shift`).
-LN_SGM_CLONES void TargetMinimum(const std::uint16_t* s, int k_lo, int k_hi, std::uint16_t* cost, int* index) {
+inline __attribute__((always_inline)) void TargetMinimum(const std::uint16_t* s, int k_lo, int k_hi,
+                                                         std::uint16_t* cost, int* index) {
   for (int k = k_lo; k <= k_hi; ++k) {
     const bool better = s[k] < cost[k];
     cost[k] = better ? s[k] : cost[k];
@@ -252,7 +253,7 @@ class RowSelector {
   RowSelector(const NccOptions& options, const SearchGrid& grid, const Texture& texture, const cv::Mat& left,
               const cv::Mat& right, const cv::Mat& ref, const cv::Mat& tgt, GridMaps* maps);
   bool LeftRightCheck() const { return options_.semi_global.left_right_max_diff_px >= 0 && grid_.dx == 1; }
-  void operator()(int j, const std::uint16_t* sums) const;
+  LN_SGM_CLONES void operator()(int j, const std::uint16_t* sums) const;
 
  private:
   double Confidence(int x, int y, int d_best, const WindowSumsRow& ref_sums, const WindowSumsRow& tgt_sums) const;
