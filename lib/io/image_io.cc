@@ -299,8 +299,8 @@ std::string EncodePng(const cv::Mat& image, int significant_bits, bool labels) {
 }
 
 // PFM as the Middlebury benchmark writes it: rows bottom to top, little-endian (scale -1),
-// three channels in RGB order.
-std::string EncodePfm(const cv::Mat& image) {
+// three channels in RGB order; written row by row (no copy of the whole array).
+void WritePfmAtomic(const fs::path& path, const cv::Mat& image) {
   LN_CHECK(image.type() == CV_32FC1 || image.type() == CV_32FC3) << "PFM: float32, 1 or 3 channels";
   static_assert(std::endian::native == std::endian::little, "PFM files are written little-endian");
   cv::Mat rgb;  // a new array: converting into one that shares the image's pixels would alter them
@@ -309,12 +309,12 @@ std::string EncodePfm(const cv::Mat& image) {
   } else {
     rgb = image;
   }
-  std::string bytes = (image.channels() == 3 ? "PF\n" : "Pf\n") + std::to_string(image.cols) + " " +
-                      std::to_string(image.rows) + "\n-1\n";
+  AtomicOutputFile out(path);
+  out.Write((image.channels() == 3 ? "PF\n" : "Pf\n") + std::to_string(image.cols) + " " + std::to_string(image.rows) +
+            "\n-1\n");
   const std::size_t row_bytes = static_cast<std::size_t>(image.cols) * image.elemSize();
-  bytes.reserve(bytes.size() + row_bytes * image.rows);
-  for (int y = image.rows - 1; y >= 0; --y) bytes.append(reinterpret_cast<const char*>(rgb.ptr(y)), row_bytes);
-  return bytes;
+  for (int y = image.rows - 1; y >= 0; --y) out.Write({reinterpret_cast<const char*>(rgb.ptr(y)), row_bytes});
+  out.Commit();
 }
 
 // libtiff's messages, kept for the error line instead of printed on stderr.
@@ -383,7 +383,11 @@ void WriteImageAtomic(const fs::path& path, const cv::Mat& image, int significan
     WriteTiffAtomic(path, image);
     return;
   }
-  WriteFileAtomic(path, ext == ".png" ? EncodePng(image, significant_bits, /*labels=*/false) : EncodePfm(image));
+  if (ext == ".pfm") {
+    WritePfmAtomic(path, image);
+    return;
+  }
+  WriteFileAtomic(path, EncodePng(image, significant_bits, /*labels=*/false));
 }
 
 void WriteLabelImageAtomic(const fs::path& path, const cv::Mat& labels) {

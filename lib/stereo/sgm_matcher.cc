@@ -13,6 +13,7 @@
 #include <opencv2/calib3d.hpp>
 #include <opencv2/imgproc.hpp>
 #include <tbb/parallel_for.h>
+#include <tbb/parallel_invoke.h>
 
 #include "stereo/correlation_curve.h"
 #include "stereo/disparity_filters.h"
@@ -198,8 +199,7 @@ void PrepareCostInputs(const SemiGlobalOptions& g, const SearchGrid& grid, const
       cv::Sobel(image, dx, CV_32F, 1, 0, 3, 0.25, 0, cv::BORDER_REPLICATE);
       dx.convertTo(*result, CV_16S, to_grey8_16ths);
     };
-    derivative(ref, &out->ref_gradient);
-    derivative(tgt, &out->tgt_gradient);
+    tbb::parallel_invoke([&] { derivative(ref, &out->ref_gradient); }, [&] { derivative(tgt, &out->tgt_gradient); });
     in.ref_gradient = out->ref_gradient.ptr<std::int16_t>();
     in.tgt_gradient = out->tgt_gradient.ptr<std::int16_t>();
     in.gradient_weight16 = gradient_weight16;
@@ -224,8 +224,11 @@ Texture ComputeTexture(const NccOptions& options, const cv::Mat& ref, int bit_de
   cv::Mat ref_f;
   ref.convertTo(ref_f, CV_32F);
   const cv::Size window(2 * g.census_half_x_px + 1, 2 * g.census_half_y_px + 1);
-  cv::boxFilter(ref_f, texture.mean, CV_32F, window, {-1, -1}, true, cv::BORDER_REPLICATE);
-  cv::boxFilter(ref_f.mul(ref_f), texture.mean_sq, CV_32F, window, {-1, -1}, true, cv::BORDER_REPLICATE);
+  tbb::parallel_invoke(
+      [&] { cv::boxFilter(ref_f, texture.mean, CV_32F, window, {-1, -1}, true, cv::BORDER_REPLICATE); },
+      [&] {
+        cv::boxFilter(ref_f.mul(ref_f), texture.mean_sq, CV_32F, window, {-1, -1}, true, cv::BORDER_REPLICATE);
+      });
   const double sigma_min = options.min_sigma * GreyScaleFactor(bit_depth);
   texture.min_var = static_cast<float>(sigma_min * sigma_min);
   return texture;
