@@ -60,28 +60,26 @@ void* LoadModuleEntry(const std::string& library, const char* env_var, const cha
 
 }  // namespace
 
-OiioModule& Oiio() {
-  static OiioModule* module = nullptr;
+// The module whose entry point returns a Module*, loaded once (thread-safe).
+template <typename Module>
+Module& LoadModule(const char* library, const char* env_var, const char* entry, const char* what) {
+  static Module* module = nullptr;
   static std::once_flag once;
   static std::string failure;
-  std::call_once(once, [] {
-    void* entry = LoadModuleEntry("liblunarnav_oiio.so", "LUNARNAV_OIIO_MODULE", "lunarnav_oiio_module", &failure);
-    if (entry != nullptr) module = reinterpret_cast<OiioModule* (*)()>(entry)();
+  std::call_once(once, [&] {
+    void* symbol = LoadModuleEntry(library, env_var, entry, &failure);
+    if (symbol != nullptr) module = reinterpret_cast<Module* (*)()>(symbol)();
   });
-  if (module == nullptr) throw std::runtime_error("cannot load the OpenImageIO module: " + failure);
+  if (module == nullptr) throw std::runtime_error(std::string("cannot load the ") + what + " module: " + failure);
   return *module;
 }
 
+OiioModule& Oiio() {
+  return LoadModule<OiioModule>("liblunarnav_oiio.so", "LUNARNAV_OIIO_MODULE", "lunarnav_oiio_module", "OpenImageIO");
+}
+
 GdalModule& Gdal() {
-  static GdalModule* module = nullptr;
-  static std::once_flag once;
-  static std::string failure;
-  std::call_once(once, [] {
-    void* entry = LoadModuleEntry("liblunarnav_gdal.so", "LUNARNAV_GDAL_MODULE", "lunarnav_gdal_module", &failure);
-    if (entry != nullptr) module = reinterpret_cast<GdalModule* (*)()>(entry)();
-  });
-  if (module == nullptr) throw std::runtime_error("cannot load the GDAL module: " + failure);
-  return *module;
+  return LoadModule<GdalModule>("liblunarnav_gdal.so", "LUNARNAV_GDAL_MODULE", "lunarnav_gdal_module", "GDAL");
 }
 
 }  // namespace lunarnav::io::internal

@@ -1,7 +1,7 @@
 #include "stereo/census_hamming.h"
 
-#include <cstdlib>
-#include <cstring>
+#include "stereo/simd_select.h"
+
 
 namespace lunarnav::stereo::internal {
 namespace hamming {
@@ -15,26 +15,7 @@ void Baseline(const SgmInput& in, int j, int i_begin, int i_end, std::uint8_t* c
 
 }  // namespace hamming
 
-HammingFn SelectHammingKernel(const char** name) {
-  const char* cap = std::getenv("LUNARNAV_SIMD");
-  const bool allow_avx512 = cap == nullptr || std::strcmp(cap, "avx512") == 0;
-  const bool allow_avx2 = allow_avx512 || std::strcmp(cap, "avx2") == 0;
-#if defined(LUNARNAV_HAVE_HAMMING_AVX512)
-  if (allow_avx512 && __builtin_cpu_supports("avx512f") && __builtin_cpu_supports("avx512vpopcntdq")) {
-    if (name != nullptr) *name = "avx512";
-    return &hamming::Avx512;
-  }
-#endif
-#if defined(LUNARNAV_HAVE_AVX2_KERNEL)
-  if (allow_avx2 && __builtin_cpu_supports("avx2")) {
-    if (name != nullptr) *name = "avx2";
-    return &hamming::Avx2;
-  }
-#endif
-  (void)allow_avx2;
-  if (name != nullptr) *name = "baseline";
-  return &hamming::Baseline;
-}
+HammingFn SelectHammingKernel(const char** name) { return WidestAllowedKernel(RunnableHammingKernels(), name); }
 
 std::vector<std::pair<const char*, HammingFn>> RunnableHammingKernels() {
   std::vector<std::pair<const char*, HammingFn>> kernels = {{"baseline", &hamming::Baseline}};

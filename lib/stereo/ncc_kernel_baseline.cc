@@ -7,6 +7,7 @@
 #include <opencv2/core/hal/intrin.hpp>
 
 #include "stereo/ncc_kernel.h"
+#include "stereo/simd_select.h"
 
 namespace lunarnav::stereo::internal {
 namespace baseline {
@@ -33,30 +34,7 @@ std::size_t KernelWorkspaceBytes(const KernelInput& in) {
 
 KernelFn BaselineKernel() { return &baseline::RunKernelImpl; }
 
-KernelFn SelectKernel(const char** name) {
-  // LUNARNAV_SIMD=baseline|avx2|avx512 caps the instruction set (to measure or compare the
-  // kernels); a request the CPU cannot run falls back to the widest it can.
-  const char* cap = std::getenv("LUNARNAV_SIMD");
-  const bool allow_avx512 = cap == nullptr || std::strcmp(cap, "avx512") == 0;
-  const bool allow_avx2 = allow_avx512 || std::strcmp(cap, "avx2") == 0;
-#if defined(LUNARNAV_HAVE_AVX512_KERNEL)
-  if (allow_avx512 && __builtin_cpu_supports("avx512f") && __builtin_cpu_supports("avx512bw") &&
-      __builtin_cpu_supports("avx512dq") && __builtin_cpu_supports("avx512vl") &&
-      __builtin_cpu_supports("avx512cd")) {
-    if (name != nullptr) *name = "avx512";
-    return &avx512::RunKernel;
-  }
-#endif
-#if defined(LUNARNAV_HAVE_AVX2_KERNEL)
-  if (allow_avx2 && __builtin_cpu_supports("avx2")) {
-    if (name != nullptr) *name = "avx2";
-    return &avx2::RunKernel;
-  }
-#endif
-  (void)allow_avx2;
-  if (name != nullptr) *name = "baseline";
-  return &baseline::RunKernelImpl;
-}
+KernelFn SelectKernel(const char** name) { return WidestAllowedKernel(RunnableKernels(), name); }
 
 std::vector<std::pair<const char*, KernelFn>> RunnableKernels() {
   std::vector<std::pair<const char*, KernelFn>> kernels = {{"baseline", &baseline::RunKernelImpl}};
