@@ -6,7 +6,6 @@
 #include <map>
 #include <sstream>
 
-
 #include "io/atomic_file.h"
 #include "io/image_io.h"
 #include "io/json_io.h"

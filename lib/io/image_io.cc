@@ -251,7 +251,7 @@ cv::Mat ReadGreyImage(const fs::path& path, SignificantBits* bits) {
 namespace {
 
 // The encoders of WriteImageAtomic: libpng and libtiff directly, and PFM by hand, so that a
-// tool that writes images does not load OpenCV's image codecs (with GDAL and some 120 shared
+// tool that writes images does not load OpenCV's image codecs (with GDAL and some 110 shared
 // libraries behind them, loaded at every start of every tool).
 
 // PNG through libpng, OpenCV's BGR(A) to the file's RGB(A); sBIT when asked. Photographs:

@@ -732,15 +732,7 @@ BatchSummary StereoBatchRun::Finish(const json& invocation) {
     summary.match_seconds += run.timings[k].match_s;
     summary.write_seconds += run.timings[k].write_s;
     summary.xyz_seconds += run.timings[k].xyz_s;
-    for (const std::pair<std::string, double>& stage : run.timings[k].stages) {
-      auto at = std::find_if(summary.stage_seconds.begin(), summary.stage_seconds.end(),
-                             [&](const auto& s) { return s.first == stage.first; });
-      if (at == summary.stage_seconds.end()) {
-        summary.stage_seconds.push_back(stage);
-      } else {
-        at->second += stage.second;
-      }
-    }
+    util::AddStages(run.timings[k].stages, &summary.stage_seconds);
     if (outcome.status != PairOutcome::Status::kFailed) {
       summary.points += outcome.result.value("points", 0LL);
     }

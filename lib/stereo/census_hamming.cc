@@ -2,7 +2,6 @@
 
 #include "stereo/simd_select.h"
 
-
 namespace lunarnav::stereo::internal {
 namespace hamming {
 

@@ -124,10 +124,10 @@ inline __attribute__((always_inline)) void FillCosts(const SgmInput& in, Hamming
   const int y = in.y0 + j * in.step_y;
   for (int i = i_begin; i < i_end; ++i) {
     const int x = in.x0 + i * in.step_x;
-    std::uint8_t* c = cost + static_cast<std::size_t>(i - i_begin) * n;
-    // Target x + d_min + k inside [0, width): k in [k_lo, k_hi).
-    const int k_lo = std::clamp(-x - d_min, 0, n);
-    const int k_hi = std::clamp(width - x - d_min, k_lo, n);
+    // Target x + d_min + k inside [0, width): k in [k_lo, k_hi), as the census kernel took it.
+    const hamming::Span span = hamming::SpanAt(in, j, i, i_begin, cost);
+    std::uint8_t* c = span.c;
+    const int k_lo = span.k_lo, k_hi = span.k_hi;
     if (in.ref_gradient != nullptr) {
       // |gradient difference| <= 8160 and the term <= 64 bits: no int16 overflow.
       const std::int16_t gr = in.ref_gradient[static_cast<std::size_t>(y) * width + x];

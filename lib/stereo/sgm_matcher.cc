@@ -73,14 +73,13 @@ Sum WindowCrossSum(const cv::Mat& ref, const cv::Mat& tgt, int mx, int my, int x
   return s_ro;
 }
 
-// WindowCrossSum for 8-bit windows at most 8 pixels wide: a row's 8 bytes at a time (SSE2: the
-// pixels widened to 16 bits, multiplied and added in pairs into 32 bits), those past the
-// window's width masked to 0. The same integer. Needs 8 readable bytes from the window's first
-// column in both images (the caller checks).
+// WindowCrossSum for 8-bit windows at most 7 pixels wide (mx <= 3): a row's 8 bytes at a time
+// (SSE2: the pixels widened to 16 bits, multiplied and added in pairs into 32 bits), those past
+// the window's width masked to 0. The same integer. Needs 8 readable bytes from the window's
+// first column in both images (the caller checks).
 std::int32_t WindowCrossSum8(const cv::Mat& ref, const cv::Mat& tgt, int mx, int my, int x, int y, int d) {
 #if defined(__SSE2__)
-  const int w = 2 * mx + 1;
-  const std::uint64_t keep = w >= 8 ? ~std::uint64_t{0} : (std::uint64_t{1} << (8 * w)) - 1;
+  const std::uint64_t keep = (std::uint64_t{1} << (8 * (2 * mx + 1))) - 1;
   const __m128i mask = _mm_set_epi64x(0, static_cast<long long>(keep));
   const __m128i zero = _mm_setzero_si128();
   __m128i acc = zero;
@@ -241,16 +240,16 @@ struct GridMaps {
   cv::Mat disp, corr, reason, tgt_best;
 };
 
-// Selection on one grid row's aggregated costs (RowDisp(j) a pixel, pixel after pixel):
-// the winner, the target image's minima for the left-right check, then the filters in order
-// (texture, range edge, lobe-aware ambiguity, the paper's C at the chosen disparity), and the
-// sub-pixel vertex. Rows are independent.
 // One row's window sums of one image (RowWindowSums) and their scratch.
 struct WindowSumsRow {
   std::vector<std::int64_t> column, column_sq;
   std::vector<double> sum, sq;
 };
 
+// Selection on one grid row's aggregated costs (RowDisp(j) a pixel, pixel after pixel):
+// the winner, the target image's minima for the left-right check, then the filters in order
+// (texture, range edge, lobe-aware ambiguity, the paper's C at the chosen disparity), and the
+// sub-pixel vertex. Rows are independent.
 class RowSelector {
  public:
   RowSelector(const NccOptions& options, const SearchGrid& grid, const Texture& texture, const cv::Mat& left,

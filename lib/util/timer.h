@@ -30,6 +30,20 @@ inline double ThreadCpuSeconds() {
   return static_cast<double>(t.tv_sec) + 1e-9 * static_cast<double>(t.tv_nsec);
 }
 
+/// Adds `more` to `total` stage by stage (by name), a stage `total` lacks appended in order.
+inline void AddStages(const std::vector<std::pair<std::string, double>>& more,
+                      std::vector<std::pair<std::string, double>>* total) {
+  for (const auto& [name, seconds] : more) {
+    auto at = total->begin();
+    while (at != total->end() && at->first != name) ++at;
+    if (at == total->end()) {
+      total->emplace_back(name, seconds);
+    } else {
+      at->second += seconds;
+    }
+  }
+}
+
 /// Named stages' wall times, in the order they ran: Lap(name) ends the stage that began at the
 /// last Lap (or at construction) and names it (docs/performance.md's per-stage profiles).
 using StageTimes = std::vector<std::pair<std::string, double>>;
