@@ -8,14 +8,16 @@
 #include <cctype>
 #include <cstdarg>
 #include <cstdint>
+#include <cstring>
 #include <fstream>
 #include <memory>
 #include <mutex>
+#include <optional>
 #include <stdexcept>
 #include <vector>
 
+#include <libdeflate.h>
 #include <png.h>
-#include <zlib.h>
 #include <tiffio.h>
 #include <opencv2/imgproc.hpp>
 
@@ -40,11 +42,31 @@ std::uint32_t BigEndian32(const unsigned char* p) {
 
 }  // namespace
 
-std::string PngStructureProblem(const fs::path& path) {
-  std::ifstream in(path, std::ios::binary);
-  if (!in) return "cannot open";
-  const std::vector<unsigned char> bytes((std::istreambuf_iterator<char>(in)),
-                                         std::istreambuf_iterator<char>());
+namespace {
+
+// The whole file, or nullopt when it cannot be opened or read.
+std::optional<std::vector<unsigned char>> ReadFileBytes(const fs::path& path) {
+  std::ifstream in(path, std::ios::binary | std::ios::ate);
+  if (!in) return std::nullopt;
+  const std::streamoff size = in.tellg();
+  if (size < 0) return std::nullopt;
+  std::vector<unsigned char> bytes(static_cast<std::size_t>(size));
+  in.seekg(0);
+  if (!in.read(reinterpret_cast<char*>(bytes.data()), size)) return std::nullopt;
+  return bytes;
+}
+
+// A PNG's chunks as found by the structure check: every chunk's type, data and length up to
+// IEND (the CRCs checked).
+struct PngChunk {
+  std::string type;
+  const unsigned char* data = nullptr;
+  std::uint32_t length = 0;
+};
+
+// What is wrong with the chunk structure of a PNG held in `bytes` (bad signature, a chunk
+// running past the end, a CRC mismatch, no IEND), or ""; the chunks into `chunks` if given.
+std::string PngChunksProblem(const std::vector<unsigned char>& bytes, std::vector<PngChunk>* chunks) {
   static const unsigned char kSignature[8] = {0x89, 'P', 'N', 'G', '\r', '\n', 0x1A, '\n'};
   if (bytes.size() < 8 || !std::equal(kSignature, kSignature + 8, bytes.begin())) {
     return "not a PNG file (bad signature)";
@@ -56,14 +78,23 @@ std::string PngStructureProblem(const fs::path& path) {
     if (length > bytes.size() - pos - 12) {
       return "truncated (chunk " + type + " at byte " + std::to_string(pos) + " runs past the end)";
     }
-    const uLong crc = crc32(crc32(0L, Z_NULL, 0), &bytes[pos + 4], length + 4);
+    const std::uint32_t crc = libdeflate_crc32(0, &bytes[pos + 4], length + 4);
     if (crc != BigEndian32(&bytes[pos + 8 + length])) {
       return "corrupt (CRC mismatch in chunk " + type + " at byte " + std::to_string(pos) + ")";
     }
+    if (chunks != nullptr) chunks->push_back({type, &bytes[pos + 8], length});
     if (type == "IEND") return "";
     pos += 12 + length;
   }
   return "truncated (no IEND chunk)";
+}
+
+}  // namespace
+
+std::string PngStructureProblem(const fs::path& path) {
+  const auto bytes = ReadFileBytes(path);
+  if (!bytes) return "cannot open";
+  return PngChunksProblem(*bytes, nullptr);
 }
 
 int PngSignificantBits(const fs::path& path) {
@@ -101,11 +132,11 @@ namespace {
 
 std::atomic<long long> max_image_pixels{kDefaultMaxImagePixels};
 
-// What is wrong with the size a PNG's header claims (0 pixels, or above the limit), or "".
-std::string PngSizeProblem(const fs::path& path) {
-  std::ifstream in(path, std::ios::binary);
-  unsigned char head[24] = {};
-  if (!in.read(reinterpret_cast<char*>(head), sizeof head)) return "";  // too short: the structure check says so
+// What is wrong with the size the header of the PNG in `bytes` claims (0 pixels, or above the
+// limit), or "".
+std::string PngSizeProblem(const std::vector<unsigned char>& bytes) {
+  if (bytes.size() < 24) return "";  // too short: the structure check says so
+  const unsigned char* head = bytes.data();
   if (std::string(reinterpret_cast<const char*>(head + 12), 4) != "IHDR") return "";
   const long long width = BigEndian32(head + 16), height = BigEndian32(head + 20);
   if (width == 0 || height == 0) {
@@ -119,7 +150,6 @@ std::string PngSizeProblem(const fs::path& path) {
   return "";
 }
 
-
 // libpng's errors and warnings, kept for the caller's message instead of printed on stderr.
 struct PngMessages {
   std::jmp_buf jump;
@@ -132,19 +162,166 @@ void PngError(png_structp png, png_const_charp message) {
 }
 void PngWarning(png_structp, png_const_charp) {}
 
-// A PNG decoded by libpng (no OpenImageIO to load), its messages in the error line: the pixels
-// in the file's channel order, 8 or 16 bits (palettes and grey below 8 bits expanded).
-cv::Mat ReadPng(const fs::path& path, int* significant_bits) {
-  std::FILE* file = std::fopen(path.c_str(), "rb");
-  LN_CHECK_INPUT(file != nullptr) << path.string() << ": cannot open";
+// The sBIT chunk's significant bits of the colour channels (the largest; alpha aside), 0
+// without a valid one: as libpng reads it (the first sBIT before the image data, of the length
+// the colour type gives, every value in 1..depth; otherwise ignored).
+int SignificantBitsOf(const std::vector<PngChunk>& chunks, int colour_type, int depth) {
+  const bool colour = (colour_type & PNG_COLOR_MASK_COLOR) != 0;
+  const std::uint32_t length = (colour ? 3u : 1u) + ((colour_type & PNG_COLOR_MASK_ALPHA) != 0 ? 1u : 0u);
+  for (const PngChunk& c : chunks) {
+    if (c.type == "IDAT") break;
+    if (c.type != "sBIT") continue;
+    if (c.length != length) return 0;
+    for (std::uint32_t i = 0; i < length; ++i) {
+      if (c.data[i] == 0 || c.data[i] > depth) return 0;
+    }
+    return colour ? std::max({int{c.data[0]}, int{c.data[1]}, int{c.data[2]}}) : int{c.data[0]};
+  }
+  return 0;
+}
+
+// Reverses the PNG row filter of one row of `row_bytes` bytes: `in` after its filter byte
+// `filter`, into `out`; `prior` the previous row unfiltered (null for the first row), bpp bytes
+// a pixel. False on an unknown filter type.
+bool UnfilterPngRow(int filter, const unsigned char* in, const unsigned char* prior, std::size_t row_bytes,
+                    std::size_t bpp, unsigned char* out) {
+  const std::size_t lead = std::min(bpp, row_bytes);  // the first pixel: no left neighbour
+  switch (filter) {
+    case 0: std::memcpy(out, in, row_bytes); return true;
+    case 1:
+      std::memcpy(out, in, lead);
+      for (std::size_t i = bpp; i < row_bytes; ++i) out[i] = static_cast<unsigned char>(in[i] + out[i - bpp]);
+      return true;
+    case 2:
+      if (prior == nullptr) {
+        std::memcpy(out, in, row_bytes);
+      } else {
+        for (std::size_t i = 0; i < row_bytes; ++i) out[i] = static_cast<unsigned char>(in[i] + prior[i]);
+      }
+      return true;
+    case 3:
+      for (std::size_t i = 0; i < lead; ++i) out[i] = static_cast<unsigned char>(in[i] + (prior ? prior[i] >> 1 : 0));
+      for (std::size_t i = bpp; i < row_bytes; ++i) {
+        const int a = out[i - bpp], b = prior != nullptr ? prior[i] : 0;
+        out[i] = static_cast<unsigned char>(in[i] + ((a + b) >> 1));
+      }
+      return true;
+    case 4:
+      // Paeth; on the first row (b = c = 0) it is the left neighbour, and on a row's first
+      // pixel (a = c = 0) the one above.
+      for (std::size_t i = 0; i < lead; ++i) out[i] = static_cast<unsigned char>(in[i] + (prior ? prior[i] : 0));
+      for (std::size_t i = bpp; i < row_bytes; ++i) {
+        const int a = out[i - bpp], b = prior != nullptr ? prior[i] : 0, c = prior != nullptr ? prior[i - bpp] : 0;
+        const int pa = std::abs(b - c), pb = std::abs(a - c), pc = std::abs(a + b - 2 * c);
+        const int predictor = pa <= pb && pa <= pc ? a : (pb <= pc ? b : c);
+        out[i] = static_cast<unsigned char>(in[i] + predictor);
+      }
+      return true;
+    default: return false;
+  }
+}
+
+// The common PNGs (grey, grey + alpha, RGB, RGBA at 8 or 16 bits, not interlaced, no
+// transparency chunk: what cameras and the project write) decoded with libdeflate, several
+// times faster than libpng's zlib: the pixels in the file's channel order. Empty when the file
+// is of another kind or anything in its data is unexpected (libpng then decodes it, or says
+// what is wrong). `chunks` have passed the structure check.
+cv::Mat DecodeCommonPng(const std::vector<PngChunk>& chunks) {
+  if (chunks.empty() || chunks[0].type != "IHDR" || chunks[0].length != 13) return {};
+  const unsigned char* h = chunks[0].data;
+  const std::uint32_t width = BigEndian32(h), height = BigEndian32(h + 4);
+  const int depth = h[8], colour_type = h[9];
+  if (h[10] != 0 || h[11] != 0 || h[12] != 0 || (depth != 8 && depth != 16)) return {};  // methods, interlace
+  int channels = 0;
+  switch (colour_type) {
+    case PNG_COLOR_TYPE_GRAY: channels = 1; break;
+    case PNG_COLOR_TYPE_GRAY_ALPHA: channels = 2; break;
+    case PNG_COLOR_TYPE_RGB: channels = 3; break;
+    case PNG_COLOR_TYPE_RGB_ALPHA: channels = 4; break;
+    default: return {};
+  }
+  if (width > 0x7fffffffu / (8u * channels) || height > 0x7fffffffu) return {};
+  // The image data: consecutive IDAT chunks; known chunks only (an unknown critical chunk is
+  // libpng's to refuse); tRNS would add an alpha channel (libpng's expansion).
+  std::size_t idat_bytes = 0;
+  int idat_runs = 0;
+  std::string previous;
+  for (const PngChunk& c : chunks) {
+    const bool critical = std::isupper(static_cast<unsigned char>(c.type[0])) != 0;
+    if (c.type == "tRNS" || (critical && c.type != "IHDR" && c.type != "PLTE" && c.type != "IDAT" && c.type != "IEND")) {
+      return {};
+    }
+    if (c.type == "IDAT") {
+      idat_runs += previous != "IDAT";
+      idat_bytes += c.length;
+    }
+    previous = c.type;
+  }
+  if (idat_runs != 1) return {};
+  std::vector<unsigned char> compressed;
+  compressed.reserve(idat_bytes);
+  for (const PngChunk& c : chunks) {
+    if (c.type == "IDAT") compressed.insert(compressed.end(), c.data, c.data + c.length);
+  }
+  const std::size_t bpp = static_cast<std::size_t>(channels) * depth / 8;
+  const std::size_t row_bytes = bpp * width;
+  const std::size_t filtered_bytes = (row_bytes + 1) * height;
+  std::vector<unsigned char> filtered(filtered_bytes);
+  std::unique_ptr<libdeflate_decompressor, void (*)(libdeflate_decompressor*)> decompressor(
+      libdeflate_alloc_decompressor(), &libdeflate_free_decompressor);
+  if (decompressor == nullptr) return {};
+  std::size_t got = 0;
+  const libdeflate_result result = libdeflate_zlib_decompress(decompressor.get(), compressed.data(), compressed.size(),
+                                                              filtered.data(), filtered.size(), &got);
+  if (result != LIBDEFLATE_SUCCESS || got != filtered_bytes) return {};
+  cv::Mat raw(static_cast<int>(height), static_cast<int>(width), CV_MAKETYPE(depth == 16 ? CV_16U : CV_8U, channels));
+  // 8 bits: unfiltered straight into the image; 16 bits: in place (the filters work on the
+  // file's big-endian bytes), then swapped.
+  const unsigned char* prior = nullptr;
+  for (std::size_t y = 0; y < height; ++y) {
+    unsigned char* in = filtered.data() + y * (row_bytes + 1);
+    unsigned char* out = depth == 8 ? raw.ptr(static_cast<int>(y)) : in + 1;
+    if (!UnfilterPngRow(in[0], in + 1, prior, row_bytes, bpp, out)) return {};
+    prior = out;
+  }
+  if (depth == 16) {
+    for (std::size_t y = 0; y < height; ++y) {
+      const unsigned char* from = filtered.data() + y * (row_bytes + 1) + 1;
+      auto* to = reinterpret_cast<std::uint16_t*>(raw.ptr(static_cast<int>(y)));
+      for (std::size_t i = 0; i < row_bytes / 2; ++i) {
+        to[i] = static_cast<std::uint16_t>((from[2 * i] << 8) | from[2 * i + 1]);  // big-endian samples
+      }
+    }
+  }
+  return raw;
+}
+
+// A PNG (the file's bytes, its chunks checked) decoded without OpenImageIO: the common kinds by
+// DecodeCommonPng, the others by libpng with its messages in the error line: the pixels in the
+// file's channel order, 8 or 16 bits (palettes and grey below 8 bits expanded).
+cv::Mat ReadPng(const fs::path& path, const std::vector<unsigned char>& bytes, const std::vector<PngChunk>& chunks,
+                int* significant_bits) {
+  cv::Mat raw = DecodeCommonPng(chunks);
+  if (!raw.empty()) {
+    *significant_bits = SignificantBitsOf(chunks, chunks[0].data[9], chunks[0].data[8]);
+    return raw;
+  }
   PngMessages messages;
   png_structp png = png_create_read_struct(PNG_LIBPNG_VER_STRING, &messages, &PngError, &PngWarning);
   png_infop info = png != nullptr ? png_create_info_struct(png) : nullptr;
-  cv::Mat raw;
   std::vector<png_bytep> rows;
+  struct Source {
+    const std::vector<unsigned char>* bytes;
+    std::size_t pos = 0;
+  } source{&bytes};
   volatile bool ok = false;  // read after a longjmp from libpng's error handler
   if (png != nullptr && info != nullptr && setjmp(messages.jump) == 0) {
-    png_init_io(png, file);
+    png_set_read_fn(png, &source, [](png_structp p, png_bytep data, png_size_t length) {
+      auto* s = static_cast<Source*>(png_get_io_ptr(p));
+      if (length > s->bytes->size() - s->pos) png_error(p, "read past the end of the file");
+      std::memcpy(data, s->bytes->data() + s->pos, length);
+      s->pos += length;
+    });
     png_set_user_limits(png, 0x7fffffff, 0x7fffffff);  // sizes are checked before (--max-pixels)
     png_read_info(png, info);
     // sBIT: the colour channels' largest significant bit count (alpha aside); 0 without one.
@@ -170,7 +347,6 @@ cv::Mat ReadPng(const fs::path& path, int* significant_bits) {
     ok = true;
   }
   png_destroy_read_struct(png != nullptr ? &png : nullptr, info != nullptr ? &info : nullptr, nullptr);
-  std::fclose(file);
   LN_CHECK_INPUT(ok) << path.string() << ": truncated or corrupt image ("
                      << (messages.error.empty() ? std::string("cannot decode") : messages.error) << ")";
   return raw;
@@ -193,13 +369,16 @@ cv::Mat ReadAllChannels(const fs::path& path, SignificantBits* bits) {
   cv::Mat raw;
   int stored_bits = 0, png_sbit = 0;
   if (png) {
-    // The claimed size first (before anything is read or allocated), then the chunks: libpng
-    // prints its own stderr line on a damaged file, so the damage is found first.
-    const std::string size_problem = PngSizeProblem(path);
+    // The claimed size first (before anything is decoded or allocated for the pixels), then the
+    // chunks: libpng prints its own stderr line on a damaged file, so the damage is found first.
+    const auto bytes = ReadFileBytes(path);
+    LN_CHECK_INPUT(bytes.has_value()) << path.string() << ": cannot open";
+    const std::string size_problem = PngSizeProblem(*bytes);
     LN_CHECK_INPUT(size_problem.empty()) << path.string() << ": " << size_problem;
-    const std::string problem = PngStructureProblem(path);
+    std::vector<PngChunk> chunks;
+    const std::string problem = PngChunksProblem(*bytes, &chunks);
     LN_CHECK_INPUT(problem.empty()) << path.string() << ": " << problem;
-    raw = ReadPng(path, &png_sbit);
+    raw = ReadPng(path, *bytes, chunks, &png_sbit);
   } else {
     std::string error;
     if (!internal::Oiio().ReadInteger(path.string(), MaxImagePixels(), &raw, &stored_bits, &error)) {
@@ -241,10 +420,16 @@ cv::Mat ReadImage(const fs::path& path, SignificantBits* bits) {
 }
 
 cv::Mat ReadGreyImage(const fs::path& path, SignificantBits* bits) {
-  const cv::Mat image = ReadImage(path, bits);
-  if (image.channels() == 1) return image;
+  // From the file's channels directly (RGB2GRAY weighs the channels as BGR2GRAY does after
+  // ReadImage's reordering: the same grey levels, one conversion fewer).
+  const cv::Mat raw = ReadAllChannels(path, bits);
   cv::Mat grey;
-  cv::cvtColor(image, grey, cv::COLOR_BGR2GRAY);
+  switch (raw.channels()) {
+    case 1: return raw;
+    case 2: cv::extractChannel(raw, grey, 0); break;  // grey + alpha
+    case 3: cv::cvtColor(raw, grey, cv::COLOR_RGB2GRAY); break;
+    default: cv::cvtColor(raw, grey, cv::COLOR_RGBA2GRAY); break;
+  }
   return grey;
 }
 

@@ -6,10 +6,12 @@
 
 #include "util/errors.h"
 #include "util/log.h"
+#include "util/resources.h"
 
 namespace lunarnav::util {
 
 int RunMain(const std::function<int()>& body) {
+  KeepFreedMemoryForReuse();
   try {
     return body();
   } catch (const InputError& e) {

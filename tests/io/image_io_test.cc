@@ -9,6 +9,7 @@
 #include <utility>
 #include <vector>
 
+#include <png.h>
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
 
@@ -64,6 +65,88 @@ TEST(ReadImage, KeepsColourInBgrOrderAndDropsAlpha) {
   cv::Mat grey(2, 2, CV_8UC1, cv::Scalar(77));
   ASSERT_TRUE(cv::imwrite((tmp.path() / "g.pgm").string(), grey));
   EXPECT_EQ(ReadImage(tmp.path() / "g.pgm").type(), CV_8UC1);
+}
+
+// A PNG written by libpng with one row filter for every row (or its adaptive choice), any
+// colour type and depth, interlaced or not: `pixels` in the file's channel order (RGB(A)).
+void WritePngWithFilter(const fs::path& path, const cv::Mat& pixels, int filters, bool interlaced, bool palette) {
+  std::FILE* file = std::fopen(path.c_str(), "wb");
+  ASSERT_NE(file, nullptr);
+  png_structp png = png_create_write_struct(PNG_LIBPNG_VER_STRING, nullptr, nullptr, nullptr);
+  png_infop info = png_create_info_struct(png);
+  png_init_io(png, file);
+  static const int kColourTypes[] = {PNG_COLOR_TYPE_GRAY, PNG_COLOR_TYPE_GRAY_ALPHA, PNG_COLOR_TYPE_RGB,
+                                     PNG_COLOR_TYPE_RGB_ALPHA};
+  const int depth = pixels.depth() == CV_16U ? 16 : 8;
+  png_set_IHDR(png, info, pixels.cols, pixels.rows, depth,
+               palette ? PNG_COLOR_TYPE_PALETTE : kColourTypes[pixels.channels() - 1],
+               interlaced ? PNG_INTERLACE_ADAM7 : PNG_INTERLACE_NONE, PNG_COMPRESSION_TYPE_DEFAULT,
+               PNG_FILTER_TYPE_DEFAULT);
+  std::vector<png_color> colours(256);
+  if (palette) {
+    for (int i = 0; i < 256; ++i) colours[i] = {static_cast<png_byte>(i), static_cast<png_byte>(255 - i), 7};
+    png_set_PLTE(png, info, colours.data(), 256);
+  }
+  png_set_filter(png, 0, filters);
+  png_write_info(png, info);
+  if (depth == 16) png_set_swap(png);  // the host's byte order in, big-endian in the file
+  std::vector<png_bytep> rows(pixels.rows);
+  for (int y = 0; y < pixels.rows; ++y) rows[y] = const_cast<png_bytep>(pixels.ptr(y));
+  png_write_image(png, rows.data());
+  png_write_end(png, nullptr);
+  png_destroy_write_struct(&png, &info);
+  std::fclose(file);
+}
+
+// The PNG reader (its own decoding of the common kinds, libpng for the others) against
+// OpenCV's decoder, over every colour type, both depths and each row filter: smooth gradients
+// with noise so that every filter meets every kind of neighbour, sizes from one pixel up.
+TEST(ReadImage, DecodesEveryPngKindAndFilterAsOpenCvDoes) {
+  util::ScopedTempDir tmp;
+  cv::RNG rng(3);
+  const int filters[] = {PNG_FILTER_NONE, PNG_FILTER_SUB, PNG_FILTER_UP, PNG_FILTER_AVG, PNG_FILTER_PAETH,
+                         PNG_ALL_FILTERS};
+  int checked = 0;
+  for (const cv::Size size : {cv::Size(1, 1), cv::Size(2, 3), cv::Size(37, 23)}) {
+    for (int channels = 1; channels <= 4; ++channels) {
+      for (const int depth : {CV_8U, CV_16U}) {
+        cv::Mat pixels(size, CV_MAKETYPE(depth, channels));
+        const double top = depth == CV_8U ? 255 : 65535;
+        for (int y = 0; y < size.height; ++y) {
+          for (int x = 0; x < size.width * channels; ++x) {
+            const double v = std::fmod(top * (0.3 + 0.02 * x + 0.03 * y) + rng.uniform(-0.1, 0.1) * top, top + 1);
+            if (depth == CV_8U) pixels.ptr<std::uint8_t>(y)[x] = cv::saturate_cast<std::uint8_t>(std::abs(v));
+            if (depth == CV_16U) pixels.ptr<std::uint16_t>(y)[x] = cv::saturate_cast<std::uint16_t>(std::abs(v));
+          }
+        }
+        for (const int filter : filters) {
+          for (const bool interlaced : {false, true}) {
+            const fs::path path = tmp.path() / ("p" + std::to_string(checked++) + ".png");
+            WritePngWithFilter(path, pixels, filter, interlaced, false);
+            const cv::Mat expected = cv::imread(path.string(), cv::IMREAD_UNCHANGED);  // BGR(A)
+            ASSERT_FALSE(expected.empty()) << path;
+            cv::Mat expected_bgr = expected, expected_grey = expected;
+            if (channels == 4) cv::cvtColor(expected, expected_bgr, cv::COLOR_BGRA2BGR);
+            if (channels == 2) cv::extractChannel(expected, expected_bgr, 0);
+            if (channels >= 3) cv::cvtColor(expected_bgr, expected_grey, cv::COLOR_BGR2GRAY);
+            if (channels == 2) expected_grey = expected_bgr;
+            const cv::Mat image = ReadImage(path), grey = ReadGreyImage(path);
+            ASSERT_EQ(image.type(), expected_bgr.type()) << path;
+            EXPECT_EQ(cv::norm(image, expected_bgr, cv::NORM_INF), 0) << path << " filter " << filter;
+            ASSERT_EQ(grey.type(), expected_grey.type()) << path;
+            EXPECT_EQ(cv::norm(grey, expected_grey, cv::NORM_INF), 0) << path << " filter " << filter;
+          }
+        }
+      }
+    }
+  }
+  // A palette image (expanded to RGB by libpng).
+  cv::Mat indices(5, 9, CV_8UC1);
+  rng.fill(indices, cv::RNG::UNIFORM, 0, 256);
+  WritePngWithFilter(tmp.path() / "palette.png", indices, PNG_ALL_FILTERS, false, true);
+  const cv::Mat image = ReadImage(tmp.path() / "palette.png");
+  ASSERT_EQ(image.type(), CV_8UC3);
+  EXPECT_EQ(image.at<cv::Vec3b>(0, 0), cv::Vec3b(7, 255 - indices.at<std::uint8_t>(0, 0), indices.at<std::uint8_t>(0, 0)));
 }
 
 TEST(ReadGreyImage, ReportsMissingEmptyAndTruncatedFiles) {
