@@ -240,11 +240,18 @@ TEST(WriteImageAtomic, EveryFormatReadsBackExactlyThroughAnotherDecoder) {
       }
     }
   }
-  // Label maps (the writer without filters) read back the same.
+  // Label maps (their own encoder) read back the same, through OpenCV's decoder and ours:
+  // regions and noise, and a single pixel.
   cv::Mat labels(40, 50, CV_8UC1, cv::Scalar(0));
   cv::rectangle(labels, cv::Rect(5, 5, 20, 10), cv::Scalar(3), cv::FILLED);
-  WriteLabelImageAtomic(tmp.path() / "labels.png", labels);
-  EXPECT_TRUE(same(cv::imread((tmp.path() / "labels.png").string(), cv::IMREAD_UNCHANGED), labels));
+  cv::Mat noise(40, 50, CV_8UC1);
+  cv::randu(noise, 0, 256);
+  noise.rowRange(30, 40).copyTo(labels.rowRange(30, 40));
+  for (const cv::Mat& m : {labels, cv::Mat(1, 1, CV_8UC1, cv::Scalar(9))}) {
+    WriteLabelImageAtomic(tmp.path() / "labels.png", m);
+    EXPECT_TRUE(same(cv::imread((tmp.path() / "labels.png").string(), cv::IMREAD_UNCHANGED), m));
+    EXPECT_TRUE(same(ReadImage(tmp.path() / "labels.png"), m));
+  }
   // A refused write leaves nothing, not even a temporary file.
   EXPECT_THROW(WriteImageAtomic(tmp.path() / "x.tif", cv::Mat(2, 2, CV_64FC1)), std::exception);
   EXPECT_FALSE(fs::exists(tmp.path() / "x.tif"));
