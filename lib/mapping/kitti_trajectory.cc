@@ -14,6 +14,7 @@
 #include "positioning/trajectory_io.h"
 #include "util/check.h"
 #include "util/errors.h"
+#include "util/format.h"
 #include "util/parse.h"
 
 namespace lunarnav::mapping {
@@ -28,7 +29,7 @@ constexpr long kMaxLines = 1000000;
 using util::Trim;
 
 // The whitespace-separated numbers of a line; false when a token is not a finite number.
-bool LineNumbers(const std::string& line, std::vector<double>* values) {
+bool LineNumbers(const std::string& line, std::vector<double>* values, std::string* bad_field = nullptr) {
   values->clear();
   std::istringstream in(line);
   in.imbue(std::locale::classic());
@@ -36,7 +37,10 @@ bool LineNumbers(const std::string& line, std::vector<double>* values) {
   while (in >> token) {
     char* end = nullptr;
     const double v = std::strtod(token.c_str(), &end);
-    if (end == token.c_str() || *end != '\0' || !std::isfinite(v)) return false;
+    if (end == token.c_str() || *end != '\0' || !std::isfinite(v)) {
+      if (bad_field != nullptr) *bad_field = token;
+      return false;
+    }
     values->push_back(v);
   }
   return true;
@@ -181,6 +185,9 @@ TrajectoryFormat DetectTrajectoryFormat(const fs::path& path) {
   // the line that is not.
   std::vector<double> values;
   const bool numbers = LineNumbers(FirstDataLine(path), &values);
+  LN_CHECK_INPUT(!numbers || values.size() == 12 || values.size() == 8)
+      << path.string() << ": its first line holds " << values.size()
+      << " numbers: a KITTI pose file has 12 a line (a 3 x 4 pose), a TUM trajectory 8 (time, position, quaternion)";
   return numbers && values.size() == 12 ? TrajectoryFormat::kKittiPoses : TrajectoryFormat::kTum;
 }
 
@@ -206,6 +213,11 @@ std::vector<FramePose> ReadKittiFrameTimes(const fs::path& path) {
       LN_CHECK_INPUT(LineNumbers(line, &values) && values.size() == 1) << where << ": expected one number (seconds)";
       t = values[0];
     }
+    // KITTI lists its frames in order: a time that does not increase is damage, named here
+    // (a pose file that takes its times from this file would otherwise be blamed for it).
+    LN_CHECK_INPUT(times.empty() || t > times.back().t_s)
+        << where << ": time " << util::Format("%.9g", t) << " s is not after the previous frame's ("
+        << util::Format("%.9g", times.back().t_s) << " s)";
     p.stem = Stem(static_cast<long>(times.size()), dates ? 10 : 6);
     p.t_s = t;
     times.push_back(p);
@@ -219,9 +231,11 @@ std::vector<Eigen::Isometry3d> ReadKittiPoses(const fs::path& path) {
   ForEachDataLine(path, [&](const std::string& line, long number) {
     const std::string where = path.string() + ":" + std::to_string(number);
     std::vector<double> v;
-    LN_CHECK_INPUT(LineNumbers(line, &v) && v.size() == 12)
-        << where << ": expected 12 numbers (a 3 x 4 pose, row-major), got "
-        << (v.size() == 12 ? "a non-number" : std::to_string(v.size()));
+    std::string bad;
+    const bool numbers = LineNumbers(line, &v, &bad);
+    LN_CHECK_INPUT(numbers) << where << ": field " << v.size() + 1 << ", '" << bad.substr(0, 40)
+                            << "', is not a finite number (a 3 x 4 pose is 12 numbers, row-major)";
+    LN_CHECK_INPUT(v.size() == 12) << where << ": expected 12 numbers (a 3 x 4 pose, row-major), got " << v.size();
     const Eigen::Isometry3d pose = RigidFrom12(v, where);
     LN_CHECK_INPUT(pose.translation().cwiseAbs().maxCoeff() <= kMaxWorldCoordinateM)
         << where << ": a position beyond " << kMaxWorldCoordinateM / 1000 << " km";
