@@ -172,6 +172,15 @@ PlyPointCloud ReadPly(const fs::path& path) {
     LN_CHECK_INPUT(offset.count(axis) != 0) << name << ": vertices have no " << axis << " property";
   }
   const bool has_colour = offset.count("red") && offset.count("green") && offset.count("blue");
+  // What the header announces must be in the file before anything is allocated for it.
+  std::error_code ec;
+  const std::uintmax_t file_bytes = fs::file_size(path, ec);
+  const std::streamoff header_bytes = in.tellg();
+  const std::uintmax_t body_bytes =
+      ec || header_bytes < 0 || file_bytes < static_cast<std::uintmax_t>(header_bytes) ? 0 : file_bytes - header_bytes;
+  LN_CHECK_INPUT(static_cast<std::uintmax_t>(vertex_count) <= body_bytes / std::max<std::size_t>(record, 1))
+      << name << ": truncated (" << vertex_count << " vertices of " << record << " bytes announced, " << body_bytes
+      << " bytes after the header)";
   std::vector<unsigned char> bytes(record * static_cast<std::size_t>(vertex_count));
   in.read(reinterpret_cast<char*>(bytes.data()), static_cast<std::streamsize>(bytes.size()));
   LN_CHECK_INPUT(in.gcount() == static_cast<std::streamsize>(bytes.size()))

@@ -440,6 +440,17 @@ std::vector<Case> Cases() {
                                          "-o", w.Out(), "-q"};
        },
        0, {}, {"requests.csv"}},
+      // A KITTI pose file takes its times from times.txt: a time that goes back is that file's
+      // fault, at its line (it was blamed on the pose file).
+      {"plan-windows: KITTI poses whose times.txt goes back", "plan-windows",
+       [](const Workspace& w) {
+         WriteText(w.root / "poses.txt",
+                   "1 0 0 0 0 1 0 0 0 0 1 0\n1 0 0 0 0 1 0 0 0 0 1 0.5\n1 0 0 0 0 1 0 0 0 0 1 1\n");
+         WriteText(w.root / "times.txt", "0\n0.1\n0.05\n");
+         return std::vector<std::string>{"--trajectory", w.At("poses.txt"), "--frame-times", w.At("times.txt"),
+                                         "--rig", w.At("rig.json"), "-o", w.Out(), "-q"};
+       },
+       3, {"times.txt:3", "not after the previous frame"}, {}},
       {"evaluate trajectory: a GPS track with a coordinate of 1e308", "evaluate",
        [](const Workspace& w) {
          WriteText(w.root / "gps.csv", "t,east,north\n0,0,0\n10,1e308,1\n20,2,2\n");

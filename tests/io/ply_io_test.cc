@@ -109,6 +109,20 @@ TEST(ReadPly, ReportsUnsupportedAndTruncatedFiles) {
   const std::string bytes = ReadBytes(tmp.path() / "full.ply");
   std::ofstream(tmp.path() / "cut.ply", std::ios::binary).write(bytes.data(), static_cast<std::streamsize>(bytes.size() - 5));
   EXPECT_THROW(ReadPly(tmp.path() / "cut.ply"), InputError);
+  // A header announcing four billion vertices over a few bytes is refused before anything is
+  // allocated for them (it ran out of memory, exit 1), naming what the file holds.
+  std::ofstream(tmp.path() / "forged.ply", std::ios::binary)
+      << "ply\nformat binary_little_endian 1.0\nelement vertex 4000000000\nproperty float x\n"
+         "property float y\nproperty float z\nend_header\n"
+      << std::string(120, '\0');
+  try {
+    ReadPly(tmp.path() / "forged.ply");
+    FAIL() << "expected InputError";
+  } catch (const InputError& e) {
+    EXPECT_NE(std::string(e.what()).find("forged.ply: truncated (4000000000 vertices of 12 bytes announced, 120 bytes"),
+              std::string::npos)
+        << e.what();
+  }
 }
 
 }  // namespace
