@@ -143,7 +143,7 @@ void StereoSimOptions::Validate() const {
   const int s = static_cast<int>(std::lround(std::sqrt(std::max(rays_per_pixel, 0))));
   LN_CHECK_ARG(rays_per_pixel >= 1 && rays_per_pixel <= 64 && s * s == rays_per_pixel)
       << "rays per pixel: must be a square in 1..64 (1, 4, 9, ...), got " << rays_per_pixel;
-  LN_CHECK_ARG(frames >= 1 && frames <= 1000000) << "frames: must be >= 1";
+  LN_CHECK_ARG(frames >= 1 && frames <= 1000000) << "frames: must be 1 to 1000000, got " << frames;
   LN_CHECK_ARG(std::isfinite(speed_mps) && speed_mps >= 0 && speed_mps <= 10) << "speed: must be in [0, 10] m/s";
   LN_CHECK_ARG(std::isfinite(interval_s) && interval_s > 0) << "interval: must be > 0 s";
   LN_CHECK_ARG(std::isfinite(turn_radius_m) && (turn_radius_m == 0 || std::abs(turn_radius_m) >= 1))
