@@ -396,6 +396,17 @@ TerrainMapRunSummary RunTerrainMap(const TerrainMapRunOptions& options, const fs
     LN_CHECK_INPUT(disparity.cols == rig->rectified->width_px && disparity.rows == rig->rectified->height_px)
         << "stem " << stem << ": " << path.string() << " is " << disparity.cols << "x" << disparity.rows
         << ", the rig's rectified images " << rig->rectified->width_px << "x" << rig->rectified->height_px;
+    // No matcher returns a disparity as large as the image is wide: such a value is damage, not
+    // a point (1e30 px would put a point on the camera, a phantom under the vehicle).
+    const float widest = static_cast<float>(disparity.cols);
+    for (int y = 0; y < disparity.rows; ++y) {
+      const float* row = disparity.ptr<float>(y);
+      for (int x = 0; x < disparity.cols; ++x) {
+        LN_CHECK_INPUT(!(std::isfinite(row[x]) && std::abs(row[x]) >= widest))  // +inf and NaN: no match
+            << "stem " << stem << ": " << path.string() << ": pixel (" << x << ", " << y << ") holds a disparity of "
+            << row[x] << " px, beyond the image's width (" << disparity.cols << " px)";
+      }
+    }
     return calib::TriangulateDisparity(*rig, disparity, options.reference);
   };
   bool from_disparity = false;

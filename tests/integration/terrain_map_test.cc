@@ -756,6 +756,21 @@ TEST(TerrainMapTool, WithTheRigThePointsComeFromTheDisparityMapsAndAreTheXyzArra
   EXPECT_EQ(bad.ErrorLines(), 1) << bad.stderr_text;
   EXPECT_NE(bad.stderr_text.find(PoseOf(2).stem + ".pfm is 10x10"), std::string::npos) << bad.stderr_text;
   EXPECT_FALSE(fs::exists(tmp.path() / "m_bad" / "elevation.tif"));
+  // One of the right size holding a disparity wider than the image (damage: it would put a
+  // point on the camera): refused likewise, the pixel named.
+  cv::Mat damaged(rig.rectified->height_px, rig.rectified->width_px, CV_32FC1,
+                  cv::Scalar(std::numeric_limits<float>::infinity()));
+  damaged.at<float>(7, 3) = 1e30f;
+  io::WriteImageAtomic(stereo / "disparity" / (PoseOf(2).stem + ".pfm"), damaged);
+  const auto wide = RunTool(
+      "terrain-map",
+      {stereo.string(), "--poses", poses, "--rig", rig_file.string(), "-o", (tmp.path() / "m_wide").string(), "-q"},
+      tmp.path());
+  EXPECT_EQ(wide.exit_code, 3) << wide.stderr_text;
+  EXPECT_NE(wide.stderr_text.find(PoseOf(2).stem + ".pfm: pixel (3, 7) holds a disparity of 1e+30 px"),
+            std::string::npos)
+      << wide.stderr_text;
+  EXPECT_FALSE(fs::exists(tmp.path() / "m_wide" / "elevation.tif"));
 }
 
 }  // namespace
