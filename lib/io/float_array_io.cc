@@ -17,7 +17,7 @@ namespace fs = std::filesystem;
 
 
 void WriteExrAtomic(const fs::path& path, const cv::Mat& image, const std::vector<std::string>& channel_names,
-                    const std::map<std::string, std::string>& attributes) {
+                    const std::map<std::string, std::string>& attributes, ExrStorage storage) {
   LN_CHECK_ARG(!image.empty() && image.depth() == CV_32F && image.channels() >= 1 && image.channels() <= 4)
       << path.string() << ": EXR output needs a non-empty float32 map of 1 to 4 channels";
   const int channels = image.channels();
@@ -46,7 +46,7 @@ void WriteExrAtomic(const fs::path& path, const cv::Mat& image, const std::vecto
   if (!path.parent_path().empty()) fs::create_directories(path.parent_path());
   const fs::path temp = TempPathFor(path);
   std::string error;
-  if (!internal::Oiio().WriteExr(temp.string(), image, names, stamped, &error)) {
+  if (!internal::Oiio().WriteExr(temp.string(), image, names, stamped, storage == ExrStorage::kFloat16, &error)) {
     std::error_code ec;
     fs::remove(temp, ec);
     throw std::runtime_error(path.string() + ": cannot write EXR (" + error + ")");

@@ -24,8 +24,13 @@ struct ExrImage {
 /// faster). A file that stamps too few rows is read with NaN in the rows it leaves out.
 inline constexpr const char* kFiniteRowsAttribute = "lunarnav:finite_rows";
 
-/// Writes a float32 map as a scanline OpenEXR file (32-bit float channels, ZIP compression,
-/// lossless; NaN and infinities are kept as they are), stamped with kFiniteRowsAttribute (over
+/// How WriteExrAtomic stores the channels: 32-bit floats (lossless), or 16-bit ones (11
+/// significant bits, values to 65504, larger ones +inf: for quantities such as a predicted
+/// error, where three digits say all there is; a third of the bytes, a third of the time).
+enum class ExrStorage { kFloat32, kFloat16 };
+
+/// Writes a float32 map as a scanline OpenEXR file (by default 32-bit float channels, ZIP
+/// compression, lossless; NaN and infinities are kept as they are), stamped with kFiniteRowsAttribute (over
 /// any value `attributes` gives it). The file is written under a hidden temporary name and
 /// renamed, so `path` holds the complete file or nothing.
 /// @param image  CV_32FC1 .. CV_32FC4, top row first; channel k of the Mat is channel k of
@@ -37,7 +42,8 @@ inline constexpr const char* kFiniteRowsAttribute = "lunarnav:finite_rows";
 ///         std::runtime_error when the file cannot be written.
 void WriteExrAtomic(const std::filesystem::path& path, const cv::Mat& image,
                     const std::vector<std::string>& channel_names = {},
-                    const std::map<std::string, std::string>& attributes = {});
+                    const std::map<std::string, std::string>& attributes = {},
+                    ExrStorage storage = ExrStorage::kFloat32);
 
 /// Loads the EXR reader (OpenImageIO, loaded on first use: about 0.2 s, once per process) now,
 /// so that timings of the reads that follow measure reading only.

@@ -23,9 +23,10 @@ class OiioModule {
   /// Images of more than `max_pixels` pixels are refused from their header ("size: ...").
   virtual bool ReadInteger(const std::string& path, long long max_pixels, cv::Mat* pixels, int* bits_per_sample,
                            std::string* error) = 0;
-  /// Writes a float map as a ZIP-compressed scanline OpenEXR file (no time stamp).
+  /// Writes a float map as a ZIP-compressed scanline OpenEXR file (no time stamp), its channels
+  /// stored as 32-bit floats or, with `half`, 16-bit ones.
   virtual bool WriteExr(const std::string& path, const cv::Mat& image, const std::vector<std::string>& names,
-                        const std::map<std::string, std::string>& attributes, std::string* error) = 0;
+                        const std::map<std::string, std::string>& attributes, bool half, std::string* error) = 0;
   /// Reads a float image (EXR and the like) with its channel names and string attributes.
   /// On failure `error` as for ReadInteger.
   virtual bool ReadFloat(const std::string& path, long long max_pixels, cv::Mat* pixels, std::vector<std::string>* names,
