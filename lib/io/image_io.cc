@@ -11,7 +11,6 @@
 #include <cstring>
 #include <fstream>
 #include <memory>
-#include <mutex>
 #include <optional>
 #include <stdexcept>
 #include <vector>
@@ -546,14 +545,20 @@ void WritePfmAtomic(const fs::path& path, const cv::Mat& image) {
   out.Commit();
 }
 
-// libtiff's messages, kept for the error line instead of printed on stderr.
-thread_local std::string tiff_error;
-void TiffError(const char* module, const char* format, va_list args) {
+// libtiff's messages for one file, kept for the error line instead of printed on stderr:
+// handlers of the file's own (TIFFOpenExt's options), not the library's global ones, which
+// OpenImageIO's TIFF reader, loaded in the same process, sets for itself.
+struct TiffMessages {
+  std::string error;
+};
+int TiffError(TIFF*, void* user_data, const char* module, const char* format, va_list args) {
   char message[512];
   std::vsnprintf(message, sizeof message, format, args);
-  tiff_error = (module != nullptr ? std::string(module) + ": " : std::string()) + message;
+  auto* m = static_cast<TiffMessages*>(user_data);
+  if (m->error.empty()) m->error = (module != nullptr ? std::string(module) + ": " : std::string()) + message;
+  return 1;  // handled: the global handler is not called
 }
-void TiffWarning(const char*, const char*, va_list) {}
+int TiffWarning(TIFF*, void*, const char*, const char*, va_list) { return 1; }
 
 // TIFF through libtiff, as OpenCV wrote it: float32 uncompressed, 8/16-bit LZW; one or three
 // (RGB) channels.
@@ -561,11 +566,6 @@ void WriteTiffAtomic(const fs::path& path, const cv::Mat& image) {
   const int depth = image.depth();
   LN_CHECK(depth == CV_8U || depth == CV_16U || depth == CV_32F) << "TIFF: 8-, 16-bit or float32 images only";
   LN_CHECK(image.channels() == 1 || image.channels() == 3) << "TIFF: 1 or 3 channels";
-  static std::once_flag handlers;
-  std::call_once(handlers, [] {
-    TIFFSetErrorHandler(&TiffError);
-    TIFFSetWarningHandler(&TiffWarning);
-  });
   cv::Mat pixels;  // a new array: converting into one that shares the image's pixels would alter them
   if (image.channels() == 3) {
     cv::cvtColor(image, pixels, cv::COLOR_BGR2RGB);
@@ -574,8 +574,12 @@ void WriteTiffAtomic(const fs::path& path, const cv::Mat& image) {
   }
   if (!path.parent_path().empty()) fs::create_directories(path.parent_path());
   const fs::path temp = TempPathFor(path);
-  tiff_error.clear();
-  TIFF* tiff = TIFFOpen(temp.c_str(), "w");
+  TiffMessages messages;
+  std::unique_ptr<TIFFOpenOptions, void (*)(TIFFOpenOptions*)> options(TIFFOpenOptionsAlloc(), &TIFFOpenOptionsFree);
+  if (options == nullptr) throw std::bad_alloc();
+  TIFFOpenOptionsSetErrorHandlerExtR(options.get(), &TiffError, &messages);
+  TIFFOpenOptionsSetWarningHandlerExtR(options.get(), &TiffWarning, nullptr);
+  TIFF* tiff = TIFFOpenExt(temp.c_str(), "w", options.get());
   bool ok = tiff != nullptr;
   if (ok) {
     TIFFSetField(tiff, TIFFTAG_IMAGEWIDTH, static_cast<std::uint32_t>(pixels.cols));
@@ -591,13 +595,13 @@ void WriteTiffAtomic(const fs::path& path, const cv::Mat& image) {
       ok = TIFFWriteScanline(tiff, const_cast<uchar*>(pixels.ptr(y)), static_cast<std::uint32_t>(y), 0) == 1;
     }
     TIFFClose(tiff);  // writes the directory
-    ok = ok && tiff_error.empty();
+    ok = ok && messages.error.empty();
   }
   if (!ok) {
     std::error_code ec;
     fs::remove(temp, ec);
     throw std::runtime_error(path.string() + ": cannot write TIFF (" +
-                             (tiff_error.empty() ? std::string("cannot create the file") : tiff_error) + ")");
+                             (messages.error.empty() ? std::string("cannot create the file") : messages.error) + ")");
   }
   CommitTempFile(temp, path);
 }

@@ -255,6 +255,20 @@ TEST(WriteImageAtomic, EveryFormatReadsBackExactlyThroughAnotherDecoder) {
   // A refused write leaves nothing, not even a temporary file.
   EXPECT_THROW(WriteImageAtomic(tmp.path() / "x.tif", cv::Mat(2, 2, CV_64FC1)), std::exception);
   EXPECT_FALSE(fs::exists(tmp.path() / "x.tif"));
+  // libtiff's own reason reaches the error, also after OpenImageIO's TIFF reader (which sets
+  // libtiff's global handlers for itself) has read a TIFF in this process.
+  cv::Mat grey(3, 4, CV_8UC1, cv::Scalar(9));
+  WriteImageAtomic(tmp.path() / "g.tif", grey);
+  EXPECT_TRUE(same(ReadImage(tmp.path() / "g.tif"), grey));  // through OpenImageIO
+  try {
+    WriteImageAtomic(tmp.path() / "empty.tif", cv::Mat(0, 0, CV_32FC1));
+    ADD_FAILURE() << "an empty TIFF was written";
+  } catch (const std::runtime_error& e) {
+    const std::string what = e.what();
+    EXPECT_NE(what.find("empty.tif: cannot write TIFF ("), std::string::npos) << what;
+    EXPECT_EQ(what.find("cannot create the file"), std::string::npos) << what;  // libtiff's reason, not ours
+  }
+  EXPECT_FALSE(fs::exists(tmp.path() / "empty.tif"));
   for (const auto& entry : fs::directory_iterator(tmp.path())) {
     EXPECT_EQ(entry.path().filename().string().find("lunarnav-tmp"), std::string::npos) << entry.path();
   }
