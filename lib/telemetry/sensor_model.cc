@@ -230,18 +230,26 @@ SensorModel SensorModelFromJson(const nlohmann::json& j, const std::string& sour
           << where << ".counter_bits: must be in 2..32";
       if (!cj.contains("valid_range")) m.valid_max = (1LL << m.counter_bits) - 1;
       m.counts_per_revolution = r.Number("counts_per_revolution");
-      LN_CHECK_INPUT(m.counts_per_revolution > 0) << where << ".counts_per_revolution: must be > 0";
+      LN_CHECK_INPUT(m.counts_per_revolution > 0 && m.counts_per_revolution <= 1e9)
+          << where << ".counts_per_revolution: must be > 0 and at most 10^9, got " << m.counts_per_revolution;
       m.wheel_radius_m = r.Number("wheel_radius_m");
-      LN_CHECK_INPUT(m.wheel_radius_m > 0) << where << ".wheel_radius_m: must be > 0";
+      // A wheel of 10 m is beyond any rover's; 1e300 m made positions of 10^297 m.
+      LN_CHECK_INPUT(m.wheel_radius_m > 0 && m.wheel_radius_m <= 10)
+          << where << ".wheel_radius_m: must be > 0 and at most 10 m, got " << m.wheel_radius_m;
       m.sign = r.Has("sign") ? static_cast<int>(r.Integer("sign")) : 1;
       LN_CHECK_INPUT(m.sign == 1 || m.sign == -1) << where << ".sign: must be 1 or -1";
     } else {
       r.OnlyKeys({"column", "bits", "valid_range", "scale", "offset", "units", "noise_rms"});
       m.scale = r.Number("scale");
-      LN_CHECK_INPUT(m.scale != 0) << where << ".scale: must not be 0";
+      // Units a count: a compass or an inclinometer spans at most a turn, a gyro a few turns a
+      // second, in some 2 to 2^24 counts.
+      LN_CHECK_INPUT(m.scale != 0 && std::abs(m.scale) <= 1000)
+          << where << ".scale: must be nonzero and at most 1000 units a count, got " << m.scale;
       m.offset = r.Has("offset") ? r.Number("offset") : 0.0;
+      LN_CHECK_INPUT(std::abs(m.offset) <= 1e6) << where << ".offset: must be within 10^6 units, got " << m.offset;
       m.noise_rms = r.Has("noise_rms") ? r.Number("noise_rms") : 0.0;
-      LN_CHECK_INPUT(m.noise_rms >= 0) << where << ".noise_rms: must be >= 0";
+      LN_CHECK_INPUT(m.noise_rms >= 0 && m.noise_rms <= 1e6)
+          << where << ".noise_rms: must be >= 0 and at most 10^6 units, got " << m.noise_rms;
       const bool rate = *channel == Channel::kGyroZ;
       m.units = r.Has("units") ? r.String("units") : (rate ? "deg/s" : "deg");
       LN_CHECK_INPUT(rate ? (m.units == "deg/s" || m.units == "rad/s")

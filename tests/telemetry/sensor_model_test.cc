@@ -93,6 +93,17 @@ TEST(SensorModelFromJson, NamesTheKeyOfEveryMistake) {
   j = Minimal();
   j["channels"]["compass"]["noise_rms"] = -1;
   expect_error(j, "noise_rms: must be >= 0");
+  // What no sensor is: a wheel of 1e300 m (it made positions of 10^297 m, exit 0), a scale of
+  // 1e308 units a count.
+  j = Minimal();
+  j["channels"]["enc_fl"]["wheel_radius_m"] = 1e300;
+  expect_error(j, "s.json.channels.enc_fl.wheel_radius_m: must be > 0 and at most 10 m, got 1e+300");
+  j = Minimal();
+  j["channels"]["compass"]["scale"] = 1e308;
+  expect_error(j, "s.json.channels.compass.scale: must be nonzero and at most 1000 units a count");
+  j = Minimal();
+  j["channels"]["compass"]["offset"] = -1e200;
+  expect_error(j, "s.json.channels.compass.offset: must be within 10^6 units");
 }
 
 TEST(SensorModelFromJson, ReadsTimeUnitsVehicleLimitsAndNoiseAndWritesThemBack) {
