@@ -24,27 +24,33 @@ double Number(const nlohmann::json& j, const char* key, const std::string& where
   return j.at(key).get<double>();
 }
 
-void CheckPositive(double value, const std::string& where) {
-  LN_CHECK_INPUT(std::isfinite(value) && value > 0) << where << ": must be positive, got " << value;
+// A value in (lo, hi] (or [lo, hi] with closed_low): what the vehicle files of real rovers
+// and cars hold, with room; beyond it a value is a mistake that would make the planner's
+// distances or the map's rules absurd (a friction of 1e-300 made requests of 10^300 m, blamed
+// on the poses).
+void CheckRange(double value, double lo, double hi, bool closed_low, const std::string& where, const char* units) {
+  const bool low_ok = closed_low ? value >= lo : value > lo;
+  LN_CHECK_INPUT(std::isfinite(value) && low_ok && value <= hi)
+      << where << ": must be in " << (closed_low ? "[" : "(") << lo << ", " << hi << "]" << units << ", got " << value;
 }
 
 }  // namespace
 
 void VehicleSpec::Validate(const std::string& source) const {
-  CheckPositive(max_speed_m_s, source + ".max_speed_m_s");
-  CheckPositive(sliding_friction, source + ".sliding_friction");
-  LN_CHECK_INPUT(std::isfinite(stop_time_s) && stop_time_s >= 0)
-      << source << ".stop_time_s: must be >= 0, got " << stop_time_s;
-  CheckPositive(width_m, source + ".width_m");
-  CheckPositive(wheel_diameter_m, source + ".wheel_diameter_m");
-  LN_CHECK_INPUT(std::isfinite(front_axle_y_m)) << source << ".front_axle_y_m: not finite";
+  CheckRange(max_speed_m_s, 0, 100, false, source + ".max_speed_m_s", " m/s");
+  CheckRange(sliding_friction, 0.01, 10, true, source + ".sliding_friction", "");
+  CheckRange(stop_time_s, 0, 3600, true, source + ".stop_time_s", " s");
+  CheckRange(width_m, 0, 100, false, source + ".width_m", " m");
+  CheckRange(wheel_diameter_m, 0, 20, false, source + ".wheel_diameter_m", " m");
+  CheckRange(front_axle_y_m, -100, 100, true, source + ".front_axle_y_m", " m");
   LN_CHECK_INPUT(std::isfinite(max_slope_deg) && max_slope_deg > 0 && max_slope_deg < 90)
       << source << ".max_slope_deg: must be in (0, 90), got " << max_slope_deg;
   const std::string r = source + ".requirements";
-  CheckPositive(requirements.fov_vehicle_widths, r + ".fov_vehicle_widths");
-  CheckPositive(requirements.obstacle_height_m, r + ".obstacle_height_m");
-  CheckPositive(requirements.obstacle_min_px, r + ".obstacle_min_px");
-  CheckPositive(requirements.far_range_m, r + ".far_range_m");
+  CheckRange(requirements.fov_vehicle_widths, 0, 1000, false, r + ".fov_vehicle_widths", "");
+  // At least 5 cm: the map's step rule keeps a tolerance of 2 cm below it.
+  CheckRange(requirements.obstacle_height_m, 0.05, 10, true, r + ".obstacle_height_m", " m");
+  CheckRange(requirements.obstacle_min_px, 1, 10000, true, r + ".obstacle_min_px", " px");
+  CheckRange(requirements.far_range_m, 0, 1000, false, r + ".far_range_m", " m");
 }
 
 nlohmann::json VehicleSpecToJson(const VehicleSpec& v) {

@@ -55,6 +55,28 @@ TEST(VehicleSpec, RejectsUnknownMissingAndImpossibleFields) {
   j = VehicleSpecToJson(VehicleSpec());
   j["format"] = "lunarnav.rig/1";
   EXPECT_THROW(VehicleSpecFromJson(j, "v"), InputError);
+  // Values no vehicle has, named with their range: a friction of 1e-300 made the planner's
+  // requests reach 10^300 m (and blamed the poses); an obstacle 1e-300 m tall was blamed on
+  // terrain-map's --step-tolerance.
+  auto message = [](const nlohmann::json& bad) {
+    try {
+      VehicleSpecFromJson(bad, "v.json");
+    } catch (const InputError& e) {
+      return std::string(e.what());
+    }
+    return std::string("accepted");
+  };
+  j = VehicleSpecToJson(VehicleSpec());
+  j["sliding_friction"] = 1e-300;
+  EXPECT_NE(message(j).find("v.json.sliding_friction: must be in [0.01, 10], got 1e-300"), std::string::npos)
+      << message(j);
+  j = VehicleSpecToJson(VehicleSpec());
+  j["requirements"]["obstacle_height_m"] = 1e-300;
+  EXPECT_NE(message(j).find("v.json.requirements.obstacle_height_m: must be in [0.05, 10] m"), std::string::npos)
+      << message(j);
+  j = VehicleSpecToJson(VehicleSpec());
+  j["max_speed_m_s"] = 1e300;
+  EXPECT_NE(message(j).find("v.json.max_speed_m_s: must be in (0, 100] m/s"), std::string::npos) << message(j);
 }
 
 }  // namespace
