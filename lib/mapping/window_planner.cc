@@ -6,11 +6,15 @@
 #include <limits>
 
 #include "io/geotiff_io.h"
+#include "stereo/window_requests.h"
 #include "util/check.h"
 #include "util/errors.h"
 #include "util/format.h"
 
 namespace lunarnav::mapping {
+
+// What plan-windows writes, stereo-batch and terrain-map read back.
+static_assert(kMaxRequestDistanceM == stereo::kMaxRequestY);
 
 void WindowPlannerOptions::Validate() const {
   // Finite, and within what a rover's planner can mean (docs/reliability.md): a delay of

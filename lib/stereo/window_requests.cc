@@ -67,6 +67,11 @@ std::vector<WindowRequest> ReadWindowRequests(const std::filesystem::path& path)
     r.y_max_m = ParseMetres(cells[2], where, "y_max_m");
     LN_CHECK_INPUT(r.y_min_m <= r.y_max_m)
         << where << ": Y_min " << r.y_min_m << " m is greater than Y_max " << r.y_max_m << " m";
+    // As far as plan-windows may ask (mapping::kMaxRequestDistanceM): 1e300 m reached the
+    // window selection as an empty band, blamed on no file.
+    LN_CHECK_INPUT(std::abs(r.y_min_m) <= kMaxRequestY && std::abs(r.y_max_m) <= kMaxRequestY)
+        << where << ": Y " << r.y_min_m << " to " << r.y_max_m << " m: a request reaches at most " << kMaxRequestY
+        << " m";
     const auto [it, inserted] = first_line.emplace(r.stem, line_number);
     LN_CHECK_INPUT(inserted) << where << ": stem '" << r.stem << "' already requested on line " << it->second;
     requests.push_back(r);

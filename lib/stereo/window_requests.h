@@ -8,6 +8,10 @@
 
 namespace lunarnav::stereo {
 
+/// The farthest a request may reach, metres (plan-windows' own limit,
+/// mapping::kMaxRequestDistanceM): a request file beyond it is bad input.
+inline constexpr double kMaxRequestY = 1000.0;
+
 /// One request: pair `stem` needs points with Y in [y_min_m, y_max_m] (vehicle frame, metres).
 struct WindowRequest {
   std::string stem;

@@ -50,6 +50,7 @@ TEST(ReadWindowRequests, BadFilesNameTheLineAndTheReason) {
            {"stem,y_min_m,y_max_m\na,4,5,6\n", "requests.csv:2: 4 cells"},
            {"stem,y_min_m,y_max_m\n,4,5\n", "requests.csv:2: empty stem"},
            {"stem,y_min_m,y_max_m\na,6,5\n", "requests.csv:2: Y_min 6 m is greater than Y_max 5 m"},
+           {"stem,y_min_m,y_max_m\na,5,8\nb,1e300,1e301\n", "requests.csv:3: Y 1e+300 to 1e+301 m: a request reaches at most 1000 m"},
            {"stem,y_min_m,y_max_m\na,4,5\nb,4,5\na,5,6\n", "requests.csv:4: stem 'a' already requested on line 2"},
            {"", "no header"},
            {"# only a comment\n", "no header"}}) {
