@@ -59,10 +59,17 @@ struct ReferenceGeometry {
 }  // namespace
 
 void RegionOfInterest::Validate() const {
+  // Within 1000 m (as far as a request reaches): 1e300 m came out as an empty disparity band,
+  // reported as the band's, not as the option's.
+  constexpr double kFar = 1000.0;
   LN_CHECK_ARG(std::isfinite(y_min_m) && std::isfinite(y_max_m) && y_min_m <= y_max_m)
       << "distance interval: need finite Y_min <= Y_max, got " << y_min_m << ":" << y_max_m << " m";
+  LN_CHECK_ARG(std::abs(y_min_m) <= kFar && std::abs(y_max_m) <= kFar)
+      << "distance interval: " << y_min_m << ":" << y_max_m << " m reaches beyond " << kFar << " m";
   LN_CHECK_ARG(std::isfinite(z_min_m) && std::isfinite(z_max_m) && z_min_m <= z_max_m)
       << "height range: need finite Z_min <= Z_max, got " << z_min_m << ":" << z_max_m << " m";
+  LN_CHECK_ARG(std::abs(z_min_m) <= kFar && std::abs(z_max_m) <= kFar)
+      << "height range (--z-range): " << z_min_m << ":" << z_max_m << " m reaches beyond " << kFar << " m";
 }
 
 nlohmann::json RegionOfInterest::ToJson() const {

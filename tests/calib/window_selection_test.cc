@@ -296,6 +296,11 @@ TEST(SelectWindow, NeedsARectifiedRigAndAnOrderedRegion) {
   EXPECT_THROW(SelectWindow(rig, RegionOfInterest{5.0, 4.0, 0.0, 1.0}, ReferenceImage::kRight), std::invalid_argument);
   EXPECT_THROW(SelectWindow(rig, RegionOfInterest{4.0, 5.0, 1.0, 0.0}, ReferenceImage::kRight), std::invalid_argument);
   EXPECT_THROW(SelectWindow(rig, RegionOfInterest{4.0, NAN, 0.0, 1.0}, ReferenceImage::kRight), std::invalid_argument);
+  // Beyond 1000 m, each way: said as the option's (1e300 m was reported as an empty band).
+  EXPECT_THROW(SelectWindow(rig, RegionOfInterest{1e300, 1e301, 0.0, 1.0}, ReferenceImage::kRight),
+               std::invalid_argument);
+  EXPECT_THROW(SelectWindow(rig, RegionOfInterest{4.0, 5.0, -2000.0, 1.0}, ReferenceImage::kRight),
+               std::invalid_argument);
   EXPECT_THROW(SelectWindow(rig, RegionOfInterest{}, ReferenceImage::kRight, WindowSelectionOptions{-1}),
                std::invalid_argument);
 }
