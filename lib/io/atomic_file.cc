@@ -13,6 +13,8 @@
 #include <string>
 #include <system_error>
 
+#include "util/errors.h"
+
 namespace lunarnav::io {
 namespace fs = std::filesystem;
 namespace {
@@ -87,8 +89,15 @@ void CommitTempFile(const fs::path& temp, const fs::path& path) {
   std::error_code ec;
   fs::rename(temp, path, ec);
   if (ec) {
+    const std::error_code rename_error = ec;  // kept: the clean-up below sets ec again
     fs::remove(temp, ec);
-    throw std::runtime_error(path.string() + ": cannot rename temporary file: " + ec.message());
+    // A directory where the output file goes is the given paths' fault, not an internal error:
+    // that item fails (a batch goes on with the others; a lone output exits 3).
+    std::error_code dir_ec;
+    if (fs::is_directory(path, dir_ec)) {
+      throw InputError(path.string() + ": is a directory; an output file of that name cannot be written");
+    }
+    throw std::runtime_error(path.string() + ": cannot rename temporary file: " + rename_error.message());
   }
 }
 

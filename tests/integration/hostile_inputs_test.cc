@@ -144,6 +144,14 @@ std::vector<Case> Cases() {
          return batch(w);
        },
        4, {"frame0002.png", "0 x 0"}, {"disparity/frame0000.pfm", "disparity/frame0001.pfm"}},
+      // A directory where a pair's output file goes: that pair fails, named, the others run
+      // (the rename's error was lost: "internal: ...: cannot rename temporary file: Success").
+      {"a directory in the place of an output file", "stereo-batch",
+       [=](const Workspace& w) {
+         fs::create_directories(w.out / "disparity" / "frame0001.pfm");
+         return batch(w);
+       },
+       4, {"frame0001.pfm: is a directory"}, {"disparity/frame0000.pfm", "disparity/frame0002.pfm"}},
       {"png cut short", "stereo-batch",
        [=](const Workspace& w) {
          const std::string bytes = ReadFileBytes(w.pairs / "left" / "frame0002.png");
