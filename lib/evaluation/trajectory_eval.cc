@@ -375,7 +375,11 @@ int RunTrajectoryCommand(const TrajectoryCommand& command, const nlohmann::json&
     if (eq == std::string::npos || eq == 0 || eq + 1 == text.size()) {
       throw std::invalid_argument("ESTIMATE: expected NAME=TRAJECTORY, got '" + text + "'");
     }
-    specs.emplace_back(text.substr(0, eq), text.substr(eq + 1));
+    const std::string name = text.substr(0, eq);
+    // Each name once: the table's rows and --reference are by name.
+    const bool repeated = std::any_of(specs.begin(), specs.end(), [&](const auto& s) { return s.first == name; });
+    if (repeated) throw std::invalid_argument("ESTIMATE: the name '" + name + "' is given twice");
+    specs.emplace_back(name, text.substr(eq + 1));
   }
   io::CreateOutputDirectory(command.output_dir);
   const auto truth = ReadPoses(command.truth);

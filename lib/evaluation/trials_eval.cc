@@ -313,7 +313,12 @@ FigureResult TrialsFigure(const std::filesystem::path& dir, const std::vector<Tr
 int RunTrialsCommand(const TrialsCommand& command, const nlohmann::json& summary_head) {
   util::Timer timer;
   std::vector<TrialSetSpec> specs;
-  for (const std::string& text : command.sets) specs.push_back(ParseTrialSet(text));
+  for (const std::string& text : command.sets) {
+    specs.push_back(ParseTrialSet(text));
+    const std::string& name = specs.back().name;
+    LN_CHECK_ARG(std::count_if(specs.begin(), specs.end(), [&](const TrialSetSpec& s) { return s.name == name; }) == 1)
+        << "--set: the name '" << name << "' is given twice";
+  }
   TrajectoryEvalOptions trajectory_options = command.trajectory_options;
   trajectory_options.alignment = AlignmentFromString(command.alignment);
   trajectory_options.Validate();

@@ -217,6 +217,13 @@ TEST(EvaluateTrajectory, GivesEachEstimatesErrorAndItsRatioToTheReference) {
   EXPECT_EQ(RunTool("evaluate", {"trajectory", "a=" + (pos / "trajectory.csv").string(), "--align", "wobbly",
                                  "--truth", (tmp.path() / "truth.csv").string(), "-o", eval.string()}, tmp.path())
                 .exit_code, 2);
+  // So is a name given twice (the table's rows and --reference are by name).
+  const auto twice = RunTool("evaluate", {"trajectory", "a=" + (pos / "trajectory.csv").string(),
+                                          "a=" + (pos / "baseline.csv").string(), "--reference", "a", "--truth",
+                                          (tmp.path() / "truth.csv").string(), "-o", eval.string()},
+                             tmp.path());
+  EXPECT_EQ(twice.exit_code, 2);
+  EXPECT_NE(twice.stderr_text.find("the name 'a' is given twice"), std::string::npos) << twice.stderr_text;
 }
 
 TEST(EvaluateCorrelation, FindsTheTrueDisparityAtEverySubsampling) {
