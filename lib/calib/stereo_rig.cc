@@ -27,6 +27,12 @@ void CameraIntrinsics::Validate(int width, int height, const std::string& where)
   LN_CHECK_INPUT(k.allFinite()) << where << ".K: not finite";
   LN_CHECK_INPUT(k(0, 0) > 0 && k(1, 1) > 0) << where << ".K: focal lengths must be positive, got fx "
                                               << k(0, 0) << ", fy " << k(1, 1);
+  // A lens of a pixel's focal length sees 127 degrees across 2 px; one of 10^6 px, a 6-arc-
+  // minute field across 10,000 px: beyond either, a mistake (1e-6 px rectified to garbage).
+  LN_CHECK_INPUT(k(0, 0) >= 1 && k(1, 1) >= 1 && k(0, 0) <= 1e6 && k(1, 1) <= 1e6)
+      << where << ".K: focal lengths must be 1 to 10^6 px, got fx " << k(0, 0) << ", fy " << k(1, 1);
+  LN_CHECK_INPUT(std::abs(k(0, 1)) <= k(0, 0)) << where << ".K: a skew of " << k(0, 1)
+                                               << " px, beyond the focal length " << k(0, 0) << " px";
   LN_CHECK_INPUT(k(1, 0) == 0 && k(2, 0) == 0 && k(2, 1) == 0 && k(2, 2) == 1)
       << where << ".K: expected [[fx, s, cx], [0, fy, cy], [0, 0, 1]]";
   LN_CHECK_INPUT(k(0, 2) > -width && k(0, 2) < 2.0 * width && k(1, 2) > -height && k(1, 2) < 2.0 * height)
@@ -35,7 +41,12 @@ void CameraIntrinsics::Validate(int width, int height, const std::string& where)
   const std::size_t n = distortion.size();
   LN_CHECK_INPUT(n == 0 || n == 4 || n == 5 || n == 8)
       << where << ".distortion: expected 0, 4, 5 or 8 coefficients (OpenCV order), got " << n;
-  for (double d : distortion) LN_CHECK_INPUT(std::isfinite(d)) << where << ".distortion: not finite";
+  // OpenCV's coefficients act on normalised coordinates (about 1 at a wide lens's edge): the
+  // strongest real lenses stay within tens; 10^4 is a mistake (10^6 rectified to garbage).
+  for (double d : distortion) {
+    LN_CHECK_INPUT(std::isfinite(d) && std::abs(d) <= 1e4)
+        << where << ".distortion: coefficients must lie within 10^4, got " << d;
+  }
 }
 
 Eigen::Matrix3d NearestRotation(const Eigen::Matrix3d& m) {

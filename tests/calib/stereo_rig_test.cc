@@ -55,6 +55,17 @@ TEST(StereoRig, ValidateNamesImpossibleValues) {
   rig = testing::PaperRig();
   rig.mast.tilt_deg = 95;
   expect_invalid(rig, "tilt_deg");
+  // No lens has a focal length of 1e-6 px, a skew beyond its focal length, or a distortion
+  // coefficient of 10^6 (each rectified to garbage, exit 0).
+  rig = testing::PaperRig();
+  rig.left.K(0, 0) = rig.left.K(1, 1) = 1e-6;
+  expect_invalid(rig, "rig.json.left.K: focal lengths must be 1 to 10^6 px");
+  rig = testing::PaperRig();
+  rig.right.K(0, 1) = 1e6;
+  expect_invalid(rig, "rig.json.right.K: a skew of 1e+06 px");
+  rig = testing::PaperRig();
+  rig.left.distortion = {1e6, 0, 0, 0, 0};
+  expect_invalid(rig, "rig.json.left.distortion: coefficients must lie within 10^4, got 1e+06");
   // Silent acceptance, refused now: a baseline in millimetres read as metres (120 m), a vertical
   // rig (the right camera 0.12 m below the left), and one 50 deg off the row direction; a rig
   // toed 30 deg about the vertical, its right camera still beside the left, is a rig.
