@@ -17,6 +17,8 @@ void ChessboardSpec::Validate() const {
       << "--board: expected COLSxROWS inner corners, each 3..100, got " << cols << "x" << rows;
   LN_CHECK_ARG(std::isfinite(square_size_m) && square_size_m > 0)
       << "--square: the square size must be positive (metres), got " << square_size_m;
+  // 1e300 m reached OpenCV's extrinsics as an assertion (exit 3, "calibration failed").
+  LN_CHECK_ARG(square_size_m <= 10) << "--square: a square of at most 10 m, got " << square_size_m << " m";
 }
 
 std::vector<cv::Point3f> ChessboardSpec::ObjectPointsM() const {

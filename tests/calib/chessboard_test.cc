@@ -42,6 +42,7 @@ TEST(ChessboardSpec, ObjectPointsAreInDetectionOrder) {
   EXPECT_NO_THROW(spec.Validate());
   EXPECT_THROW((ChessboardSpec{2, 6, 0.1}.Validate()), std::invalid_argument);
   EXPECT_THROW((ChessboardSpec{9, 6, 0.0}.Validate()), std::invalid_argument);
+  EXPECT_THROW((ChessboardSpec{9, 6, 1e300}.Validate()), std::invalid_argument);  // OpenCV asserted on it
 }
 
 TEST(DetectChessboardCorners, FindsTheCornersToASmallFractionOfAPixel) {
