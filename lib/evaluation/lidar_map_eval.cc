@@ -227,6 +227,10 @@ void LidarEvalOptions::Validate() const {
   LN_CHECK_ARG(max_sweep_gap_s >= 0) << "sweep gap: must be >= 0 s";
   LN_CHECK_ARG(std::isfinite(band_min_y_m) && std::isfinite(band_max_y_m) && band_min_y_m < band_max_y_m)
       << "band: need finite MIN < MAX, got " << band_min_y_m << ":" << band_max_y_m << " m";
+  // Within 1000 m, as every distance interval (a band 1e300 m ahead scored nothing, exit 0).
+  LN_CHECK_ARG(std::abs(band_min_y_m) <= 1000 && std::abs(band_max_y_m) <= 1000)
+      << "band: " << band_min_y_m << ":" << band_max_y_m << " m reaches beyond 1000 m";
+  LN_CHECK_ARG(max_range_m <= 1000) << "LiDAR range: at most 1000 m, got " << max_range_m << " m";
 }
 
 json LidarEvalOptions::ToJson() const {

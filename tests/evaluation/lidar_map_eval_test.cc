@@ -284,5 +284,21 @@ TEST(MeasureSweepConsistency, IsZeroForAgreeingSweepsAndSeesAShiftedOne) {
   EXPECT_NEAR(r.sweep_median_abs_m, 0.03, 1e-5);
 }
 
+// The options' limits: a band or a LiDAR range beyond 1000 m is refused (a band 1e300 m ahead
+// scored nothing, exit 0), the defaults pass.
+TEST(LidarEvalOptions, RefusesDistancesBeyondAThousandMetres) {
+  LidarEvalOptions valid;
+  valid.band_min_y_m = 5;  // the band is the rig's or --band's (none by default)
+  valid.band_max_y_m = 10;
+  EXPECT_NO_THROW(valid.Validate());
+  LidarEvalOptions o = valid;
+  o.band_min_y_m = 1e300;
+  o.band_max_y_m = 1e301;
+  EXPECT_THROW(o.Validate(), std::invalid_argument);
+  o = valid;
+  o.max_range_m = 1e300;
+  EXPECT_THROW(o.Validate(), std::invalid_argument);
+}
+
 }  // namespace
 }  // namespace lunarnav::evaluation
