@@ -195,15 +195,15 @@ std::vector<DisparityItem> EvaluateDisparityDirectories(const fs::path& results,
                                                         const DisparityEvalOptions& options) {
   options.Validate();
   std::error_code ec;
-  LN_CHECK_INPUT(fs::is_directory(results, ec)) << results.string() << ": no such directory";
-  LN_CHECK_INPUT(fs::is_directory(truth_dir, ec)) << truth_dir.string() << ": no such directory";
+  io::CheckInputDirectory(results);
+  io::CheckInputDirectory(truth_dir);
   const fs::path estimate_dir = fs::is_directory(results / "disparity", ec) ? results / "disparity" : results;
   const fs::path truth_files = fs::is_directory(truth_dir / "disparity", ec) ? truth_dir / "disparity" : truth_dir;
   const auto estimates = FilesByStem(estimate_dir, {".pfm"});
   const auto truths = FilesByStem(truth_files, {".pfm", ".png"});
   std::map<std::string, std::vector<fs::path>> masks;
   if (!mask_dir.empty()) {
-    LN_CHECK_INPUT(fs::is_directory(mask_dir, ec)) << mask_dir.string() << ": no such directory";
+    io::CheckInputDirectory(mask_dir);
     masks = FilesByStem(mask_dir, {".png"});
   }
   std::map<std::string, DisparityItem> by_stem;

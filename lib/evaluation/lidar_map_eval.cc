@@ -838,7 +838,7 @@ LidarEvalResult RunLidarMapEvaluation(const LidarMapCommand& cmd, const json& in
   std::vector<fs::path> files;
   {
     std::error_code ec;
-    LN_CHECK_INPUT(fs::is_directory(cmd.lidar_dir, ec)) << cmd.lidar_dir.string() << ": no such directory";
+    io::CheckInputDirectory(cmd.lidar_dir);
     for (const auto& e : fs::directory_iterator(cmd.lidar_dir, ec)) {
       if (io::HasPointCloudExtension(e.path()) && e.path().filename().string()[0] != '.') files.push_back(e.path());
     }

@@ -150,6 +150,14 @@ void AtomicOutputFile::Commit() {
   CommitTempFile(temp_, path_);
 }
 
+void CheckInputDirectory(const fs::path& dir, const std::string& hint) {
+  std::error_code ec;
+  if (fs::is_directory(dir, ec)) return;
+  const bool exists = fs::exists(fs::symlink_status(dir, ec)) && fs::exists(dir, ec);
+  throw InputError(dir.string() + (exists ? ": not a directory (a file)" : ": no such directory") +
+                   (hint.empty() ? "" : " " + hint));
+}
+
 void CreateOutputDirectory(const fs::path& dir) {
   std::error_code ec;
   fs::create_directories(dir, ec);

@@ -6,6 +6,7 @@
 
 #include <cstdio>
 #include <filesystem>
+#include <string>
 #include <string_view>
 
 namespace lunarnav::io {
@@ -49,6 +50,10 @@ class AtomicOutputFile {
 /// "<dir>: cannot create the output directory (<reason>)" when that is impossible, e.g. a
 /// file of that name exists or permission is denied.
 void CreateOutputDirectory(const std::filesystem::path& dir);
+
+/// Checks that an input directory is one: throws InputError (exit 3) "<dir>: no such
+/// directory" or "<dir>: not a directory (a file)", with `hint` appended when given.
+void CheckInputDirectory(const std::filesystem::path& dir, const std::string& hint = "");
 
 /// Deletes leftover temporary files of killed runs in `dir` (not recursive), and never those
 /// being written: a temporary file is named after its host and process

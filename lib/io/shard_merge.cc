@@ -9,6 +9,7 @@
 #include <set>
 #include <sstream>
 
+#include "io/atomic_file.h"
 #include "io/json_io.h"
 #include "io/stereo_pairs.h"
 #include "util/check.h"
@@ -61,7 +62,7 @@ std::string FirstDifference(const json& a, const json& b) {
 std::vector<ShardFile> FindShardFiles(const fs::path& dir) {
   static const std::regex kName(R"(summary\.shard-(\d+)-of-(\d+)\.json)");
   std::error_code ec;
-  LN_CHECK_INPUT(fs::is_directory(dir, ec)) << dir.string() << ": no such directory";
+  CheckInputDirectory(dir);
   std::vector<ShardFile> files;
   for (auto it = fs::directory_iterator(dir, ec); !ec && it != fs::directory_iterator(); it.increment(ec)) {
     const std::string name = it->path().filename().string();

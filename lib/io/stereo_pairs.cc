@@ -2,6 +2,7 @@
 
 #include <map>
 
+#include "io/atomic_file.h"
 #include "io/image_io.h"
 #include "util/check.h"
 #include "util/errors.h"
@@ -33,7 +34,7 @@ std::map<std::string, std::vector<fs::path>> ImagesByStem(const fs::path& dir) {
 
 std::pair<fs::path, fs::path> PairFolders(const fs::path& input_dir) {
   std::error_code ec;
-  LN_CHECK_INPUT(fs::is_directory(input_dir, ec)) << input_dir.string() << ": no such directory";
+  CheckInputDirectory(input_dir);
   // left/ and right/; else KITTI's layouts, the grey pair first: odometry's image_0/ and
   // image_1/, raw's image_00/data/ and image_01/data/, then the colour pairs.
   static const char* const kLayouts[][2] = {{"left", "right"},           {"image_0", "image_1"},

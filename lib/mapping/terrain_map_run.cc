@@ -197,8 +197,7 @@ StoredMap ReadStoredMap(const fs::path& dir, const json& fusion) {
 }
 
 std::vector<std::string> ListStems(const fs::path& xyz_dir) {
-  LN_CHECK_INPUT(fs::is_directory(xyz_dir))
-      << xyz_dir.string() << ": no such directory (run stereo-batch with --rig to write vehicle-frame XYZ)";
+  io::CheckInputDirectory(xyz_dir, "(run stereo-batch with --rig to write vehicle-frame XYZ)");
   std::vector<std::string> stems;
   for (const auto& e : fs::directory_iterator(xyz_dir)) {
     if (e.path().extension() == ".exr" && !io::IsTempFileName(e.path())) stems.push_back(e.path().stem().string());

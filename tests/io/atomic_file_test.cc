@@ -10,6 +10,7 @@
 #include <sstream>
 #include <string>
 
+#include "util/errors.h"
 #include "util/testing.h"
 
 namespace lunarnav::io {
@@ -62,6 +63,23 @@ TEST(RemoveStaleTempFiles, RemovesOnlyTemporariesOfRunsThatAreOver) {
   EXPECT_TRUE(fs::exists(recent));
   EXPECT_TRUE(fs::exists(temp));
   EXPECT_TRUE(fs::exists(tmp.path() / "keep.pfm"));
+}
+
+// An input directory that is not one says which: missing, or a file.
+TEST(CheckInputDirectory, SaysMissingOrAFile) {
+  util::ScopedTempDir tmp;
+  EXPECT_NO_THROW(CheckInputDirectory(tmp.path()));
+  std::ofstream(tmp.path() / "f") << "x";
+  auto message = [](const fs::path& p, const std::string& hint) {
+    try {
+      CheckInputDirectory(p, hint);
+    } catch (const InputError& e) {
+      return std::string(e.what());
+    }
+    return std::string("accepted");
+  };
+  EXPECT_EQ(message(tmp.path() / "f", ""), (tmp.path() / "f").string() + ": not a directory (a file)");
+  EXPECT_EQ(message(tmp.path() / "none", "(run X)"), (tmp.path() / "none").string() + ": no such directory (run X)");
 }
 
 }  // namespace
