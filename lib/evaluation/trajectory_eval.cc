@@ -388,7 +388,11 @@ int RunTrajectoryCommand(const TrajectoryCommand& command, const nlohmann::json&
   nlohmann::json inputs = nlohmann::json::array();
   for (const auto& [name, path] : specs) {
     estimates.push_back(ReadPoses(path));
-    errors.emplace_back(name, EvaluateTrajectory(estimates.back(), truth, options));
+    try {
+      errors.emplace_back(name, EvaluateTrajectory(estimates.back(), truth, options));
+    } catch (const InputError& e) {  // named: which estimate against which truth
+      throw InputError(path.string() + " against " + command.truth.string() + ": " + e.what());
+    }
     inputs.push_back({{"name", name}, {"trajectory", path.string()}});
   }
   const Table table = TrajectoryErrorsTable(errors, options);

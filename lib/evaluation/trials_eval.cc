@@ -337,8 +337,12 @@ int RunTrialsCommand(const TrialsCommand& command, const nlohmann::json& summary
     nlohmann::json input = {
         {"name", spec.name}, {"trajectory", spec.trajectory.string()}, {"trials", spec.trials.string()}};
     if (!spec.truth.empty()) {
-      trajectory_errors.emplace_back(spec.name,
-                                     EvaluateTrajectory(estimate, ReadPoses(spec.truth), trajectory_options));
+      const std::vector<StampedPose> truth = ReadPoses(spec.truth);
+      try {
+        trajectory_errors.emplace_back(spec.name, EvaluateTrajectory(estimate, truth, trajectory_options));
+      } catch (const InputError& e) {  // named: which trajectory against which truth
+        throw InputError(spec.trajectory.string() + " against " + spec.truth.string() + ": " + e.what());
+      }
       input["truth"] = spec.truth.string();
     }
     inputs.push_back(input);

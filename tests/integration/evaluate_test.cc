@@ -1,6 +1,7 @@
 // Integration tests of the evaluate tool.
 #include <gtest/gtest.h>
 
+#include <cctype>
 #include <cmath>
 #include <filesystem>
 #include <fstream>
@@ -224,6 +225,24 @@ TEST(EvaluateTrajectory, GivesEachEstimatesErrorAndItsRatioToTheReference) {
                              tmp.path());
   EXPECT_EQ(twice.exit_code, 2);
   EXPECT_NE(twice.stderr_text.find("the name 'a' is given twice"), std::string::npos) << twice.stderr_text;
+  // An estimate that meets the truth at one pose only: bad input naming both files.
+  const fs::path one = tmp.path() / "one_pose_truth.csv";
+  {
+    std::ifstream in(tmp.path() / "truth.csv");
+    std::ofstream out(one);
+    std::string line;
+    int data = 0;
+    while (std::getline(in, line) && data < 1) {
+      out << line << "\n";
+      data += !line.empty() && std::isdigit(static_cast<unsigned char>(line[0])) ? 1 : 0;
+    }
+  }
+  const auto short_truth = RunTool("evaluate", {"trajectory", "a=" + (pos / "trajectory.csv").string(), "--reference",
+                                                "a", "--truth", one.string(), "-o", eval.string()},
+                                   tmp.path());
+  EXPECT_EQ(short_truth.exit_code, 3) << short_truth.stderr_text;
+  EXPECT_NE(short_truth.stderr_text.find("trajectory.csv against " + one.string()), std::string::npos)
+      << short_truth.stderr_text;
 }
 
 TEST(EvaluateCorrelation, FindsTheTrueDisparityAtEverySubsampling) {
