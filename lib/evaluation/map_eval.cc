@@ -515,8 +515,15 @@ MapEvalResult RunMapEvaluation(const fs::path& map_dir, const fs::path& sim_dir,
   options.Validate();
   util::Timer timer;
   const io::GeoRaster map = io::ReadGeoTiff(map_dir / "elevation.tif");
-  const io::GeoRaster truth = io::ReadGeoTiff(sim_dir / "truth" / "terrain.tif");
+  const fs::path truth_path = sim_dir / "truth" / "terrain.tif";
+  const io::GeoRaster truth = io::ReadGeoTiff(truth_path);
   const std::vector<TrueRock> true_rocks = ReadRocksCsv(sim_dir / "truth" / "rocks.csv");
+  // The truth's layers, named with its file (a map's elevation.tif given as the truth said
+  // only "truth: no band").
+  for (const char* band : {"elevation_m", "obstacle", "relief_m", "slope_deg"}) {
+    LN_CHECK_INPUT(truth.BandIndex(band) >= 0)
+        << truth_path.string() << ": no band '" << band << "' (not simulate stereo's truth/terrain.tif)";
+  }
   // The score: the ground the truth's pairs saw, whichever the map holds (a map that dropped a
   // pair is scored on that pair's ground too), whatever the pairs were asked for.
   std::vector<std::string> stems;

@@ -515,6 +515,16 @@ std::vector<Case> Cases() {
          return std::vector<std::string>{"map", w.At("map"), "--truth", w.At("sim"), "-o", w.Out(), "-q"};
        },
        3, {"rocks.csv:3", "at most 100 m"}, {}},
+      {"evaluate map: a truth without the simulator's layers", "evaluate",
+       [](const Workspace& w) {
+         fs::create_directories(w.root / "map");
+         fs::create_directories(w.root / "sim" / "truth");
+         WriteGeoTiff(w.root / "map" / "elevation.tif", 40, 40, false);
+         WriteGeoTiff(w.root / "sim" / "truth" / "terrain.tif", 40, 40, false);  // elevation_m only
+         WriteText(w.root / "sim" / "truth" / "rocks.csv", "x_m,y_m,height_m,semi_major_m,semi_minor_m,angle_deg\n");
+         return std::vector<std::string>{"map", w.At("map"), "--truth", w.At("sim"), "-o", w.Out(), "-q"};
+       },
+       3, {"terrain.tif: no band 'obstacle'"}, {}},
       // A damaged sidecar is no record of a complete pair: --resume redoes that pair.
       {"stereo-batch --resume: sidecars of the wrong types", "stereo-batch",
        [=](const Workspace& w) {
