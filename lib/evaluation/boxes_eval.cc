@@ -80,7 +80,10 @@ BoxList ReadBoxList(const fs::path& path) {
 }
 
 void BoxesEvalOptions::Validate() const {
-  LN_CHECK_ARG(edge_margin_m >= 0) << "box edge margin: must be >= 0 m";
+  // A face is at most a few metres wide: a margin beyond 10 m leaves nothing to score (1e300
+  // m wrote an empty table and a figure gnuplot could not draw, exit 0).
+  LN_CHECK_ARG(std::isfinite(edge_margin_m) && edge_margin_m >= 0 && edge_margin_m <= 10)
+      << "box edge margin: must be in [0, 10] m, got " << edge_margin_m;
   LN_CHECK_ARG(!y_gate_fraction || (*y_gate_fraction > 0 && *y_gate_fraction < 1)) << "box Y gate: must be in (0, 1)";
 }
 
@@ -300,7 +303,8 @@ FigureResult BoxesFigure(const fs::path& dir, const std::vector<BoxRunResult>& r
 int RunBoxesCommand(const BoxesCommand& command, const json& summary_head) {
   util::Timer timer;
   command.options.Validate();
-  LN_CHECK_ARG(command.sigma_d_px > 0) << "--sigma-d: must be > 0";
+  LN_CHECK_ARG(std::isfinite(command.sigma_d_px) && command.sigma_d_px > 0 && command.sigma_d_px <= 100)
+      << "--sigma-d: must be in (0, 100] px, got " << command.sigma_d_px;
   const BoxList boxes = ReadBoxList(command.boxes);
   io::CreateOutputDirectory(command.output_dir);
   std::vector<BoxRunResult> runs;

@@ -204,5 +204,16 @@ TEST(ReadBoxList, ReadsBoxesAndPerFrameLists) {
   EXPECT_THROW(ReadBoxList(path), InputError);
 }
 
+// The options' limits: an edge margin beyond 10 m leaves no face to score (1e300 m wrote an
+// empty table, exit 0).
+TEST(BoxesEvalOptions, RefusesAMarginLargerThanAnyFace) {
+  BoxesEvalOptions o;
+  EXPECT_NO_THROW(o.Validate());
+  o.edge_margin_m = 1e300;
+  EXPECT_THROW(o.Validate(), std::invalid_argument);
+  o.edge_margin_m = -0.1;
+  EXPECT_THROW(o.Validate(), std::invalid_argument);
+}
+
 }  // namespace
 }  // namespace lunarnav::evaluation
