@@ -240,6 +240,12 @@ cv::Mat DecodeCommonPng(const std::vector<PngChunk>& chunks) {
     default: return {};
   }
   if (width > 0x7fffffffu / (8u * channels) || height > 0x7fffffffu) return {};
+  const std::size_t bpp = static_cast<std::size_t>(channels) * depth / 8;
+  const std::size_t row_bytes = bpp * width;
+  const std::size_t filtered_bytes = (row_bytes + 1) * height;
+  // The whole image inflated at once is a second copy of it: beyond 256 MB, libpng's row by row
+  // decoding keeps the peak at one.
+  if (filtered_bytes > (std::size_t{256} << 20)) return {};
   // The image data: consecutive IDAT chunks; known chunks only (an unknown critical chunk is
   // libpng's to refuse); tRNS would add an alpha channel (libpng's expansion).
   std::size_t idat_bytes = 0;
@@ -262,9 +268,6 @@ cv::Mat DecodeCommonPng(const std::vector<PngChunk>& chunks) {
   for (const PngChunk& c : chunks) {
     if (c.type == "IDAT") compressed.insert(compressed.end(), c.data, c.data + c.length);
   }
-  const std::size_t bpp = static_cast<std::size_t>(channels) * depth / 8;
-  const std::size_t row_bytes = bpp * width;
-  const std::size_t filtered_bytes = (row_bytes + 1) * height;
   std::vector<unsigned char> filtered(filtered_bytes);
   std::unique_ptr<libdeflate_decompressor, void (*)(libdeflate_decompressor*)> decompressor(
       libdeflate_alloc_decompressor(), &libdeflate_free_decompressor);
