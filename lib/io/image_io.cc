@@ -96,29 +96,6 @@ std::string PngStructureProblem(const fs::path& path) {
   return PngChunksProblem(*bytes, nullptr);
 }
 
-int PngSignificantBits(const fs::path& path) {
-  std::ifstream in(path, std::ios::binary);
-  unsigned char signature[8];
-  if (!in.read(reinterpret_cast<char*>(signature), 8)) return 0;
-  // Chunks before the image data: IHDR, then optional ones (sBIT among them).
-  for (int chunk = 0; chunk < 64; ++chunk) {
-    unsigned char head[8];
-    if (!in.read(reinterpret_cast<char*>(head), 8)) return 0;
-    const std::uint32_t length = BigEndian32(head);
-    const std::string type(reinterpret_cast<const char*>(head + 4), 4);
-    if (type == "IDAT" || type == "IEND" || length > (1u << 24)) return 0;
-    if (type == "sBIT") {
-      unsigned char bits[4] = {0, 0, 0, 0};
-      if (length < 1 || length > 4 || !in.read(reinterpret_cast<char*>(bits), length)) return 0;
-      // Grey: 1 byte; grey + alpha: 2; RGB: 3; RGBA: 4. The colour channels' largest.
-      const int colour = length == 2 ? 1 : std::min<int>(length, 3);
-      return *std::max_element(bits, bits + colour);
-    }
-    in.seekg(length + 4, std::ios::cur);  // data and CRC
-  }
-  return 0;
-}
-
 bool HasImageExtension(const fs::path& path) {
   static const char* kExtensions[] = {".png", ".pgm", ".ppm", ".pnm", ".tif",
                                       ".tiff", ".jpg", ".jpeg"};
@@ -402,6 +379,17 @@ cv::Mat ReadAllChannels(const fs::path& path, SignificantBits* bits) {
 }
 
 }  // namespace
+
+int PngSignificantBits(const fs::path& path) {
+  // The reader's own rule (SignificantBitsOf), on a file whose chunks are whole.
+  const auto bytes = ReadFileBytes(path);
+  std::vector<PngChunk> chunks;
+  if (!bytes || !PngChunksProblem(*bytes, &chunks).empty() || chunks.empty() || chunks[0].type != "IHDR" ||
+      chunks[0].length != 13) {
+    return 0;
+  }
+  return SignificantBitsOf(chunks, chunks[0].data[9], chunks[0].data[8]);
+}
 
 void SetMaxImagePixels(long long pixels) {
   LN_CHECK_ARG(pixels >= 1) << "max-pixels: must be >= 1, got " << pixels;

@@ -26,7 +26,8 @@ void SetMaxImagePixels(long long pixels);
 long long MaxImagePixels();
 
 /// The sBIT chunk of a PNG file: the colour channels' largest significant bit count, or 0
-/// when the file has none (or cannot be read).
+/// when the file has none, an invalid one (as libpng judges it: the reader's own rule), or
+/// cannot be read.
 int PngSignificantBits(const std::filesystem::path& path);
 
 /// Reads an 8- or 16-bit image (PNG, PGM/PPM, TIFF, JPEG, ...) as one grey channel.
