@@ -79,6 +79,7 @@ int main(int argc, char** argv) {
     if (!vehicle_path.empty()) opt.vehicle = calib::ReadVehicleSpec(vehicle_path);
     apps::ApplyVehicleLimits(opt.vehicle, &opt.map.map);
     opt.stereo.matcher = apps::MatcherFromCommandLine(app, matcher_cl);
+    apps::ApplyMapPipelineDefaults(app, &opt.stereo.matcher);
     opt.stereo.rig = calib::ReadStereoRig(rig_path);
     opt.stereo.rig_source = rig_path.string();
     LN_CHECK_ARG(opt.stereo.rig->rectified) << rig_path.string() << ": not a rectified rig (run rectify first)";

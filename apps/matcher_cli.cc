@@ -3,6 +3,7 @@
 #include <sstream>
 #include <tuple>
 
+#include "util/check.h"
 #include "util/format.h"
 #include "util/parse.h"
 
@@ -70,6 +71,11 @@ void AddMatcherOptions(CLI::App* app, MatcherCommandLine* cl, stereo::FrameCheck
   app->add_option("--speckle-range", given.semi_global.speckle_range_px,
                   "semi-global: disparity step, px, that disconnects a region")
       ->default_str(std::to_string(quality.semi_global.speckle_range_px));
+  app->add_option("--aperture", cl->aperture,
+                  "semi-global: reject a pixel whose census window's mean horizontal gradient is below GRADIENT "
+                  "grey levels per pixel (8-bit) and below RATIO times its vertical one (texture along the rows, "
+                  "which does not fix the match), as RATIO:GRADIENT, or off")
+      ->default_str(util::Format("off; with --rig %g:%g", kMapApertureRatio, kMapApertureGradient));
   app->add_option("--border-tolerance", given.border_tolerance_px,
                   "border rule: reject a pixel whose search runs past the other image when its match lies this many "
                   "px left of the surface's to its left (-1 = off)")
@@ -112,6 +118,16 @@ stereo::NccOptions MatcherFromCommandLine(const CLI::App& app, const MatcherComm
   if (given_option("--lr-check")) m.semi_global.left_right_max_diff_px = given.semi_global.left_right_max_diff_px;
   if (given_option("--speckle-size")) m.semi_global.speckle_max_size_px = given.semi_global.speckle_max_size_px;
   if (given_option("--speckle-range")) m.semi_global.speckle_range_px = given.semi_global.speckle_range_px;
+  if (given_option("--aperture")) {
+    if (cl.aperture == "off") {
+      m.semi_global.aperture_ratio = 0;
+    } else {
+      std::tie(m.semi_global.aperture_ratio, m.semi_global.aperture_gradient) =
+          util::ParseDoublePair(cl.aperture, ':', "--aperture");
+      LN_CHECK_ARG(m.semi_global.aperture_ratio > 0)
+          << "aperture: RATIO must be > 0 (or give off), got " << cl.aperture;
+    }
+  }
   if (given_option("--bit-depth")) m.bit_depth = given.bit_depth;
   if (given_option("--border-tolerance")) m.border_tolerance_px = given.border_tolerance_px;
   if (given_option("--window")) {
@@ -120,6 +136,12 @@ stereo::NccOptions MatcherFromCommandLine(const CLI::App& app, const MatcherComm
   std::tie(m.step_x_px, m.step_y_px) = util::ParseIntPair(cl.step, 'x', "--step");
   m.reference = stereo::ReferenceImageFromString(cl.reference);
   return m;
+}
+
+void ApplyMapPipelineDefaults(const CLI::App& app, stereo::NccOptions* matcher) {
+  if (app.get_option("--aperture")->count() > 0 || matcher->aggregation != stereo::Aggregation::kSemiGlobal) return;
+  matcher->semi_global.aperture_ratio = kMapApertureRatio;
+  matcher->semi_global.aperture_gradient = kMapApertureGradient;
 }
 
 }  // namespace lunarnav::apps

@@ -16,6 +16,7 @@ namespace lunarnav::apps {
 struct MatcherCommandLine {
   std::string preset = "quality";
   std::string aggregation = "semi-global", census = "4x3", window, step = "1x1", reference = "right";
+  std::string aperture = "off";
   stereo::NccOptions given = stereo::PresetOptions("paper");  ///< Explicit values, applied over the preset.
 };
 
@@ -26,5 +27,14 @@ void AddMatcherOptions(CLI::App* app, MatcherCommandLine* cl, stereo::FrameCheck
 /// over them (an explicit option overrides the preset). @throws std::invalid_argument for a
 /// malformed pair (WXxWY, DXxDY).
 stereo::NccOptions MatcherFromCommandLine(const CLI::App& app, const MatcherCommandLine& cl);
+
+/// The aperture filter the map pipeline uses (stereo-batch with --rig, map-loop): ratio and
+/// gradient (docs/stereo-matcher.md).
+inline constexpr double kMapApertureRatio = 0.4;
+inline constexpr double kMapApertureGradient = 1.5;
+
+/// The map pipeline's matcher defaults over `matcher`: with semi-global aggregation and no
+/// --aperture given, the aperture filter on (kMapApertureRatio, kMapApertureGradient).
+void ApplyMapPipelineDefaults(const CLI::App& app, stereo::NccOptions* matcher);
 
 }  // namespace lunarnav::apps

@@ -110,6 +110,7 @@ int main(int argc, char** argv) {
     if (!rig_path.empty()) {
       opt.rig = calib::ReadStereoRig(rig_path);
       opt.rig_source = rig_path;
+      apps::ApplyMapPipelineDefaults(app, &opt.matcher);  // the points become a map
     }
     if (sigma_option->count() > 0) opt.xyz_sigma_px = xyz_sigma;
     calib::RegionOfInterest region;  // the paper's heights unless --z-range

@@ -25,6 +25,7 @@ std::string ToString(Rejection reason) {
     case Rejection::kBeyondBorder: return "beyond_border";
     case Rejection::kBeyondFar: return "beyond_far";
     case Rejection::kBeyondNear: return "beyond_near";
+    case Rejection::kAperture: return "aperture";
   }
   return "unknown";
 }
@@ -137,6 +138,10 @@ void NccOptions::Validate() const {
         << "speckle-range: must be >= 0, got " << g.speckle_range_px;
     LN_CHECK_ARG(max_disparity_px - min_disparity_px < 2048)
         << "disparity: semi-global matching searches at most 2048 disparities";
+    LN_CHECK_ARG(std::isfinite(g.aperture_ratio) && g.aperture_ratio >= 0 && g.aperture_ratio <= 1)
+        << "aperture: RATIO must be in [0, 1] (0 = off), got " << g.aperture_ratio;
+    LN_CHECK_ARG(std::isfinite(g.aperture_gradient) && g.aperture_gradient > 0 && g.aperture_gradient <= 255)
+        << "aperture: GRADIENT must be in (0, 255] grey levels per pixel, got " << g.aperture_gradient;
   }
 }
 
@@ -156,7 +161,11 @@ nlohmann::json NccOptions::ToJson() const {
                         {"uniqueness", g.uniqueness},
                         {"left_right_max_diff_px", g.left_right_max_diff_px},
                         {"speckle_max_size_px", g.speckle_max_size_px},
-                        {"speckle_range_px", g.speckle_range_px}};
+                        {"speckle_range_px", g.speckle_range_px},
+                        {"aperture", g.aperture_ratio > 0
+                                         ? nlohmann::json{{"ratio", g.aperture_ratio},
+                                                          {"gradient_levels_per_px", g.aperture_gradient}}
+                                         : nlohmann::json("off")}};
   }
   j["bit_depth"] = bit_depth == 0 ? nlohmann::json("from image type") : nlohmann::json(bit_depth);
   j["half_window_px"] = {half_window_x_px, half_window_y_px};

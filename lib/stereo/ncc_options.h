@@ -41,9 +41,13 @@ enum class Rejection : std::uint8_t {
   kBeyondFar = 11,
   /// The match lies above the row's accepted disparities (row_accept_max_px): in the guard
   /// band searched nearer than a requested window's near limit.
-  kBeyondNear = 12
+  kBeyondNear = 12,
+  /// Quality preset with the aperture filter on: the census window's texture runs along the
+  /// rows (its horizontal gradient weak, and weak beside its vertical one), so the match's
+  /// position along the row is not fixed by the image (SemiGlobalOptions::aperture_ratio).
+  kAperture = 13
 };
-inline constexpr int kNumRejectionCodes = 13;
+inline constexpr int kNumRejectionCodes = 14;
 /// Short snake_case name of a code ("low_texture"), used in summaries.
 std::string ToString(Rejection reason);
 
@@ -92,6 +96,18 @@ struct SemiGlobalOptions {
   /// many image pixels (grid cells times dx dy with partial subsampling) are rejected. 0 = off.
   int speckle_max_size_px = 100;
   double speckle_range_px = 2.0;
+  /// Aperture filter: over the census window, the mean |d/dx| and |d/dy| of the reference
+  /// (3 x 3 Sobel / 8: grey levels per pixel, 8-bit scale); a pixel is rejected when its
+  /// horizontal gradient is below aperture_gradient and below aperture_ratio times its vertical
+  /// one. Such a window holds edges and lines that run along the rows (a kerb seen across, tram
+  /// rails, a window's frame, foreshortened stripes): shifted along the row it matches nearly
+  /// as well, so the winner is set by the smoothness term, not by the image, and whole regions
+  /// take a neighbour's disparity. Texture that is weak both ways is left to the low-texture
+  /// filter and the aggregation. aperture_ratio in [0, 1], 0 = off; aperture_gradient in
+  /// (0, 255] levels per pixel. Off in the preset; stereo-batch and map-loop turn it on with a
+  /// rig (the map pipeline: docs/stereo-matcher.md).
+  double aperture_ratio = 0.0;
+  double aperture_gradient = 1.5;
 };
 
 /// Parameters of the matcher. Defaults are the paper's (Krotkov & Hebert, sec. 3.2-3.4).

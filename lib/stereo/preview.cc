@@ -47,6 +47,7 @@ cv::Vec3b RejectionColour(Rejection reason) {
     case Rejection::kBeyondBorder: return {160, 0, 80};    // purple
     case Rejection::kBeyondFar: return {200, 160, 0};      // teal
     case Rejection::kBeyondNear: return {130, 200, 120};   // sage
+    case Rejection::kAperture: return {230, 216, 173};     // light blue
   }
   return {0, 0, 0};
 }

@@ -207,13 +207,21 @@ void PrepareCostInputs(const SemiGlobalOptions& g, const SearchGrid& grid, const
 }
 
 // Filter 1's measure: the reference's mean and mean square over the census window, on the
-// true bit depth's scale, and the variance below which a pixel has too little texture.
+// true bit depth's scale, and the variance below which a pixel has too little texture; with
+// the aperture filter, the window's mean |Sobel x| and |Sobel y| (SemiGlobalOptions).
 struct Texture {
   cv::Mat mean, mean_sq;
   float min_var = 0.0f;
+  cv::Mat grad_x, grad_y;  // empty: the aperture filter is off
+  float aperture_ratio = 0.0f, aperture_min_grad = 0.0f;
   bool TooLow(int x, int y) const {
     const float m = mean.at<float>(y, x), m2 = mean_sq.at<float>(y, x);
     return m2 - m * m < min_var;
+  }
+  bool AlongRows(int x, int y) const {
+    if (grad_x.empty()) return false;
+    const float gx = grad_x.at<float>(y, x);
+    return gx < aperture_min_grad && gx < aperture_ratio * grad_y.at<float>(y, x);
   }
 };
 
@@ -230,6 +238,18 @@ Texture ComputeTexture(const NccOptions& options, const cv::Mat& ref, int bit_de
       });
   const double sigma_min = options.min_sigma * GreyScaleFactor(bit_depth);
   texture.min_var = static_cast<float>(sigma_min * sigma_min);
+  if (g.aperture_ratio > 0) {
+    // Sobel's sum is 8 times a ramp's slope: /8 gives grey levels per pixel.
+    auto mean_abs_derivative = [&](int dx, int dy, cv::Mat* result) {
+      cv::Mat d;
+      cv::Sobel(ref_f, d, CV_32F, dx, dy, 3, 0.125, 0, cv::BORDER_REPLICATE);
+      cv::boxFilter(cv::abs(d), *result, CV_32F, window, {-1, -1}, true, cv::BORDER_REPLICATE);
+    };
+    tbb::parallel_invoke([&] { mean_abs_derivative(1, 0, &texture.grad_x); },
+                         [&] { mean_abs_derivative(0, 1, &texture.grad_y); });
+    texture.aperture_ratio = static_cast<float>(g.aperture_ratio);
+    texture.aperture_min_grad = static_cast<float>(g.aperture_gradient * GreyScaleFactor(bit_depth));
+  }
   return texture;
 }
 
@@ -384,6 +404,10 @@ void RowSelector::operator()(int j, const std::uint16_t* sums) const {
     }
     if (texture_.TooLow(x, y)) {
       reason[i] = static_cast<std::uint8_t>(Rejection::kLowTexture);
+      continue;
+    }
+    if (texture_.AlongRows(x, y)) {
+      reason[i] = static_cast<std::uint8_t>(Rejection::kAperture);
       continue;
     }
     if (best == 0 || best == nj - 1) {
