@@ -225,7 +225,9 @@ struct Texture {
   }
 };
 
-Texture ComputeTexture(const NccOptions& options, const cv::Mat& ref, int bit_depth) {
+// `rows`: the rows matched (the aperture measure is made for those only: window selection's
+// point is to do what the band needs).
+Texture ComputeTexture(const NccOptions& options, const cv::Mat& ref, int bit_depth, cv::Range rows) {
   const SemiGlobalOptions& g = options.semi_global;
   Texture texture;
   cv::Mat ref_f;
@@ -238,12 +240,21 @@ Texture ComputeTexture(const NccOptions& options, const cv::Mat& ref, int bit_de
       });
   const double sigma_min = options.min_sigma * GreyScaleFactor(bit_depth);
   texture.min_var = static_cast<float>(sigma_min * sigma_min);
-  if (g.aperture_ratio > 0) {
-    // Sobel's sum is 8 times a ramp's slope: /8 gives grey levels per pixel.
+  if (g.aperture_ratio > 0 && rows.size() > 0) {
+    // Sobel's sum is 8 times a ramp's slope: /8 gives grey levels per pixel. The derivatives
+    // over the rows the windows of `rows` reach; filters on a band of rows read the rows
+    // beyond it from the whole image (OpenCV's ROI), so the band's values are the whole
+    // image's.
+    const cv::Range reach(std::max(0, rows.start - g.census_half_y_px),
+                          std::min(ref_f.rows, rows.end + g.census_half_y_px));
     auto mean_abs_derivative = [&](int dx, int dy, cv::Mat* result) {
-      cv::Mat d;
-      cv::Sobel(ref_f, d, CV_32F, dx, dy, 3, 0.125, 0, cv::BORDER_REPLICATE);
-      cv::boxFilter(cv::abs(d), *result, CV_32F, window, {-1, -1}, true, cv::BORDER_REPLICATE);
+      cv::Mat d(ref_f.size(), CV_32F, cv::Scalar(0));
+      cv::Mat d_reach = d.rowRange(reach);
+      cv::Sobel(ref_f.rowRange(reach), d_reach, CV_32F, dx, dy, 3, 0.125, 0, cv::BORDER_REPLICATE);
+      cv::absdiff(d_reach, cv::Scalar::all(0), d_reach);
+      result->create(ref_f.size(), CV_32F);
+      cv::Mat out = result->rowRange(rows);
+      cv::boxFilter(d.rowRange(rows), out, CV_32F, window, {-1, -1}, true, cv::BORDER_REPLICATE);
     };
     tbb::parallel_invoke([&] { mean_abs_derivative(1, 0, &texture.grad_x); },
                          [&] { mean_abs_derivative(0, 1, &texture.grad_y); });
@@ -601,7 +612,7 @@ void MatchSemiGlobal(const NccOptions& options, const cv::Mat& left, const cv::M
   maps.reason.setTo(static_cast<int>(Rejection::kAccepted));
   SemiGlobalAggregate(cost_inputs.in, &ws.cost);
   clock.Lap("aggregation");  // with the gradient term's derivatives and the edge-aware P2's grey levels
-  const Texture texture = ComputeTexture(options, ref, bit_depth);
+  const Texture texture = ComputeTexture(options, ref, bit_depth, census_rows);
   clock.Lap("texture");
   const RowSelector select(options, grid, texture, left, right, ref, tgt, &maps);
   maps.tgt_best.create(grid.num_rows, select.LeftRightCheck() ? grid.width : 1, CV_32SC1);

@@ -451,6 +451,16 @@ TEST(SemiGlobal, TheApertureFilterRejectsTextureAlongTheRowsOnly) {
       ASSERT_EQ(on.disparity_px.at<float>(y, x), off.disparity_px.at<float>(y, x)) << x << "," << y;
     }
   }
+  // Matched in a band of rows (window selection), the measure is made for the band only and
+  // gives the band's labels of the whole image.
+  NccOptions band = o;
+  band.min_row = 60;
+  band.max_row = 100;
+  const NccResult in_band = MatchStereoPair(band, left8, right8);
+  EXPECT_EQ(cv::countNonZero((in_band.rejection.rowRange(60, 101) == static_cast<int>(Rejection::kAperture)) !=
+                             (on.rejection.rowRange(60, 101) == static_cast<int>(Rejection::kAperture))),
+            0);
+  EXPECT_GT(cv::countNonZero(in_band.rejection.rowRange(60, 101) == static_cast<int>(Rejection::kAperture)), 1000);
   // The threshold is in 8-bit grey levels per pixel, scaled by the bit depth.
   cv::Mat left12, right12;
   left8.convertTo(left12, CV_16U, 16.0);
