@@ -76,6 +76,11 @@ void AddMatcherOptions(CLI::App* app, MatcherCommandLine* cl, stereo::FrameCheck
                   "grey levels per pixel (8-bit) and below RATIO times its vertical one (texture along the rows, "
                   "which does not fix the match), as RATIO:GRADIENT, or off")
       ->default_str(util::Format("off; with --rig %g:%g", kMapApertureRatio, kMapApertureGradient));
+  app->add_option("--occlusion-margin", given.semi_global.occlusion_margin_px,
+                  "semi-global: reject a match followed, within N px on the side the other camera cannot see, "
+                  "by a drop of disparity larger than --speckle-range (the nearer surface spread over the "
+                  "half-occluded background; 0 = off)")
+      ->default_str(util::Format("0; with --rig %d", kMapOcclusionMarginPx));
   app->add_option("--border-tolerance", given.border_tolerance_px,
                   "border rule: reject a pixel whose search runs past the other image when its match lies this many "
                   "px left of the surface's to its left (-1 = off)")
@@ -128,6 +133,7 @@ stereo::NccOptions MatcherFromCommandLine(const CLI::App& app, const MatcherComm
           << "aperture: RATIO must be > 0 (or give off), got " << cl.aperture;
     }
   }
+  if (given_option("--occlusion-margin")) m.semi_global.occlusion_margin_px = given.semi_global.occlusion_margin_px;
   if (given_option("--bit-depth")) m.bit_depth = given.bit_depth;
   if (given_option("--border-tolerance")) m.border_tolerance_px = given.border_tolerance_px;
   if (given_option("--window")) {
@@ -139,9 +145,14 @@ stereo::NccOptions MatcherFromCommandLine(const CLI::App& app, const MatcherComm
 }
 
 void ApplyMapPipelineDefaults(const CLI::App& app, stereo::NccOptions* matcher) {
-  if (app.get_option("--aperture")->count() > 0 || matcher->aggregation != stereo::Aggregation::kSemiGlobal) return;
-  matcher->semi_global.aperture_ratio = kMapApertureRatio;
-  matcher->semi_global.aperture_gradient = kMapApertureGradient;
+  if (matcher->aggregation != stereo::Aggregation::kSemiGlobal) return;
+  if (app.get_option("--aperture")->count() == 0) {
+    matcher->semi_global.aperture_ratio = kMapApertureRatio;
+    matcher->semi_global.aperture_gradient = kMapApertureGradient;
+  }
+  if (app.get_option("--occlusion-margin")->count() == 0) {
+    matcher->semi_global.occlusion_margin_px = kMapOcclusionMarginPx;
+  }
 }
 
 }  // namespace lunarnav::apps

@@ -32,9 +32,12 @@ stereo::NccOptions MatcherFromCommandLine(const CLI::App& app, const MatcherComm
 /// gradient (docs/stereo-matcher.md).
 inline constexpr double kMapApertureRatio = 0.4;
 inline constexpr double kMapApertureGradient = 1.5;
+/// The occlusion margin the map pipeline uses: the census window's half-width (px).
+inline constexpr int kMapOcclusionMarginPx = 4;
 
-/// The map pipeline's matcher defaults over `matcher`: with semi-global aggregation and no
-/// --aperture given, the aperture filter on (kMapApertureRatio, kMapApertureGradient).
+/// The map pipeline's matcher defaults over `matcher`: with semi-global aggregation, the
+/// aperture filter on (kMapApertureRatio, kMapApertureGradient) unless --aperture is given,
+/// and the occlusion margin kMapOcclusionMarginPx unless --occlusion-margin is given.
 void ApplyMapPipelineDefaults(const CLI::App& app, stereo::NccOptions* matcher);
 
 }  // namespace lunarnav::apps

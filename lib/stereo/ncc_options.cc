@@ -26,6 +26,7 @@ std::string ToString(Rejection reason) {
     case Rejection::kBeyondFar: return "beyond_far";
     case Rejection::kBeyondNear: return "beyond_near";
     case Rejection::kAperture: return "aperture";
+    case Rejection::kOccludedEdge: return "occluded_edge";
   }
   return "unknown";
 }
@@ -142,6 +143,8 @@ void NccOptions::Validate() const {
         << "aperture: RATIO must be in [0, 1] (0 = off), got " << g.aperture_ratio;
     LN_CHECK_ARG(std::isfinite(g.aperture_gradient) && g.aperture_gradient > 0 && g.aperture_gradient <= 255)
         << "aperture: GRADIENT must be in (0, 255] grey levels per pixel, got " << g.aperture_gradient;
+    LN_CHECK_ARG(g.occlusion_margin_px >= 0 && g.occlusion_margin_px <= 64)
+        << "occlusion-margin: must be in 0..64 px (0 = off), got " << g.occlusion_margin_px;
   }
 }
 
@@ -165,7 +168,8 @@ nlohmann::json NccOptions::ToJson() const {
                         {"aperture", g.aperture_ratio > 0
                                          ? nlohmann::json{{"ratio", g.aperture_ratio},
                                                           {"gradient_levels_per_px", g.aperture_gradient}}
-                                         : nlohmann::json("off")}};
+                                         : nlohmann::json("off")},
+                        {"occlusion_margin_px", g.occlusion_margin_px}};
   }
   j["bit_depth"] = bit_depth == 0 ? nlohmann::json("from image type") : nlohmann::json(bit_depth);
   j["half_window_px"] = {half_window_x_px, half_window_y_px};

@@ -45,9 +45,13 @@ enum class Rejection : std::uint8_t {
   /// Quality preset with the aperture filter on: the census window's texture runs along the
   /// rows (its horizontal gradient weak, and weak beside its vertical one), so the match's
   /// position along the row is not fixed by the image (SemiGlobalOptions::aperture_ratio).
-  kAperture = 13
+  kAperture = 13,
+  /// Quality preset with an occlusion margin: the pixel lies within the margin before a drop
+  /// of disparity on the side the other camera cannot see behind a nearer surface
+  /// (SemiGlobalOptions::occlusion_margin_px).
+  kOccludedEdge = 14
 };
-inline constexpr int kNumRejectionCodes = 14;
+inline constexpr int kNumRejectionCodes = 15;
 /// Short snake_case name of a code ("low_texture"), used in summaries.
 std::string ToString(Rejection reason);
 
@@ -108,6 +112,15 @@ struct SemiGlobalOptions {
   /// rig (the map pipeline: docs/stereo-matcher.md).
   double aperture_ratio = 0.0;
   double aperture_gradient = 1.5;
+  /// Occlusion margin: beside a nearer surface, the farther one is seen by the reference
+  /// camera only (half-occluded) over as many pixels as the disparities differ, on the side
+  /// away from the other camera (the right of the nearer surface with the right image as
+  /// reference). There the census window straddles the depth edge, no true match exists, and
+  /// the nearer surface's disparity spreads over the background: a post or a pedestrian
+  /// mapped a cell wider than it stands. A match is rejected when, within this many pixels
+  /// on that side, the disparity drops by more than speckle_range_px. In 0..64 px, 0 = off.
+  /// Off in the preset; stereo-batch and map-loop use 4 (the census half-width) with a rig.
+  int occlusion_margin_px = 0;
 };
 
 /// Parameters of the matcher. Defaults are the paper's (Krotkov & Hebert, sec. 3.2-3.4).

@@ -48,6 +48,7 @@ cv::Vec3b RejectionColour(Rejection reason) {
     case Rejection::kBeyondFar: return {200, 160, 0};      // teal
     case Rejection::kBeyondNear: return {130, 200, 120};   // sage
     case Rejection::kAperture: return {230, 216, 173};     // light blue
+    case Rejection::kOccludedEdge: return {0, 215, 255};   // gold
   }
   return {0, 0, 0};
 }

@@ -521,8 +521,38 @@ void RejectSpeckles(const SemiGlobalOptions& g, const SearchGrid& grid, GridMaps
   });
 }
 
-// The filters after selection, in order: guard band, median, border rule, speckle.
+// The occlusion margin (SemiGlobalOptions::occlusion_margin_px): in the working orientation
+// the other image's match lies at x + d, so the background beside a nearer surface is
+// half-occluded on the surface's right (larger x). A match followed, within the margin to its
+// right, by one more than speckle_range_px lower is rejected; the matches are judged as
+// selection left them (a rejection does not move the next one's test).
+void RejectOccludedEdges(const SemiGlobalOptions& g, const SearchGrid& grid, GridMaps* maps) {
+  if (g.occlusion_margin_px <= 0) return;
+  // On a subsampled grid the margin is counted in image pixels.
+  const int reach = std::max(1, g.occlusion_margin_px / grid.dx);
+  const float drop = static_cast<float>(g.speckle_range_px);
+  tbb::parallel_for(0, grid.num_rows, [&](int j) {
+    float* d = maps->disp.ptr<float>(j);
+    std::uint8_t* reason = maps->reason.ptr<std::uint8_t>(j);
+    const std::vector<float> original(d, d + grid.num_cols);  // as selection left them
+    for (int i = 0; i < grid.num_cols; ++i) {
+      if (!std::isfinite(original[i])) continue;
+      const int end = std::min(grid.num_cols, i + reach + 1);
+      for (int k = i + 1; k < end; ++k) {
+        if (original[k] < original[i] - drop) {  // NaN compares false
+          d[i] = std::numeric_limits<float>::quiet_NaN();
+          reason[i] = static_cast<std::uint8_t>(Rejection::kOccludedEdge);
+          break;
+        }
+      }
+    }
+  });
+}
+
+// The filters after selection, in order: occlusion margin, guard band, median, border rule,
+// speckle.
 void ApplyFilters(const NccOptions& options, const SearchGrid& grid, GridMaps* maps) {
+  RejectOccludedEdges(options.semi_global, grid, maps);
   RejectGuardBands(options, grid, maps);
   MedianFilterDisparityGrid(options.median_size, &maps->disp, &maps->reason, /*reject_isolated=*/false);
   if (options.border_tolerance_px >= 0) {
@@ -622,7 +652,7 @@ void MatchSemiGlobal(const NccOptions& options, const cv::Mat& left, const cv::M
   if (select.LeftRightCheck()) CheckLeftRight(g, grid, &maps);
   clock.Lap("left_right");
   ApplyFilters(options, grid, &maps);
-  clock.Lap("filters");  // guard band, median, border rule, speckle
+  clock.Lap("filters");  // occlusion margin, guard band, median, border rule, speckle
   ScatterToImage(grid, maps, bit_depth, out);
   clock.Lap("scatter");
   out->summary.stage_seconds = clock.Take();

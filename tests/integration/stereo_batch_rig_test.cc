@@ -301,13 +301,20 @@ TEST(StereoBatchRig, WithoutARangeTheRigsGroundIsSearched) {
   // without one it is off.
   EXPECT_EQ(summary["options"]["semi_global"]["aperture"],
             nlohmann::json({{"ratio", 0.4}, {"gradient_levels_per_px", 1.5}}));
+  EXPECT_EQ(summary["options"]["semi_global"]["occlusion_margin_px"], 4);
   const fs::path plain = fx.tmp.path() / "plain", off = fx.tmp.path() / "aperture-off";
   ASSERT_EQ(RunTool("stereo-batch", {fx.in.string(), "-o", plain.string(), "-q"}, fx.tmp.path()).exit_code, 0);
   EXPECT_EQ(io::ReadJson(plain / "summary.json")["options"]["semi_global"]["aperture"], "off");
+  EXPECT_EQ(io::ReadJson(plain / "summary.json")["options"]["semi_global"]["occlusion_margin_px"], 0);
   ASSERT_EQ(RunTool("stereo-batch", fx.Args(off, {"--aperture", "off"}), fx.tmp.path()).exit_code, 0);
   EXPECT_EQ(io::ReadJson(off / "summary.json")["options"]["semi_global"]["aperture"], "off");
   for (const char* bad : {"2:1.5", "0.4", "0.4:0", "0:1.5", "x:y"}) {
     EXPECT_EQ(RunTool("stereo-batch", fx.Args(fx.tmp.path() / "bad", {"--aperture", bad}), fx.tmp.path()).exit_code, 2)
+        << bad;
+  }
+  for (const char* bad : {"-1", "65", "x"}) {
+    EXPECT_EQ(RunTool("stereo-batch", fx.Args(fx.tmp.path() / "bad", {"--occlusion-margin", bad}), fx.tmp.path()).exit_code,
+              2)
         << bad;
   }
   // The hand-picked range's ground points within the region (Y up to the far limit, where a

@@ -472,6 +472,69 @@ TEST(SemiGlobal, TheApertureFilterRejectsTextureAlongTheRowsOnly) {
             0);
 }
 
+// The occlusion margin: beside a nearer square, the matches within the margin before a drop
+// of disparity on the half-occluded side (right of the square, right reference) are
+// rejected as `occluded_edge`, and nowhere else: not on a smooth slanted plane, not on the
+// square's other side. Off by default.
+TEST(SemiGlobal, TheOcclusionMarginRejectsOnlyBeforeADropOnTheHiddenSide) {
+  const cv::Rect2d square(140, 60, 100, 120);  // right-image columns 140..239
+  const auto pair = RenderLayeredPair(Scene({Plane(30.0, 0, 0, square, 2), Plane(6.0)}));
+  NccOptions o = Quality();
+  const NccResult off = MatchStereoPair(o, pair.left, pair.right);
+  const auto code = static_cast<int>(Rejection::kOccludedEdge);
+  EXPECT_EQ(off.summary.pixels_by_reason[code], 0);
+  o.semi_global.occlusion_margin_px = 4;
+  const NccResult on = MatchStereoPair(o, pair.left, pair.right);
+  int labelled = 0, misplaced = 0;
+  for (int y = 0; y < 240; ++y) {
+    for (int x = 0; x < 320; ++x) {
+      if (on.rejection.at<std::uint8_t>(y, x) != code) continue;
+      ++labelled;
+      // Within the margin of the square's right edge, or of the occluded band's (24 columns
+      // right of it: the background there has no match, and what the matcher gave it drops
+      // to the background's disparity at its end), in the square's rows.
+      // Along the square's top and bottom edges a row's census windows straddle the edge, and
+      // a row's matches mix the two disparities: a drop along the row there too.
+      const bool near_edge = (x >= 240 - 4 - 1 && x < 240 + 24 + 4 && y >= 60 - 4 && y < 180 + 4) ||
+                             (x >= 140 - 4 && x < 240 + 24 + 4 && (std::abs(y - 60) <= 4 || std::abs(y - 180) <= 4));
+      misplaced += !near_edge;
+      if (!near_edge) ADD_FAILURE() << "occluded_edge at " << x << "," << y;
+    }
+  }
+  EXPECT_GT(labelled, 10);
+  EXPECT_EQ(misplaced, 0);
+  EXPECT_EQ(on.summary.pixels_by_reason[code], labelled);
+  // Accepted matches more than 1 px off in the columns around the square's right edge: no
+  // more than without the margin, and the square's left edge and the rest as before.
+  auto wrong = [&](const NccResult& r, int x0, int x1) {
+    int n = 0;
+    for (int y = 70; y < 170; ++y) {
+      for (int x = x0; x < x1; ++x) {
+        const float d = r.disparity_px.at<float>(y, x);
+        n += std::isfinite(d) && std::abs(d - pair.disparity_right_px.at<float>(y, x)) > 1.0f;
+      }
+    }
+    return n;
+  };
+  EXPECT_LE(wrong(on, 230, 270), wrong(off, 230, 270));
+  EXPECT_EQ(cv::countNonZero(on.rejection.colRange(0, 200) == code), 0);
+  // A smooth surface slanted along the rows has no drop: what the margin rejects there are
+  // the few matches that stood out of it (wrong by more than the drop, or rejected by a later
+  // filter without the margin).
+  const auto slanted = RenderLayeredPair(Scene({Plane(12.0, 0.05, 0.02)}));
+  const NccResult slanted_on = MatchStereoPair(o, slanted.left, slanted.right);
+  o.semi_global.occlusion_margin_px = 0;
+  const NccResult slanted_off = MatchStereoPair(o, slanted.left, slanted.right);
+  EXPECT_LT(slanted_on.summary.pixels_by_reason[code], 10);
+  for (int y = 0; y < 240; ++y) {
+    for (int x = 0; x < 320; ++x) {
+      if (slanted_on.rejection.at<std::uint8_t>(y, x) != code) continue;
+      const float d = slanted_off.disparity_px.at<float>(y, x);
+      EXPECT_TRUE(!std::isfinite(d) || std::abs(d - slanted.disparity_right_px.at<float>(y, x)) > 2.0f) << x << "," << y;
+    }
+  }
+}
+
 // The confidence C the quality preset writes is the paper's correlation (Correlation, the
 // literal reference) at the chosen whole disparity, bit for bit: inside the images it is
 // summed in integers, which hold the same values; at the edges Correlation itself is used.
