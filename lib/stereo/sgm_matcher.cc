@@ -242,19 +242,19 @@ Texture ComputeTexture(const NccOptions& options, const cv::Mat& ref, int bit_de
   texture.min_var = static_cast<float>(sigma_min * sigma_min);
   if (g.aperture_ratio > 0 && rows.size() > 0) {
     // Sobel's sum is 8 times a ramp's slope: /8 gives grey levels per pixel. The derivatives
-    // over the rows the windows of `rows` reach; filters on a band of rows read the rows
-    // beyond it from the whole image (OpenCV's ROI), so the band's values are the whole
-    // image's.
+    // over the rows the windows of `rows` reach (Sobel on a band reads the rows beyond it
+    // from the whole image, OpenCV's ROI); the box filter over them replicates their first
+    // and last rows only where those are the image's. So the band's values are the whole
+    // image's, and nothing outside the band is computed.
     const cv::Range reach(std::max(0, rows.start - g.census_half_y_px),
                           std::min(ref_f.rows, rows.end + g.census_half_y_px));
     auto mean_abs_derivative = [&](int dx, int dy, cv::Mat* result) {
-      cv::Mat d(ref_f.size(), CV_32F, cv::Scalar(0));
-      cv::Mat d_reach = d.rowRange(reach);
-      cv::Sobel(ref_f.rowRange(reach), d_reach, CV_32F, dx, dy, 3, 0.125, 0, cv::BORDER_REPLICATE);
-      cv::absdiff(d_reach, cv::Scalar::all(0), d_reach);
-      result->create(ref_f.size(), CV_32F);
-      cv::Mat out = result->rowRange(rows);
-      cv::boxFilter(d.rowRange(rows), out, CV_32F, window, {-1, -1}, true, cv::BORDER_REPLICATE);
+      cv::Mat d, mean;
+      cv::Sobel(ref_f.rowRange(reach), d, CV_32F, dx, dy, 3, 0.125, 0, cv::BORDER_REPLICATE);
+      cv::absdiff(d, cv::Scalar::all(0), d);
+      cv::boxFilter(d, mean, CV_32F, window, {-1, -1}, true, cv::BORDER_REPLICATE);
+      result->create(ref_f.size(), CV_32F);  // only the band's rows are read (AlongRows)
+      mean.rowRange(rows.start - reach.start, rows.end - reach.start).copyTo(result->rowRange(rows));
     };
     tbb::parallel_invoke([&] { mean_abs_derivative(1, 0, &texture.grad_x); },
                          [&] { mean_abs_derivative(0, 1, &texture.grad_y); });
