@@ -42,7 +42,15 @@ int main(int argc, char** argv) {
   app.add_option("--order", opt.filter_order, "low-pass filter order")->capture_default_str();
   app.add_option("--cutoff", opt.cutoff_hz, "the compass's low-pass cut-off (--heading lowpass), Hz")
       ->capture_default_str();
-  app.add_option("--tilt-cutoff", opt.tilt_cutoff_hz, "the pitch and roll inclinometers' low-pass cut-off, Hz")
+  app.add_option("--tilt-cutoff", opt.tilt_cutoff_hz,
+                 "the pitch and roll inclinometers' low-pass cut-off, Hz (default: 1 with --attitude smoothed, 1.5 "
+                 "filtered)")
+      ->check(CLI::PositiveNumber);
+  std::string attitude = "smoothed";
+  app.add_option("--attitude", attitude,
+                 "the pitch and roll reported: smoothed (forward and backward over 4 cut-off periods ahead, the "
+                 "vehicle's acceleration taken out) or filtered (the tilt low-pass as read)")
+      ->check(CLI::IsMember({"smoothed", "filtered"}))
       ->capture_default_str();
   app.add_flag("--zero-phase", zero_phase, "filter forward and backward (no delay; for logs processed afterwards)");
   app.add_option("--heading", heading, "heading filter")->check(CLI::IsMember({"kalman", "lowpass"}))
@@ -56,6 +64,7 @@ int main(int argc, char** argv) {
     util::Timer timer;
     opt.filter = telemetry::LowPassTypeFromString(filter);
     opt.mode = zero_phase ? positioning::FilterMode::kZeroPhase : positioning::FilterMode::kCausal;
+    opt.smooth_attitude = attitude == "smoothed";
     opt.heading = heading == "kalman" ? positioning::HeadingMethod::kKalman : positioning::HeadingMethod::kLowPass;
     opt.Validate();
     io::CreateOutputDirectory(output_dir);  // before the work, not after it

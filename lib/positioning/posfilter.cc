@@ -3,7 +3,10 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
+#include <deque>
+#include <functional>
 #include <limits>
+#include <memory>
 #include <optional>
 
 #include "io/atomic_file.h"
@@ -18,6 +21,7 @@ using telemetry::Channel;
 constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
 // The tilt's low-pass cut-off is at most this fraction of the sample rate.
 constexpr double kTiltCutoffMaxFraction = 0.4;
+constexpr double kGravity = 9.80665;  // m/s^2
 
 }  // namespace
 
@@ -31,7 +35,7 @@ void PosfilterOptions::Validate() const {
   kalman.Validate();
   LN_CHECK_ARG(filter_order >= 1 && filter_order <= 8) << "order: must be in 1..8";
   LN_CHECK_ARG(cutoff_hz > 0 && std::isfinite(cutoff_hz)) << "cutoff: must be > 0 Hz";
-  LN_CHECK_ARG(tilt_cutoff_hz > 0 && std::isfinite(tilt_cutoff_hz)) << "tilt cutoff: must be > 0 Hz";
+  LN_CHECK_ARG(tilt_cutoff_hz >= 0 && std::isfinite(tilt_cutoff_hz)) << "tilt cutoff: must be > 0 Hz (0: the default)";
   LN_CHECK_ARG(stationary_min_s > 0) << "stationary time: must be > 0";
   LN_CHECK_ARG(block_rows >= 1) << "block rows: must be >= 1";
   LN_CHECK_ARG(baseline_interval_s > 0 && baseline_drift_fraction > 0 && baseline_heading_drift_dps >= 0)
@@ -42,7 +46,8 @@ void PosfilterOptions::Validate() const {
 nlohmann::json PosfilterOptions::ToJson() const {
   return {{"screening", screening.ToJson()},
           {"filter", {{"type", telemetry::ToString(filter)}, {"order", filter_order}, {"cutoff_hz", cutoff_hz},
-                      {"tilt_cutoff_hz", tilt_cutoff_hz}, {"mode", ToString(mode)}}},
+                      {"tilt_cutoff_hz", TiltCutoffHz()}, {"mode", ToString(mode)}}},
+          {"attitude", smooth_attitude ? "smoothed" : "filtered"},
           {"heading", ToString(heading)},
           {"kalman", kalman.ToJson()},
           {"slip", {{"fraction", dead_reckoning.slip_fraction}, {"min_m", dead_reckoning.slip_min_m},
@@ -137,6 +142,65 @@ class FilteredChannel {
   std::vector<double> zero_phase_;
 };
 
+// A series low-passed forward and backward as it streams (zero phase: the magnitude squared,
+// no delay), a fixed-lag smoother: the forward pass runs row by row as the values come; the
+// backward pass over blocks of `lag` rows, each started `lag` rows beyond its end (at the
+// log's end: from its last row) in the steady state of the forward output there, so that the
+// rows differ from a whole-log forward-backward filter only by what the backward start leaves
+// after `lag` rows. The blocks are fixed rows of the log, so the values do not depend on how
+// the log is read. `input(k)` gives row k's value, called once per row, in order.
+class SmoothedSeries {
+ public:
+  SmoothedSeries(const telemetry::LowPassDesign& design, std::size_t lag, std::function<double(std::size_t)> input)
+      : design_(design), lag_(std::max<std::size_t>(lag, 1)), input_(std::move(input)) {}
+  // Takes rows up to `end` (all readable by input) forward; the rows whose smoothed value
+  // can be read end at the result (every row once the log is complete).
+  std::size_t ReadyEnd(std::size_t end, bool log_complete) {
+    for (; forward_end_ < end; ++forward_end_) {
+      const double x = input_(forward_end_);
+      if (!forward_filter_) forward_filter_.emplace(design_, x);
+      forward_.push_back((*forward_filter_)(x));
+    }
+    complete_ = log_complete;
+    if (complete_) return ready_end_ = forward_end_;
+    // Whole blocks whose backward start (lag rows beyond them) has come.
+    ready_end_ = forward_end_ >= 2 * lag_ ? (forward_end_ - lag_) / lag_ * lag_ : 0;
+    return ready_end_;
+  }
+  // Row k's smoothed value: k not before the last row read, before ReadyEnd's result.
+  double At(std::size_t k) {
+    if (k >= block_end_) Smooth(k);
+    return smoothed_[k - block_begin_];
+  }
+
+ private:
+  void Smooth(std::size_t k) {
+    LN_CHECK(k >= forward_begin_ && k < ready_end_) << "posfilter: smoothed row " << k << " not ready";
+    block_begin_ = k / lag_ * lag_;
+    block_end_ = std::min(block_begin_ + lag_, forward_end_);
+    const std::size_t start = std::min(block_end_ + lag_, forward_end_);  // one past the backward start
+    LN_CHECK(block_begin_ >= forward_begin_ && (complete_ || start == block_end_ + lag_))
+        << "posfilter: smoothed block at row " << block_begin_ << " not ready";
+    forward_.erase(forward_.begin(), forward_.begin() + static_cast<std::ptrdiff_t>(block_begin_ - forward_begin_));
+    forward_begin_ = block_begin_;
+    smoothed_.assign(block_end_ - block_begin_, 0.0);
+    telemetry::CausalLowPass backward(design_, forward_[start - 1 - forward_begin_]);
+    for (std::size_t i = start; i-- > block_begin_;) {
+      const double y = backward(forward_[i - forward_begin_]);
+      if (i < block_end_) smoothed_[i - block_begin_] = y;
+    }
+  }
+  telemetry::LowPassDesign design_;
+  std::size_t lag_;
+  std::function<double(std::size_t)> input_;
+  std::optional<telemetry::CausalLowPass> forward_filter_;
+  std::deque<double> forward_;  // rows [forward_begin_, forward_end_)
+  std::size_t forward_begin_ = 0, forward_end_ = 0, ready_end_ = 0;
+  bool complete_ = false;
+  std::vector<double> smoothed_;  // rows [block_begin_, block_end_)
+  std::size_t block_begin_ = 0, block_end_ = 0;
+};
+
 // Rows from a source, screened as they come. Next() reads and screens one more block.
 class ScreenedRows {
  public:
@@ -191,7 +255,7 @@ PosfilterResult Run(ScreenedRows& input, const std::string& source, const teleme
   // The tilt's cut-off, at most kTiltCutoffMaxFraction of the sample rate (slow telemetry,
   // e.g. 2.5 Hz: 1 Hz).
   r.tilt_design = telemetry::DesignLowPass(options.filter, options.filter_order,
-                                           std::min(options.tilt_cutoff_hz, kTiltCutoffMaxFraction * r.sample_rate_hz),
+                                           std::min(options.TiltCutoffHz(), kTiltCutoffMaxFraction * r.sample_rate_hz),
                                            r.sample_rate_hz);
 
   // Which channels are used: those with two valid samples (the gyro: one), which may take
@@ -267,7 +331,7 @@ PosfilterResult Run(ScreenedRows& input, const std::string& source, const teleme
   auto tilt = [&](Channel c, Tilt* t) {
     if (!usable(c)) return;
     filtered(c, &t->motion, r.design);
-    filtered(c, &t->attitude, r.tilt_design);
+    if (!options.smooth_attitude) filtered(c, &t->attitude, r.tilt_design);
   };
   tilt(Channel::kPitchLeft, &pitch_left);
   tilt(Channel::kPitchRight, &pitch_right);
@@ -277,6 +341,46 @@ PosfilterResult Run(ScreenedRows& input, const std::string& source, const teleme
     r.notes.push_back("no pitch inclinometers: flat ground (z = 0)");
   }
   tilt(Channel::kRoll, &roll);
+
+  // The attitude smoothed: each tilt's readings and the wheels' mean distance (for the
+  // vehicle's acceleration), filled by smoothers' own readers of the stream.
+  struct Smoothed {
+    FilledChannel filled;
+    std::vector<FilledChannel> wheels;
+    SmoothedSeries series;
+  };
+  std::vector<std::unique_ptr<Smoothed>> smoothers;
+  Smoothed *pitch_left_smooth = nullptr, *pitch_right_smooth = nullptr, *roll_smooth = nullptr,
+           *distance_smooth = nullptr;
+  if (options.smooth_attitude) {
+    r.attitude_lag_s = kSmootherLagCutoffs / r.tilt_design.cutoff_hz;
+    const auto lag = static_cast<std::size_t>(std::ceil(r.attitude_lag_s * r.sample_rate_hz));
+    auto add = [&](Channel c, double scale) {
+      smoothers.push_back(std::make_unique<Smoothed>(Smoothed{FilledChannel(c, scale), {}, {r.tilt_design, lag, {}}}));
+      return smoothers.back().get();
+    };
+    auto smooth_tilt = [&](const Tilt& t, Channel c) -> Smoothed* {
+      if (!t) return nullptr;
+      Smoothed* m = add(c, 1.0);
+      m->series = SmoothedSeries(r.tilt_design, lag, [m](std::size_t k) { return m->filled.At(k); });
+      return m;
+    };
+    pitch_left_smooth = smooth_tilt(pitch_left, Channel::kPitchLeft);
+    pitch_right_smooth = smooth_tilt(pitch_right, Channel::kPitchRight);
+    roll_smooth = smooth_tilt(roll, Channel::kRoll);
+    distance_smooth = add(wheel_channels[0], 1.0);
+    for (int i = 0; i < 4; ++i) {
+      if (have_wheel[i]) distance_smooth->wheels.emplace_back(wheel_channels[i], model[wheel_channels[i]].MetresPerCount());
+    }
+    Smoothed* d = distance_smooth;
+    d->series = SmoothedSeries(r.tilt_design, lag, [d](std::size_t k) {
+      double sum = 0;
+      for (FilledChannel& w : d->wheels) sum += w.At(k);
+      return sum / static_cast<double>(d->wheels.size());
+    });
+  }
+  // The smoothed distance at the rows before, at and after the current one (the acceleration).
+  double distance_prev = 0, distance_cur = 0, t_prev = 0, t_cur = 0;
 
   // Heading.
   const bool have_compass = valid[compass] >= 2;
@@ -348,6 +452,23 @@ PosfilterResult Run(ScreenedRows& input, const std::string& source, const teleme
       c->Bind(s);
       ready = std::min(ready, c->ReadyEnd(s.final_end()));
     }
+    for (const std::unique_ptr<Smoothed>& m : smoothers) {
+      std::size_t filled_end = s.final_end();
+      auto bind = [&](FilledChannel& f) {
+        f.Bind(s);
+        filled_end = std::min(filled_end, f.ReadyEnd(s.final_end()));
+      };
+      if (m.get() == distance_smooth) {
+        for (FilledChannel& w : m->wheels) bind(w);
+      } else {
+        bind(m->filled);
+      }
+      const bool complete = s.finished() && filled_end == s.end();
+      std::size_t smoothed_end = m->series.ReadyEnd(filled_end, complete);
+      // The distance is read a row ahead (the acceleration's central difference).
+      if (m.get() == distance_smooth && !complete) smoothed_end = smoothed_end > 0 ? smoothed_end - 1 : 0;
+      ready = std::min(ready, smoothed_end);
+    }
     const double* const compass_value = s.Has(Channel::kCompass) ? rows.value[compass] : nullptr;
     const double* const gyro_value = s.Has(Channel::kGyroZ) ? rows.value[gyro] : nullptr;
     const double* const compass_raw = s.Has(Channel::kCompass) ? rows.raw[compass] : nullptr;
@@ -372,8 +493,10 @@ PosfilterResult Run(ScreenedRows& input, const std::string& source, const teleme
         if (pitch_right) return (pitch_right.*which)->At(k);
         return 0.0;
       };
-      const double pitch = pitch_of(&Tilt::motion), attitude_pitch = pitch_of(&Tilt::attitude);
-      const double roll_motion = roll ? roll.motion->At(k) : 0.0, attitude_roll = roll ? roll.attitude->At(k) : 0.0;
+      const double pitch = pitch_of(&Tilt::motion);
+      const double attitude_pitch = options.smooth_attitude ? 0.0 : pitch_of(&Tilt::attitude);
+      const double roll_motion = roll ? roll.motion->At(k) : 0.0;
+      const double attitude_roll = roll && !options.smooth_attitude ? roll.attitude->At(k) : 0.0;
       double heading = constant_heading;
       if (heading_lowpass) {
         heading = heading_lowpass->At(k);
@@ -392,8 +515,44 @@ PosfilterResult Run(ScreenedRows& input, const std::string& source, const teleme
         }
       }
       TrajectorySample pose = reckoner.Step(tk, heading, pitch, roll_motion, wheel_m);
-      pose.pitch_rad = attitude_pitch;
-      pose.roll_rad = attitude_roll;
+      if (options.smooth_attitude) {
+        // The wheels' acceleration along the track and the turn's centripetal one, from the
+        // smoothed distance at the rows around this one (the log's last row: held).
+        if (k == 0) {
+          distance_prev = distance_cur = distance_smooth->series.At(0);
+          t_prev = t_cur = tk;
+        }
+        const bool has_next = k + 1 < s.end();
+        const double distance_next = has_next ? distance_smooth->series.At(k + 1) : distance_cur;
+        const double t_next = has_next ? rows.t_s[i + 1] : tk;
+        double accel = 0, speed = 0;
+        if (t_next > t_cur && t_cur > t_prev) {
+          accel = 2 * ((distance_next - distance_cur) / (t_next - t_cur) - (distance_cur - distance_prev) / (t_cur - t_prev)) /
+                  (t_next - t_prev);
+          speed = (distance_next - distance_prev) / (t_next - t_prev);
+        }
+        distance_prev = distance_cur;
+        distance_cur = distance_next;
+        t_prev = t_cur;
+        t_cur = t_next;
+        // An inclinometer reads the vehicle's acceleration as tilt: speeding up as nose up, a
+        // right turn's centripetal acceleration as the left side down.
+        const double rate = std::isfinite(out.heading_rate_radps) ? out.heading_rate_radps : 0.0;
+        const double pitch_reading =
+            pitch_left_smooth && pitch_right_smooth
+                ? 0.5 * (pitch_left_smooth->series.At(k) + pitch_right_smooth->series.At(k))
+            : pitch_left_smooth  ? pitch_left_smooth->series.At(k)
+            : pitch_right_smooth ? pitch_right_smooth->series.At(k)
+                                 : kNaN;
+        const double pitch_correction = std::atan(accel / kGravity), roll_correction = std::atan(speed * rate / kGravity);
+        pose.pitch_rad = std::isnan(pitch_reading) ? 0.0 : pitch_reading - pitch_correction;
+        pose.roll_rad = roll_smooth ? roll_smooth->series.At(k) + roll_correction : 0.0;
+        if (!std::isnan(pitch_reading)) r.pendulum_pitch_max_rad = std::max(r.pendulum_pitch_max_rad, std::abs(pitch_correction));
+        if (roll_smooth) r.pendulum_roll_max_rad = std::max(r.pendulum_roll_max_rad, std::abs(roll_correction));
+      } else {
+        pose.pitch_rad = attitude_pitch;
+        pose.roll_rad = attitude_roll;
+      }
       std::array<double, 4> counts;
       for (int w = 0; w < 4; ++w) counts[w] = have_wheel[w] ? rows.raw[wheel_index[w]][i] : kNaN;
       baseline.Step(tk, counts, have_gyro ? gyro_raw[i] : kNaN);
@@ -572,6 +731,12 @@ nlohmann::json PosfilterResult::SummaryJson() const {
   j["screening"] = screened.ReportJson();
   j["lowpass"] = design.ToJson();
   j["lowpass_tilt"] = tilt_design.ToJson();
+  j["attitude"] = {{"smoothed", attitude_lag_s > 0}};
+  if (attitude_lag_s > 0) {
+    j["attitude"]["lag_s"] = attitude_lag_s;
+    j["attitude"]["acceleration_correction_max_deg"] = {{"pitch", pendulum_pitch_max_rad * 180.0 / M_PI},
+                                                        {"roll", pendulum_roll_max_rad * 180.0 / M_PI}};
+  }
   if (kalman_used) {
     j["heading_kalman"] = {{"compass_updates", heading.compass_updates},
                            {"gyro_updates", heading.gyro_updates},

@@ -31,16 +31,30 @@ enum class HeadingMethod {
 std::string ToString(FilterMode mode);
 std::string ToString(HeadingMethod method);
 
+/// The reported attitude's smoother looks this many periods of the tilt's cut-off ahead of
+/// the row it returns (its backward pass starts there; a 2nd-order Butterworth's response
+/// has decayed to 1e-6 by then).
+inline constexpr double kSmootherLagCutoffs = 4.0;
+
 struct PosfilterOptions {
   telemetry::ScreeningOptions screening;
   telemetry::LowPassType filter = telemetry::LowPassType::kButterworth;
   int filter_order = 2;
   double cutoff_hz = 0.25;  ///< The paper's compass noise cut-off (the heading's low-pass).
-  /// The pitch and roll inclinometers' cut-off. The paper gives its cut-off for the compass
-  /// (sec. 4.1); at 0.25 Hz the inclinometers lag the body's pitching over rocks by 0.9 s
-  /// (pitch errors of 0.39-0.74 deg RMS at the frames of bench-field-log's paper drives, against
-  /// 0.19-0.46 at 1.5 Hz: docs/posfilter.md). At most 0.4 of the sample rate (slower logs).
-  double tilt_cutoff_hz = 1.5;
+  /// The pitch and roll inclinometers' cut-off; 0: 1 Hz with smooth_attitude, 1.5 Hz without.
+  /// The paper gives its cut-off for the compass (sec. 4.1); at 0.25 Hz the inclinometers lag
+  /// the body's pitching over rocks by 0.9 s (pitch errors of 0.39-0.74 deg RMS at the frames
+  /// of bench-field-log's paper drives, against 0.19-0.46 at 1.5 Hz: docs/posfilter.md). At
+  /// most 0.4 of the sample rate (slower logs).
+  double tilt_cutoff_hz = 0;
+  double TiltCutoffHz() const { return tilt_cutoff_hz > 0 ? tilt_cutoff_hz : smooth_attitude ? 1.0 : 1.5; }
+  /// The attitude reported (pitch and roll; the path's tilts keep the paper's causal filter):
+  /// true, the tilts smoothed forward and backward over a fixed lag (SmoothedSeries: the
+  /// reported attitude trails the log by kSmootherLagCutoffs / TiltCutoffHz() seconds) with
+  /// the vehicle's own acceleration, which an inclinometer reads as tilt (the pendulum), taken
+  /// out: the wheels' acceleration from pitch, the turn's centripetal one from roll. false:
+  /// the tilts through the causal low-pass (or zero phase with `mode`), as read.
+  bool smooth_attitude = true;
   FilterMode mode = FilterMode::kCausal;
   HeadingMethod heading = HeadingMethod::kKalman;
   telemetry::HeadingKalmanOptions kalman;
@@ -74,6 +88,10 @@ struct PosfilterResult {
   bool kalman_used = false;
   double kalman_rate_walk_dps2 = 0;          ///< The heading rate's process noise used.
   double sample_rate_hz = 0;
+  /// With smooth_attitude: how far the smoother looks ahead (s), and the largest correction
+  /// of the vehicle's acceleration applied to the pitch and to the roll (radians).
+  double attitude_lag_s = 0;
+  double pendulum_pitch_max_rad = 0, pendulum_roll_max_rad = 0;
   std::vector<std::string> channels_used;
   std::vector<std::string> notes;            ///< Substitutions ("no compass: ...").
   /// What became of each state the heading filter could estimate: "estimated" or "held at

@@ -10,6 +10,7 @@
 #include <string>
 #include <vector>
 
+#include "telemetry/lowpass.h"
 #include "util/testing.h"
 
 namespace lunarnav::positioning {
@@ -26,7 +27,7 @@ telemetry::TelemetryLog OneInclinometerLog(const telemetry::SensorModel& model, 
     log.t_s.push_back(0.1 * k);
     log.line.push_back(k + 2);
     log.counts[static_cast<int>(telemetry::Channel::kEncoderFrontLeft)].push_back(
-        std::round(0.05 * k * counts_per_m));
+        static_cast<double>(std::llround(0.05 * k * counts_per_m) % 1024));  // a 10-bit counter
     log.counts[static_cast<int>(pitch)].push_back(k < n / 2 ? 512 : 512 + 114);  // 10.02 deg
   }
   return log;
@@ -47,10 +48,12 @@ telemetry::SensorModel Model(const std::string& pitch_column) {
 // the filter's smooth rise (no jump), and the two sides give the same trajectory.
 TEST(RunPosfilter, OneInclinometerOnEitherSideGivesItsFilteredPitch) {
   const telemetry::SensorModel left_model = Model("pitch_left"), right_model = Model("pitch_right");
-  const PosfilterResult left = RunPosfilter(OneInclinometerLog(left_model, telemetry::Channel::kPitchLeft),
-                                            left_model, PosfilterOptions{});
-  const PosfilterResult right = RunPosfilter(OneInclinometerLog(right_model, telemetry::Channel::kPitchRight),
-                                             right_model, PosfilterOptions{});
+  PosfilterOptions filtered;
+  filtered.smooth_attitude = false;
+  const PosfilterResult left =
+      RunPosfilter(OneInclinometerLog(left_model, telemetry::Channel::kPitchLeft), left_model, filtered);
+  const PosfilterResult right =
+      RunPosfilter(OneInclinometerLog(right_model, telemetry::Channel::kPitchRight), right_model, filtered);
   const auto& a = left.motion.trajectory;
   const auto& b = right.motion.trajectory;
   ASSERT_EQ(a.size(), 400u);
@@ -76,6 +79,7 @@ TEST(RunPosfilter, TheTiltCutoffChangesTheAttitudeNotThePath) {
   const telemetry::SensorModel model = Model("pitch_left");
   const telemetry::TelemetryLog log = OneInclinometerLog(model, telemetry::Channel::kPitchLeft);
   PosfilterOptions slow, fast;
+  slow.smooth_attitude = fast.smooth_attitude = false;
   slow.tilt_cutoff_hz = slow.cutoff_hz;
   fast.tilt_cutoff_hz = 2.0;
   const PosfilterResult a = RunPosfilter(log, model, slow), b = RunPosfilter(log, model, fast);
@@ -94,6 +98,83 @@ TEST(RunPosfilter, TheTiltCutoffChangesTheAttitudeNotThePath) {
   EXPECT_DOUBLE_EQ(b.tilt_design.cutoff_hz, 2.0);
   fast.tilt_cutoff_hz = 20.0;
   EXPECT_NEAR(RunPosfilter(log, model, fast).tilt_design.cutoff_hz, 4.0, 1e-9);
+}
+
+// The attitude smoothed (the default): the tilts forward and backward over a fixed lag are the
+// whole log's zero-phase filter away from its ends (no delay: the step's middle stays at the
+// step), and the path is the filtered attitude's bit for bit (a constant speed: nothing to
+// take out).
+TEST(RunPosfilter, TheSmoothedAttitudeIsTheZeroPhaseFilterWithoutDelay) {
+  const telemetry::SensorModel model = Model("pitch_left");
+  telemetry::TelemetryLog log = OneInclinometerLog(model, telemetry::Channel::kPitchLeft);
+  auto& wheel = log.counts[static_cast<int>(telemetry::Channel::kEncoderFrontLeft)];
+  for (std::size_t k = 0; k < wheel.size(); ++k) wheel[k] = static_cast<double>(20 * k % 1024);  // no acceleration
+  PosfilterOptions filtered;
+  filtered.smooth_attitude = false;
+  const PosfilterResult smooth = RunPosfilter(log, model, PosfilterOptions{});
+  const PosfilterResult plain = RunPosfilter(log, model, filtered);
+  EXPECT_DOUBLE_EQ(smooth.tilt_design.cutoff_hz, 1.0);  // the smoothed attitude's default
+  EXPECT_DOUBLE_EQ(plain.tilt_design.cutoff_hz, 1.5);
+  EXPECT_DOUBLE_EQ(smooth.attitude_lag_s, 4.0);
+  const double deg = M_PI / 180.0, step = 114 * 0.087890625 * deg;
+  std::vector<double> pitch;
+  for (std::size_t k = 0; k < log.size(); ++k) {
+    pitch.push_back(model[telemetry::Channel::kPitchLeft].ToRadians(
+        static_cast<double>(log.counts[static_cast<int>(telemetry::Channel::kPitchLeft)][k])));
+  }
+  const std::vector<double> reference = telemetry::FilterZeroPhase(smooth.tilt_design, pitch);
+  const auto& a = smooth.motion.trajectory;
+  ASSERT_EQ(a.size(), log.size());
+  for (std::size_t k = 100; k < 300; ++k) EXPECT_NEAR(a[k].pitch_rad, reference[k], 1e-6 * step) << k;
+  // The step lies between rows 199 and 200: symmetric about it, half-way there.
+  EXPECT_NEAR(a[199].pitch_rad + a[200].pitch_rad, step, 0.01 * step);
+  EXPECT_LT(a[190].pitch_rad, 0.05 * step);
+  EXPECT_GT(a[210].pitch_rad, 0.95 * step);
+  for (std::size_t k = 0; k < a.size(); ++k) {
+    ASSERT_EQ(a[k].x_m, plain.motion.trajectory[k].x_m) << k;
+    ASSERT_EQ(a[k].y_m, plain.motion.trajectory[k].y_m) << k;
+    ASSERT_EQ(a[k].z_m, plain.motion.trajectory[k].z_m) << k;
+  }
+}
+
+// An inclinometer is a pendulum: on level ground a vehicle speeding up from rest at 0.2 m/s^2
+// for 2 s and slowing down as much reads atan(a / g), 1.17 deg, nose up then down. The
+// smoothed attitude takes the wheels' acceleration out: within 0.15 deg of level throughout;
+// the filtered attitude keeps the reading.
+TEST(RunPosfilter, TheSmoothedAttitudeTakesTheVehiclesAccelerationOut) {
+  const telemetry::SensorModel model = Model("pitch_left");
+  const telemetry::ChannelModel& tilt = model[telemetry::Channel::kPitchLeft];
+  const double counts_per_m = 1.0 / model[telemetry::Channel::kEncoderFrontLeft].MetresPerCount();
+  const double a = 0.2, g = 9.80665;
+  telemetry::TelemetryLog log;
+  log.source = "log.csv";
+  for (int k = 0; k < 300; ++k) {  // 10 Hz: rest 5 s, +a 2 s, 0.4 m/s 10 s, -a 2 s, rest
+    const double t = 0.1 * k;
+    const double accel = t >= 5 && t < 7 ? a : t >= 17 && t < 19 ? -a : 0.0;
+    double s = 0;
+    if (t >= 5) s += 0.5 * a * std::pow(std::min(t, 7.0) - 5, 2);
+    if (t >= 7) s += 0.4 * (std::min(t, 19.0) - 7);
+    if (t >= 17) s -= 0.5 * a * std::pow(std::min(t, 19.0) - 17, 2);
+    log.t_s.push_back(t);
+    log.line.push_back(k + 2);
+    log.counts[static_cast<int>(telemetry::Channel::kEncoderFrontLeft)].push_back(
+        static_cast<double>(std::llround(s * counts_per_m) % 1024));  // a 10-bit counter
+    log.counts[static_cast<int>(telemetry::Channel::kPitchLeft)].push_back(
+        std::round((std::atan(accel / g) * 180 / M_PI - tilt.offset) / tilt.scale));
+  }
+  PosfilterOptions filtered;
+  filtered.smooth_attitude = false;
+  const PosfilterResult smooth = RunPosfilter(log, model, PosfilterOptions{});
+  const PosfilterResult plain = RunPosfilter(log, model, filtered);
+  const double deg = M_PI / 180.0, level = tilt.ToRadians(std::round(-tilt.offset / tilt.scale));
+  double worst_smooth = 0, worst_plain = 0;
+  for (std::size_t k = 0; k < log.size(); ++k) {
+    worst_smooth = std::max(worst_smooth, std::abs(smooth.motion.trajectory[k].pitch_rad - level));
+    worst_plain = std::max(worst_plain, std::abs(plain.motion.trajectory[k].pitch_rad - level));
+  }
+  EXPECT_LT(worst_smooth, 0.15 * deg);
+  EXPECT_GT(worst_plain, 0.9 * deg);
+  EXPECT_NEAR(smooth.pendulum_pitch_max_rad, std::atan(a / g), 0.2 * deg);
 }
 
 // A small skid-steered rover (0.45 m track) without a compass, 50 Hz rows: 3 s at rest, then
