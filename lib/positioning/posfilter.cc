@@ -3,11 +3,12 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
-#include <deque>
 #include <functional>
 #include <limits>
 #include <memory>
 #include <optional>
+#include <tuple>
+#include <utility>
 
 #include "io/atomic_file.h"
 #include "positioning/baseline.h"
@@ -22,6 +23,8 @@ constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
 // The tilt's low-pass cut-off is at most this fraction of the sample rate.
 constexpr double kTiltCutoffMaxFraction = 0.4;
 constexpr double kGravity = 9.80665;  // m/s^2
+// The fixed-lag smoother's blocks: its backward pass runs over this many rows and `lag` more.
+constexpr std::size_t kSmootherBlockRows = 1024;
 
 }  // namespace
 
@@ -144,15 +147,19 @@ class FilteredChannel {
 
 // A series low-passed forward and backward as it streams (zero phase: the magnitude squared,
 // no delay), a fixed-lag smoother: the forward pass runs row by row as the values come; the
-// backward pass over blocks of `lag` rows, each started `lag` rows beyond its end (at the
-// log's end: from its last row) in the steady state of the forward output there, so that the
+// backward pass over blocks of kSmootherBlockRows rows (or `lag`, if more), each started `lag`
+// rows beyond its end (at the log's end: from its last row) in the steady state of the forward
+// output there, so that the
 // rows differ from a whole-log forward-backward filter only by what the backward start leaves
 // after `lag` rows. The blocks are fixed rows of the log, so the values do not depend on how
 // the log is read. `input(k)` gives row k's value, called once per row, in order.
 class SmoothedSeries {
  public:
   SmoothedSeries(const telemetry::LowPassDesign& design, std::size_t lag, std::function<double(std::size_t)> input)
-      : design_(design), lag_(std::max<std::size_t>(lag, 1)), input_(std::move(input)) {}
+      : design_(design),
+        lag_(std::max<std::size_t>(lag, 1)),
+        block_(std::max(lag_, kSmootherBlockRows)),
+        input_(std::move(input)) {}
   // Takes rows up to `end` (all readable by input) forward; the rows whose smoothed value
   // can be read end at the result (every row once the log is complete).
   std::size_t ReadyEnd(std::size_t end, bool log_complete) {
@@ -164,7 +171,7 @@ class SmoothedSeries {
     complete_ = log_complete;
     if (complete_) return ready_end_ = forward_end_;
     // Whole blocks whose backward start (lag rows beyond them) has come.
-    ready_end_ = forward_end_ >= 2 * lag_ ? (forward_end_ - lag_) / lag_ * lag_ : 0;
+    ready_end_ = forward_end_ >= lag_ ? (forward_end_ - lag_) / block_ * block_ : 0;
     return ready_end_;
   }
   // Row k's smoothed value: k not before the last row read, before ReadyEnd's result.
@@ -176,8 +183,8 @@ class SmoothedSeries {
  private:
   void Smooth(std::size_t k) {
     LN_CHECK(k >= forward_begin_ && k < ready_end_) << "posfilter: smoothed row " << k << " not ready";
-    block_begin_ = k / lag_ * lag_;
-    block_end_ = std::min(block_begin_ + lag_, forward_end_);
+    block_begin_ = k / block_ * block_;
+    block_end_ = std::min(block_begin_ + block_, forward_end_);
     const std::size_t start = std::min(block_end_ + lag_, forward_end_);  // one past the backward start
     LN_CHECK(block_begin_ >= forward_begin_ && (complete_ || start == block_end_ + lag_))
         << "posfilter: smoothed block at row " << block_begin_ << " not ready";
@@ -191,14 +198,119 @@ class SmoothedSeries {
     }
   }
   telemetry::LowPassDesign design_;
-  std::size_t lag_;
+  std::size_t lag_, block_;
   std::function<double(std::size_t)> input_;
   std::optional<telemetry::CausalLowPass> forward_filter_;
-  std::deque<double> forward_;  // rows [forward_begin_, forward_end_)
+  std::vector<double> forward_;  // rows [forward_begin_, forward_end_)
   std::size_t forward_begin_ = 0, forward_end_ = 0, ready_end_ = 0;
   bool complete_ = false;
   std::vector<double> smoothed_;  // rows [block_begin_, block_end_)
   std::size_t block_begin_ = 0, block_end_ = 0;
+};
+
+// The attitude reported with smooth_attitude: each tilt's readings and the wheels' mean speed
+// smoothed (SmoothedSeries, each through readers of the stream of its own), then the
+// vehicle's acceleration, which an inclinometer reads as tilt, taken out: speeding up reads as
+// nose up (pitch + atan(a / g)), a right turn's centripetal acceleration as the left side down
+// (roll - atan(v r / g)).
+class SmoothedAttitude {
+ public:
+  // `lag`: rows the smoother looks ahead; `tilts`: pitch left, pitch right, roll (present or
+  // not); `wheels` with their metres per count.
+  SmoothedAttitude(const telemetry::LowPassDesign& design, std::size_t lag, const std::array<bool, 3>& tilts,
+                   const std::vector<std::pair<Channel, double>>& wheels) {
+    const Channel tilt_channels[3] = {Channel::kPitchLeft, Channel::kPitchRight, Channel::kRoll};
+    for (int i = 0; i < 3; ++i) {
+      if (!tilts[i]) continue;
+      auto t = std::make_unique<Tilt>(tilt_channels[i]);
+      Tilt* raw = t.get();
+      t->series.emplace(design, lag, [raw](std::size_t k) { return raw->filled.At(k); });
+      tilt_[i] = std::move(t);
+    }
+    for (const auto& [channel, metres_per_count] : wheels) wheels_.emplace_back(channel, metres_per_count);
+    // The speed over [t_k, t_k+1] (the log's last row: the one before).
+    speed_.emplace(design, lag, [this](std::size_t k) {
+      if (k == 0) distance_next_ = Distance(0);
+      if (k + 1 < distance_end_) {
+        const double d0 = distance_next_, t0 = T(k);
+        distance_next_ = Distance(k + 1);
+        const double dt = T(k + 1) - t0;
+        if (dt > 0) last_speed_ = (distance_next_ - d0) / dt;
+      }
+      return last_speed_;
+    });
+  }
+
+  // Binds the readers to the stream's rows; the rows whose attitude can be read end at the result.
+  std::size_t ReadyEnd(const ScreeningStream& s) {
+    rows_ = s.rows();
+    std::size_t ready = s.final_end();
+    for (auto& t : tilt_) {
+      if (!t) continue;
+      t->filled.Bind(s);
+      const std::size_t filled_end = t->filled.ReadyEnd(s.final_end());
+      ready = std::min(ready, t->series->ReadyEnd(filled_end, s.finished() && filled_end == s.end()));
+    }
+    std::size_t wheels_end = s.final_end();
+    for (FilledChannel& w : wheels_) {
+      w.Bind(s);
+      wheels_end = std::min(wheels_end, w.ReadyEnd(s.final_end()));
+    }
+    const bool complete = s.finished() && wheels_end == s.end();
+    // A row's speed needs the next row's distance (the log's last row has none).
+    distance_end_ = wheels_end;
+    return std::min(ready, speed_->ReadyEnd(complete || wheels_end == 0 ? wheels_end : wheels_end - 1, complete));
+  }
+
+  // Row k's pitch and roll, radians (0 for a tilt without inclinometers); `turn_rate`: the
+  // heading's rate (rad/s, turning right positive; NaN: unknown, no centripetal correction).
+  std::pair<double, double> At(std::size_t k, double turn_rate) {
+    const double speed = speed_->At(k), speed_before = k == 0 ? speed : speed_before_;
+    const double t = T(k), t_before = k == 0 ? t : t_before_;
+    const double t_after = k + 1 < rows_.end ? T(k + 1) : t;
+    speed_before_ = speed;
+    t_before_ = t;
+    // The speeds are the intervals' before and after row k.
+    const double accel = t_after > t_before ? (speed - speed_before) / (0.5 * (t_after - t_before)) : 0.0;
+    const double v = 0.5 * (speed + speed_before);
+    double pitch = 0, roll = 0;
+    if (tilt_[0] || tilt_[1]) {
+      const double left = tilt_[0] ? tilt_[0]->series->At(k) : kNaN, right = tilt_[1] ? tilt_[1]->series->At(k) : kNaN;
+      const double reading = !tilt_[0] ? right : !tilt_[1] ? left : 0.5 * (left + right);
+      const double correction = std::atan(accel / kGravity);
+      pitch = reading - correction;
+      pitch_correction_max_ = std::max(pitch_correction_max_, std::abs(correction));
+    }
+    if (tilt_[2]) {
+      const double correction = std::isfinite(turn_rate) ? std::atan(v * turn_rate / kGravity) : 0.0;
+      roll = tilt_[2]->series->At(k) + correction;
+      roll_correction_max_ = std::max(roll_correction_max_, std::abs(correction));
+    }
+    return {pitch, roll};
+  }
+  double pitch_correction_max() const { return pitch_correction_max_; }
+  double roll_correction_max() const { return roll_correction_max_; }
+
+ private:
+  struct Tilt {
+    explicit Tilt(Channel c) : filled(c, 1.0) {}
+    FilledChannel filled;
+    std::optional<SmoothedSeries> series;
+  };
+  double T(std::size_t k) const { return rows_.t_s[k - rows_.begin]; }
+  double Distance(std::size_t k) {
+    double sum = 0;
+    for (FilledChannel& w : wheels_) sum += w.At(k);
+    return sum / static_cast<double>(wheels_.size());
+  }
+  std::array<std::unique_ptr<Tilt>, 3> tilt_;
+  std::vector<FilledChannel> wheels_;
+  std::optional<SmoothedSeries> speed_;
+  ScreeningStream::Rows rows_;
+  std::size_t distance_end_ = 0;  // rows whose distance is known
+  double distance_next_ = 0, last_speed_ = 0;
+  double speed_before_ = 0, t_before_ = 0;
+  double pitch_correction_max_ = 0, roll_correction_max_ = 0;
 };
 
 // Rows from a source, screened as they come. Next() reads and screens one more block.
@@ -342,45 +454,19 @@ PosfilterResult Run(ScreenedRows& input, const std::string& source, const teleme
   }
   tilt(Channel::kRoll, &roll);
 
-  // The attitude smoothed: each tilt's readings and the wheels' mean distance (for the
-  // vehicle's acceleration), filled by smoothers' own readers of the stream.
-  struct Smoothed {
-    FilledChannel filled;
-    std::vector<FilledChannel> wheels;
-    SmoothedSeries series;
-  };
-  std::vector<std::unique_ptr<Smoothed>> smoothers;
-  Smoothed *pitch_left_smooth = nullptr, *pitch_right_smooth = nullptr, *roll_smooth = nullptr,
-           *distance_smooth = nullptr;
+  // The attitude smoothed (options.smooth_attitude).
+  std::optional<SmoothedAttitude> smoothed;
   if (options.smooth_attitude) {
     r.attitude_lag_s = kSmootherLagCutoffs / r.tilt_design.cutoff_hz;
-    const auto lag = static_cast<std::size_t>(std::ceil(r.attitude_lag_s * r.sample_rate_hz));
-    auto add = [&](Channel c, double scale) {
-      smoothers.push_back(std::make_unique<Smoothed>(Smoothed{FilledChannel(c, scale), {}, {r.tilt_design, lag, {}}}));
-      return smoothers.back().get();
-    };
-    auto smooth_tilt = [&](const Tilt& t, Channel c) -> Smoothed* {
-      if (!t) return nullptr;
-      Smoothed* m = add(c, 1.0);
-      m->series = SmoothedSeries(r.tilt_design, lag, [m](std::size_t k) { return m->filled.At(k); });
-      return m;
-    };
-    pitch_left_smooth = smooth_tilt(pitch_left, Channel::kPitchLeft);
-    pitch_right_smooth = smooth_tilt(pitch_right, Channel::kPitchRight);
-    roll_smooth = smooth_tilt(roll, Channel::kRoll);
-    distance_smooth = add(wheel_channels[0], 1.0);
+    std::vector<std::pair<Channel, double>> wheel_models;
     for (int i = 0; i < 4; ++i) {
-      if (have_wheel[i]) distance_smooth->wheels.emplace_back(wheel_channels[i], model[wheel_channels[i]].MetresPerCount());
+      if (have_wheel[i]) wheel_models.emplace_back(wheel_channels[i], model[wheel_channels[i]].MetresPerCount());
     }
-    Smoothed* d = distance_smooth;
-    d->series = SmoothedSeries(r.tilt_design, lag, [d](std::size_t k) {
-      double sum = 0;
-      for (FilledChannel& w : d->wheels) sum += w.At(k);
-      return sum / static_cast<double>(d->wheels.size());
-    });
+    smoothed.emplace(r.tilt_design, static_cast<std::size_t>(std::ceil(r.attitude_lag_s * r.sample_rate_hz)),
+                     std::array<bool, 3>{static_cast<bool>(pitch_left), static_cast<bool>(pitch_right),
+                                         static_cast<bool>(roll)},
+                     wheel_models);
   }
-  // The smoothed distance at the rows before, at and after the current one (the acceleration).
-  double distance_prev = 0, distance_cur = 0, t_prev = 0, t_cur = 0;
 
   // Heading.
   const bool have_compass = valid[compass] >= 2;
@@ -452,23 +538,7 @@ PosfilterResult Run(ScreenedRows& input, const std::string& source, const teleme
       c->Bind(s);
       ready = std::min(ready, c->ReadyEnd(s.final_end()));
     }
-    for (const std::unique_ptr<Smoothed>& m : smoothers) {
-      std::size_t filled_end = s.final_end();
-      auto bind = [&](FilledChannel& f) {
-        f.Bind(s);
-        filled_end = std::min(filled_end, f.ReadyEnd(s.final_end()));
-      };
-      if (m.get() == distance_smooth) {
-        for (FilledChannel& w : m->wheels) bind(w);
-      } else {
-        bind(m->filled);
-      }
-      const bool complete = s.finished() && filled_end == s.end();
-      std::size_t smoothed_end = m->series.ReadyEnd(filled_end, complete);
-      // The distance is read a row ahead (the acceleration's central difference).
-      if (m.get() == distance_smooth && !complete) smoothed_end = smoothed_end > 0 ? smoothed_end - 1 : 0;
-      ready = std::min(ready, smoothed_end);
-    }
+    if (smoothed) ready = std::min(ready, smoothed->ReadyEnd(s));
     const double* const compass_value = s.Has(Channel::kCompass) ? rows.value[compass] : nullptr;
     const double* const gyro_value = s.Has(Channel::kGyroZ) ? rows.value[gyro] : nullptr;
     const double* const compass_raw = s.Has(Channel::kCompass) ? rows.raw[compass] : nullptr;
@@ -515,40 +585,8 @@ PosfilterResult Run(ScreenedRows& input, const std::string& source, const teleme
         }
       }
       TrajectorySample pose = reckoner.Step(tk, heading, pitch, roll_motion, wheel_m);
-      if (options.smooth_attitude) {
-        // The wheels' acceleration along the track and the turn's centripetal one, from the
-        // smoothed distance at the rows around this one (the log's last row: held).
-        if (k == 0) {
-          distance_prev = distance_cur = distance_smooth->series.At(0);
-          t_prev = t_cur = tk;
-        }
-        const bool has_next = k + 1 < s.end();
-        const double distance_next = has_next ? distance_smooth->series.At(k + 1) : distance_cur;
-        const double t_next = has_next ? rows.t_s[i + 1] : tk;
-        double accel = 0, speed = 0;
-        if (t_next > t_cur && t_cur > t_prev) {
-          accel = 2 * ((distance_next - distance_cur) / (t_next - t_cur) - (distance_cur - distance_prev) / (t_cur - t_prev)) /
-                  (t_next - t_prev);
-          speed = (distance_next - distance_prev) / (t_next - t_prev);
-        }
-        distance_prev = distance_cur;
-        distance_cur = distance_next;
-        t_prev = t_cur;
-        t_cur = t_next;
-        // An inclinometer reads the vehicle's acceleration as tilt: speeding up as nose up, a
-        // right turn's centripetal acceleration as the left side down.
-        const double rate = std::isfinite(out.heading_rate_radps) ? out.heading_rate_radps : 0.0;
-        const double pitch_reading =
-            pitch_left_smooth && pitch_right_smooth
-                ? 0.5 * (pitch_left_smooth->series.At(k) + pitch_right_smooth->series.At(k))
-            : pitch_left_smooth  ? pitch_left_smooth->series.At(k)
-            : pitch_right_smooth ? pitch_right_smooth->series.At(k)
-                                 : kNaN;
-        const double pitch_correction = std::atan(accel / kGravity), roll_correction = std::atan(speed * rate / kGravity);
-        pose.pitch_rad = std::isnan(pitch_reading) ? 0.0 : pitch_reading - pitch_correction;
-        pose.roll_rad = roll_smooth ? roll_smooth->series.At(k) + roll_correction : 0.0;
-        if (!std::isnan(pitch_reading)) r.pendulum_pitch_max_rad = std::max(r.pendulum_pitch_max_rad, std::abs(pitch_correction));
-        if (roll_smooth) r.pendulum_roll_max_rad = std::max(r.pendulum_roll_max_rad, std::abs(roll_correction));
+      if (smoothed) {
+        std::tie(pose.pitch_rad, pose.roll_rad) = smoothed->At(k, out.heading_rate_radps);
       } else {
         pose.pitch_rad = attitude_pitch;
         pose.roll_rad = attitude_roll;
@@ -584,6 +622,10 @@ PosfilterResult Run(ScreenedRows& input, const std::string& source, const teleme
       LN_CHECK(k == s.end()) << "posfilter: rows left at the end of the log";
       break;
     }
+  }
+  if (smoothed) {
+    r.pendulum_pitch_max_rad = smoothed->pitch_correction_max();
+    r.pendulum_roll_max_rad = smoothed->roll_correction_max();
   }
   r.motion.distance_m = reckoner.distance_m();
   r.motion.slip_events = reckoner.slip_events();
