@@ -148,11 +148,11 @@ class FilteredChannel {
 // A series low-passed forward and backward as it streams (zero phase: the magnitude squared,
 // no delay), a fixed-lag smoother: the forward pass runs row by row as the values come; the
 // backward pass over blocks of kSmootherBlockRows rows (or `lag`, if more), each started `lag`
-// rows beyond its end (at the log's end: from its last row) in the steady state of the forward
-// output there, so that the
-// rows differ from a whole-log forward-backward filter only by what the backward start leaves
-// after `lag` rows. The blocks are fixed rows of the log, so the values do not depend on how
-// the log is read. `input(k)` gives row k's value, called once per row, in order.
+// rows beyond the block's end (at the log's end: from its last row) in the steady state of
+// the forward output there, so that the rows differ from a whole-log forward-backward filter
+// only by what the backward start leaves after `lag` rows. The blocks are fixed rows of the
+// log, so the values do not depend on how the log is read. `input(k)` gives row k's value,
+// called once per row, in order.
 class SmoothedSeries {
  public:
   SmoothedSeries(const telemetry::LowPassDesign& design, std::size_t lag, std::function<double(std::size_t)> input)

@@ -32,8 +32,8 @@ std::string ToString(FilterMode mode);
 std::string ToString(HeadingMethod method);
 
 /// The reported attitude's smoother looks this many periods of the tilt's cut-off ahead of
-/// the row it returns (its backward pass starts there; a 2nd-order Butterworth's response
-/// has decayed to 1e-6 by then).
+/// the row it returns (its backward pass starts there; the default 2nd-order Butterworth's
+/// response has decayed to 2e-8 by then, exp(-0.707 2 pi 4)).
 inline constexpr double kSmootherLagCutoffs = 4.0;
 
 struct PosfilterOptions {
