@@ -20,6 +20,7 @@
 #include "mapping/kitti_trajectory.h"
 #include "mapping/terrain_grid.h"
 #include "mapping/window_planner.h"
+#include "positioning/posfilter.h"
 #include "positioning/trajectory_io.h"
 #include "stereo/batch.h"
 #include "stereo/window_requests.h"
@@ -99,6 +100,12 @@ bool TelemetryCsv(const std::uint8_t* data, std::size_t size) {
   return Refusing([&] {
     const telemetry::TelemetryLog log = telemetry::ParseTelemetryCsv(Bytes(data, size), "fuzz.csv", Model());
     telemetry::ScreenTelemetry(log, Model(), telemetry::ScreeningOptions{});
+    // The whole pipeline on what parses: filters, the heading filter, the attitude's smoother
+    // (which holds rows until its look-ahead comes) and the dead reckoning, streamed in small
+    // blocks so that the look-ahead crosses them.
+    positioning::PosfilterOptions options;
+    options.block_rows = 7;
+    positioning::RunPosfilter(log, Model(), options);
   });
 }
 
