@@ -65,6 +65,10 @@ struct TerrainMapRunSummary {
   std::vector<std::string> warnings;  ///< Printed as they arise and kept in summary.json.
   /// Where the points came from: the pairs' disparity maps triangulated with the rig, or the XYZ arrays.
   std::string points_source;
+  /// With the disparity maps: what showed them to be the XYZ arrays' points (stereo-batch's
+  /// summary.json recording the same rig and reference image, or the first pair's XYZ array
+  /// compared bit for bit); empty otherwise.
+  std::string points_check;
   double seconds = 0, fuse_seconds = 0, fuse_cpu_seconds = 0, write_seconds = 0;
   /// Of fuse_cpu_seconds, the CPU time the threads spent getting the points (the EXR decoding, or the
   /// disparity maps read and triangulated).

@@ -703,6 +703,26 @@ TEST(TerrainMapTool, WithTheRigThePointsComeFromTheDisparityMapsAndAreTheXyzArra
   };
   const nlohmann::json from_disparity = map(stereo, rig_file, "m_disparity");
   EXPECT_EQ(from_disparity["inputs"]["points"], "disparity maps triangulated with the rig");
+  EXPECT_EQ(from_disparity["inputs"]["points_check"], "stereo-batch's summary.json records this rig and reference image");
+  // stereo-batch's summary recording this rig is the check: the XYZ arrays are not read (the
+  // first pair's, damaged, changes nothing). Without the summary the first pair's array is
+  // compared with the triangulation: damaged, it is bad input naming the file.
+  const fs::path damaged_dir = tmp.path() / "damaged_dir";
+  fs::copy(stereo, damaged_dir, fs::copy_options::recursive);
+  const fs::path first_xyz = damaged_dir / "xyz" / (PoseOf(0).stem + ".exr");
+  ASSERT_TRUE(fs::exists(first_xyz));
+  { std::ofstream(first_xyz, std::ios::binary | std::ios::trunc) << "not an EXR file"; }
+  const nlohmann::json from_damaged = map(damaged_dir, rig_file, "m_damaged");
+  EXPECT_EQ(from_damaged["inputs"]["points"], "disparity maps triangulated with the rig");
+  EXPECT_EQ(from_damaged["counts"]["points_fused"], from_disparity["counts"]["points_fused"]);
+  fs::remove(damaged_dir / "summary.json");
+  const auto unchecked = RunTool("terrain-map",
+                                 {damaged_dir.string(), "--poses", poses, "--rig", rig_file.string(), "-o",
+                                  (tmp.path() / "m_unchecked").string(), "-q"},
+                                 tmp.path());
+  EXPECT_EQ(unchecked.exit_code, 3) << unchecked.stderr_text;
+  EXPECT_EQ(unchecked.ErrorLines(), 1) << unchecked.stderr_text;
+  EXPECT_NE(unchecked.stderr_text.find(first_xyz.filename().string()), std::string::npos) << unchecked.stderr_text;
   // The planner reads each cell's last time from state.tif exactly (the Float32 layer cannot
   // hold 3.2 s): one of the pairs' times.
   const mapping::MapLayers layers = mapping::ReadMapElevation(tmp.path() / "m_disparity");
@@ -744,6 +764,7 @@ TEST(TerrainMapTool, WithTheRigThePointsComeFromTheDisparityMapsAndAreTheXyzArra
   calib::WriteStereoRig(other_file, other);
   const nlohmann::json from_other = map(stereo, other_file, "m_other");
   EXPECT_EQ(from_other["inputs"]["points"], "XYZ arrays");
+  EXPECT_TRUE(from_other["inputs"]["points_check"].is_null());
   ASSERT_EQ(from_other["warnings"].size(), 1u);
   EXPECT_NE(from_other["warnings"][0].get<std::string>().find("another rig"), std::string::npos);
   // A disparity map of another size than the rig's images: bad input naming the file, no map.
