@@ -55,6 +55,11 @@ int main(int argc, char** argv) {
   app.add_flag("--zero-phase", zero_phase, "filter forward and backward (no delay; for logs processed afterwards)");
   app.add_option("--heading", heading, "heading filter")->check(CLI::IsMember({"kalman", "lowpass"}))
       ->capture_default_str();
+  app.add_option("--heading-lag", opt.heading_lag_s,
+                 "the Kalman heading smoothed over this lag, s (the compass's correction after a turn carried back "
+                 "over it); 0: the filter alone, causal, as on the vehicle")
+      ->check(CLI::Range(0.0, 3600.0))
+      ->capture_default_str();
   app.add_option("--screening-log", screening_log, "CSV listing every rejected or repaired sample");
   app.add_option("--streams", streams, "CSV of the raw and filtered heading streams (for plots)");
   util::AddCommonFlags(&app, &quiet);

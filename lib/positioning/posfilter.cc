@@ -3,10 +3,12 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
+#include <deque>
 #include <functional>
 #include <limits>
 #include <memory>
 #include <optional>
+#include <span>
 #include <tuple>
 #include <utility>
 
@@ -25,6 +27,8 @@ constexpr double kTiltCutoffMaxFraction = 0.4;
 constexpr double kGravity = 9.80665;  // m/s^2
 // The fixed-lag smoother's blocks: its backward pass runs over this many rows and `lag` more.
 constexpr std::size_t kSmootherBlockRows = 1024;
+// The heading smoother's blocks: its backward pass runs over this many rows and the lag more.
+constexpr std::size_t kHeadingBlockRows = 8192;
 
 }  // namespace
 
@@ -40,6 +44,8 @@ void PosfilterOptions::Validate() const {
   LN_CHECK_ARG(cutoff_hz > 0 && std::isfinite(cutoff_hz)) << "cutoff: must be > 0 Hz";
   LN_CHECK_ARG(tilt_cutoff_hz >= 0 && std::isfinite(tilt_cutoff_hz)) << "tilt cutoff: must be > 0 Hz (0: the default)";
   LN_CHECK_ARG(stationary_min_s > 0) << "stationary time: must be > 0";
+  LN_CHECK_ARG(heading_lag_s >= 0 && std::isfinite(heading_lag_s) && heading_lag_s <= 3600)
+      << "heading lag: must be in [0, 3600] s";
   LN_CHECK_ARG(block_rows >= 1) << "block rows: must be >= 1";
   LN_CHECK_ARG(baseline_interval_s > 0 && baseline_drift_fraction > 0 && baseline_heading_drift_dps >= 0)
       << "baseline: interval and drift fraction must be > 0, heading drift >= 0";
@@ -52,6 +58,7 @@ nlohmann::json PosfilterOptions::ToJson() const {
                       {"tilt_cutoff_hz", TiltCutoffHz()}, {"mode", ToString(mode)}}},
           {"attitude", smooth_attitude ? "smoothed" : "filtered"},
           {"heading", ToString(heading)},
+          {"heading_lag_s", heading_lag_s},
           {"kalman", kalman.ToJson()},
           {"slip", {{"fraction", dead_reckoning.slip_fraction}, {"min_m", dead_reckoning.slip_min_m},
                     {"window_s", dead_reckoning.slip_window_s},
@@ -313,6 +320,115 @@ class SmoothedAttitude {
   double pitch_correction_max_ = 0, roll_correction_max_ = 0;
 };
 
+// The heading with heading_lag_s: the Kalman filter of sec. 4.1 runs forward as the rows come
+// (the same filter, the same numbers as without the smoother), and the Rauch-Tung-Striebel
+// smoother backward over fixed blocks of rows, each block's pass started `lag` rows beyond it
+// (at the log's end, from its last row), as soon as those rows have come: the values do not
+// depend on how the log is read (as SmoothedSeries). After a turn the compass, trusted again,
+// corrects the heading and the gyro's scale; the smoother carries that back over the turn,
+// where the filter had the gyro alone. The stationary periods (the gyro's bias) come from its
+// own readers of the wheels. Held: the filter's steps from the first block not yet smoothed
+// (a block and the lag), and the smoothed rows not yet read.
+class SmoothedHeading {
+ public:
+  SmoothedHeading(const telemetry::HeadingKalmanOptions& options, double first_compass, std::size_t lag,
+                  const std::vector<std::pair<Channel, double>>& wheels, double stationary_min_s, bool have_compass,
+                  bool have_gyro)
+      : filter_(options, first_compass),
+        lag_(std::max<std::size_t>(lag, 1)),
+        block_(std::max(lag_, kHeadingBlockRows)),
+        stationary_min_s_(stationary_min_s),
+        have_compass_(have_compass),
+        have_gyro_(have_gyro) {
+    for (const auto& [channel, metres_per_count] : wheels) wheels_.emplace_back(channel, metres_per_count);
+    wheel_m_.assign(wheels_.size(), 0.0);
+  }
+
+  // Runs the filter over the rows whose readings are known and smooths the blocks whose
+  // backward start has come; the rows whose smoothed heading can be read end at the result
+  // (every row once the log is complete).
+  std::size_t ReadyEnd(const ScreeningStream& s) {
+    const ScreeningStream::Rows rows = s.rows();
+    std::size_t end = s.final_end();
+    for (FilledChannel& w : wheels_) {
+      w.Bind(s);
+      end = std::min(end, w.ReadyEnd(s.final_end()));
+    }
+    const bool complete = s.finished() && end == s.end();
+    const double* compass = s.Has(Channel::kCompass) ? rows.value[static_cast<int>(Channel::kCompass)] : nullptr;
+    const double* gyro = s.Has(Channel::kGyroZ) ? rows.value[static_cast<int>(Channel::kGyroZ)] : nullptr;
+    for (; forward_end_ < end; ++forward_end_) {
+      const std::size_t k = forward_end_, i = k - rows.begin;
+      const double t = rows.t_s[i];
+      // Stationary: no wheel has moved over the last stationary_min_s.
+      bool moved = false;
+      for (std::size_t w = 0; w < wheels_.size(); ++w) {
+        const double metres = wheels_[w].At(k);
+        if (k > 0 && std::abs(metres - wheel_m_[w]) > 1e-9) moved = true;
+        wheel_m_[w] = metres;
+      }
+      if (moved || k == 0) still_since_t_ = t;
+      const bool stationary = k > 0 && !moved && t - still_since_t_ >= stationary_min_s_;
+      steps_.emplace_back();
+      const telemetry::HeadingKalman::Output e =
+          filter_.Update(t, have_compass_ && compass != nullptr ? compass[i] : kNaN,
+                         have_gyro_ && gyro != nullptr ? gyro[i] : kNaN, stationary, &steps_.back());
+      sigma_.push_back(e.heading_sigma_rad);
+      if (forward_end_ + 1 == smoothed_end_ + block_ + lag_) SmoothBlocks(forward_end_ + 1, false);
+    }
+    SmoothBlocks(forward_end_, complete);
+    return smoothed_end_;
+  }
+
+  // Row k's smoothed heading and rate, and the filter's sigma: rows read in order, each
+  // before ReadyEnd's result.
+  telemetry::HeadingKalman::Output At(std::size_t k) {
+    LN_CHECK(k >= out_begin_ && k < smoothed_end_) << "posfilter: smoothed heading row " << k << " not ready";
+    while (out_begin_ < k) {  // the rows before k are done with
+      out_.pop_front();
+      ++out_begin_;
+    }
+    return out_.front();
+  }
+  const telemetry::HeadingKalman& filter() const { return filter_; }
+
+ private:
+  // Smooths each block whose backward start (lag rows beyond it) is among the rows before
+  // `forward_end`, or every row left when the log is complete.
+  void SmoothBlocks(std::size_t forward_end, bool complete) {
+    while (smoothed_end_ < forward_end && (complete || smoothed_end_ + block_ + lag_ <= forward_end)) {
+      const std::size_t block_end = std::min(smoothed_end_ + block_, forward_end);
+      const std::size_t start = std::min(block_end + lag_, forward_end);  // one past the backward start
+      const std::size_t n = start - smoothed_end_, offset = smoothed_end_ - steps_begin_;
+      heading_.resize(n);
+      rate_.resize(n);
+      telemetry::SmoothHeadingSteps(std::span(steps_).subspan(offset, n), heading_, rate_);
+      for (std::size_t j = 0; j < block_end - smoothed_end_; ++j) {
+        out_.push_back({heading_[j], rate_[j], sigma_[offset + j]});
+      }
+      smoothed_end_ = block_end;
+      // The steps of the block are done with.
+      steps_.erase(steps_.begin(), steps_.begin() + static_cast<std::ptrdiff_t>(smoothed_end_ - steps_begin_));
+      sigma_.erase(sigma_.begin(), sigma_.begin() + static_cast<std::ptrdiff_t>(smoothed_end_ - steps_begin_));
+      steps_begin_ = smoothed_end_;
+    }
+  }
+
+  telemetry::HeadingKalman filter_;
+  std::size_t lag_, block_;
+  double stationary_min_s_;
+  bool have_compass_, have_gyro_;
+  std::vector<FilledChannel> wheels_;
+  std::vector<double> wheel_m_;
+  double still_since_t_ = 0;
+  std::vector<telemetry::HeadingKalmanStep> steps_;  // rows [steps_begin_, forward_end_)
+  std::vector<double> sigma_;                        // the same rows
+  std::size_t steps_begin_ = 0, forward_end_ = 0, smoothed_end_ = 0;
+  std::vector<double> heading_, rate_;               // a backward pass's output
+  std::deque<telemetry::HeadingKalman::Output> out_;  // rows [out_begin_, smoothed_end_)
+  std::size_t out_begin_ = 0;
+};
+
 // Rows from a source, screened as they come. Next() reads and screens one more block.
 class ScreenedRows {
  public:
@@ -474,6 +590,7 @@ PosfilterResult Run(ScreenedRows& input, const std::string& source, const teleme
   const bool have_gyro = valid[gyro] >= 1;
   if (have_gyro) r.channels_used.push_back("gyro_z");
   std::optional<telemetry::HeadingKalman> kalman;
+  std::optional<SmoothedHeading> smoothed_heading;  // the heading smoothed (options.heading_lag_s)
   double constant_heading = 0;
   if (options.heading == HeadingMethod::kLowPass && have_compass) {
     filtered(Channel::kCompass, &heading_lowpass, r.design);
@@ -501,7 +618,18 @@ PosfilterResult Run(ScreenedRows& input, const std::string& source, const teleme
                                                *model.vehicle.max_turn_accel_dps2 * std::sqrt(s.typical_interval_s()));
     }
     r.kalman_rate_walk_dps2 = kalman_options.rate_walk_dps2;
-    kalman.emplace(kalman_options, have_compass ? first_compass : kNaN);
+    if (options.heading_lag_s > 0) {
+      r.heading_lag_s = options.heading_lag_s;
+      std::vector<std::pair<Channel, double>> wheel_models;
+      for (int i = 0; i < 4; ++i) {
+        if (have_wheel[i]) wheel_models.emplace_back(wheel_channels[i], model[wheel_channels[i]].MetresPerCount());
+      }
+      smoothed_heading.emplace(kalman_options, have_compass ? first_compass : kNaN,
+                               static_cast<std::size_t>(std::ceil(options.heading_lag_s * r.sample_rate_hz)),
+                               wheel_models, options.stationary_min_s, have_compass, have_gyro);
+    } else {
+      kalman.emplace(kalman_options, have_compass ? first_compass : kNaN);
+    }
     r.kalman_used = true;
   } else {
     r.notes.push_back("no compass and no gyro: constant heading");
@@ -509,7 +637,7 @@ PosfilterResult Run(ScreenedRows& input, const std::string& source, const teleme
   }
 
   // The plain baseline, from the same rows' raw counts, starting at the same heading.
-  const double start_heading = kalman && have_compass ? first_compass
+  const double start_heading = (kalman || smoothed_heading) && have_compass ? first_compass
                                : heading_lowpass      ? first_compass
                                                       : options.kalman.initial_heading_deg * M_PI / 180.0;
   PlainDeadReckoner baseline(model, have_wheel, have_gyro, start_heading, options.stationary_min_s);
@@ -539,6 +667,7 @@ PosfilterResult Run(ScreenedRows& input, const std::string& source, const teleme
       ready = std::min(ready, c->ReadyEnd(s.final_end()));
     }
     if (smoothed) ready = std::min(ready, smoothed->ReadyEnd(s));
+    if (smoothed_heading) ready = std::min(ready, smoothed_heading->ReadyEnd(s));
     const double* const compass_value = s.Has(Channel::kCompass) ? rows.value[compass] : nullptr;
     const double* const gyro_value = s.Has(Channel::kGyroZ) ? rows.value[gyro] : nullptr;
     const double* const compass_raw = s.Has(Channel::kCompass) ? rows.raw[compass] : nullptr;
@@ -570,12 +699,16 @@ PosfilterResult Run(ScreenedRows& input, const std::string& source, const teleme
       double heading = constant_heading;
       if (heading_lowpass) {
         heading = heading_lowpass->At(k);
-      } else if (kalman) {
-        // Stationary: no wheel has moved over the last stationary_min_s.
-        if (moved || k == 0) still_since_t = tk;
-        const bool stationary = k > 0 && !moved && tk - still_since_t >= options.stationary_min_s;
-        const telemetry::HeadingKalman::Output e =
-            kalman->Update(tk, have_compass ? compass_value[i] : kNaN, have_gyro ? gyro_value[i] : kNaN, stationary);
+      } else if (kalman || smoothed_heading) {
+        telemetry::HeadingKalman::Output e;
+        if (smoothed_heading) {
+          e = smoothed_heading->At(k);
+        } else {
+          // Stationary: no wheel has moved over the last stationary_min_s.
+          if (moved || k == 0) still_since_t = tk;
+          const bool stationary = k > 0 && !moved && tk - still_since_t >= options.stationary_min_s;
+          e = kalman->Update(tk, have_compass ? compass_value[i] : kNaN, have_gyro ? gyro_value[i] : kNaN, stationary);
+        }
         heading = e.heading_rad;
         out.heading_rate_radps = e.rate_radps;
         if (keep) {
@@ -630,12 +763,13 @@ PosfilterResult Run(ScreenedRows& input, const std::string& source, const teleme
   r.motion.distance_m = reckoner.distance_m();
   r.motion.slip_events = reckoner.slip_events();
   r.motion.steps_without_odometry = reckoner.steps_without_odometry();
-  if (kalman) {
-    r.heading.gyro_bias_radps = kalman->gyro_bias_radps();
-    r.heading.gyro_scale_error = kalman->gyro_scale_error();
-    r.heading.gyro_scale_sigma = kalman->gyro_scale_sigma();
-    r.heading.compass_updates = kalman->compass_updates();
-    r.heading.gyro_updates = kalman->gyro_updates();
+  if (kalman || smoothed_heading) {
+    const telemetry::HeadingKalman& filter = kalman ? *kalman : smoothed_heading->filter();
+    r.heading.gyro_bias_radps = filter.gyro_bias_radps();
+    r.heading.gyro_scale_error = filter.gyro_scale_error();
+    r.heading.gyro_scale_sigma = filter.gyro_scale_sigma();
+    r.heading.compass_updates = filter.compass_updates();
+    r.heading.gyro_updates = filter.gyro_updates();
   }
   r.rows_read = input.rows_read();
   r.screened = s.report();
@@ -664,19 +798,20 @@ PosfilterResult Run(ScreenedRows& input, const std::string& source, const teleme
   }
   for (const telemetry::ScreenedLog::Share& w : r.screened.Warnings()) r.warnings.push_back(w.Message());
   // Which states were estimated.
-  if (kalman) {
+  if (kalman || smoothed_heading) {
+    const telemetry::HeadingKalman& filter = kalman ? *kalman : smoothed_heading->filter();
     r.states["gyro_scale"] = have_compass && options.kalman.gyro_scale_sigma > 0
                                  ? "estimated (compass)"
                              : have_compass ? "held at prior 0 (no scale state configured)"
                                             : "held at prior 0 (no compass: the scale is not observable)";
-    const long still = kalman->stationary_samples();
-    const std::string bias_sigma = util::Format("%.3f", kalman->gyro_bias_sigma_radps() * 180.0 / M_PI);
+    const long still = filter.stationary_samples();
+    const std::string bias_sigma = util::Format("%.3f", filter.gyro_bias_sigma_radps() * 180.0 / M_PI);
     r.states["gyro_bias"] =
         !options.kalman.estimate_gyro_bias ? "held at prior 0 (bias estimation off)"
-        : still > 0 ? "estimated from " + std::to_string(kalman->stationary_periods()) + " stationary period(s), " +
+        : still > 0 ? "estimated from " + std::to_string(filter.stationary_periods()) + " stationary period(s), " +
                           std::to_string(still) + " samples" +
-                          (kalman->gyro_bias_prior_from_compass() ? " (the compass's estimate before the first as prior)" : "")
-        : kalman->gyro_bias_from_compass()
+                          (filter.gyro_bias_prior_from_compass() ? " (the compass's estimate before the first as prior)" : "")
+        : filter.gyro_bias_from_compass()
             ? std::string("estimated from the compass (no stationary period), sigma ") + bias_sigma + " deg/s"
             : std::string("held at prior 0 (no compass and no stationary period: the bias is not observable)");
   }
@@ -785,7 +920,9 @@ nlohmann::json PosfilterResult::SummaryJson() const {
                            {"gyro_bias_dps", heading.gyro_bias_radps * 180.0 / M_PI},
                            {"gyro_scale_error", heading.gyro_scale_error},
                            {"gyro_scale_sigma", heading.gyro_scale_sigma},
-                           {"rate_walk_dps2", kalman_rate_walk_dps2}};
+                           {"rate_walk_dps2", kalman_rate_walk_dps2},
+                           {"smoothed", heading_lag_s > 0}};
+    if (heading_lag_s > 0) j["heading_kalman"]["lag_s"] = heading_lag_s;
   }
   j["states"] = states;
   j["baseline"] = {{"file", "baseline.csv"},

@@ -55,6 +55,11 @@ struct PosfilterOptions {
   /// out: the wheels' acceleration from pitch, the turn's centripetal one from roll. false:
   /// the tilts through the causal low-pass (or zero phase with `mode`), as read.
   bool smooth_attitude = true;
+  /// The heading (Kalman filter) smoothed over this lag, seconds (SmoothedHeading: the
+  /// filter forward, the Rauch-Tung-Striebel smoother backward from this far ahead, so the
+  /// compass's correction after a turn reaches back over the turn; the trajectory trails the
+  /// log by the lag); 0: the filter alone, causal, as on the vehicle. >= 0.
+  double heading_lag_s = 60.0;
   FilterMode mode = FilterMode::kCausal;
   HeadingMethod heading = HeadingMethod::kKalman;
   telemetry::HeadingKalmanOptions kalman;
@@ -91,6 +96,7 @@ struct PosfilterResult {
   /// With smooth_attitude: how far the smoother looks ahead (s), and the largest correction
   /// of the vehicle's acceleration applied to the pitch and to the roll (radians).
   double attitude_lag_s = 0;
+  double heading_lag_s = 0;  ///< The heading smoother's lag used (0: the filter alone).
   double pendulum_pitch_max_rad = 0, pendulum_roll_max_rad = 0;
   std::vector<std::string> channels_used;
   std::vector<std::string> notes;            ///< Substitutions ("no compass: ...").

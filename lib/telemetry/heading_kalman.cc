@@ -3,6 +3,8 @@
 #include <cmath>
 #include <limits>
 
+#include <Eigen/Dense>
+
 
 #include "util/check.h"
 
@@ -105,8 +107,10 @@ void HeadingKalman::Measure(const double (&h)[4], double innovation, double r) {
 // is the one the matrix form (F P F' + Q, P - K H P, ...) reduces to once the known zeros and
 // ones of F and H are taken out; written out it is several times faster than general 3x3
 // products.
-HeadingKalman::Output HeadingKalman::Update(double t_s, double compass_rad, double gyro_radps, bool stationary) {
+HeadingKalman::Output HeadingKalman::Update(double t_s, double compass_rad, double gyro_radps, bool stationary,
+                                            HeadingKalmanStep* step) {
   double (&P)[4][4] = p_;
+  if (step != nullptr) step->dt = started_ ? t_s - last_t_ : 0.0;
   // Predict: F = [1 dt 0 0; 0 1 0 0; 0 0 1 0; 0 0 0 1].
   if (started_) {
     const double dt = t_s - last_t_;
@@ -134,6 +138,12 @@ HeadingKalman::Output HeadingKalman::Update(double t_s, double compass_rad, doub
   }
   started_ = true;
   last_t_ = t_s;
+  if (step != nullptr) {
+    step->x_predicted = {xh_, xr_, xs_, xb_};
+    for (int i = 0; i < 4; ++i) {
+      for (int j = 0; j < 4; ++j) step->p_predicted[i][j] = P[i][j];
+    }
+  }
   // Gyro: measures (1 + s) x the rate (after removing the bias); linearised (EKF).
   if (!std::isnan(gyro_radps)) {
     if (o_.estimate_gyro_bias && stationary && joint_bias_) {
@@ -239,6 +249,12 @@ HeadingKalman::Output HeadingKalman::Update(double t_s, double compass_rad, doub
   for (int i = 0; i < 4; ++i) {  // symmetric: 0.5 (P + P')
     for (int j = i + 1; j < 4; ++j) P[i][j] = P[j][i] = 0.5 * (P[i][j] + P[j][i]);
   }
+  if (step != nullptr) {
+    step->x = {xh_, xr_, xs_, xb_};
+    for (int i = 0; i < 4; ++i) {
+      for (int j = 0; j < 4; ++j) step->p[i][j] = P[i][j];
+    }
+  }
   return {xh_, xr_, std::sqrt(std::max(0.0, P[0][0]))};
 }
 
@@ -265,6 +281,72 @@ HeadingEstimate FilterHeading(const HeadingInputs& in, const HeadingKalmanOption
     out.rate_radps[k] = e.rate_radps;
     out.heading_sigma_rad[k] = e.heading_sigma_rad;
   }
+  out.gyro_scale_error = filter.gyro_scale_error();
+  out.gyro_scale_sigma = filter.gyro_scale_sigma();
+  out.gyro_bias_radps = filter.gyro_bias_radps();
+  out.gyro_bias_from_compass = filter.gyro_bias_from_compass();
+  out.compass_updates = filter.compass_updates();
+  out.gyro_updates = filter.gyro_updates();
+  return out;
+}
+
+void SmoothHeadingSteps(std::span<const HeadingKalmanStep> steps, std::span<double> heading_rad,
+                        std::span<double> rate_radps) {
+  const std::size_t n = steps.size();
+  LN_CHECK(heading_rad.size() == n && rate_radps.size() == n) << "SmoothHeadingSteps: one output per step";
+  if (n == 0) return;
+  using Vec = Eigen::Vector4d;
+  using Mat = Eigen::Matrix4d;
+  Vec xs(steps[n - 1].x.data());  // the smoothed state at step k + 1
+  heading_rad[n - 1] = xs[0];
+  rate_radps[n - 1] = xs[1];
+  for (std::size_t k = n - 1; k-- > 0;) {
+    const HeadingKalmanStep& now = steps[k];
+    const HeadingKalmanStep& next = steps[k + 1];
+    // x_k|n = x_k|k + C (x_k+1|n - x_k+1|k), C = P_k|k F' P_k+1|k^-1 with F = [1 dt 0 0; 0 1 0 0;
+    // 0 0 1 0; 0 0 0 1], over the states the filter holds at both steps: the others (no scale
+    // state; the bias once the stops show it, dropped between the steps) pass nothing back.
+    Mat pf, pp;  // P_k|k F' and P_k+1|k, the states not held replaced by the identity's
+    Vec d;
+    bool active[4];
+    for (int i = 0; i < 4; ++i) active[i] = now.p[i][i] > 0 && next.p_predicted[i][i] > 0 && next.p[i][i] > 0;
+    for (int i = 0; i < 4; ++i) {
+      for (int j = 0; j < 4; ++j) {
+        const double pft = now.p[i][j] + (j == 0 ? next.dt * now.p[i][1] : 0.0);  // (P F')_ij
+        pf(i, j) = active[j] ? pft : 0.0;
+        pp(i, j) = active[i] && active[j] ? next.p_predicted[i][j] : (i == j ? 1.0 : 0.0);
+      }
+      d[i] = active[i] ? xs[i] - next.x_predicted[i] : 0.0;
+    }
+    const Eigen::LLT<Mat> llt(pp);  // P_k+1|k is positive definite over the states held
+    Vec x(now.x.data());
+    if (llt.info() == Eigen::Success) x += pf * llt.solve(d);
+    xs = x;
+    heading_rad[k] = xs[0];
+    rate_radps[k] = xs[1];
+  }
+}
+
+HeadingEstimate SmoothHeading(const HeadingInputs& in, const HeadingKalmanOptions& o) {
+  const std::size_t n = in.t_s.size();
+  const bool have_compass = !in.compass_rad.empty();
+  const bool have_gyro = !in.gyro_radps.empty();
+  double first_compass = std::numeric_limits<double>::quiet_NaN();
+  for (std::size_t k = 0; have_compass && k < n && std::isnan(first_compass); ++k) first_compass = in.compass_rad[k];
+  HeadingKalman filter(o, first_compass);
+  std::vector<HeadingKalmanStep> steps(n);
+  HeadingEstimate out;
+  out.heading_sigma_rad.resize(n);
+  constexpr double kNone = std::numeric_limits<double>::quiet_NaN();
+  for (std::size_t k = 0; k < n; ++k) {
+    const HeadingKalman::Output e =
+        filter.Update(in.t_s[k], have_compass ? in.compass_rad[k] : kNone, have_gyro ? in.gyro_radps[k] : kNone,
+                      !in.stationary.empty() && in.stationary[k], &steps[k]);
+    out.heading_sigma_rad[k] = e.heading_sigma_rad;
+  }
+  out.heading_rad.resize(n);
+  out.rate_radps.resize(n);
+  SmoothHeadingSteps(steps, out.heading_rad, out.rate_radps);
   out.gyro_scale_error = filter.gyro_scale_error();
   out.gyro_scale_sigma = filter.gyro_scale_sigma();
   out.gyro_bias_radps = filter.gyro_bias_radps();

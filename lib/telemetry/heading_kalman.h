@@ -3,6 +3,7 @@
 #pragma once
 
 #include <array>
+#include <span>
 
 #include <vector>
 
@@ -84,6 +85,29 @@ struct HeadingEstimate {
 /// wrapped to (-pi, pi], so a heading passing through +-180 deg is no event.
 HeadingEstimate FilterHeading(const HeadingInputs& inputs, const HeadingKalmanOptions& options);
 
+/// One step of the filter as a smoother needs it: the state and covariance predicted to the
+/// sample (before its readings) and after them, and the time step. States: heading, heading
+/// rate, gyro scale error, gyro bias (radians, seconds); a state the filter does not hold
+/// then (no scale state, the bias once the stops show it) has no variance.
+struct HeadingKalmanStep {
+  double dt = 0;
+  std::array<double, 4> x_predicted{}, x{};
+  std::array<std::array<double, 4>, 4> p_predicted{}, p{};
+};
+
+/// The Rauch-Tung-Striebel smoother over the steps of one forward pass (in time order): the
+/// heading and rate at each step given every reading of the steps, before and after it. After
+/// a turn the compass, trusted again, corrects the heading and (through their covariance) the
+/// gyro's scale; the smoother carries that correction back over the turn, where the forward
+/// filter had only the gyro. A state without variance at a step passes nothing back through
+/// it. The smoothing starts from the last step's filtered state; `heading_rad` and
+/// `rate_radps` get one value per step.
+void SmoothHeadingSteps(std::span<const HeadingKalmanStep> steps, std::span<double> heading_rad,
+                        std::span<double> rate_radps);
+
+/// FilterHeading, then the smoother over the whole log (for logs processed afterwards).
+HeadingEstimate SmoothHeading(const HeadingInputs& inputs, const HeadingKalmanOptions& options);
+
 /// The filter sample by sample, for pipelines that stream a log instead of holding it whole:
 /// FilterHeading is a loop over Update, and gives the same numbers.
 class HeadingKalman {
@@ -98,7 +122,9 @@ class HeadingKalman {
   };
   /// One sample, in time order: predicts to t_s, then takes the gyro and the compass
   /// readings (NaN: none). `stationary`: the wheels stand still (the gyro's bias is learnt).
-  Output Update(double t_s, double compass_rad, double gyro_radps, bool stationary);
+  /// With `step`, also what a smoother needs of it.
+  Output Update(double t_s, double compass_rad, double gyro_radps, bool stationary,
+                HeadingKalmanStep* step = nullptr);
 
   double gyro_bias_radps() const { return joint_bias_ ? xb_ : bias_; }
   /// Standard deviation of the bias estimate (0 before anything has shown it).

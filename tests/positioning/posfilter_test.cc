@@ -479,20 +479,25 @@ TEST(RunPosfilter, PosesToASinkAreTheKeptTrajectory) {
 }
 
 // The log is read a block at a time, each row run as soon as its look-ahead is known: the
-// results do not depend on the block size, in either filter mode.
+// results do not depend on the block size, in either filter mode, with the heading smoothed
+// over the default lag (longer than this log), over one shorter than it (5 s, 50 rows: the
+// smoother's fixed blocks of rows, two over the 1280), or not smoothed.
 TEST(RunPosfilter, ResultsDoNotDependOnTheBlockSize) {
   const telemetry::SensorModel model = TrialASensors();
   const telemetry::TelemetryLog log = GappyLog(model);
-  for (const FilterMode mode : {FilterMode::kCausal, FilterMode::kZeroPhase}) {
+  for (const auto& [mode, heading_lag_s] : {std::pair{FilterMode::kCausal, 60.0}, std::pair{FilterMode::kCausal, 5.0},
+                                            std::pair{FilterMode::kCausal, 0.0}, std::pair{FilterMode::kZeroPhase, 60.0}}) {
     PosfilterOptions options;
     options.mode = mode;
+    options.heading_lag_s = heading_lag_s;
     options.screening.statistics_intervals = 200;  // shorter than the log
     options.block_rows = log.size();
     const PosfilterResult whole = RunPosfilter(log, model, options);
     for (const std::size_t block : {std::size_t{1}, std::size_t{5}, std::size_t{1024}}) {
       options.block_rows = block;
       const PosfilterResult r = RunPosfilter(log, model, options);
-      const std::string what = ToString(mode) + ", blocks of " + std::to_string(block);
+      const std::string what =
+          ToString(mode) + ", heading lag " + std::to_string(heading_lag_s) + " s, blocks of " + std::to_string(block);
       ASSERT_EQ(r.motion.trajectory.size(), whole.motion.trajectory.size()) << what;
       for (std::size_t k = 0; k < r.motion.trajectory.size(); ++k) {
         ASSERT_TRUE(SamePose(r.motion.trajectory[k], whole.motion.trajectory[k])) << what << ", row " << k;
