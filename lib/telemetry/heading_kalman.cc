@@ -258,7 +258,10 @@ HeadingKalman::Output HeadingKalman::Update(double t_s, double compass_rad, doub
   return {xh_, xr_, std::sqrt(std::max(0.0, P[0][0]))};
 }
 
-HeadingEstimate FilterHeading(const HeadingInputs& in, const HeadingKalmanOptions& o) {
+namespace {
+
+// The filter over a whole log; with `steps`, each sample's step (one per sample) for a smoother.
+HeadingEstimate RunFilter(const HeadingInputs& in, const HeadingKalmanOptions& o, std::vector<HeadingKalmanStep>* steps) {
   const std::size_t n = in.t_s.size();
   const bool have_compass = !in.compass_rad.empty();
   const bool have_gyro = !in.gyro_radps.empty();
@@ -272,11 +275,12 @@ HeadingEstimate FilterHeading(const HeadingInputs& in, const HeadingKalmanOption
   out.heading_rad.resize(n);
   out.rate_radps.resize(n);
   out.heading_sigma_rad.resize(n);
+  if (steps != nullptr) steps->resize(n);
   constexpr double kNone = std::numeric_limits<double>::quiet_NaN();
   for (std::size_t k = 0; k < n; ++k) {
     const HeadingKalman::Output e =
         filter.Update(in.t_s[k], have_compass ? in.compass_rad[k] : kNone, have_gyro ? in.gyro_radps[k] : kNone,
-                      !in.stationary.empty() && in.stationary[k]);
+                      !in.stationary.empty() && in.stationary[k], steps != nullptr ? &(*steps)[k] : nullptr);
     out.heading_rad[k] = e.heading_rad;
     out.rate_radps[k] = e.rate_radps;
     out.heading_sigma_rad[k] = e.heading_sigma_rad;
@@ -289,6 +293,10 @@ HeadingEstimate FilterHeading(const HeadingInputs& in, const HeadingKalmanOption
   out.gyro_updates = filter.gyro_updates();
   return out;
 }
+
+}  // namespace
+
+HeadingEstimate FilterHeading(const HeadingInputs& in, const HeadingKalmanOptions& o) { return RunFilter(in, o, nullptr); }
 
 void SmoothHeadingSteps(std::span<const HeadingKalmanStep> steps, std::span<double> heading_rad,
                         std::span<double> rate_radps) {
@@ -328,31 +336,9 @@ void SmoothHeadingSteps(std::span<const HeadingKalmanStep> steps, std::span<doub
 }
 
 HeadingEstimate SmoothHeading(const HeadingInputs& in, const HeadingKalmanOptions& o) {
-  const std::size_t n = in.t_s.size();
-  const bool have_compass = !in.compass_rad.empty();
-  const bool have_gyro = !in.gyro_radps.empty();
-  double first_compass = std::numeric_limits<double>::quiet_NaN();
-  for (std::size_t k = 0; have_compass && k < n && std::isnan(first_compass); ++k) first_compass = in.compass_rad[k];
-  HeadingKalman filter(o, first_compass);
-  std::vector<HeadingKalmanStep> steps(n);
-  HeadingEstimate out;
-  out.heading_sigma_rad.resize(n);
-  constexpr double kNone = std::numeric_limits<double>::quiet_NaN();
-  for (std::size_t k = 0; k < n; ++k) {
-    const HeadingKalman::Output e =
-        filter.Update(in.t_s[k], have_compass ? in.compass_rad[k] : kNone, have_gyro ? in.gyro_radps[k] : kNone,
-                      !in.stationary.empty() && in.stationary[k], &steps[k]);
-    out.heading_sigma_rad[k] = e.heading_sigma_rad;
-  }
-  out.heading_rad.resize(n);
-  out.rate_radps.resize(n);
+  std::vector<HeadingKalmanStep> steps;
+  HeadingEstimate out = RunFilter(in, o, &steps);
   SmoothHeadingSteps(steps, out.heading_rad, out.rate_radps);
-  out.gyro_scale_error = filter.gyro_scale_error();
-  out.gyro_scale_sigma = filter.gyro_scale_sigma();
-  out.gyro_bias_radps = filter.gyro_bias_radps();
-  out.gyro_bias_from_compass = filter.gyro_bias_from_compass();
-  out.compass_updates = filter.compass_updates();
-  out.gyro_updates = filter.gyro_updates();
   return out;
 }
 
