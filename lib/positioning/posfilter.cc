@@ -391,6 +391,8 @@ class SmoothedHeading {
     return out_.front();
   }
   const telemetry::HeadingKalman& filter() const { return filter_; }
+  // The largest change of the heading the smoother made to the filter's, radians.
+  double correction_max() const { return correction_max_; }
 
  private:
   // Smooths each block whose backward start (lag rows beyond it) is among the rows before
@@ -405,6 +407,7 @@ class SmoothedHeading {
       telemetry::SmoothHeadingSteps(std::span(steps_).subspan(offset, n), heading_, rate_);
       for (std::size_t j = 0; j < block_end - smoothed_end_; ++j) {
         out_.push_back({heading_[j], rate_[j], sigma_[offset + j]});
+        correction_max_ = std::max(correction_max_, std::abs(heading_[j] - steps_[offset + j].x[0]));
       }
       smoothed_end_ = block_end;
       // The steps of the block are done with.
@@ -427,6 +430,7 @@ class SmoothedHeading {
   std::vector<double> heading_, rate_;               // a backward pass's output
   std::deque<telemetry::HeadingKalman::Output> out_;  // rows [out_begin_, smoothed_end_)
   std::size_t out_begin_ = 0;
+  double correction_max_ = 0;
 };
 
 // Rows from a source, screened as they come. Next() reads and screens one more block.
@@ -763,6 +767,7 @@ PosfilterResult Run(ScreenedRows& input, const std::string& source, const teleme
   r.motion.distance_m = reckoner.distance_m();
   r.motion.slip_events = reckoner.slip_events();
   r.motion.steps_without_odometry = reckoner.steps_without_odometry();
+  if (smoothed_heading) r.heading_correction_max_rad = smoothed_heading->correction_max();
   if (kalman || smoothed_heading) {
     const telemetry::HeadingKalman& filter = kalman ? *kalman : smoothed_heading->filter();
     r.heading.gyro_bias_radps = filter.gyro_bias_radps();
@@ -922,7 +927,10 @@ nlohmann::json PosfilterResult::SummaryJson() const {
                            {"gyro_scale_sigma", heading.gyro_scale_sigma},
                            {"rate_walk_dps2", kalman_rate_walk_dps2},
                            {"smoothed", heading_lag_s > 0}};
-    if (heading_lag_s > 0) j["heading_kalman"]["lag_s"] = heading_lag_s;
+    if (heading_lag_s > 0) {
+      j["heading_kalman"]["lag_s"] = heading_lag_s;
+      j["heading_kalman"]["smoother_correction_max_deg"] = heading_correction_max_rad * 180.0 / M_PI;
+    }
   }
   j["states"] = states;
   j["baseline"] = {{"file", "baseline.csv"},

@@ -97,6 +97,8 @@ struct PosfilterResult {
   /// of the vehicle's acceleration applied to the pitch and to the roll (radians).
   double attitude_lag_s = 0;
   double heading_lag_s = 0;  ///< The heading smoother's lag used (0: the filter alone).
+  /// The largest change the heading smoother made to the filter's heading, radians.
+  double heading_correction_max_rad = 0;
   double pendulum_pitch_max_rad = 0, pendulum_roll_max_rad = 0;
   std::vector<std::string> channels_used;
   std::vector<std::string> notes;            ///< Substitutions ("no compass: ...").

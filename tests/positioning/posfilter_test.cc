@@ -4,6 +4,8 @@
 
 #include <cmath>
 #include <algorithm>
+#include <fstream>
+#include <sstream>
 #include <array>
 #include <limits>
 #include <random>
@@ -476,6 +478,61 @@ TEST(RunPosfilter, PosesToASinkAreTheKeptTrajectory) {
       for (const TrajectorySample& p : streamed) ASSERT_TRUE(std::isfinite(p.x_m + p.pitch_rad + p.roll_rad));
     }
   }
+}
+
+// The simulated trial A (testdata: a compass, a gyro with a scale error, turns): the heading
+// smoothed over the default lag follows the truth closer than the filter alone, which learns
+// the gyro's scale from the compass only after each turn; summary.json says by how much the
+// smoother moved it.
+TEST(RunPosfilter, TheSmoothedHeadingFollowsTheTruthCloserThanTheFilter) {
+  const telemetry::SensorModel model = TrialASensors();
+  const telemetry::TelemetryLog log =
+      telemetry::ReadTelemetryCsv(util::TestDataPath("telemetry/trial-a/telemetry.csv"), model);
+  // The truth's time and heading (deg), from its CSV.
+  std::vector<std::pair<double, double>> truth;
+  std::ifstream in(util::TestDataPath("telemetry/trial-a/truth.csv"));
+  std::string line;
+  while (std::getline(in, line)) {
+    if (line.empty() || line[0] == '#' || line[0] == 't') continue;
+    std::stringstream fields(line);
+    std::string t, x, y, z, heading;
+    std::getline(fields, t, ',');
+    std::getline(fields, x, ',');
+    std::getline(fields, y, ',');
+    std::getline(fields, z, ',');
+    std::getline(fields, heading, ',');
+    truth.emplace_back(std::stod(t), std::stod(heading));
+  }
+  ASSERT_GT(truth.size(), 1000u);
+  auto heading_errors = [&](const PosfilterResult& r, double* rms, double* largest) {
+    double sum = 0;
+    *largest = 0;
+    std::size_t j = 0, n = 0;
+    for (const TrajectorySample& p : r.motion.trajectory) {
+      while (j + 1 < truth.size() && truth[j + 1].first <= p.t_s + 1e-9) ++j;
+      if (std::abs(truth[j].first - p.t_s) > 1e-6) continue;
+      const double e = std::remainder(p.heading_rad * 180.0 / M_PI - truth[j].second, 360.0);
+      sum += e * e;
+      *largest = std::max(*largest, std::abs(e));
+      ++n;
+    }
+    ASSERT_GT(n, 1000u);
+    *rms = std::sqrt(sum / static_cast<double>(n));
+  };
+  PosfilterOptions options;
+  const PosfilterResult smoothed = RunPosfilter(log, model, options);
+  options.heading_lag_s = 0;
+  const PosfilterResult filtered = RunPosfilter(log, model, options);
+  double rms_smoothed = 0, largest_smoothed = 0, rms_filtered = 0, largest_filtered = 0;
+  heading_errors(smoothed, &rms_smoothed, &largest_smoothed);
+  heading_errors(filtered, &rms_filtered, &largest_filtered);
+  // Measured when written: RMS 0.69 deg (largest 2.1) against 1.00 (5.3).
+  EXPECT_LT(rms_smoothed, 0.8 * rms_filtered) << rms_smoothed << " vs " << rms_filtered;
+  EXPECT_LT(largest_smoothed, 0.6 * largest_filtered) << largest_smoothed << " vs " << largest_filtered;
+  const nlohmann::json summary = smoothed.SummaryJson();
+  EXPECT_TRUE(summary["heading_kalman"]["smoothed"].get<bool>());
+  EXPECT_GT(summary["heading_kalman"]["smoother_correction_max_deg"].get<double>(), 1.0);
+  EXPECT_FALSE(filtered.SummaryJson()["heading_kalman"]["smoothed"].get<bool>());
 }
 
 // The log is read a block at a time, each row run as soon as its look-ahead is known: the
