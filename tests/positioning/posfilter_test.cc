@@ -4,14 +4,13 @@
 
 #include <cmath>
 #include <algorithm>
-#include <fstream>
-#include <sstream>
 #include <array>
 #include <limits>
 #include <random>
 #include <string>
 #include <vector>
 
+#include "positioning/trajectory_io.h"
 #include "telemetry/lowpass.h"
 #include "util/testing.h"
 
@@ -488,30 +487,17 @@ TEST(RunPosfilter, TheSmoothedHeadingFollowsTheTruthCloserThanTheFilter) {
   const telemetry::SensorModel model = TrialASensors();
   const telemetry::TelemetryLog log =
       telemetry::ReadTelemetryCsv(util::TestDataPath("telemetry/trial-a/telemetry.csv"), model);
-  // The truth's time and heading (deg), from its CSV.
-  std::vector<std::pair<double, double>> truth;
-  std::ifstream in(util::TestDataPath("telemetry/trial-a/truth.csv"));
-  std::string line;
-  while (std::getline(in, line)) {
-    if (line.empty() || line[0] == '#' || line[0] == 't') continue;
-    std::stringstream fields(line);
-    std::string t, x, y, z, heading;
-    std::getline(fields, t, ',');
-    std::getline(fields, x, ',');
-    std::getline(fields, y, ',');
-    std::getline(fields, z, ',');
-    std::getline(fields, heading, ',');
-    truth.emplace_back(std::stod(t), std::stod(heading));
-  }
+  // The truth: its CSV has posfilter's trajectory columns first.
+  const std::vector<TrajectorySample> truth = ReadTrajectoryCsv(util::TestDataPath("telemetry/trial-a/truth.csv"));
   ASSERT_GT(truth.size(), 1000u);
   auto heading_errors = [&](const PosfilterResult& r, double* rms, double* largest) {
     double sum = 0;
     *largest = 0;
     std::size_t j = 0, n = 0;
     for (const TrajectorySample& p : r.motion.trajectory) {
-      while (j + 1 < truth.size() && truth[j + 1].first <= p.t_s + 1e-9) ++j;
-      if (std::abs(truth[j].first - p.t_s) > 1e-6) continue;
-      const double e = std::remainder(p.heading_rad * 180.0 / M_PI - truth[j].second, 360.0);
+      while (j + 1 < truth.size() && truth[j + 1].t_s <= p.t_s + 1e-9) ++j;
+      if (std::abs(truth[j].t_s - p.t_s) > 1e-6) continue;
+      const double e = std::remainder((p.heading_rad - truth[j].heading_rad) * 180.0 / M_PI, 360.0);
       sum += e * e;
       *largest = std::max(*largest, std::abs(e));
       ++n;
