@@ -63,6 +63,13 @@ void AddFusionOptions(CLI::App* app, mapping::TerrainMapOptions* map) {
   app->add_option("--max-sigma-cells", map->max_horizontal_sigma_cells,
                   "ignore points whose predicted horizontal error (xyz_sigma or --rig) exceeds this many cells")
       ->capture_default_str();
+  app->add_option("--ground-sigma-cells", map->ground_sigma_cells,
+                  "points whose horizontal error passes --max-sigma-cells but not this count as ground only: kept "
+                  "within --ground-gate of their pair's ground plane (<= --max-sigma-cells: off)")
+      ->capture_default_str();
+  app->add_option("--ground-gate", map->ground_gate_m,
+                  "the ground-only points' largest height from their pair's ground plane (a robust fit), m")
+      ->capture_default_str();
   app->add_option("--max-range", map->max_range_m, "ignore points farther from the mast base, m")
       ->capture_default_str();
   app->add_option("--obstacle-min-points", map->obstacles.min_points, "cells with fewer points are not judged")

@@ -6,6 +6,7 @@
 #include <Eigen/Dense>
 #include <opencv2/core.hpp>
 
+#include "mapping/robust_plane.h"
 #include "util/check.h"
 
 namespace lunarnav::mapping {
@@ -18,13 +19,6 @@ struct CellSamples {
   double sum_x = 0, sum_y = 0, sum_z = 0;
   int n = 0;
 };
-
-double Median(std::vector<double> v) {
-  if (v.empty()) return 0;
-  const std::size_t m = v.size() / 2;
-  std::nth_element(v.begin(), v.begin() + static_cast<std::ptrdiff_t>(m), v.end());
-  return v[m];
-}
 
 }  // namespace
 
@@ -99,10 +93,7 @@ FramePose GroundAligner::Align(const FramePose& estimated, const std::vector<Eig
     ++c.n;
   }
   // Differences with the reference: reference height minus the pair's, at the samples' mean place.
-  struct Row {
-    double dx, dy, diff;
-  };
-  std::vector<Row> rows;
+  std::vector<PlaneSample> rows;
   for (const auto& [key, c] : own) {
     if (c.n < options_.min_samples_per_cell) continue;
     const auto it = reference_.find(key);
@@ -115,16 +106,10 @@ FramePose GroundAligner::Align(const FramePose& estimated, const std::vector<Eig
   if (rows.size() < static_cast<std::size_t>(options_.min_cells)) {
     r.reason = "too little ground in common with the map (" + std::to_string(rows.size()) + " cells)";
   } else {
-    // Iteratively reweighted least squares: Huber, then Tukey's biweight, the scale from the residuals.
-    std::vector<double> w(rows.size(), 1.0), res(rows.size());
-    std::vector<double> abs_res(rows.size());
-    auto residuals = [&](const Eigen::Vector3d& p) {
-      for (std::size_t i = 0; i < rows.size(); ++i) {
-        res[i] = rows[i].diff - (p[0] + p[1] * rows[i].dx + p[2] * rows[i].dy);
-        abs_res[i] = std::abs(res[i]);
-      }
-    };
-    auto robust_rms = [&](double scale) {
+    // The RMS of the residuals within three robust scales.
+    auto robust_rms = [&](std::vector<double> abs_res) {
+      std::vector<double> scratch = abs_res;
+      const double scale = std::max(options_.robust_m, 1.4826 * MedianInPlace(scratch));
       double s2 = 0;
       long n = 0;
       for (double a : abs_res) {
@@ -134,52 +119,23 @@ FramePose GroundAligner::Align(const FramePose& estimated, const std::vector<Eig
       }
       return n > 0 ? std::sqrt(s2 / static_cast<double>(n)) : 0.0;
     };
-    residuals(x);
-    const double scale0 = std::max(options_.robust_m, 1.4826 * Median(abs_res));
-    r.rms_before_m = robust_rms(scale0);
-    bool solved = true;
-    for (int iteration = 0; iteration < 8; ++iteration) {
-      const double scale = std::max(options_.robust_m, 1.4826 * Median(abs_res));
-      for (std::size_t i = 0; i < rows.size(); ++i) {
-        const double u = abs_res[i] / scale;
-        if (iteration < 3) {
-          w[i] = u <= 1.345 ? 1.0 : 1.345 / u;  // Huber
-        } else {
-          const double t = u / 4.685;  // Tukey
-          w[i] = t < 1 ? (1 - t * t) * (1 - t * t) : 0.0;
-        }
-      }
-      Eigen::Matrix3d a = Eigen::Matrix3d::Zero();
-      Eigen::Vector3d b = Eigen::Vector3d::Zero();
-      for (std::size_t i = 0; i < rows.size(); ++i) {
-        const Eigen::Vector3d j(1.0, rows[i].dx, rows[i].dy);
-        a += w[i] * j * j.transpose();
-        b += w[i] * rows[i].diff * j;
-      }
-      // A prior on the tilt: ground in common that does not spread along the view (the band
-      // of one distance the loop asks for) fixes the shift there but not the pitch; the least
-      // tilt that explains it is taken (a full view outweighs the prior a hundredfold).
-      const double prior = (scale / options_.tilt_prior_rad) * (scale / options_.tilt_prior_rad);
-      a(1, 1) += prior;
-      a(2, 2) += prior;
-      if (!(a.determinant() > 0)) {
-        solved = false;
-        break;
-      }
-      x = a.ldlt().solve(b);
-      residuals(x);
-    }
-    const double tilt = std::atan(std::hypot(x[1], x[2])) / kDeg;
-    if (!solved) {
+    std::vector<double> abs_res(rows.size());
+    for (std::size_t i = 0; i < rows.size(); ++i) abs_res[i] = std::abs(rows[i].z);
+    r.rms_before_m = robust_rms(abs_res);
+    // A prior on the tilt: ground in common that does not spread along the view (the band of
+    // one distance the loop asks for) fixes the shift there but not the pitch; the least tilt
+    // that explains it is taken (a full view outweighs the prior a hundredfold).
+    const std::optional<Eigen::Vector3d> fit = FitRobustPlane(rows, options_.robust_m, options_.tilt_prior_rad, &abs_res);
+    const double tilt = fit ? std::atan(std::hypot((*fit)[1], (*fit)[2])) / kDeg : 0.0;
+    if (!fit) {
       r.reason = "the fit is singular";
-      x.setZero();
-    } else if (tilt > options_.max_tilt_deg || std::abs(x[0]) > options_.max_shift_m) {
+    } else if (tilt > options_.max_tilt_deg || std::abs((*fit)[0]) > options_.max_shift_m) {
       r.reason = "the fit asks for more than the largest correction";
       r.contradicts = true;
-      x.setZero();
     } else {
+      x = *fit;
       r.applied = true;
-      r.rms_after_m = robust_rms(std::max(options_.robust_m, 1.4826 * Median(abs_res)));
+      r.rms_after_m = robust_rms(abs_res);
     }
   }
   x *= options_.gain;

@@ -6,6 +6,7 @@
 #include <tuple>
 
 #include "mapping/frame_poses.h"
+#include "mapping/robust_plane.h"
 #include "util/check.h"
 #include "util/errors.h"
 
@@ -62,6 +63,42 @@ struct Ray {
 };
 // One point in this many casts its ray (the ceiling is the kCeilingSupport-th lowest of many).
 constexpr std::size_t kRayStride = 8;
+
+// One point in this many samples the pair's ground plane (for the ground-only points).
+constexpr std::size_t kPlaneStride = 32;
+// The plane needs this many samples; their largest flat part is the ground (within
+// kPlaneInlierM of the plane, its slope at most kPlaneMaxSlope), the robust scale of the fit
+// at least kPlaneScaleM.
+constexpr std::size_t kPlaneMinSamples = 50;
+constexpr double kPlaneInlierM = 0.05;
+constexpr double kPlaneMaxSlope = 0.5;
+constexpr double kPlaneScaleM = 0.03;
+// The plane is the ground only where it passes within this of the vehicle's own ground point
+// (the vehicle frame's origin): a view filled by a car's flank fits the car, metres.
+constexpr double kPlaneOriginToleranceM = 0.3;
+
+// The pair's ground: the dominant plane of a sample of its points (about their mean place).
+struct GroundPlaneFit {
+  double x0 = 0, y0 = 0;
+  Eigen::Vector3d p = Eigen::Vector3d::Zero();  // height, slope along x, slope along y
+  double At(double x, double y) const { return p[0] + p[1] * (x - x0) + p[2] * (y - y0); }
+};
+
+std::optional<GroundPlaneFit> FitGround(std::vector<PlaneSample>& samples) {
+  if (samples.size() < kPlaneMinSamples) return std::nullopt;
+  GroundPlaneFit g;
+  for (const PlaneSample& s : samples) {
+    g.x0 += s.dx;
+    g.y0 += s.dy;
+  }
+  g.x0 /= static_cast<double>(samples.size());
+  g.y0 /= static_cast<double>(samples.size());
+  for (PlaneSample& s : samples) s = {s.dx - g.x0, s.dy - g.y0, s.z};
+  const std::optional<Eigen::Vector3d> p = FitDominantPlane(samples, kPlaneInlierM, kPlaneMaxSlope, kPlaneScaleM);
+  if (!p) return std::nullopt;
+  g.p = *p;
+  return g;
+}
 
 // Walks the ray from `camera` to the point (x, y, z) cell by cell (2-D, over the lattice of
 // cells of `cell_m`) along its stretch [s0, s1] of horizontal distance from the camera, and
@@ -170,6 +207,8 @@ void TerrainMapOptions::Validate() const {
   LN_CHECK_ARG(std::isfinite(default_sigma_m) && default_sigma_m > 0) << "default sigma: must be > 0 m";
   LN_CHECK_ARG(max_range_m > 0) << "max range: must be > 0 m";
   LN_CHECK_ARG(max_horizontal_sigma_cells > 0) << "max horizontal sigma: must be > 0 cells";
+  LN_CHECK_ARG(!std::isnan(ground_sigma_cells)) << "ground sigma: must be a number of cells";
+  LN_CHECK_ARG(std::isfinite(ground_gate_m) && ground_gate_m > 0) << "ground gate: must be > 0 m";
   LN_CHECK_ARG(min_frames >= 1) << "min frames: must be >= 1";
   LN_CHECK_ARG(!window_m || (std::isfinite(*window_m) && *window_m >= 4 * cell_m))
       << "window-m: must be a finite size of at least 4 cells (" << 4 * cell_m << " m), got " << *window_m;
@@ -193,6 +232,8 @@ nlohmann::json TerrainMapOptions::ToJson() const {
           {"default_sigma_m", default_sigma_m},
           {"max_range_m", number(max_range_m)},
           {"max_horizontal_sigma_cells", number(max_horizontal_sigma_cells)},
+          {"ground_sigma_cells", number(ground_sigma_cells)},
+          {"ground_gate_m", ground_gate_m},
           {"min_frames", min_frames},
           {"window_m", window_m ? nlohmann::json(*window_m) : nlohmann::json(nullptr)},
           {"max_cells", max_cells},
@@ -243,6 +284,7 @@ FrameContribution BinFrame(const cv::Mat& xyz, const cv::Mat& sigma, const Eigen
   const double max_range2 = o.max_range_m * o.max_range_m;
   const double default_w = 1.0 / (o.default_sigma_m * o.default_sigma_m);
   const double max_h2 = o.max_horizontal_sigma_cells * o.cell_m * o.max_horizontal_sigma_cells * o.cell_m;
+  const double ground_h2 = o.ground_sigma_cells * o.cell_m * o.ground_sigma_cells * o.cell_m;
 
   // Buffers kept per thread from frame to frame (a frame's worth of points each).
   struct Buffers {
@@ -256,16 +298,22 @@ FrameContribution BinFrame(const cv::Mat& xyz, const cv::Mat& sigma, const Eigen
     std::vector<std::uint8_t> accepted;
     std::vector<float> lowest;  // per cell of the frame's box, its lowest accepted point
     std::vector<std::pair<CellIndex, CellStats>> seen;
+    std::vector<std::array<double, 4>> weak;  // ground-only candidates: world x, y, z and weight
+    std::vector<PlaneSample> plane;           // a sample of the other points: world x, y, z
   };
   static thread_local Buffers buf;
   std::vector<std::int32_t>& ci = buf.ci;
   std::vector<std::int32_t>& cj = buf.cj;
   std::vector<float>& zs = buf.zs;
   std::vector<float>& ws = buf.ws;
+  std::vector<std::array<double, 4>>& weak = buf.weak;
+  std::vector<PlaneSample>& plane = buf.plane;
   ci.clear();
   cj.clear();
   zs.clear();
   ws.clear();
+  weak.clear();
+  plane.clear();
   // Carving and hidden observations: the rays start at the reference camera.
   const bool carving = error_model != nullptr && std::isfinite(o.carve_tolerance_m);
   const bool hiding = error_model != nullptr && std::isfinite(o.hidden_tolerance_m);
@@ -331,7 +379,9 @@ FrameContribution BinFrame(const cv::Mat& xyz, const cv::Mat& sigma, const Eigen
         v.last_range = static_cast<float>(range);
         v.last_z = z;
       }
-      if (!(h2 <= max_h2)) {  // too uncertain to say which cell it belongs to
+      // Too uncertain to say which cell it belongs to: out, or ground only.
+      const bool ground_only = h2 > max_h2 && h2 <= ground_h2;
+      if (!(h2 <= max_h2) && !ground_only) {
         ++out.points_out_of_range;
         continue;
       }
@@ -354,6 +404,11 @@ FrameContribution BinFrame(const cv::Mat& xyz, const cv::Mat& sigma, const Eigen
         ++out.points_out_of_range;
         continue;
       }
+      if (ground_only) {
+        weak.push_back({wx, wy, wz, w});
+        continue;
+      }
+      if (zs.size() % kPlaneStride == 0) plane.push_back({wx, wy, wz});
       const auto i = static_cast<std::int32_t>(std::floor(wx * inv_cell));
       const auto j = static_cast<std::int32_t>(std::floor(wy * inv_cell));
       i0 = std::min(i0, i);
@@ -368,6 +423,29 @@ FrameContribution BinFrame(const cv::Mat& xyz, const cv::Mat& sigma, const Eigen
         rays.push_back(
             {wx, wy, static_cast<float>(wz), static_cast<float>(sigma_h), static_cast<std::uint32_t>(zs.size() - 1)});
       }
+    }
+  }
+  // The ground-only points: those within the gate of the pair's ground plane join the others
+  // (they cast no rays: a ray says most near its point, whose place they do not know well).
+  if (!weak.empty()) {
+    std::optional<GroundPlaneFit> ground = FitGround(plane);
+    if (ground && !(std::abs(ground->At(t.x(), t.y()) - t.z()) <= kPlaneOriginToleranceM)) ground.reset();
+    for (const auto& [wx, wy, wz, w] : weak) {
+      if (!ground || !(std::abs(wz - ground->At(wx, wy)) <= o.ground_gate_m)) {
+        ++out.points_off_ground;
+        continue;
+      }
+      const auto i = static_cast<std::int32_t>(std::floor(wx * inv_cell));
+      const auto j = static_cast<std::int32_t>(std::floor(wy * inv_cell));
+      i0 = std::min(i0, i);
+      i1 = std::max(i1, i);
+      j0 = std::min(j0, j);
+      j1 = std::max(j1, j);
+      ci.push_back(i);
+      cj.push_back(j);
+      zs.push_back(static_cast<float>(wz));
+      ws.push_back(static_cast<float>(w));
+      ++out.points_ground_only;
     }
   }
   if (zs.empty()) return out;

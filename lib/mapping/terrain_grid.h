@@ -126,6 +126,17 @@ struct TerrainMapOptions {
   /// about 13 m with a 1 px disparity error). > 0; infinity keeps them. Points with no predicted
   /// error (default_sigma_m) are kept at any range.
   double max_horizontal_sigma_cells = 1.0;
+  /// Points whose predicted horizontal error passes max_horizontal_sigma_cells but not this
+  /// many cells count as ground only: kept where they lie within ground_gate_m of the pair's
+  /// ground plane (a robust fit to its other points), left out elsewhere. On even ground a
+  /// point's height hardly depends on the cell it falls in, while a walker's or a car's points
+  /// a cell or two off make a phantom. So the band's far corners (there the error along the
+  /// rays passes a cell before the distance ahead reaches the band's far edge: the rig's
+  /// default search bounds the distance ahead, not the distance to the side) are mapped where
+  /// they are ground, and left empty where something stands. <= max_horizontal_sigma_cells: off.
+  double ground_sigma_cells = 1.5;
+  /// The ground-only points' gate: their largest height from the pair's ground plane, metres, > 0.
+  double ground_gate_m = 0.1;
   /// Cells that fewer pairs saw are left out of the map's layers (kept in its sums, so that a
   /// later pair, a resumed run or a merged map confirms them), >= 1. 1 (every cell): the ground
   /// at the common view's edges is often seen by one pair only (a rock 3 m to the side, seen
@@ -210,6 +221,8 @@ struct FrameContribution {
   long points_floating = 0;  ///< Rejected by the visibility rule (a farther ray passes beneath).
   long points_unsupported = 0;  ///< Rejected by the support rule (a rise with no face seen below).
   long points_out_of_range = 0;
+  long points_ground_only = 0;  ///< Kept as ground only (TerrainMapOptions::ground_sigma_cells).
+  long points_off_ground = 0;   ///< Too uncertain for a cell and off the pair's ground plane: left out.
   long rays_cast = 0;      ///< Rays that set ceilings (carving).
   long points_hidden = 0;  ///< Points of observations the ray to them shows hidden (left out).
 };

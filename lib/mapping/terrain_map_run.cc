@@ -108,6 +108,8 @@ json FusionJson(const TerrainMapRunOptions& options, const std::string& errors) 
           {"frame_floor_m", mo.frame_floor_m},
           {"max_range_m", number(mo.max_range_m)},
           {"max_horizontal_sigma_cells", number(mo.max_horizontal_sigma_cells)},
+          {"ground_sigma_cells", number(mo.ground_sigma_cells)},
+          {"ground_gate_m", mo.ground_gate_m},
           {"errors", errors}};
 }
 
@@ -541,6 +543,8 @@ TerrainMapRunSummary RunTerrainMap(const TerrainMapRunOptions& options, const fs
       summary.points_out_of_range += c.points_out_of_range;
       summary.rays_cast += c.rays_cast;
       summary.points_hidden += c.points_hidden;
+      summary.points_ground_only += c.points_ground_only;
+      summary.points_off_ground += c.points_off_ground;
       fused.push_back({pose, c.points_fused, c.points_rejected});
       ++summary.frames_fused;
       if (c.points_in == 0 && summary.frames_without_points++ == 0) first_empty = pose.stem;
@@ -639,6 +643,8 @@ TerrainMapRunSummary RunTerrainMap(const TerrainMapRunOptions& options, const fs
                  {"points_unsupported", summary.points_unsupported},
                  {"points_hidden", summary.points_hidden},
                  {"points_out_of_range", summary.points_out_of_range},
+                 {"points_ground_only", summary.points_ground_only},
+                 {"points_off_ground", summary.points_off_ground},
                  {"mapped_cells", summary.mapped_cells},
                  {"obstacle_cells", summary.obstacle_cells},
                  {"frames_without_points", summary.frames_without_points}};

@@ -60,6 +60,8 @@ struct TerrainMapRunSummary {
   long frames_without_points = 0;  ///< This run's pairs whose XYZ arrays held no valid point.
   long rays_cast = 0;              ///< This run's rays that set ceilings (carving; with a rig only).
   long points_hidden = 0;          ///< Points of observations the rays to them show hidden (with a rig only).
+  long points_ground_only = 0;     ///< Kept as ground only (TerrainMapOptions::ground_sigma_cells).
+  long points_off_ground = 0;      ///< Too uncertain for a cell and off their pair's ground plane.
   CarveCounts carved;              ///< What carving left out of the layers.
   std::vector<GroundAlignment> alignments;  ///< With options.align: one per pair fused, in time order.
   std::vector<std::string> warnings;  ///< Printed as they arise and kept in summary.json.

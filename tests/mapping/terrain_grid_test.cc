@@ -194,7 +194,8 @@ TEST(TerrainGrid, PointsOutsideTheRequestedIntervalAreLeftOut) {
 // A point whose predicted horizontal error exceeds a cell could belong to any of the cells
 // around its own: left out (the map's default range follows from the predicted error).
 TEST(TerrainGrid, PointsTooUncertainForACellAreLeftOut) {
-  const TerrainMapOptions o;  // one cell (25 cm) of horizontal error at most
+  TerrainMapOptions o;  // one cell (25 cm) of horizontal error at most
+  o.ground_sigma_cells = o.max_horizontal_sigma_cells;  // and none kept as ground only (below)
   const FramePose pose = Pose(0, 0, 0);
   const cv::Mat xyz = SurfaceXyz([](double, double) { return 0.0; }, pose);  // Y from 2 to 10 m
   // The horizontal error grows as Y^2 / 40: 10 cm at 2 m ... 2.5 m at 10 m; 25 cm at Y = sqrt(10).
@@ -219,6 +220,64 @@ TEST(TerrainGrid, PointsTooUncertainForACellAreLeftOut) {
   TerrainMapOptions all = o;
   all.max_horizontal_sigma_cells = std::numeric_limits<double>::infinity();
   EXPECT_EQ(BinFrame(xyz, sigma, pose.WorldFromVehicle(), 0, all).points_out_of_range, 0);
+}
+
+// Points too uncertain for a cell count as ground only: kept where they lie within the gate of
+// their pair's ground plane (a robust fit to its other points), so that the ground there is
+// mapped while what stands there (a walker's points a cell or two off) stays out. A view whose
+// plane misses the vehicle's own ground point keeps none.
+TEST(TerrainGrid, PointsTooUncertainForACellCountAsGroundOnlyOnTheirPairsGroundPlane) {
+  TerrainMapOptions o;  // one cell of horizontal error; ground only up to 1.5 cells, 10 cm from the plane
+  o.visibility_k = std::numeric_limits<double>::infinity();  // the column rules off: this rule alone
+  o.support_rise_m = std::numeric_limits<double>::infinity();
+  const FramePose pose = Pose(0, 0, 0);
+  // The horizontal error grows as Y^2 / 40 (as above): one cell at Y = 3.16 m, 1.5 cells at
+  // 3.87 m. A 1 m box stands at Y 3.4-3.7 m, where the error is 1.2-1.4 cells.
+  auto height = BoxOnPlane(0.0, -1.0, 1.0, 3.4, 3.7, 1.0);
+  auto sigma_of = [](const cv::Mat& xyz) {
+    cv::Mat sigma(xyz.size(), CV_32FC3);
+    for (int r = 0; r < xyz.rows; ++r) {
+      for (int c = 0; c < xyz.cols; ++c) {
+        const float h = xyz.at<cv::Vec3f>(r, c)[1] * xyz.at<cv::Vec3f>(r, c)[1] / 40.0f;
+        sigma.at<cv::Vec3f>(r, c) = cv::Vec3f(0.6f * h, 0.8f * h, 0.01f);
+      }
+    }
+    return sigma;
+  };
+  const cv::Mat xyz = SurfaceXyz(height, pose), sigma = sigma_of(xyz);
+  long ground = 0, standing = 0;  // the uncertain points on the ground and on the box
+  for (int r = 0; r < xyz.rows; ++r) {
+    for (int c = 0; c < xyz.cols; ++c) {
+      const cv::Vec3f p = xyz.at<cv::Vec3f>(r, c);
+      const double h = p[1] * p[1] / 40.0;
+      if (h > 0.25 && h <= 0.375) ++(p[2] == 0 ? ground : standing);
+    }
+  }
+  ASSERT_GT(ground, 1000);
+  ASSERT_GT(standing, 100);
+  const FrameContribution part = BinFrame(xyz, sigma, pose.WorldFromVehicle(), 0, o);
+  EXPECT_EQ(part.points_ground_only, ground);
+  EXPECT_EQ(part.points_off_ground, standing);
+  TerrainGrid grid(o.cell_m);
+  grid.Add(part);
+  const MapLayers l = ComputeLayers(grid, o.obstacles);
+  // The ground out to 3.87 m is mapped (rows of cells from y = 3.25 m on: 24 cells across each,
+  // less the box's 8), at its height; the box is not.
+  const int far_ground = CountCells(l.elevation_m, [&](int r, int) { return l.y_north_m - (r + 0.5) * l.cell_m > 3.25; });
+  EXPECT_GE(far_ground, 2 * 24 - 8);
+  EXPECT_EQ(CountCells(l.max_m, [&](int r, int c) { return std::abs(l.max_m.at<float>(r, c)) > 1e-4f; }), 0);
+  // Off: those points are out of range, as before.
+  TerrainMapOptions off = o;
+  off.ground_sigma_cells = off.max_horizontal_sigma_cells;
+  const FrameContribution none = BinFrame(xyz, sigma, pose.WorldFromVehicle(), 0, off);
+  EXPECT_EQ(none.points_ground_only, 0);
+  EXPECT_EQ(none.points_off_ground, 0);
+  EXPECT_EQ(none.points_out_of_range, part.points_out_of_range + ground + standing);
+  // The whole view 0.5 m above the vehicle's ground (a car's flank filling it): no ground plane.
+  const cv::Mat raised = SurfaceXyz([](double, double) { return 0.5; }, pose);
+  const FrameContribution flank = BinFrame(raised, sigma_of(raised), pose.WorldFromVehicle(), 0, o);
+  EXPECT_EQ(flank.points_ground_only, 0);
+  EXPECT_GT(flank.points_off_ground, 1000);
 }
 
 // The visibility rule: a blob of matches nearer than the rays below it in its image column
