@@ -298,21 +298,21 @@ FrameContribution BinFrame(const cv::Mat& xyz, const cv::Mat& sigma, const Eigen
     std::vector<std::uint8_t> accepted;
     std::vector<float> lowest;  // per cell of the frame's box, its lowest accepted point
     std::vector<std::pair<CellIndex, CellStats>> seen;
-    std::vector<std::array<double, 4>> weak;  // ground-only candidates: world x, y, z and weight
-    std::vector<PlaneSample> plane;           // a sample of the other points: world x, y, z
+    std::vector<std::array<double, 4>> ground_only;  // candidates: world x, y, z and weight
+    std::vector<PlaneSample> plane;                  // a sample of the other points: world x, y, z
   };
   static thread_local Buffers buf;
   std::vector<std::int32_t>& ci = buf.ci;
   std::vector<std::int32_t>& cj = buf.cj;
   std::vector<float>& zs = buf.zs;
   std::vector<float>& ws = buf.ws;
-  std::vector<std::array<double, 4>>& weak = buf.weak;
+  std::vector<std::array<double, 4>>& ground_only = buf.ground_only;
   std::vector<PlaneSample>& plane = buf.plane;
   ci.clear();
   cj.clear();
   zs.clear();
   ws.clear();
-  weak.clear();
+  ground_only.clear();
   plane.clear();
   // Carving and hidden observations: the rays start at the reference camera.
   const bool carving = error_model != nullptr && std::isfinite(o.carve_tolerance_m);
@@ -331,6 +331,18 @@ FrameContribution BinFrame(const cv::Mat& xyz, const cv::Mat& sigma, const Eigen
   ws.reserve(capacity);
   std::int32_t i0 = std::numeric_limits<std::int32_t>::max(), j0 = i0, i1 = std::numeric_limits<std::int32_t>::min(),
                j1 = i1;
+  auto bin = [&](double wx, double wy, double wz, double w) {  // a point in, its cell in the frame's box
+    const auto i = static_cast<std::int32_t>(std::floor(wx * inv_cell));
+    const auto j = static_cast<std::int32_t>(std::floor(wy * inv_cell));
+    i0 = std::min(i0, i);
+    i1 = std::max(i1, i);
+    j0 = std::min(j0, j);
+    j1 = std::max(j1, j);
+    ci.push_back(i);
+    cj.push_back(j);
+    zs.push_back(static_cast<float>(wz));
+    ws.push_back(static_cast<float>(w));
+  };
   const bool visibility = std::isfinite(o.visibility_k);
   const bool support = std::isfinite(o.support_rise_m);
   std::vector<ColumnWalk>& walk = buf.walk;
@@ -380,8 +392,8 @@ FrameContribution BinFrame(const cv::Mat& xyz, const cv::Mat& sigma, const Eigen
         v.last_z = z;
       }
       // Too uncertain to say which cell it belongs to: out, or ground only.
-      const bool ground_only = h2 > max_h2 && h2 <= ground_h2;
-      if (!(h2 <= max_h2) && !ground_only) {
+      const bool uncertain = h2 > max_h2 && h2 <= ground_h2;
+      if (!(h2 <= max_h2) && !uncertain) {
         ++out.points_out_of_range;
         continue;
       }
@@ -404,21 +416,12 @@ FrameContribution BinFrame(const cv::Mat& xyz, const cv::Mat& sigma, const Eigen
         ++out.points_out_of_range;
         continue;
       }
-      if (ground_only) {
-        weak.push_back({wx, wy, wz, w});
+      if (uncertain) {
+        ground_only.push_back({wx, wy, wz, w});
         continue;
       }
       if (zs.size() % kPlaneStride == 0) plane.push_back({wx, wy, wz});
-      const auto i = static_cast<std::int32_t>(std::floor(wx * inv_cell));
-      const auto j = static_cast<std::int32_t>(std::floor(wy * inv_cell));
-      i0 = std::min(i0, i);
-      i1 = std::max(i1, i);
-      j0 = std::min(j0, j);
-      j1 = std::max(j1, j);
-      ci.push_back(i);
-      cj.push_back(j);
-      zs.push_back(static_cast<float>(wz));
-      ws.push_back(static_cast<float>(w));
+      bin(wx, wy, wz, w);
       if (carving && wz < camera.z() && zs.size() % kRayStride == 1) {
         rays.push_back(
             {wx, wy, static_cast<float>(wz), static_cast<float>(sigma_h), static_cast<std::uint32_t>(zs.size() - 1)});
@@ -427,24 +430,15 @@ FrameContribution BinFrame(const cv::Mat& xyz, const cv::Mat& sigma, const Eigen
   }
   // The ground-only points: those within the gate of the pair's ground plane join the others
   // (they cast no rays: a ray says most near its point, whose place they do not know well).
-  if (!weak.empty()) {
+  if (!ground_only.empty()) {
     std::optional<GroundPlaneFit> ground = FitGround(plane);
     if (ground && !(std::abs(ground->At(t.x(), t.y()) - t.z()) <= kPlaneOriginToleranceM)) ground.reset();
-    for (const auto& [wx, wy, wz, w] : weak) {
+    for (const auto& [wx, wy, wz, w] : ground_only) {
       if (!ground || !(std::abs(wz - ground->At(wx, wy)) <= o.ground_gate_m)) {
         ++out.points_off_ground;
         continue;
       }
-      const auto i = static_cast<std::int32_t>(std::floor(wx * inv_cell));
-      const auto j = static_cast<std::int32_t>(std::floor(wy * inv_cell));
-      i0 = std::min(i0, i);
-      i1 = std::max(i1, i);
-      j0 = std::min(j0, j);
-      j1 = std::max(j1, j);
-      ci.push_back(i);
-      cj.push_back(j);
-      zs.push_back(static_cast<float>(wz));
-      ws.push_back(static_cast<float>(w));
+      bin(wx, wy, wz, w);
       ++out.points_ground_only;
     }
   }
