@@ -107,7 +107,7 @@ FramePose GroundAligner::Align(const FramePose& estimated, const std::vector<Eig
     r.reason = "too little ground in common with the map (" + std::to_string(rows.size()) + " cells)";
   } else {
     // The RMS of the residuals within three robust scales.
-    auto robust_rms = [&](std::vector<double> abs_res) {
+    auto robust_rms = [&](const std::vector<double>& abs_res) {
       std::vector<double> scratch = abs_res;
       const double scale = std::max(options_.robust_m, 1.4826 * MedianInPlace(scratch));
       double s2 = 0;

@@ -1,6 +1,7 @@
 // A plane fitted robustly to samples of a surface: the ground under what stands on it.
 #pragma once
 
+#include <cstddef>
 #include <optional>
 #include <vector>
 
@@ -14,11 +15,12 @@ struct PlaneSample {
 };
 
 /// The plane z = p[0] + p[1] dx + p[2] dy that fits `samples` robustly: iteratively reweighted
-/// least squares from p = 0, Huber's weights for three iterations, then Tukey's biweight
+/// least squares from `initial`, Huber's weights for three iterations, then Tukey's biweight
 /// (4.685 scales) for five, the scale being 1.4826 times the residuals' median absolute value,
-/// but at least `scale_floor`. Starting from p = 0 (samples taken about their median, or
-/// differences expected near zero) the fit settles on the dominant surface there, not on a
-/// compromise with what stands on it. `slope_prior` (the slopes' RMS prior; infinity: none)
+/// but at least `scale_floor`. It settles near its start: differences expected near zero (the
+/// ground alignment's) start well at 0; with a large share of the samples off the plane, a
+/// level start ends between the two (FitDominantPlane starts it on the plane instead).
+/// `slope_prior` (the slopes' RMS prior; infinity: none)
 /// adds (scale / slope_prior)^2 to the normal equations' slope terms: where the samples do not
 /// spread, the least slope that explains them is taken. nullopt when the normal equations are
 /// singular. `abs_residuals`, when given, receives the samples' absolute residuals under the
