@@ -78,7 +78,11 @@ void AddFusionOptions(CLI::App* app, mapping::TerrainMapOptions* map) {
                   "flag a step when it exceeds the obstacle height minus this, m")
       ->capture_default_str();
   app->add_option("--obstacle-extremes", map->obstacles.extreme_k,
-                  "the step rule's extremes of a cell: within this many roughnesses of its mean (inf: raw)")
+                  "the step rule's highest point of a cell: within this many roughnesses of its mean (inf: raw)")
+      ->capture_default_str();
+  app->add_option("--obstacle-low-extremes", map->obstacles.low_extreme_k,
+                  "the step rule's lowest point of a cell (the ground's level beside a step): within this many "
+                  "roughnesses of its mean (inf: raw)")
       ->capture_default_str();
   app->add_option("--max-map-cells", map->max_cells,
                   "the largest map (width x height in cells); a pair that would make it larger is refused")

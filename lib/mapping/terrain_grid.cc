@@ -179,6 +179,7 @@ void ObstacleOptions::Validate() const {
   LN_CHECK_ARG(max_slope_deg > 0 && max_slope_deg < 90) << "slope limit: must be in (0, 90) deg";
   LN_CHECK_ARG(min_points >= 1) << "obstacle min points: must be >= 1";
   LN_CHECK_ARG(extreme_k > 0) << "obstacle extremes: must be > 0 roughnesses (inf: raw)";
+  LN_CHECK_ARG(low_extreme_k > 0) << "obstacle low extremes: must be > 0 roughnesses (inf: raw)";
   LN_CHECK_ARG(std::isfinite(step_tolerance_m) && step_tolerance_m >= 0 && step_tolerance_m < step_height_m)
       << "step tolerance: must be in [0, obstacle height)";
 }
@@ -189,6 +190,7 @@ nlohmann::json ObstacleOptions::ToJson() const {
           {"max_slope_deg", max_slope_deg},
           {"min_points", min_points},
           {"extreme_k", number(extreme_k)},
+          {"low_extreme_k", number(low_extreme_k)},
           {"step_tolerance_m", step_tolerance_m}};
 }
 
@@ -972,8 +974,8 @@ cv::Mat DetectObstacles(const cv::Mat& elevation, const cv::Mat& min_m, const cv
   };
   auto bottom = [&](int r, int c) {
     const double raw = min_m.at<float>(r, c);
-    if (roughness.empty() || !std::isfinite(o.extreme_k)) return raw;
-    return std::max(raw, elevation.at<float>(r, c) - o.extreme_k * roughness.at<float>(r, c));
+    if (roughness.empty() || !std::isfinite(o.low_extreme_k)) return raw;
+    return std::max(raw, elevation.at<float>(r, c) - o.low_extreme_k * roughness.at<float>(r, c));
   };
   const int h = elevation.rows, w = elevation.cols;
   cv::Mat out(h, w, CV_32FC1, cv::Scalar(kNaN));

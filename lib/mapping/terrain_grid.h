@@ -62,10 +62,15 @@ struct ObstacleOptions {
   double max_slope_deg = 30.0;
   /// Cells with fewer points are not judged (no-data in the obstacle layer), >= 1.
   int min_points = 3;
-  /// The step rule's extremes of a cell: its highest point, but no higher than the mean plus
-  /// this many roughnesses, and its lowest, no lower than the mean minus as many (one stray
-  /// point of forty frames is no step); > 0, infinity: the raw extremes.
+  /// The step rule's highest point of a cell: no higher than the mean plus this many
+  /// roughnesses (one stray point of forty frames is no step); > 0, infinity: the raw highest.
   double extreme_k = 2.0;
+  /// The step rule's lowest point of a cell, which it takes as the ground's level beside a
+  /// cell: no lower than the mean minus this many roughnesses; > 0, infinity: the raw lowest.
+  /// Below extreme_k: a top is an obstacle's evidence, a low only the ground's level, and with
+  /// 2 on both sides flat ground of 4.5 cm roughness (a rough road, a rail groove's wrong
+  /// matches) made 18 cm steps of its noise.
+  double low_extreme_k = 1.5;
   /// A step is flagged when the measured step exceeds step_height_m minus this, metres, in
   /// [0, step_height_m): the measure falls short of a rock's height (a cell's highest points are
   /// seldom the rock's very top, and the extremes are trimmed), and a planner would rather

@@ -367,6 +367,28 @@ TEST(TerrainGrid, AStrayExtremeIsNoStepButARocksTopIs) {
   EXPECT_EQ(DetectObstacles(flat, min_m, max_m, cv::Mat(), 0.25, o, roughness).at<float>(2, 2), 1);
 }
 
+// The lows are the ground's level beside a step, held nearer the mean (1.5 roughnesses) than
+// the tops (2): flat ground 5 cm rough, a cell's top 2 roughnesses up and its neighbour's low 2
+// down (20 cm apart), is no step; with 2 on both sides it was. A 25 cm rock in it still is.
+TEST(TerrainGrid, TheNoiseOfRoughFlatGroundIsNoStepButARockOnItIs) {
+  const cv::Mat flat(5, 5, CV_32FC1, cv::Scalar(0)), roughness(5, 5, CV_32FC1, cv::Scalar(0.05));
+  cv::Mat max_m(5, 5, CV_32FC1, cv::Scalar(0.10)), min_m(5, 5, CV_32FC1, cv::Scalar(-0.10));
+  ObstacleOptions o;
+  EXPECT_EQ(DetectObstacles(flat, min_m, max_m, cv::Mat(), 0.25, o, roughness).at<float>(2, 2), 0);
+  ObstacleOptions symmetric = o;
+  symmetric.low_extreme_k = symmetric.extreme_k;
+  EXPECT_EQ(DetectObstacles(flat, min_m, max_m, cv::Mat(), 0.25, symmetric, roughness).at<float>(2, 2), 1);
+  // The rock's cell: mean 12 cm, its points spread 8 cm, top 25 cm.
+  cv::Mat elevation = flat.clone(), rock_roughness = roughness.clone();
+  elevation.at<float>(2, 2) = 0.12f;
+  rock_roughness.at<float>(2, 2) = 0.08f;
+  max_m.at<float>(2, 2) = 0.25f;
+  EXPECT_EQ(DetectObstacles(elevation, min_m, max_m, cv::Mat(), 0.25, o, rock_roughness).at<float>(2, 2), 1);
+  // Raw lows on request (infinity): the noise is a step again.
+  o.low_extreme_k = std::numeric_limits<double>::infinity();
+  EXPECT_EQ(DetectObstacles(flat, min_m, max_m, cv::Mat(), 0.25, o, roughness).at<float>(2, 2), 1);
+}
+
 // The support rule on image-like columns: a blob that stands high above the last point below
 // it, across rows where nothing was matched, is rejected; a face seen row by row is kept.
 TEST(TerrainGrid, AnUnsupportedRiseIsRejectedAndASeenFaceIsNot) {
@@ -408,6 +430,7 @@ TEST(TerrainGrid, ExtremesOfOnePairAloneMakeNoStep) {
   o.gate_k = std::numeric_limits<double>::infinity();  // the stray points reach the sums
   o.visibility_k = std::numeric_limits<double>::infinity();
   o.obstacles.extreme_k = std::numeric_limits<double>::infinity();  // confirmation alone
+  o.obstacles.low_extreme_k = std::numeric_limits<double>::infinity();
   const auto box = BoxOnPlane(0.0, 1.0, 1.5, 5.0, 5.5, 0.3);
   TerrainGrid grid(o.cell_m);
   for (int k = 0; k < 3; ++k) {
