@@ -50,8 +50,12 @@ void AddFusionOptions(CLI::App* app, mapping::TerrainMapOptions* map) {
                   "the stretch of each ray, before its point, that carves (horizontal), m")
       ->capture_default_str();
   app->add_option("--hidden-tolerance", map->hidden_tolerance_m,
-                  "leave out a pair's observation of a cell when the ray to it passes this far below the lowest point "
+                  "leave out a pair's observation of a cell when the ray to it passes this far below the ground "
                   "of another cell the pair sees on its way (needs --rig; inf: off), m")
+      ->capture_default_str();
+  app->add_option("--hidden-ground-quantile", map->hidden_ground_quantile,
+                  "the ground --hidden-tolerance tests a ray against: this quantile of the pair's points in the cell "
+                  "(0: its lowest point)")
       ->capture_default_str();
   app->add_option("--min-frames", map->min_frames, "cells fewer pairs saw are left out of the layers (kept in the sums)")
       ->capture_default_str();

@@ -205,6 +205,8 @@ void TerrainMapOptions::Validate() const {
   LN_CHECK_ARG(carve_tolerance_m >= 0) << "carve tolerance: must be >= 0 m (inf: off)";
   LN_CHECK_ARG(std::isfinite(carve_reach_m) && carve_reach_m > 0) << "carve reach: must be > 0 m";
   LN_CHECK_ARG(hidden_tolerance_m >= 0) << "hidden tolerance: must be >= 0 m (inf: off)";
+  LN_CHECK_ARG(hidden_ground_quantile >= 0 && hidden_ground_quantile <= 0.5)
+      << "hidden ground quantile: must be in [0, 0.5]";
   LN_CHECK_ARG(std::isfinite(frame_floor_m) && frame_floor_m > 0) << "frame floor: must be > 0 m";
   LN_CHECK_ARG(std::isfinite(default_sigma_m) && default_sigma_m > 0) << "default sigma: must be > 0 m";
   LN_CHECK_ARG(max_range_m > 0) << "max range: must be > 0 m";
@@ -230,6 +232,7 @@ nlohmann::json TerrainMapOptions::ToJson() const {
           {"carve_tolerance_m", number(carve_tolerance_m)},
           {"carve_reach_m", carve_reach_m},
           {"hidden_tolerance_m", number(hidden_tolerance_m)},
+          {"hidden_ground_quantile", hidden_ground_quantile},
           {"frame_floor_m", frame_floor_m},
           {"default_sigma_m", default_sigma_m},
           {"max_range_m", number(max_range_m)},
@@ -291,14 +294,14 @@ FrameContribution BinFrame(const cv::Mat& xyz, const cv::Mat& sigma, const Eigen
   // Buffers kept per thread from frame to frame (a frame's worth of points each).
   struct Buffers {
     std::vector<std::int32_t> ci, cj;
-    std::vector<float> zs, ws, sz, sw, scratch;
+    std::vector<float> zs, ws, sz, sw, scratch, kept;
     std::vector<std::uint32_t> start, local, fill;
     std::vector<ColumnWalk> walk;
     std::vector<Ray> rays;
     std::vector<float> ceilings;  // per cell of the frame's box, its kCeilingSupport lowest ray heights
     std::vector<std::uint32_t> src;
     std::vector<std::uint8_t> accepted;
-    std::vector<float> lowest;  // per cell of the frame's box, its lowest accepted point
+    std::vector<float> lowest;  // per cell of the frame's box, the hidden rule's ground
     std::vector<std::pair<CellIndex, CellStats>> seen;
     std::vector<std::array<double, 4>> ground_only;  // candidates: world x, y, z and weight
     std::vector<PlaneSample> plane;                  // a sample of the other points: world x, y, z
@@ -489,6 +492,11 @@ FrameContribution BinFrame(const cv::Mat& xyz, const cv::Mat& sigma, const Eigen
 
   // Pass 3: per cell, gate against the frame's median and sum.
   std::vector<float>& scratch = buf.scratch;
+  // The hidden rule's ground per cell of the frame's box: a low quantile of the points kept.
+  std::vector<float>& lowest = buf.lowest;
+  std::vector<float>& kept = buf.kept;
+  const bool quantile = hiding && o.hidden_ground_quantile > 0;
+  if (hiding) lowest.assign(static_cast<std::size_t>(nx * ny), kInfF);
   const double floor2 = o.gate_floor_m * o.gate_floor_m, k2 = o.gate_k * o.gate_k;
   const double frame_floor2 = o.frame_floor_m * o.frame_floor_m;
   for (std::int64_t c = 0; c + 1 < static_cast<std::int64_t>(start.size()); ++c) {
@@ -508,6 +516,7 @@ FrameContribution BinFrame(const cv::Mat& xyz, const cv::Mat& sigma, const Eigen
       spread2 = spread * spread;
     }
     CellStats cell;
+    kept.clear();
     double sw_pts = 0, swz = 0, swzz = 0;  // the accepted points' weighted sums
     // The accepted points' highest kTopSupport, highest first: the last is the top that many
     // of this pair's points reach.
@@ -531,7 +540,18 @@ FrameContribution BinFrame(const cv::Mat& xyz, const cv::Mat& sigma, const Eigen
       swzz += w * z * z;
       cell.z_min = std::min(cell.z_min, static_cast<float>(z));
       cell.z_max = std::max(cell.z_max, static_cast<float>(z));
+      if (quantile) kept.push_back(static_cast<float>(z));
       ++cell.count;
+    }
+    if (hiding && cell.count > 0) {
+      float ground = cell.z_min;
+      if (quantile) {
+        const auto at = kept.begin() + static_cast<std::ptrdiff_t>(o.hidden_ground_quantile *
+                                                                   static_cast<double>(kept.size() - 1));
+        std::nth_element(kept.begin(), at, kept.end());
+        ground = *at;
+      }
+      lowest[static_cast<std::size_t>(c)] = ground;
     }
     if (cell.count > 0) {
       // The frame's one observation of the cell: the points' weighted mean, weighed by their
@@ -551,15 +571,10 @@ FrameContribution BinFrame(const cv::Mat& xyz, const cv::Mat& sigma, const Eigen
   }
   if (hiding) {
     // Pass 3b: an observation that the ray to it shows hidden is left out: on its way, the ray
-    // passes through a cell of the same frame below that cell's lowest point (by more than the
-    // tolerance, at the ray's highest over the cell), where the frame sees the ground it would
-    // have hit. Wrong matches behind an object's edge, seen in one camera only, lie there,
-    // metres deep. All tested against the frame's cells as binned.
-    std::vector<float>& lowest = buf.lowest;
-    lowest.assign(static_cast<std::size_t>(nx * ny), kInfF);
-    for (const auto& [index, cell] : out.cells) {
-      if (cell.count > 0) lowest[static_cast<std::size_t>((index.j - j0) * nx + (index.i - i0))] = cell.z_min;
-    }
+    // passes through a cell of the same frame below that cell's ground (a low quantile of its
+    // points, pass 3; by more than the tolerance, at the ray's highest over the cell), where the
+    // frame sees the ground it would have hit. Wrong matches behind an object's edge, seen in
+    // one camera only, lie there, metres deep. All tested against the frame's cells as binned.
     const Eigen::Isometry3d vehicle_from_world = world_from_vehicle.inverse();
     for (auto& entry : out.cells) {
       const CellIndex index = entry.first;  // (a lambda below uses it)

@@ -116,6 +116,11 @@ struct TerrainMapOptions {
   /// a wrong match, typically behind an object's edge where one camera sees what the other
   /// cannot), metres, >= 0; infinity turns it off. Needs the rig's error model.
   double hidden_tolerance_m = 0.1;
+  /// The ground a hidden ray is tested against: this quantile of the frame's points in the
+  /// cell, in [0, 0.5]; 0: its lowest point. A flat cell's lowest point is its noise's tail
+  /// (12 cm under a road 4 cm rough), the 10th percentile stays near the ground, while a cell
+  /// holding an object's foot keeps the foot when a tenth of its points lie there.
+  double hidden_ground_quantile = 0.1;
   /// The least error of one frame's estimate of a cell, whatever its points' count and
   /// precision (their errors are correlated: one pose, one rig, overlapping windows), metres,
   /// > 0. A frame's observation of a cell weighs 1 / (mean point variance + this^2).

@@ -105,6 +105,7 @@ json FusionJson(const TerrainMapRunOptions& options, const std::string& errors) 
           {"support_rise_m", number(mo.support_rise_m)},
           {"carve_reach_m", mo.carve_reach_m},
           {"hidden_tolerance_m", number(mo.hidden_tolerance_m)},
+          {"hidden_ground_quantile", mo.hidden_ground_quantile},
           {"frame_floor_m", mo.frame_floor_m},
           {"max_range_m", number(mo.max_range_m)},
           {"max_horizontal_sigma_cells", number(mo.max_horizontal_sigma_cells)},
