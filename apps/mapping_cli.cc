@@ -74,6 +74,17 @@ void AddFusionOptions(CLI::App* app, mapping::TerrainMapOptions* map) {
   app->add_option("--ground-gate", map->ground_gate_m,
                   "the ground-only points' largest height from their pair's ground plane (a robust fit), m")
       ->capture_default_str();
+  app->add_option("--edge-margin", map->edge_margin_px,
+                  "leave out a point standing more than --edge-height over its cell's ground when, within this many "
+                  "pixels along its row, a point is more than --edge-step nearer: a depth edge, where the point's "
+                  "depth mixes the two surfaces (needs --rig; 0: off), px")
+      ->capture_default_str();
+  app->add_option("--edge-step", map->edge_step_px, "the nearer point's least disparity step at a depth edge, px")
+      ->capture_default_str();
+  app->add_option("--edge-height", map->edge_height_m,
+                  "the least height over its cell's ground (the pair's other points there) of a point the depth-edge "
+                  "rule leaves out, m")
+      ->capture_default_str();
   app->add_option("--max-range", map->max_range_m, "ignore points farther from the mast base, m")
       ->capture_default_str();
   app->add_option("--obstacle-min-points", map->obstacles.min_points, "cells with fewer points are not judged")

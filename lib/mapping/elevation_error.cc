@@ -22,6 +22,7 @@ ElevationErrorModel::ElevationErrorModel(const calib::StereoRig& rig, calib::Ref
   ref_y_ = ref.y();
   ref_z_ = ref.z();
   scale_ = sigma_d_px / (f * baseline_m);
+  sigma_d_ = sigma_d_px;
 }
 
 }  // namespace lunarnav::mapping

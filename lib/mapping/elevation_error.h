@@ -47,12 +47,19 @@ class ElevationErrorModel {
     *sigma_h = scale_ * depth * *range_m;
     return true;
   }
+  /// The disparity of the vehicle-frame point p, pixels: f B / its depth along the optical
+  /// axis. NaN behind the cameras.
+  double DisparityPx(double x, double y, double z) const {
+    const double depth = axis_.x() * (x - left_.x()) + axis_.y() * (y - left_.y()) + axis_.z() * (z - left_.z());
+    return depth > 0 ? sigma_d_ / (scale_ * depth) : std::numeric_limits<double>::quiet_NaN();
+  }
   /// The reference camera's centre in the vehicle frame, metres: where the points' rays start.
   Eigen::Vector3d ReferenceCamera() const { return {ref_x_, ref_y_, ref_z_}; }
 
  private:
   Eigen::Vector3d left_, axis_;
   double ref_x_ = 0, ref_y_ = 0, ref_z_ = 0, scale_ = 0;  // scale_ = sigma_d / (f B)
+  double sigma_d_ = 1;
 };
 
 }  // namespace lunarnav::mapping

@@ -28,6 +28,7 @@ const std::array<const char*, 4> kStateCellBands = {"ceiling", "ceiling2", "reje
 const std::array<const char*, 11> kStateBinBands = {"index", "sum_w",    "sum_wz", "sum_wzz", "z_min", "z_max",
                                                     "count", "last_t_s", "frames", "z_min2",  "z_max2"};
 constexpr float kInfF = std::numeric_limits<float>::infinity();
+constexpr float kNaNF = std::numeric_limits<float>::quiet_NaN();
 
 // The two lowest of {a1 <= a2} and {b1 <= b2}, into a1, a2.
 void TwoLowest(float* a1, float* a2, float b1, float b2) {
@@ -213,6 +214,9 @@ void TerrainMapOptions::Validate() const {
   LN_CHECK_ARG(max_horizontal_sigma_cells > 0) << "max horizontal sigma: must be > 0 cells";
   LN_CHECK_ARG(!std::isnan(ground_sigma_cells)) << "ground sigma: must be a number of cells";
   LN_CHECK_ARG(std::isfinite(ground_gate_m) && ground_gate_m > 0) << "ground gate: must be > 0 m";
+  LN_CHECK_ARG(edge_margin_px >= 0 && edge_margin_px <= 64) << "edge margin: must be in 0..64 px (0: off)";
+  LN_CHECK_ARG(std::isfinite(edge_step_px) && edge_step_px > 0) << "edge step: must be > 0 px";
+  LN_CHECK_ARG(std::isfinite(edge_height_m) && edge_height_m >= 0) << "edge height: must be >= 0 m";
   LN_CHECK_ARG(min_frames >= 1) << "min frames: must be >= 1";
   LN_CHECK_ARG(!window_m || (std::isfinite(*window_m) && *window_m >= 4 * cell_m))
       << "window-m: must be a finite size of at least 4 cells (" << 4 * cell_m << " m), got " << *window_m;
@@ -239,6 +243,9 @@ nlohmann::json TerrainMapOptions::ToJson() const {
           {"max_horizontal_sigma_cells", number(max_horizontal_sigma_cells)},
           {"ground_sigma_cells", number(ground_sigma_cells)},
           {"ground_gate_m", ground_gate_m},
+          {"edge_margin_px", edge_margin_px},
+          {"edge_step_px", edge_step_px},
+          {"edge_height_m", edge_height_m},
           {"min_frames", min_frames},
           {"window_m", window_m ? nlohmann::json(*window_m) : nlohmann::json(nullptr)},
           {"max_cells", max_cells},
@@ -304,6 +311,8 @@ FrameContribution BinFrame(const cv::Mat& xyz, const cv::Mat& sigma, const Eigen
     std::vector<float> lowest;  // per cell of the frame's box, the hidden rule's ground
     std::vector<std::pair<CellIndex, CellStats>> seen;
     std::vector<std::array<double, 4>> ground_only;  // candidates: world x, y, z and weight
+    std::vector<float> row_disparity;                // the row's points' disparities (the edge rule)
+    std::vector<std::uint8_t> at_edge, sorted_at_edge;  // by pass 1's index and sorted: at a depth edge
     std::vector<PlaneSample> plane;                  // a sample of the other points: world x, y, z
   };
   static thread_local Buffers buf;
@@ -312,12 +321,14 @@ FrameContribution BinFrame(const cv::Mat& xyz, const cv::Mat& sigma, const Eigen
   std::vector<float>& zs = buf.zs;
   std::vector<float>& ws = buf.ws;
   std::vector<std::array<double, 4>>& ground_only = buf.ground_only;
+  std::vector<std::uint8_t>& at_edge = buf.at_edge;
   std::vector<PlaneSample>& plane = buf.plane;
   ci.clear();
   cj.clear();
   zs.clear();
   ws.clear();
   ground_only.clear();
+  at_edge.clear();
   plane.clear();
   // Carving and hidden observations: the rays start at the reference camera.
   const bool carving = error_model != nullptr && std::isfinite(o.carve_tolerance_m);
@@ -336,7 +347,13 @@ FrameContribution BinFrame(const cv::Mat& xyz, const cv::Mat& sigma, const Eigen
   ws.reserve(capacity);
   std::int32_t i0 = std::numeric_limits<std::int32_t>::max(), j0 = i0, i1 = std::numeric_limits<std::int32_t>::min(),
                j1 = i1;
-  auto bin = [&](double wx, double wy, double wz, double w) {  // a point in, its cell in the frame's box
+  long edge_points = 0;  // points binned at a depth edge (at_edge), judged per cell in pass 3
+  auto bin = [&](double wx, double wy, double wz, double w, bool edge = false) {  // a point in, its cell
+    if (edge || edge_points > 0) {
+      at_edge.resize(zs.size(), 0);
+      at_edge.push_back(edge ? 1 : 0);
+      edge_points += edge;
+    }
     const auto i = static_cast<std::int32_t>(std::floor(wx * inv_cell));
     const auto j = static_cast<std::int32_t>(std::floor(wy * inv_cell));
     i0 = std::min(i0, i);
@@ -352,9 +369,21 @@ FrameContribution BinFrame(const cv::Mat& xyz, const cv::Mat& sigma, const Eigen
   const bool support = std::isfinite(o.support_rise_m);
   std::vector<ColumnWalk>& walk = buf.walk;
   if (visibility || support) walk.assign(static_cast<std::size_t>(xyz.cols), ColumnWalk{});
+  // Depth edges: each row's disparities, to find a nearer point within the margin.
+  const bool edges = error_model != nullptr && o.edge_margin_px > 0;
+  std::vector<float>& row_disparity = buf.row_disparity;
   for (int row = xyz.rows - 1; row >= 0; --row) {
     const float* p = xyz.ptr<float>(row);
     const float* s = sigma.empty() ? nullptr : sigma.ptr<float>(row);
+    if (edges) {
+      row_disparity.assign(static_cast<std::size_t>(xyz.cols), kNaNF);
+      for (int col = 0; col < xyz.cols; ++col) {
+        const float* q = p + 3 * col;
+        if (std::isfinite(q[0]) && std::isfinite(q[1]) && std::isfinite(q[2])) {
+          row_disparity[col] = static_cast<float>(error_model->DisparityPx(q[0], q[1], q[2]));
+        }
+      }
+    }
     for (int col = 0; col < xyz.cols; ++col, p += 3) {
       const float x = p[0], y = p[1], z = p[2];
       if (!(std::isfinite(x) && std::isfinite(y) && std::isfinite(z))) continue;
@@ -425,6 +454,18 @@ FrameContribution BinFrame(const cv::Mat& xyz, const cv::Mat& sigma, const Eigen
         ground_only.push_back({wx, wy, wz, w});
         continue;
       }
+      if (edges) {
+        const float nearer = row_disparity[col] + static_cast<float>(o.edge_step_px);  // NaN: no test
+        bool edge = false;
+        for (int k = std::max(0, col - o.edge_margin_px), end = std::min(xyz.cols - 1, col + o.edge_margin_px);
+             k <= end && !edge; ++k) {
+          edge = row_disparity[k] > nearer;
+        }
+        if (edge) {  // standing or not: decided in its cell (pass 3)
+          bin(wx, wy, wz, w, true);
+          continue;
+        }
+      }
       if (zs.size() % kPlaneStride == 0) plane.push_back({wx, wy, wz});
       bin(wx, wy, wz, w);
       if (carving && wz < camera.z() && zs.size() % kRayStride == 1) {
@@ -435,18 +476,22 @@ FrameContribution BinFrame(const cv::Mat& xyz, const cv::Mat& sigma, const Eigen
   }
   // The ground-only points: those within the gate of the pair's ground plane join the others
   // (they cast no rays: a ray says most near its point, whose place they do not know well).
-  if (!ground_only.empty()) {
-    std::optional<GroundPlaneFit> ground = FitGround(plane);
+  // (The points at a depth edge are judged in pass 3, against the ground their cell holds,
+  // or without one the plane's.)
+  std::optional<GroundPlaneFit> ground;
+  if (!ground_only.empty() || edge_points > 0) {
+    ground = FitGround(plane);
     if (ground && !(std::abs(ground->At(t.x(), t.y()) - t.z()) <= kPlaneOriginToleranceM)) ground.reset();
-    for (const auto& [wx, wy, wz, w] : ground_only) {
-      if (!ground || !(std::abs(wz - ground->At(wx, wy)) <= o.ground_gate_m)) {
-        ++out.points_off_ground;
-        continue;
-      }
-      bin(wx, wy, wz, w);
-      ++out.points_ground_only;
-    }
   }
+  for (const auto& [wx, wy, wz, w] : ground_only) {
+    if (!ground || !(std::abs(wz - ground->At(wx, wy)) <= o.ground_gate_m)) {
+      ++out.points_off_ground;
+      continue;
+    }
+    bin(wx, wy, wz, w);
+    ++out.points_ground_only;
+  }
+  if (edge_points > 0) at_edge.resize(zs.size(), 0);
   if (zs.empty()) return out;
   if (!rays.empty()) {  // the box reaches back to the camera, where the rays start
     const double ci_cam = std::floor(camera.x() * inv_cell), cj_cam = std::floor(camera.y() * inv_cell);
@@ -481,17 +526,59 @@ FrameContribution BinFrame(const cv::Mat& xyz, const cv::Mat& sigma, const Eigen
   sz.resize(zs.size());
   sw.resize(zs.size());
   src.resize(zs.size());
+  std::vector<std::uint8_t>& sorted_at_edge = buf.sorted_at_edge;
+  if (edge_points > 0) sorted_at_edge.resize(zs.size());
   for (std::size_t k = 0; k < zs.size(); ++k) {
     const std::uint32_t at = fill[local[k]]++;
     sz[at] = zs[k];
     sw[at] = ws[k];
     src[at] = static_cast<std::uint32_t>(k);
+    if (edge_points > 0) sorted_at_edge[at] = at_edge[k];
   }
   std::vector<std::uint8_t>& accepted = buf.accepted;  // by pass 1's index: the gate kept the point
   if (!rays.empty()) accepted.assign(zs.size(), 0);
 
   // Pass 3: per cell, gate against the frame's median and sum.
   std::vector<float>& scratch = buf.scratch;
+  // The points of cell c at a depth edge that stand more than edge_height_m over the cell's
+  // ground (the 10th percentile of its other points, with at least gate_min_points of them;
+  // else the pair's ground plane; else the vehicle's ground) are moved to the end of the
+  // cell's range [b, e) and counted; returns how many points stay.
+  auto JudgeEdgePoints = [&](std::uint32_t b, std::uint32_t e, std::int64_t c) -> std::uint32_t {
+    scratch.clear();
+    bool any = false;
+    for (std::uint32_t k = b; k < e; ++k) {
+      if (sorted_at_edge[k] == 0) {
+        scratch.push_back(sz[k]);
+      } else {
+        any = true;
+      }
+    }
+    if (!any) return e - b;
+    double floor_z;
+    if (static_cast<int>(scratch.size()) >= o.gate_min_points) {
+      const auto at = scratch.begin() + static_cast<std::ptrdiff_t>(0.1 * static_cast<double>(scratch.size() - 1));
+      std::nth_element(scratch.begin(), at, scratch.end());
+      floor_z = *at;
+    } else {
+      const double x = (static_cast<double>(i0 + c % nx) + 0.5) * o.cell_m,
+                   y = (static_cast<double>(j0 + c / nx) + 0.5) * o.cell_m;
+      floor_z = ground ? ground->At(x, y) : t.z();
+    }
+    std::uint32_t keep = b;
+    for (std::uint32_t k = b; k < e; ++k) {
+      if (sorted_at_edge[k] != 0 && sz[k] - floor_z > o.edge_height_m) {
+        ++out.points_edge;
+        continue;
+      }
+      std::swap(sz[keep], sz[k]);
+      std::swap(sw[keep], sw[k]);
+      std::swap(src[keep], src[k]);
+      std::swap(sorted_at_edge[keep], sorted_at_edge[k]);
+      ++keep;
+    }
+    return keep - b;
+  };
   // The hidden rule's ground per cell of the frame's box: a low quantile of the points kept.
   std::vector<float>& lowest = buf.lowest;
   std::vector<float>& kept = buf.kept;
@@ -500,7 +587,10 @@ FrameContribution BinFrame(const cv::Mat& xyz, const cv::Mat& sigma, const Eigen
   const double floor2 = o.gate_floor_m * o.gate_floor_m, k2 = o.gate_k * o.gate_k;
   const double frame_floor2 = o.frame_floor_m * o.frame_floor_m;
   for (std::int64_t c = 0; c + 1 < static_cast<std::int64_t>(start.size()); ++c) {
-    const std::uint32_t b = start[c], e = start[c + 1];
+    const std::uint32_t b = start[c];
+    std::uint32_t e = start[c + 1];
+    if (b == e) continue;
+    if (edge_points > 0) e = b + JudgeEdgePoints(b, e, c);
     if (b == e) continue;
     const std::uint32_t n = e - b;
     double median = 0, spread2 = 0;
@@ -592,8 +682,8 @@ FrameContribution BinFrame(const cv::Mat& xyz, const cv::Mat& sigma, const Eigen
       WalkRay(camera, x, y, z, s0, s1, o.cell_m, [&](std::int64_t i, std::int64_t j, double h_in, double) {
         const std::int64_t li = i - i0, lj = j - j0;
         if ((i != index.i || j != index.j) && li >= 0 && lj >= 0 && li < nx && lj < ny) {
-          const float ground = lowest[static_cast<std::size_t>(lj * nx + li)];
-          hidden = std::isfinite(ground) && h_in < static_cast<double>(ground) - o.hidden_tolerance_m;
+          const float cell_ground = lowest[static_cast<std::size_t>(lj * nx + li)];
+          hidden = std::isfinite(cell_ground) && h_in < static_cast<double>(cell_ground) - o.hidden_tolerance_m;
         }
         return !hidden;
       });

@@ -147,6 +147,18 @@ struct TerrainMapOptions {
   double ground_sigma_cells = 1.5;
   /// The ground-only points' gate: their largest height from the pair's ground plane, metres, > 0.
   double ground_gate_m = 0.1;
+  /// Depth edges: a point that has, within edge_margin_px along its image row, a point more
+  /// than edge_step_px of disparity nearer is left out where it stands more than edge_height_m
+  /// over the ground of the cell it falls in (the 10th percentile of the pair's other points
+  /// there, at least gate_min_points of them; else the pair's ground plane; else the vehicle's
+  /// ground). There the matching window straddled the nearer surface's silhouette and the
+  /// point's depth mixes the two surfaces: a pedestrian's edge matched between him and what
+  /// lies behind him stands half a metre behind him. On the ground such a point stays (a
+  /// mixed depth moves it along the ground). Needs the rig's error model (the points'
+  /// disparities). edge_margin_px in 0..64 (0: off), edge_step_px > 0, edge_height_m >= 0.
+  int edge_margin_px = 6;
+  double edge_step_px = 1.0;
+  double edge_height_m = 0.25;
   /// Cells that fewer pairs saw are left out of the map's layers (kept in its sums, so that a
   /// later pair, a resumed run or a merged map confirms them), >= 1. 1 (every cell): the ground
   /// at the common view's edges is often seen by one pair only (a rock 3 m to the side, seen
@@ -233,6 +245,7 @@ struct FrameContribution {
   long points_out_of_range = 0;
   long points_ground_only = 0;  ///< Kept as ground only (TerrainMapOptions::ground_sigma_cells).
   long points_off_ground = 0;   ///< Too uncertain for a cell and off the pair's ground plane: left out.
+  long points_edge = 0;         ///< Standing at a depth edge, behind a nearer surface (edge_margin_px).
   long rays_cast = 0;      ///< Rays that set ceilings (carving).
   long points_hidden = 0;  ///< Points of observations the ray to them shows hidden (left out).
 };

@@ -6,6 +6,7 @@
 #include <algorithm>
 #include <cmath>
 #include <limits>
+#include <map>
 
 #include "calib/paper_rig.h"
 #include "calib/rectify.h"
@@ -863,6 +864,66 @@ TEST_F(Carving, TheRayIsTestedAgainstTheGroundNotItsNoisesTail) {
   EXPECT_EQ(deep(by_lowest), 1);  // the patch
   EXPECT_EQ(by_ground.points_hidden, moved);  // the patch, nothing of the road
   EXPECT_EQ(deep(by_ground), 0);
+}
+
+TEST_F(Carving, WhatStandsBehindADepthEdgeIsLeftOutTheGroundBesideItKept) {
+  // A box 0.5 m wide and 1 m tall 7-7.5 m ahead on flat ground. The two outermost columns of
+  // its points on each side, where a matcher's window straddles the box's silhouette and what
+  // lies behind it, matched 0.6 m too far along their rays: standing behind the box, as a
+  // pedestrian's edge stood behind him on raw 0005.
+  const FramePose p = Pose(0, 0, 0);
+  auto box = [](double x, double y) { return std::abs(x) < 0.25 && y >= 7 && y < 7.5 ? 1.0 : 0.0; };
+  cv::Mat xyz = RenderedXyz(box, p, camera_, 160, 160, -3, 3, 2, 12);
+  int moved = 0;
+  for (int r = 0; r < xyz.rows; ++r) {
+    auto on_box = [&](int c) {
+      const cv::Vec3f& v = xyz.at<cv::Vec3f>(r, c);
+      return c >= 0 && c < xyz.cols && std::isfinite(v[2]) && v[2] > 0.05f;
+    };
+    std::vector<int> edge;
+    for (int c = 0; c < xyz.cols; ++c) {
+      if (on_box(c) && !(on_box(c - 2) && on_box(c + 2))) edge.push_back(c);
+    }
+    for (int c : edge) {
+      cv::Vec3f& v = xyz.at<cv::Vec3f>(r, c);
+      const Eigen::Vector3d at(v[0], v[1], v[2]), ray = at - camera_;
+      const Eigen::Vector3d far = at + 0.6 * ray / std::hypot(ray.x(), ray.y());  // 0.6 m farther, horizontally
+      moved += far.z() > 0.25;
+      v = cv::Vec3f(static_cast<float>(far.x()), static_cast<float>(far.y()), static_cast<float>(far.z()));
+    }
+  }
+  ASSERT_GT(moved, 20);
+  TerrainMapOptions off;
+  off.edge_margin_px = 0;
+  const FrameContribution with = BinFrame(xyz, cv::Mat(), p.WorldFromVehicle(), 0, TerrainMapOptions(), &model_);
+  const FrameContribution without = BinFrame(xyz, cv::Mat(), p.WorldFromVehicle(), 0, off, &model_);
+  auto count_cells = [](const FrameContribution& f, auto&& which) {
+    int n = 0;
+    for (const auto& [index, s] : f.cells) {
+      n += s.count > 0 && which((static_cast<double>(index.i) + 0.5) * 0.25, (static_cast<double>(index.j) + 0.5) * 0.25, s);
+    }
+    return n;
+  };
+  // Behind the box (7.5-8.5 m) nothing stands: the ground there is hidden, or flat.
+  auto standing_behind = [](double, double y, const CellStats& s) { return y > 7.5 && y < 8.5 && s.z_max > 0.25; };
+  auto box_top = [](double, double y, const CellStats& s) { return y > 7 && y < 7.5 && s.count >= 3 && s.z_max > 0.4; };
+  EXPECT_GE(count_cells(without, standing_behind), 2);  // the phantoms, without the rule
+  EXPECT_EQ(count_cells(with, standing_behind), 0);
+  EXPECT_EQ(without.points_edge, 0);
+  EXPECT_GT(with.points_edge, 20);
+  EXPECT_GE(count_cells(with, box_top), 2);  // the box stays
+  EXPECT_EQ(count_cells(with, box_top), count_cells(without, box_top));
+  // And the ground beside it: every flat cell stays, with its points.
+  std::map<std::pair<std::int64_t, std::int64_t>, std::uint32_t> flat;
+  for (const auto& [index, s] : without.cells) {
+    if (s.count > 0 && s.z_max < 0.05) flat[{index.i, index.j}] = s.count;
+  }
+  int kept = 0;
+  for (const auto& [index, s] : with.cells) {
+    const auto it = flat.find({index.i, index.j});
+    kept += it != flat.end() && s.count == it->second;
+  }
+  EXPECT_EQ(kept, static_cast<int>(flat.size()));
 }
 
 TEST_F(Carving, ADitchSeenOverItsLipIsNotHidden) {
