@@ -30,6 +30,37 @@ const std::array<const char*, 11> kStateBinBands = {"index", "sum_w",    "sum_wz
 constexpr float kInfF = std::numeric_limits<float>::infinity();
 constexpr float kNaNF = std::numeric_limits<float>::quiet_NaN();
 
+// The depth-edge test (TerrainMapOptions::edge_margin_px): within `margin` pixels along the row
+// of `col`, a point more than `step` px of disparity nearer than the point's own surface
+// carried there. In rectified images a plane's disparity is linear along a row: where the
+// surface is locally linear (its slopes to the points 4 px away on either side, or 2-3 px away
+// where those are holes, agree within kEdgeSlopeAgreement px per pixel) it is carried along
+// that slope, else level. A slanted surface (a parked car's side seen along the road, 0.3-0.5
+// px of disparity per pixel) has then no edge within it; a silhouette, where the slopes part,
+// has.
+constexpr float kEdgeSlopeAgreement = 0.3f;
+bool AtDepthEdge(const std::vector<float>& disparity, int col, int margin, float step) {
+  const int cols = static_cast<int>(disparity.size());
+  auto at = [&](int k) { return k >= 0 && k < cols ? disparity[static_cast<std::size_t>(k)] : kNaNF; };
+  auto nearest = [&](int dir) {  // the farthest valid column 2-4 px away that way, or col
+    for (int k = col + 4 * dir; std::abs(k - col) >= 2; k -= dir) {
+      if (!std::isnan(at(k))) return k;
+    }
+    return col;
+  };
+  const int l = nearest(-1), r = nearest(1);
+  const float own = at(col);
+  float slope = 0.0f;
+  if (l != col && r != col) {
+    const float left = (own - at(l)) / static_cast<float>(col - l), right = (at(r) - own) / static_cast<float>(r - col);
+    if (std::abs(left - right) <= kEdgeSlopeAgreement) slope = 0.5f * (left + right);
+  }
+  for (int k = std::max(0, col - margin), end = std::min(cols - 1, col + margin); k <= end; ++k) {
+    if (at(k) - own - slope * static_cast<float>(k - col) > step) return true;  // NaN compares false
+  }
+  return false;
+}
+
 // The two lowest of {a1 <= a2} and {b1 <= b2}, into a1, a2.
 void TwoLowest(float* a1, float* a2, float b1, float b2) {
   *a2 = std::min(std::max(*a1, b1), std::min(*a2, b2));
@@ -454,17 +485,9 @@ FrameContribution BinFrame(const cv::Mat& xyz, const cv::Mat& sigma, const Eigen
         ground_only.push_back({wx, wy, wz, w});
         continue;
       }
-      if (edges) {
-        const float nearer = row_disparity[col] + static_cast<float>(o.edge_step_px);  // NaN: no test
-        bool edge = false;
-        for (int k = std::max(0, col - o.edge_margin_px), end = std::min(xyz.cols - 1, col + o.edge_margin_px);
-             k <= end && !edge; ++k) {
-          edge = row_disparity[k] > nearer;
-        }
-        if (edge) {  // standing or not: decided in its cell (pass 3)
-          bin(wx, wy, wz, w, true);
-          continue;
-        }
+      if (edges && AtDepthEdge(row_disparity, col, o.edge_margin_px, static_cast<float>(o.edge_step_px))) {
+        bin(wx, wy, wz, w, true);  // standing or not: decided in its cell (pass 3)
+        continue;
       }
       if (zs.size() % kPlaneStride == 0) plane.push_back({wx, wy, wz});
       bin(wx, wy, wz, w);

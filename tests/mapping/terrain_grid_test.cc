@@ -926,6 +926,52 @@ TEST_F(Carving, WhatStandsBehindADepthEdgeIsLeftOutTheGroundBesideItKept) {
   EXPECT_EQ(kept, static_cast<int>(flat.size()));
 }
 
+TEST_F(Carving, ASlantedSideIsNoDepthEdge) {
+  // A parked car's side seen along the road: a box 1.8 m wide and 1.5 m tall, 5-10 m ahead, its
+  // near side 2 m to the right of the camera, in a level perspective image of the rig's focal
+  // length, with a matcher's noise. Along a row its side's disparity changes by more than the
+  // edge step within the margin (0.46 px per pixel at 7 m), linearly: no point of it is at a
+  // depth edge but where the side ends against what lies beyond.
+  const FramePose p = Pose(0, 0, 0);
+  const double f = rig_.rectified->P_left(0, 0), x0 = camera_.x() + 2.0, x1 = x0 + 1.8, y0 = 5, y1 = 10, top = 1.5;
+  const int cols = 2 * static_cast<int>(f), rows = static_cast<int>(f) / 2;
+  cv::Mat xyz(rows, cols, CV_32FC3, cv::Scalar::all(std::numeric_limits<float>::quiet_NaN()));
+  int side = 0;
+  for (int r = 0; r < rows; ++r) {
+    for (int c = 0; c < cols; ++c) {
+      const Eigen::Vector3d ray((c + 0.5 - cols / 2.0) / f, 1.0, -(r + 0.5 - rows / 2.0) / f);
+      double t = ray.z() < 0 ? -camera_.z() / ray.z() : std::numeric_limits<double>::infinity();  // the ground
+      bool on_side = false;
+      if (ray.x() > 0) {  // the box's near side, x = x0
+        const double ts = (x0 - camera_.x()) / ray.x();
+        const Eigen::Vector3d at = camera_ + ts * ray;
+        if (ts < t && at.y() >= y0 && at.y() <= y1 && at.z() >= 0 && at.z() <= top) {
+          t = ts;
+          on_side = true;
+        }
+      }
+      const double tb = (y0 - camera_.y()) / ray.y();  // its rear, y = y0
+      const Eigen::Vector3d rear = camera_ + tb * ray;
+      if (tb < t && rear.x() >= x0 && rear.x() <= x1 && rear.z() >= 0 && rear.z() <= top) {
+        t = tb;
+        on_side = false;
+      }
+      if (!std::isfinite(t) || t * ray.y() > 14) continue;
+      t *= 1 + 0.002 * std::sin(1.7 * c + r);  // a matcher's noise: 0.2 % of the depth, 0.2 px at 7 m
+      const Eigen::Vector3d at = camera_ + t * ray;
+      xyz.at<cv::Vec3f>(r, c) = cv::Vec3f(static_cast<float>(at.x()), static_cast<float>(at.y()), static_cast<float>(at.z()));
+      side += on_side && at.z() > 0.3;
+    }
+  }
+  ASSERT_GT(side, 500);
+  // The side's disparity 6 px apart along a row differs by more than the step (1 px).
+  const TerrainMapOptions o;
+  const double lateral = x0 - camera_.x(), y_beside = lateral / (lateral / 7 + 6 / f);  // 6 px to the right
+  ASSERT_GT(model_.DisparityPx(x0, y_beside, 0.5) - model_.DisparityPx(x0, 7, 0.5), o.edge_step_px);
+  const FrameContribution with = BinFrame(xyz, cv::Mat(), p.WorldFromVehicle(), 0, o, &model_);
+  EXPECT_LT(with.points_edge, side / 20);
+}
+
 TEST_F(Carving, ADitchSeenOverItsLipIsNotHidden) {
   // A ditch 0.4 m deep from 6 m ahead on, its bottom seen over the lip from 7.6 m: true low
   // ground, which no ray reaches through the ground.
