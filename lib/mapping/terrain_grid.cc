@@ -568,16 +568,13 @@ FrameContribution BinFrame(const cv::Mat& xyz, const cv::Mat& sigma, const Eigen
   // else the pair's ground plane; else the vehicle's ground) are moved to the end of the
   // cell's range [b, e) and counted; returns how many points stay.
   auto JudgeEdgePoints = [&](std::uint32_t b, std::uint32_t e, std::int64_t c) -> std::uint32_t {
-    scratch.clear();
-    bool any = false;
-    for (std::uint32_t k = b; k < e; ++k) {
-      if (sorted_at_edge[k] == 0) {
-        scratch.push_back(sz[k]);
-      } else {
-        any = true;
-      }
+    if (std::find(sorted_at_edge.begin() + b, sorted_at_edge.begin() + e, 1) == sorted_at_edge.begin() + e) {
+      return e - b;  // none at an edge (most cells)
     }
-    if (!any) return e - b;
+    scratch.clear();
+    for (std::uint32_t k = b; k < e; ++k) {
+      if (sorted_at_edge[k] == 0) scratch.push_back(sz[k]);
+    }
     double floor_z;
     if (static_cast<int>(scratch.size()) >= o.gate_min_points) {
       const auto at = scratch.begin() + static_cast<std::ptrdiff_t>(0.1 * static_cast<double>(scratch.size() - 1));

@@ -148,10 +148,11 @@ struct TerrainMapOptions {
   /// The ground-only points' gate: their largest height from the pair's ground plane, metres, > 0.
   double ground_gate_m = 0.1;
   /// Depth edges: a point that has, within edge_margin_px along its image row, a point more
-  /// than edge_step_px of disparity nearer is left out where it stands more than edge_height_m
-  /// over the ground of the cell it falls in (the 10th percentile of the pair's other points
-  /// there, at least gate_min_points of them; else the pair's ground plane; else the vehicle's
-  /// ground). There the matching window straddled the nearer surface's silhouette and the
+  /// than edge_step_px of disparity nearer than the point's own surface carried there (along
+  /// its slope where it is locally linear: a plane's disparity is linear along a rectified
+  /// row) is left out where it stands more than edge_height_m over the ground of the cell it
+  /// falls in (the 10th percentile of the pair's other points there, at least gate_min_points
+  /// of them; else the pair's ground plane; else the vehicle's ground). There the matching window straddled the nearer surface's silhouette and the
   /// point's depth mixes the two surfaces: a pedestrian's edge matched between him and what
   /// lies behind him stands half a metre behind him. On the ground such a point stays (a
   /// mixed depth moves it along the ground). Needs the rig's error model (the points'
