@@ -38,6 +38,15 @@ constexpr float kNaNF = std::numeric_limits<float>::quiet_NaN();
 // that slope, else level. A slanted surface (a parked car's side seen along the road, 0.3-0.5
 // px of disparity per pixel) has then no edge within it; a silhouette, where the slopes part,
 // has.
+// The element at floor(q (n - 1)) of `values` in order (n > 0): its q-quantile; reorders them.
+float QuantileInPlace(std::vector<float>& values, double q) {
+  const auto at = values.begin() + static_cast<std::ptrdiff_t>(q * static_cast<double>(values.size() - 1));
+  std::nth_element(values.begin(), at, values.end());
+  return *at;
+}
+
+// The depth-edge rule's ground of a cell: this quantile of the pair's other points there.
+constexpr double kEdgeGroundQuantile = 0.1;
 constexpr float kEdgeSlopeAgreement = 0.3f;
 bool AtDepthEdge(const std::vector<float>& disparity, int col, int margin, float step) {
   const int cols = static_cast<int>(disparity.size());
@@ -514,7 +523,6 @@ FrameContribution BinFrame(const cv::Mat& xyz, const cv::Mat& sigma, const Eigen
     bin(wx, wy, wz, w);
     ++out.points_ground_only;
   }
-  if (edge_points > 0) at_edge.resize(zs.size(), 0);
   if (zs.empty()) return out;
   if (!rays.empty()) {  // the box reaches back to the camera, where the rays start
     const double ci_cam = std::floor(camera.x() * inv_cell), cj_cam = std::floor(camera.y() * inv_cell);
@@ -577,9 +585,7 @@ FrameContribution BinFrame(const cv::Mat& xyz, const cv::Mat& sigma, const Eigen
     }
     double floor_z;
     if (static_cast<int>(scratch.size()) >= o.gate_min_points) {
-      const auto at = scratch.begin() + static_cast<std::ptrdiff_t>(0.1 * static_cast<double>(scratch.size() - 1));
-      std::nth_element(scratch.begin(), at, scratch.end());
-      floor_z = *at;
+      floor_z = QuantileInPlace(scratch, kEdgeGroundQuantile);
     } else {
       const double x = (static_cast<double>(i0 + c % nx) + 0.5) * o.cell_m,
                    y = (static_cast<double>(j0 + c / nx) + 0.5) * o.cell_m;
@@ -654,14 +660,7 @@ FrameContribution BinFrame(const cv::Mat& xyz, const cv::Mat& sigma, const Eigen
       ++cell.count;
     }
     if (hiding && cell.count > 0) {
-      float ground = cell.z_min;
-      if (quantile) {
-        const auto at = kept.begin() + static_cast<std::ptrdiff_t>(o.hidden_ground_quantile *
-                                                                   static_cast<double>(kept.size() - 1));
-        std::nth_element(kept.begin(), at, kept.end());
-        ground = *at;
-      }
-      lowest[static_cast<std::size_t>(c)] = ground;
+      lowest[static_cast<std::size_t>(c)] = quantile ? QuantileInPlace(kept, o.hidden_ground_quantile) : cell.z_min;
     }
     if (cell.count > 0) {
       // The frame's one observation of the cell: the points' weighted mean, weighed by their
