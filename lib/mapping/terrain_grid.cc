@@ -1,5 +1,9 @@
 #include "mapping/terrain_grid.h"
 
+#if defined(__SSE2__)
+#include <emmintrin.h>
+#endif
+
 #include <algorithm>
 #include <array>
 #include <cmath>
@@ -30,14 +34,6 @@ const std::array<const char*, 11> kStateBinBands = {"index", "sum_w",    "sum_wz
 constexpr float kInfF = std::numeric_limits<float>::infinity();
 constexpr float kNaNF = std::numeric_limits<float>::quiet_NaN();
 
-// The depth-edge test (TerrainMapOptions::edge_margin_px): within `margin` pixels along the row
-// of `col`, a point more than `step` px of disparity nearer than the point's own surface
-// carried there. In rectified images a plane's disparity is linear along a row: where the
-// surface is locally linear (its slopes to the points 4 px away on either side, or 2-3 px away
-// where those are holes, agree within kEdgeSlopeAgreement px per pixel) it is carried along
-// that slope, else level. A slanted surface (a parked car's side seen along the road, 0.3-0.5
-// px of disparity per pixel) has then no edge within it; a silhouette, where the slopes part,
-// has.
 // The element at floor(q (n - 1)) of `values` in order (n > 0): its q-quantile; reorders them.
 float QuantileInPlace(std::vector<float>& values, double q) {
   const auto at = values.begin() + static_cast<std::ptrdiff_t>(q * static_cast<double>(values.size() - 1));
@@ -47,27 +43,12 @@ float QuantileInPlace(std::vector<float>& values, double q) {
 
 // The depth-edge rule's ground of a cell: this quantile of the pair's other points there.
 constexpr double kEdgeGroundQuantile = 0.1;
-constexpr float kEdgeSlopeAgreement = 0.3f;
-bool AtDepthEdge(const std::vector<float>& disparity, int col, int margin, float step) {
-  const int cols = static_cast<int>(disparity.size());
-  auto at = [&](int k) { return k >= 0 && k < cols ? disparity[static_cast<std::size_t>(k)] : kNaNF; };
-  auto nearest = [&](int dir) {  // the farthest valid column 2-4 px away that way, or col
-    for (int k = col + 4 * dir; std::abs(k - col) >= 2; k -= dir) {
-      if (!std::isnan(at(k))) return k;
-    }
-    return col;
-  };
-  const int l = nearest(-1), r = nearest(1);
-  const float own = at(col);
-  float slope = 0.0f;
-  if (l != col && r != col) {
-    const float left = (own - at(l)) / static_cast<float>(col - l), right = (at(r) - own) / static_cast<float>(r - col);
-    if (std::abs(left - right) <= kEdgeSlopeAgreement) slope = 0.5f * (left + right);
-  }
-  for (int k = std::max(0, col - margin), end = std::min(cols - 1, col + margin); k <= end; ++k) {
-    if (at(k) - own - slope * static_cast<float>(k - col) > step) return true;  // NaN compares false
-  }
-  return false;
+
+// floor(v) for |v| < 2^31 (a world coordinate within kMaxWorldCoordinateM, in cells): the
+// truncation less one below zero, without the library call std::floor is on plain x86-64.
+std::int32_t FloorToInt32(double v) {
+  const auto t = static_cast<std::int32_t>(v);
+  return t - (v < static_cast<double>(t) ? 1 : 0);
 }
 
 // The two lowest of {a1 <= a2} and {b1 <= b2}, into a1, a2.
@@ -254,7 +235,8 @@ void TerrainMapOptions::Validate() const {
   LN_CHECK_ARG(max_horizontal_sigma_cells > 0) << "max horizontal sigma: must be > 0 cells";
   LN_CHECK_ARG(!std::isnan(ground_sigma_cells)) << "ground sigma: must be a number of cells";
   LN_CHECK_ARG(std::isfinite(ground_gate_m) && ground_gate_m > 0) << "ground gate: must be > 0 m";
-  LN_CHECK_ARG(edge_margin_px >= 0 && edge_margin_px <= 64) << "edge margin: must be in 0..64 px (0: off)";
+  LN_CHECK_ARG(edge_margin_px >= 0 && edge_margin_px <= internal::kEdgeRowPad)
+      << "edge margin: must be in 0..64 px (0: off)";
   LN_CHECK_ARG(std::isfinite(edge_step_px) && edge_step_px > 0) << "edge step: must be > 0 px";
   LN_CHECK_ARG(std::isfinite(edge_height_m) && edge_height_m >= 0) << "edge height: must be >= 0 m";
   LN_CHECK_ARG(min_frames >= 1) << "min frames: must be >= 1";
@@ -351,7 +333,8 @@ FrameContribution BinFrame(const cv::Mat& xyz, const cv::Mat& sigma, const Eigen
     std::vector<float> lowest;  // per cell of the frame's box, the hidden rule's ground
     std::vector<std::pair<CellIndex, CellStats>> seen;
     std::vector<std::array<double, 4>> ground_only;  // candidates: world x, y, z and weight
-    std::vector<float> row_disparity;                // the row's points' disparities (the edge rule)
+    std::vector<float> row_disparity;                // the row's points' disparities (the edge rule), padded
+    std::vector<std::uint8_t> row_edge;              // per column of the row: at a depth edge
     std::vector<std::uint8_t> at_edge, sorted_at_edge;  // by pass 1's index and sorted: at a depth edge
     std::vector<PlaneSample> plane;                  // a sample of the other points: world x, y, z
   };
@@ -394,8 +377,7 @@ FrameContribution BinFrame(const cv::Mat& xyz, const cv::Mat& sigma, const Eigen
       at_edge.push_back(edge ? 1 : 0);
       edge_points += edge;
     }
-    const auto i = static_cast<std::int32_t>(std::floor(wx * inv_cell));
-    const auto j = static_cast<std::int32_t>(std::floor(wy * inv_cell));
+    const std::int32_t i = FloorToInt32(wx * inv_cell), j = FloorToInt32(wy * inv_cell);
     i0 = std::min(i0, i);
     i1 = std::max(i1, i);
     j0 = std::min(j0, j);
@@ -412,17 +394,24 @@ FrameContribution BinFrame(const cv::Mat& xyz, const cv::Mat& sigma, const Eigen
   // Depth edges: each row's disparities, to find a nearer point within the margin.
   const bool edges = error_model != nullptr && o.edge_margin_px > 0;
   std::vector<float>& row_disparity = buf.row_disparity;
+  std::vector<std::uint8_t>& row_edge = buf.row_edge;
   for (int row = xyz.rows - 1; row >= 0; --row) {
     const float* p = xyz.ptr<float>(row);
     const float* s = sigma.empty() ? nullptr : sigma.ptr<float>(row);
     if (edges) {
-      row_disparity.assign(static_cast<std::size_t>(xyz.cols), kNaNF);
+      row_disparity.assign(static_cast<std::size_t>(xyz.cols + 2 * internal::kEdgeRowPad), kNaNF);
+      float* d = row_disparity.data() + internal::kEdgeRowPad;
+      bool any = false;
       for (int col = 0; col < xyz.cols; ++col) {
         const float* q = p + 3 * col;
         if (std::isfinite(q[0]) && std::isfinite(q[1]) && std::isfinite(q[2])) {
-          row_disparity[col] = static_cast<float>(error_model->DisparityPx(q[0], q[1], q[2]));
+          d[col] = static_cast<float>(error_model->DisparityPx(q[0], q[1], q[2]));
+          any = true;
         }
       }
+      if (!any) continue;  // a row outside the band the pair was matched in
+      row_edge.resize(static_cast<std::size_t>(xyz.cols));
+      internal::DepthEdgeRow(d, xyz.cols, o.edge_margin_px, static_cast<float>(o.edge_step_px), row_edge.data());
     }
     for (int col = 0; col < xyz.cols; ++col, p += 3) {
       const float x = p[0], y = p[1], z = p[2];
@@ -494,7 +483,7 @@ FrameContribution BinFrame(const cv::Mat& xyz, const cv::Mat& sigma, const Eigen
         ground_only.push_back({wx, wy, wz, w});
         continue;
       }
-      if (edges && AtDepthEdge(row_disparity, col, o.edge_margin_px, static_cast<float>(o.edge_step_px))) {
+      if (edges && row_edge[static_cast<std::size_t>(col)] != 0) {
         bin(wx, wy, wz, w, true);  // standing or not: decided in its cell (pass 3)
         continue;
       }
@@ -591,16 +580,18 @@ FrameContribution BinFrame(const cv::Mat& xyz, const cv::Mat& sigma, const Eigen
                    y = (static_cast<double>(j0 + c / nx) + 0.5) * o.cell_m;
       floor_z = ground ? ground->At(x, y) : t.z();
     }
-    std::uint32_t keep = b;
+    std::uint32_t keep = b;  // the points kept, moved to the front in their order
     for (std::uint32_t k = b; k < e; ++k) {
       if (sorted_at_edge[k] != 0 && sz[k] - floor_z > o.edge_height_m) {
         ++out.points_edge;
         continue;
       }
-      std::swap(sz[keep], sz[k]);
-      std::swap(sw[keep], sw[k]);
-      std::swap(src[keep], src[k]);
-      std::swap(sorted_at_edge[keep], sorted_at_edge[k]);
+      if (keep != k) {
+        sz[keep] = sz[k];
+        sw[keep] = sw[k];
+        src[keep] = src[k];
+        sorted_at_edge[keep] = sorted_at_edge[k];
+      }
       ++keep;
     }
     return keep - b;
@@ -647,8 +638,10 @@ FrameContribution BinFrame(const cv::Mat& xyz, const cv::Mat& sigma, const Eigen
           continue;
         }
       }
-      for (float v = static_cast<float>(z), *t = tops.data(); t != tops.data() + kTopSupport; ++t) {
-        if (v > *t) std::swap(v, *t);
+      if (static_cast<float>(z) > tops.back()) {  // among the highest so far
+        for (float v = static_cast<float>(z), *t = tops.data(); t != tops.data() + kTopSupport; ++t) {
+          if (v > *t) std::swap(v, *t);
+        }
       }
       if (!rays.empty()) accepted[src[k]] = 1;
       sw_pts += w;
@@ -1205,5 +1198,81 @@ io::GeoRaster LayersToRaster(const MapLayers& l) {
   }
   return r;
 }
+
+namespace internal {
+
+// The slopes of a row's surface agree when they differ by at most this, px of disparity per px.
+constexpr float kEdgeSlopeAgreement = 0.3f;
+
+namespace {
+
+// One column of DepthEdgeRow.
+std::uint8_t DepthEdgeAt(const float* row, int col, int margin, float step) {
+  const float own = row[col];
+  // The farthest valid column 2-4 px away on either side (distance 0: none).
+  const float l4 = row[col - 4], l3 = row[col - 3], l2 = row[col - 2];
+  const float r4 = row[col + 4], r3 = row[col + 3], r2 = row[col + 2];
+  const float ld = !std::isnan(l4) ? 4.0f : !std::isnan(l3) ? 3.0f : !std::isnan(l2) ? 2.0f : 0.0f;
+  const float lv = !std::isnan(l4) ? l4 : !std::isnan(l3) ? l3 : l2;
+  const float rd = !std::isnan(r4) ? 4.0f : !std::isnan(r3) ? 3.0f : !std::isnan(r2) ? 2.0f : 0.0f;
+  const float rv = !std::isnan(r4) ? r4 : !std::isnan(r3) ? r3 : r2;
+  float slope = 0.0f;
+  if (ld > 0 && rd > 0) {
+    const float left = (own - lv) / ld, right = (rv - own) / rd;
+    if (std::abs(left - right) <= kEdgeSlopeAgreement) slope = 0.5f * (left + right);
+  }
+  for (int k = -margin; k <= margin; ++k) {
+    if (row[col + k] - own - slope * static_cast<float>(k) > step) return 1;  // NaN compares false
+  }
+  return 0;
+}
+
+}  // namespace
+
+void DepthEdgeRow(const float* row, int cols, int margin, float step, std::uint8_t* edge) {
+  LN_CHECK(margin >= 0 && margin <= kEdgeRowPad) << "depth edge: margin " << margin << " beyond the row's padding";
+  int col = 0;
+#if defined(__SSE2__)
+  // Four columns at a time, the same IEEE operations in the same order as DepthEdgeAt (bit for
+  // bit its answers), without its branches: most of a row's columns are not at an edge, and
+  // the scalar test's branches on holes and slopes mispredict.
+  auto valid = [](__m128 v) { return _mm_cmpord_ps(v, v); };  // not NaN
+  auto select = [](__m128 mask, __m128 a, __m128 b) { return _mm_or_ps(_mm_and_ps(mask, a), _mm_andnot_ps(mask, b)); };
+  const __m128 zero = _mm_setzero_ps(), two = _mm_set1_ps(2.0f), three = _mm_set1_ps(3.0f), four = _mm_set1_ps(4.0f);
+  const __m128 half = _mm_set1_ps(0.5f), agreement = _mm_set1_ps(kEdgeSlopeAgreement), step4 = _mm_set1_ps(step);
+  const __m128 abs_mask = _mm_castsi128_ps(_mm_set1_epi32(0x7fffffff));
+  for (; col + 4 <= cols; col += 4) {
+    const float* p = row + col;
+    const __m128 own = _mm_loadu_ps(p);
+    if (_mm_movemask_ps(valid(own)) == 0) {  // no points here (most of a row off the band's ground)
+      std::fill(edge + col, edge + col + 4, std::uint8_t{0});
+      continue;
+    }
+    const __m128 l4 = _mm_loadu_ps(p - 4), l3 = _mm_loadu_ps(p - 3), l2 = _mm_loadu_ps(p - 2);
+    const __m128 r4 = _mm_loadu_ps(p + 4), r3 = _mm_loadu_ps(p + 3), r2 = _mm_loadu_ps(p + 2);
+    const __m128 ld = select(valid(l4), four, select(valid(l3), three, select(valid(l2), two, zero)));
+    const __m128 lv = select(valid(l4), l4, select(valid(l3), l3, l2));
+    const __m128 rd = select(valid(r4), four, select(valid(r3), three, select(valid(r2), two, zero)));
+    const __m128 rv = select(valid(r4), r4, select(valid(r3), r3, r2));
+    const __m128 both = _mm_and_ps(_mm_cmpgt_ps(ld, zero), _mm_cmpgt_ps(rd, zero));
+    // Where a side has no point its slope is unused: divide by 1 there, not 0.
+    const __m128 one = _mm_set1_ps(1.0f);
+    const __m128 left = _mm_div_ps(_mm_sub_ps(own, lv), select(both, ld, one));
+    const __m128 right = _mm_div_ps(_mm_sub_ps(rv, own), select(both, rd, one));
+    const __m128 agree = _mm_cmple_ps(_mm_and_ps(_mm_sub_ps(left, right), abs_mask), agreement);
+    const __m128 slope = _mm_and_ps(_mm_and_ps(both, agree), _mm_mul_ps(half, _mm_add_ps(left, right)));
+    __m128 at = _mm_setzero_ps();
+    for (int k = -margin; k <= margin; ++k) {
+      const __m128 carried = _mm_mul_ps(slope, _mm_set1_ps(static_cast<float>(k)));
+      at = _mm_or_ps(at, _mm_cmpgt_ps(_mm_sub_ps(_mm_sub_ps(_mm_loadu_ps(p + k), own), carried), step4));
+    }
+    const int bits = _mm_movemask_ps(at);
+    for (int q = 0; q < 4; ++q) edge[col + q] = static_cast<std::uint8_t>((bits >> q) & 1);
+  }
+#endif
+  for (; col < cols; ++col) edge[col] = DepthEdgeAt(row, col, margin, step);
+}
+
+}  // namespace internal
 
 }  // namespace lunarnav::mapping

@@ -350,4 +350,23 @@ cv::Mat DetectObstacles(const cv::Mat& elevation_m, const cv::Mat& min_m, const 
 /// with its description and units; docs/terrain-map.md).
 io::GeoRaster LayersToRaster(const MapLayers& layers);
 
+namespace internal {
+
+/// The padding, in columns of NaN on either side, of a row DepthEdgeRow reads; the largest
+/// depth-edge margin.
+inline constexpr int kEdgeRowPad = 64;
+
+/// The depth-edge test (TerrainMapOptions::edge_margin_px) of every column of one image row:
+/// edge[col] = 1 when, within `margin` px along the row, a point is more than `step` px of
+/// disparity nearer than col's own surface carried there. In rectified images a plane's
+/// disparity is linear along a row: where the surface is locally linear (its slopes to the
+/// farthest points 2-4 px away on either side agree within 0.3 px per px) it is carried along
+/// that slope, else level. A slanted surface (a parked car's side seen along the road, 0.3-0.5
+/// px of disparity per px) has then no edge within it; a silhouette, where the slopes part,
+/// has. `row` points at column 0 of the row's disparities (NaN: no point), readable from
+/// -kEdgeRowPad to cols + kEdgeRowPad - 1 (NaN there); margin in 0..kEdgeRowPad.
+void DepthEdgeRow(const float* row, int cols, int margin, float step, std::uint8_t* edge);
+
+}  // namespace internal
+
 }  // namespace lunarnav::mapping

@@ -7,6 +7,8 @@
 #include <cmath>
 #include <limits>
 #include <map>
+#include <random>
+#include <vector>
 
 #include "calib/paper_rig.h"
 #include "calib/rectify.h"
@@ -1118,6 +1120,67 @@ TEST(TerrainGrid, HeightBinsDependOnTheObservationsNotTheirOrder) {
   const auto carved = forward.Find({3, -2}, 0.1);
   EXPECT_GE(carved->carved_points, 1u);
   EXPECT_LT(carved->z_max, 1.9f);
+}
+
+constexpr float kNaNF = std::numeric_limits<float>::quiet_NaN();
+
+// The depth-edge test as its definition reads, one column at a time with bounds checks: the
+// reference for the row-at-a-time DepthEdgeRow.
+bool DepthEdgeReference(const std::vector<float>& d, int col, int margin, float step) {
+  const int cols = static_cast<int>(d.size());
+  auto at = [&](int k) { return k >= 0 && k < cols ? d[static_cast<std::size_t>(k)] : kNaNF; };
+  auto nearest = [&](int dir) {  // the farthest valid column 2-4 px away that way, or col
+    for (int k = col + 4 * dir; std::abs(k - col) >= 2; k -= dir) {
+      if (!std::isnan(at(k))) return k;
+    }
+    return col;
+  };
+  const int l = nearest(-1), r = nearest(1);
+  const float own = at(col);
+  float slope = 0.0f;
+  if (l != col && r != col) {
+    const float left = (own - at(l)) / static_cast<float>(col - l), right = (at(r) - own) / static_cast<float>(r - col);
+    if (std::abs(left - right) <= 0.3f) slope = 0.5f * (left + right);
+  }
+  for (int k = std::max(0, col - margin); k <= std::min(cols - 1, col + margin); ++k) {
+    if (at(k) - own - slope * static_cast<float>(k - col) > step) return true;
+  }
+  return false;
+}
+
+TEST(DepthEdgeRow, AgreesWithTheTestAsDefinedOnEveryColumn) {
+  // Rows of level and slanted surfaces with holes, steps up and down and noise, of widths that
+  // are and are not multiples of four, for margins up to the padding's.
+  std::mt19937 rng(7);
+  std::uniform_real_distribution<float> unit(0.0f, 1.0f);
+  long edges = 0, columns = 0;
+  for (int trial = 0; trial < 400; ++trial) {
+    const int cols = 1 + static_cast<int>(unit(rng) * 300);
+    const int margin = trial % 10 == 0 ? internal::kEdgeRowPad : 1 + static_cast<int>(unit(rng) * 12);
+    const float step = 0.25f + 2.0f * unit(rng);
+    std::vector<float> d(static_cast<std::size_t>(cols));
+    float level = 20 + 40 * unit(rng), slope = unit(rng) < 0.5f ? 0.0f : unit(rng) - 0.5f;
+    for (int c = 0; c < cols; ++c) {
+      if (unit(rng) < 0.05f) level += (unit(rng) - 0.5f) * 8;  // a depth edge
+      if (unit(rng) < 0.03f) slope = unit(rng) < 0.5f ? 0.0f : unit(rng) - 0.5f;
+      d[static_cast<std::size_t>(c)] = unit(rng) < 0.15f ? kNaNF : level + slope * c + 0.4f * (unit(rng) - 0.5f);
+    }
+    std::vector<float> padded(static_cast<std::size_t>(cols + 2 * internal::kEdgeRowPad), kNaNF);
+    std::copy(d.begin(), d.end(), padded.begin() + internal::kEdgeRowPad);
+    std::vector<std::uint8_t> edge(static_cast<std::size_t>(cols), 2);
+    internal::DepthEdgeRow(padded.data() + internal::kEdgeRowPad, cols, margin, step, edge.data());
+    for (int c = 0; c < cols; ++c) {
+      if (std::isnan(d[static_cast<std::size_t>(c)])) continue;  // no point: the answer is unused
+      const bool expected = DepthEdgeReference(d, c, margin, step);
+      ASSERT_EQ(edge[static_cast<std::size_t>(c)], expected ? 1 : 0)
+          << "trial " << trial << " column " << c << " of " << cols << ", margin " << margin;
+      edges += expected;
+      ++columns;
+    }
+  }
+  // Both answers were exercised.
+  EXPECT_GT(edges, columns / 20);
+  EXPECT_LT(edges, columns - columns / 20);
 }
 
 }  // namespace
