@@ -82,8 +82,8 @@ void AddFusionOptions(CLI::App* app, mapping::TerrainMapOptions* map) {
   app->add_option("--edge-step", map->edge_step_px, "the nearer point's least disparity step at a depth edge, px")
       ->capture_default_str();
   app->add_option("--edge-height", map->edge_height_m,
-                  "the least height over its cell's ground (the pair's other points there) of a point the depth-edge "
-                  "rule leaves out, m")
+                  "the least height over its cell's ground (the pair's other points there, else around it) of a point "
+                  "the depth-edge rule leaves out, m")
       ->capture_default_str();
   app->add_option("--max-range", map->max_range_m, "ignore points farther from the mast base, m")
       ->capture_default_str();

@@ -41,8 +41,10 @@ float QuantileInPlace(std::vector<float>& values, double q) {
   return *at;
 }
 
-// The depth-edge rule's ground of a cell: this quantile of the pair's other points there.
+// The depth-edge rule's ground of a cell: this quantile of the pair's other points there;
+// where the cell has too few, the lowest such ground of the cells within this many cells.
 constexpr double kEdgeGroundQuantile = 0.1;
+constexpr int kEdgeGroundReachCells = 2;
 
 // floor(v) for |v| < 2^31 (a world coordinate within kMaxWorldCoordinateM, in cells): the
 // truncation less one below zero, without the library call std::floor is on plain x86-64.
@@ -336,6 +338,8 @@ FrameContribution BinFrame(const cv::Mat& xyz, const cv::Mat& sigma, const Eigen
     std::vector<float> row_disparity;                // the row's points' disparities (the edge rule), padded
     std::vector<std::uint8_t> row_edge;              // per column of the row: at a depth edge
     std::vector<std::uint8_t> at_edge, sorted_at_edge;  // by pass 1's index and sorted: at a depth edge
+    std::vector<float> edge_ground;                  // per cell of the box: its own ground (NaN: unknown)
+    std::vector<std::pair<std::int64_t, float>> near_ground;  // cells without: the ground around them
     std::vector<PlaneSample> plane;                  // a sample of the other points: world x, y, z
   };
   static thread_local Buffers buf;
@@ -497,10 +501,10 @@ FrameContribution BinFrame(const cv::Mat& xyz, const cv::Mat& sigma, const Eigen
   }
   // The ground-only points: those within the gate of the pair's ground plane join the others
   // (they cast no rays: a ray says most near its point, whose place they do not know well).
-  // (The points at a depth edge are judged in pass 3, against the ground their cell holds,
-  // or without one the plane's.)
+  // (The points at a depth edge are judged in pass 3, against the ground their cell, or the
+  // cells around it, hold.)
   std::optional<GroundPlaneFit> ground;
-  if (!ground_only.empty() || edge_points > 0) {
+  if (!ground_only.empty()) {
     ground = FitGround(plane);
     if (ground && !(std::abs(ground->At(t.x(), t.y()) - t.z()) <= kPlaneOriginToleranceM)) ground.reset();
   }
@@ -560,25 +564,61 @@ FrameContribution BinFrame(const cv::Mat& xyz, const cv::Mat& sigma, const Eigen
 
   // Pass 3: per cell, gate against the frame's median and sum.
   std::vector<float>& scratch = buf.scratch;
+  // The depth-edge rule's ground of a cell (before pass 3 reorders any cell): the
+  // kEdgeGroundQuantile of its points not at an edge, with at least gate_min_points of them;
+  // +inf without (computed once a cell, on demand).
+  std::vector<float>& edge_ground = buf.edge_ground;
+  if (edge_points > 0) edge_ground.assign(static_cast<std::size_t>(nx * ny), kNaNF);
+  auto OwnEdgeGround = [&](std::int64_t c) {
+    float& g = edge_ground[static_cast<std::size_t>(c)];
+    if (std::isnan(g)) {
+      scratch.clear();
+      for (std::uint32_t k = start[c]; k < start[c + 1]; ++k) {
+        if (sorted_at_edge[k] == 0) scratch.push_back(sz[k]);
+      }
+      const bool enough = static_cast<int>(scratch.size()) >= o.gate_min_points;
+      g = enough ? QuantileInPlace(scratch, kEdgeGroundQuantile) : kInfF;
+    }
+    return g;
+  };
+  // Where a cell with points at an edge has no ground of its own, the lowest of the cells' around
+  // it within kEdgeGroundReachCells; +inf where none has (inside a bush or a hedge, where the
+  // pair sees no ground near: nothing to judge the points by). Filled before pass 3.
+  std::vector<std::pair<std::int64_t, float>>& near_ground = buf.near_ground;
+  near_ground.clear();
+  if (edge_points > 0) {
+    for (std::int64_t c = 0; c + 1 < static_cast<std::int64_t>(start.size()); ++c) {
+      const auto b = sorted_at_edge.begin() + start[c], e = sorted_at_edge.begin() + start[c + 1];
+      if (std::find(b, e, 1) == e || std::isfinite(OwnEdgeGround(c))) continue;
+      const std::int64_t ci = c % nx, cj = c / nx;
+      float lowest_near = kInfF;
+      for (std::int64_t j = std::max<std::int64_t>(0, cj - kEdgeGroundReachCells);
+           j <= std::min<std::int64_t>(ny - 1, cj + kEdgeGroundReachCells); ++j) {
+        for (std::int64_t i = std::max<std::int64_t>(0, ci - kEdgeGroundReachCells);
+             i <= std::min<std::int64_t>(nx - 1, ci + kEdgeGroundReachCells); ++i) {
+          const std::int64_t n = j * nx + i;
+          if (start[n] != start[n + 1]) lowest_near = std::min(lowest_near, OwnEdgeGround(n));
+        }
+      }
+      near_ground.emplace_back(c, lowest_near);
+    }
+  }
   // The points of cell c at a depth edge that stand more than edge_height_m over the cell's
-  // ground (the 10th percentile of its other points, with at least gate_min_points of them;
-  // else the pair's ground plane; else the vehicle's ground) are moved to the end of the
-  // cell's range [b, e) and counted; returns how many points stay.
+  // ground (its own, else the lowest of the cells' around it; where none is seen, none) are
+  // dropped, the others moved to the front of the cell's range [b, e) in their order and
+  // counted; returns how many points stay.
+  std::size_t next_near = 0;  // near_ground's entries in cell order
   auto JudgeEdgePoints = [&](std::uint32_t b, std::uint32_t e, std::int64_t c) -> std::uint32_t {
     if (std::find(sorted_at_edge.begin() + b, sorted_at_edge.begin() + e, 1) == sorted_at_edge.begin() + e) {
       return e - b;  // none at an edge (most cells)
     }
-    scratch.clear();
-    for (std::uint32_t k = b; k < e; ++k) {
-      if (sorted_at_edge[k] == 0) scratch.push_back(sz[k]);
-    }
-    double floor_z;
-    if (static_cast<int>(scratch.size()) >= o.gate_min_points) {
-      floor_z = QuantileInPlace(scratch, kEdgeGroundQuantile);
-    } else {
-      const double x = (static_cast<double>(i0 + c % nx) + 0.5) * o.cell_m,
-                   y = (static_cast<double>(j0 + c / nx) + 0.5) * o.cell_m;
-      floor_z = ground ? ground->At(x, y) : t.z();
+    double floor_z = OwnEdgeGround(c);
+    if (std::isinf(floor_z)) {
+      while (next_near < near_ground.size() && near_ground[next_near].first < c) ++next_near;
+      LN_CHECK(next_near < near_ground.size() && near_ground[next_near].first == c)
+          << "depth edge: cell " << c << " has no ground looked for around it";
+      floor_z = near_ground[next_near].second;
+      if (std::isinf(floor_z)) return e - b;
     }
     std::uint32_t keep = b;  // the points kept, moved to the front in their order
     for (std::uint32_t k = b; k < e; ++k) {

@@ -152,7 +152,9 @@ struct TerrainMapOptions {
   /// its slope where it is locally linear: a plane's disparity is linear along a rectified
   /// row) is left out where it stands more than edge_height_m over the ground of the cell it
   /// falls in (the 10th percentile of the pair's other points there, at least gate_min_points
-  /// of them; else the pair's ground plane; else the vehicle's ground). There the matching window straddled the nearer surface's silhouette and the
+  /// of them; else the lowest such ground of the cells within two cells around it; where the
+  /// pair sees none there, inside a bush or a hedge, the point stays: nothing judges it).
+  /// There the matching window straddled the nearer surface's silhouette and the
   /// point's depth mixes the two surfaces: a pedestrian's edge matched between him and what
   /// lies behind him stands half a metre behind him. On the ground such a point stays (a
   /// mixed depth moves it along the ground). Needs the rig's error model (the points'

@@ -928,6 +928,54 @@ TEST_F(Carving, WhatStandsBehindADepthEdgeIsLeftOutTheGroundBesideItKept) {
   EXPECT_EQ(kept, static_cast<int>(flat.size()));
 }
 
+TEST_F(Carving, InsideAHedgeWithNoGroundInSightTheDepthEdgeRuleKeepsThePoints) {
+  // A hedge's face as a pair sees it where no ground shows: leaves at two depths, 7.0 and 7.8 m
+  // ahead in stripes 8 px wide, 0-2 m up. Every far leaf lies within the margin of a near
+  // stripe, more than a pixel of disparity behind it: at a depth edge, standing. With no
+  // ground in its cell or within two cells around it, the rule has nothing to judge such a
+  // point by, and the hedge's back is real: it stays. Where the pair sees ground beside them
+  // (7.3-7.7 m ahead, below the face in the image), the same points stand over that ground
+  // behind a nearer surface, as a walker's edge did on raw 0005: left out.
+  const FramePose p = Pose(0, 0, 0);
+  const int rows = 60, cols = 248;  // 31 stripes, near ones at both ends
+  auto far_column = [](int c) { return (c / 8) % 2 == 1; };
+  auto hedge = [&](bool ground_below) {
+    const int ground_rows = ground_below ? 20 : 0;
+    cv::Mat xyz(rows + ground_rows, cols, CV_32FC3, cv::Scalar::all(std::numeric_limits<float>::quiet_NaN()));
+    for (int r = 0; r < xyz.rows; ++r) {
+      for (int c = 0; c < cols; ++c) {
+        const double x = -3.0 + 6.0 * c / cols;
+        double y = far_column(c) ? 7.8 : 7.0, z = 2.0 - 2.0 * r / (rows - 1);
+        if (r >= rows) {  // below the face in the image: ground, 7.3-7.7 m ahead
+          y = 7.7 - 0.4 * (r - rows) / (ground_rows - 1);
+          z = 0;
+        }
+        xyz.at<cv::Vec3f>(r, c) = cv::Vec3f(static_cast<float>(x), static_cast<float>(y), static_cast<float>(z));
+      }
+    }
+    return xyz;
+  };
+  TerrainMapOptions off;
+  off.edge_margin_px = 0;
+  auto far_points = [](const FrameContribution& f) {
+    std::uint32_t n = 0;
+    for (const auto& [index, s] : f.cells) n += (static_cast<double>(index.j) + 0.5) * 0.25 > 7.75 ? s.count : 0;
+    return n;
+  };
+  const cv::Mat alone = hedge(false), over_ground = hedge(true);
+  const FrameContribution kept = BinFrame(alone, cv::Mat(), p.WorldFromVehicle(), 0, TerrainMapOptions(), &model_);
+  const FrameContribution all = BinFrame(alone, cv::Mat(), p.WorldFromVehicle(), 0, off, &model_);
+  ASSERT_GT(far_points(all), 3000u);
+  EXPECT_EQ(kept.points_edge, 0);
+  EXPECT_EQ(far_points(kept), far_points(all));
+  const FrameContribution judged =
+      BinFrame(over_ground, cv::Mat(), p.WorldFromVehicle(), 0, TerrainMapOptions(), &model_);
+  const FrameContribution judged_off = BinFrame(over_ground, cv::Mat(), p.WorldFromVehicle(), 0, off, &model_);
+  ASSERT_GT(far_points(judged_off), 3000u);
+  EXPECT_GT(judged.points_edge, 3000);
+  EXPECT_LT(far_points(judged), far_points(judged_off) / 4);
+}
+
 TEST_F(Carving, ASlantedSideIsNoDepthEdge) {
   // A parked car's side seen along the road: a box 1.8 m wide and 1.5 m tall, 5-10 m ahead, its
   // near side 2 m to the right of the camera, in a level perspective image of the rig's focal
