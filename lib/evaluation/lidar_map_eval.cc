@@ -37,6 +37,8 @@ constexpr float kNaNf = std::numeric_limits<float>::quiet_NaN();
 // Cells this far beyond (or short of) an untimely pair's band are not judged either: its
 // points reach past the band's distances by their errors and at the image's sides, m.
 constexpr double kUntimelyMarginM = 3.0;
+// How far the path is carried on beyond its first and last pairs for the lateral profile, m.
+constexpr double kPathExtensionM = 100.0;
 // A cell whose low returns lie this far below the wider area's is sunk (a reflection, a hole), m.
 constexpr double kSunkDepthM = 0.3;
 // The largest truth grid, cells: 4096 x 4096 (a square kilometre of 25 cm cells).
@@ -463,8 +465,39 @@ LidarEvalResult EvaluateMapAgainstLidar(const io::GeoRaster& map, const io::GeoR
            untimely.at<std::uint8_t>(trow, tcol) == 0;
   };
 
+  // The signed lateral offset of a world point from the pairs' path (right of travel
+  // positive): the nearest point of the polyline through the pairs' positions in order,
+  // carried kPathExtensionM on along the first and last pairs' headings.
+  std::vector<Eigen::Vector2d> path;
+  if (!pairs.empty()) {
+    auto ahead = [](const mapping::FramePose& q) {
+      return Eigen::Vector2d(std::sin(q.heading_rad), std::cos(q.heading_rad));
+    };
+    path.push_back(Eigen::Vector2d(pairs.front().x_m, pairs.front().y_m) - kPathExtensionM * ahead(pairs.front()));
+    for (const mapping::FramePose& q : pairs) path.emplace_back(q.x_m, q.y_m);
+    path.push_back(Eigen::Vector2d(pairs.back().x_m, pairs.back().y_m) + kPathExtensionM * ahead(pairs.back()));
+  }
+  auto lateral_offset = [&](double x, double y) {
+    const Eigen::Vector2d w(x, y);
+    double best = std::numeric_limits<double>::infinity(), offset = kNaN;
+    for (std::size_t k = 0; k + 1 < path.size(); ++k) {
+      const Eigen::Vector2d a = path[k], d = path[k + 1] - a;
+      const double len2 = d.squaredNorm();
+      if (!(len2 > 0)) continue;
+      const double s = std::clamp((w - a).dot(d) / len2, 0.0, 1.0);
+      const Eigen::Vector2d r = w - (a + s * d);
+      if (r.squaredNorm() < best) {
+        best = r.squaredNorm();
+        const double cross = d.x() * r.y() - d.y() * r.x();  // > 0: left of travel
+        offset = (cross > 0 ? -1.0 : 1.0) * r.norm();
+      }
+    }
+    return offset;
+  };
+
   // The elevation error on flat ground.
   std::vector<double> errors;
+  std::map<int, std::vector<double>> by_lateral;  // 1 m bands: floor(offset)
   double worst = -1;
   for (int row = 0; row < ground.rows; ++row) {
     for (int col = 0; col < ground.cols; ++col) {
@@ -478,6 +511,8 @@ LidarEvalResult EvaluateMapAgainstLidar(const io::GeoRaster& map, const io::GeoR
       if (!mapped(col, row)) continue;
       const double e = At(elevation, col + dc, row + dr) - t;
       errors.push_back(e);
+      const double lateral = lateral_offset(truth.CellCentreX(col), truth.CellCentreY(row));
+      if (std::isfinite(lateral)) by_lateral[static_cast<int>(std::floor(lateral))].push_back(e);
       res.cells_large_error += std::abs(e) > o.large_error_m;
       if (std::abs(e) > worst) {
         worst = std::abs(e);
@@ -487,6 +522,17 @@ LidarEvalResult EvaluateMapAgainstLidar(const io::GeoRaster& map, const io::GeoR
     }
   }
   res.cells_compared = static_cast<long>(errors.size());
+  for (auto& [band, es] : by_lateral) {
+    LateralBin bin;
+    bin.from_m = band;
+    bin.to_m = band + 1;
+    bin.cells = static_cast<long>(es.size());
+    double sum2 = 0;
+    for (double e : es) sum2 += e * e;
+    bin.rmse_m = std::sqrt(sum2 / static_cast<double>(es.size()));
+    bin.median_m = MedianOf(es);
+    res.lateral_profile.push_back(bin);
+  }
   if (errors.empty()) {
     res.rmse_m = res.median_m = res.mean_m = res.p90_abs_m = res.max_abs_m = kNaN;
   } else {
@@ -995,6 +1041,18 @@ LidarEvalResult RunLidarMapEvaluation(const LidarMapCommand& cmd, const json& in
     }
     io::WriteFileAtomic(cmd.output_dir / "objects.csv", csv.str());
   }
+  {
+    // The flat ground's error by lateral offset from the path.
+    std::ostringstream csv;
+    csv.imbue(std::locale::classic());
+    csv << "# lunarnav evaluate map --lidar: the flat ground's error (map minus LiDAR) by signed lateral offset "
+           "from the pairs' path (right of travel positive), 1 m bands\n";
+    csv << "from_m,to_m,cells,median_m,rmse_m\n" << std::fixed << std::setprecision(4);
+    for (const LateralBin& b : result.lateral_profile) {
+      csv << b.from_m << "," << b.to_m << "," << b.cells << "," << b.median_m << "," << b.rmse_m << "\n";
+    }
+    io::WriteFileAtomic(cmd.output_dir / "profile.csv", csv.str());
+  }
   io::WriteImageAtomic(cmd.output_dir / "error.png", ErrorPicture(map, truth, pairs, o, untimely));
   {
     // The truth as gridded, for a GIS beside the map's elevation.tif.
@@ -1038,7 +1096,8 @@ LidarEvalResult RunLidarMapEvaluation(const LidarMapCommand& cmd, const json& in
   j["result"] = result.ToJson();
   j["pairs_against_nearest_sweep"] = pair_rows;
   j["table"] = table.ToJson();
-  j["outputs"] = {"lidar.csv", "lidar.json", "lidar.md", "cells.csv", "error.png", "truth.tif"};
+  j["outputs"] = {"lidar.csv",   "lidar.json",  "lidar.md",  "cells.csv",
+                  "objects.csv", "profile.csv", "error.png", "truth.tif"};
   j["timings_s"] = {{"total", timer.ElapsedSeconds()}};
   io::WriteJsonAtomic(cmd.output_dir / "summary.json", j);
   return result;

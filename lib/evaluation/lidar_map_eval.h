@@ -92,12 +92,22 @@ struct LidarObject {
   bool found = false;
 };
 
+/// The flat ground's error over one band of lateral offset from the path (profile.csv).
+struct LateralBin {
+  double from_m = 0, to_m = 0;  ///< Signed offset from the pairs' path, right of travel positive.
+  long cells = 0;
+  double median_m = 0, rmse_m = 0;  ///< Of the map minus the LiDAR (NaN without cells).
+};
+
 struct LidarEvalResult {
   long sweeps = 0, returns = 0;
   long flat_cells = 0;           ///< LiDAR flat-ground cells.
   long flat_cells_untimely = 0;  ///< Of those, not judged: a pair far in time from every sweep saw them.
   long cells_compared = 0;       ///< Flat cells the map holds (>= min_points).
   double rmse_m = 0, median_m = 0, mean_m = 0, p90_abs_m = 0, max_abs_m = 0;
+  /// The same error by lateral offset from the path (1 m bands, the pairs' positions joined in
+  /// order and carried 100 m on along the first and last headings): where it grows.
+  std::vector<LateralBin> lateral_profile;
   long cells_large_error = 0;
   double large_error_x_m = std::numeric_limits<double>::quiet_NaN();  ///< Where the largest error lies.
   double large_error_y_m = std::numeric_limits<double>::quiet_NaN();

@@ -150,6 +150,34 @@ TEST(EvaluateMapAgainstLidar, AMissedObjectLowersRecallAndAFalseObstacleLowersPr
   EXPECT_DOUBLE_EQ(r.precision, 0.0);
 }
 
+TEST(EvaluateMapAgainstLidar, TheLateralProfileShowsWhereTheErrorGrows) {
+  // A map whose ground rises 1 cm a metre to the right of the path (the pair drives north from
+  // the origin: right is east) and is true on the left.
+  Scene s;
+  cv::Mat& elevation = MapBand(&s.map, "elevation_m");
+  for (int row = 0; row < elevation.rows; ++row) {
+    for (int col = 0; col < elevation.cols; ++col) {
+      const double x = s.map.CellCentreX(col);
+      if (x > 0 && elevation.at<float>(row, col) == 0) elevation.at<float>(row, col) = static_cast<float>(0.01 * x);
+    }
+  }
+  const LidarEvalResult r = s.Score();
+  ASSERT_FALSE(r.lateral_profile.empty());
+  long cells = 0;
+  for (const LateralBin& b : r.lateral_profile) {
+    cells += b.cells;
+    ASSERT_GT(b.cells, 0);
+    EXPECT_DOUBLE_EQ(b.to_m - b.from_m, 1.0);
+    // Every cell of a band to the right is off by 1 cm a metre of its offset; to the left, true.
+    const double low = b.from_m >= 0 ? 0.01 * b.from_m - 1e-6 : -1e-6, high = b.from_m >= 0 ? 0.01 * b.to_m : 1e-6;
+    EXPECT_TRUE(b.median_m >= low && b.median_m <= high) << b.from_m << ": " << b.median_m;
+    EXPECT_TRUE(b.rmse_m >= low && b.rmse_m <= high) << b.from_m << ": " << b.rmse_m;
+  }
+  EXPECT_EQ(cells, r.cells_compared);
+  EXPECT_LT(r.lateral_profile.front().from_m, -5);
+  EXPECT_GT(r.lateral_profile.back().to_m, 5);
+}
+
 TEST(EvaluateMapAgainstLidar, CoverageCountsTheBandsGroundInSightOnly) {
   Scene s;
   cv::Mat& count = MapBand(&s.map, "count");
