@@ -194,7 +194,7 @@ Subcommand AddMap(CLI::App* app) {
     std::filesystem::path requests;
     int threads = 0;
     evaluation::LidarMapCommand lidar;
-    std::string band;
+    std::string band, z_range;
     std::string lidar_range = "3:25";
   };
   auto c = std::make_shared<MapArgs>();
@@ -225,6 +225,9 @@ Subcommand AddMap(CLI::App* app) {
                   "with --lidar: stereo-batch's output (xyz/): each pair against the sweep nearest in time");
   cmd->add_option("--band", c->band, "with --lidar: the band scored for coverage and recall, MIN:MAX m ahead "
                                      "(default: the rig's default search)");
+  cmd->add_option("--z-range", c->z_range,
+                  "with --lidar: the heights the stereo searched, ZMIN:ZMAX m (stereo-batch's --z-range; default -0.5:1): "
+                  "an object counts for recall where a pair saw its part up to ZMAX");
   cmd->add_option("--lidar-range", c->lidar_range,
                   "with --lidar: returns MIN:MAX m from the sensor (horizontally) are used: nearer ones hit the vehicle, "
                   "farther ones carry the sensor's small angle errors as height errors")
@@ -282,7 +285,8 @@ Subcommand AddMap(CLI::App* app) {
                                                 {!l.frame_times.empty(), "--frame-times"},
                                                 {!l.pairs_dir.empty(), "--pairs"},
                                                 {!l.stereo_dir.empty(), "--stereo"},
-                                                {!c->band.empty(), "--band"}}) {
+                                                {!c->band.empty(), "--band"},
+                                                {!c->z_range.empty(), "--z-range"}}) {
                 LN_CHECK_ARG(!given) << name << ": only with --lidar (the simulated truth holds its own poses)";
               }
             } else {
@@ -298,6 +302,9 @@ Subcommand AddMap(CLI::App* app) {
                   << "the pairs' poses are still needed with --lidar-in-world (the band)";
               if (!c->band.empty()) {
                 std::tie(l.band_min_y_m, l.band_max_y_m) = util::ParseDoublePair(c->band, ':', "--band");
+              }
+              if (!c->z_range.empty()) {
+                std::tie(l.z_min_m, l.z_max_m) = util::ParseDoublePair(c->z_range, ':', "--z-range");
               }
               std::tie(l.options.min_range_m, l.options.max_range_m) =
                   util::ParseDoublePair(c->lidar_range, ':', "--lidar-range");

@@ -233,6 +233,8 @@ void LidarEvalOptions::Validate() const {
   LN_CHECK_ARG(std::abs(band_min_y_m) <= 1000 && std::abs(band_max_y_m) <= 1000)
       << "band: " << band_min_y_m << ":" << band_max_y_m << " m reaches beyond 1000 m";
   LN_CHECK_ARG(max_range_m <= 1000) << "LiDAR range: at most 1000 m, got " << max_range_m << " m";
+  LN_CHECK_ARG(std::isfinite(band_max_z_m) && std::abs(band_max_z_m) <= 1000)
+      << "band height: must be finite, within 1000 m, got " << band_max_z_m << " m";
 }
 
 json LidarEvalOptions::ToJson() const {
@@ -248,6 +250,7 @@ json LidarEvalOptions::ToJson() const {
           {"tolerance_cells", tolerance_cells},
           {"large_error_m", large_error_m},
           {"band_y_m", {band_min_y_m, band_max_y_m}},
+          {"band_max_z_m", band_max_z_m},
           {"max_sweep_gap_s", Number(max_sweep_gap_s)}};
 }
 
@@ -415,9 +418,31 @@ LidarEvalResult EvaluateMapAgainstLidar(const io::GeoRaster& map, const io::GeoR
   LidarEvalResult res;
   const Eigen::Isometry3d left_from_vehicle = rig.VehicleFromLeft().inverse();
   const double c = truth.cell_m;
-  // The cells of each pair's band (with a metre's margin for its points' errors) in its images.
+  const cv::Mat& standing = Band(truth, "standing_m", "truth");
+  const cv::Mat& persistence = Band(truth, "persistence", "truth");
+  // What recall counts: something recall_height_m or more over the local ground's plane in most
+  // of the sweeps that saw the cell (without the sweeps' times; with them, where it stood when a
+  // pair saw it, below).
+  auto stands = [&](int c0, int r0) {
+    return standing.at<float>(r0, c0) >= o.recall_height_m &&
+           (stood_in != nullptr || persistence.at<float>(r0, c0) >= 0.5f);
+  };
+  // The masses of standing cells (8-connected), band or not: a line of sight to a part of one
+  // passes over its own cells, not over another's.
+  cv::Mat mass;
+  {
+    cv::Mat stands_mask(ground.size(), CV_8UC1, cv::Scalar(0));
+    for (int row = 0; row < ground.rows; ++row) {
+      for (int col = 0; col < ground.cols; ++col) stands_mask.at<std::uint8_t>(row, col) = stands(col, row) ? 1 : 0;
+    }
+    cv::connectedComponents(stands_mask, mass, 8, CV_32S);  // 0: no mass
+  }
+  // The cells of each pair's band (with a metre's margin for its points' errors) in its images;
+  // an object's cell at the highest part of it the search matches (band_max_z_m over the
+  // vehicle's base plane; the part above, no pair's search matched).
   auto for_band_cells = [&](const mapping::FramePose& pose, double margin_m, const auto& fn) {
-    const Eigen::Isometry3d vehicle_from_world = pose.WorldFromVehicle().inverse();
+    const Eigen::Isometry3d world_from_vehicle = pose.WorldFromVehicle();
+    const Eigen::Isometry3d vehicle_from_world = world_from_vehicle.inverse();
     // The band's cells lie within twice its far end (half fields of view up to 60 deg).
     const double reach =
         2 * (o.band_max_y_m + margin_m) + std::abs(rig.mast.lateral_offset_m) + std::abs(rig.mast.forward_offset_m);
@@ -430,8 +455,14 @@ LidarEvalResult EvaluateMapAgainstLidar(const io::GeoRaster& map, const io::GeoR
         const int k = static_cast<int>(cls.at<float>(row, col));
         // A cell without returns is taken at the height of the vehicle's base.
         const double z = k == kFlat ? ground.at<float>(row, col) : k == kNone ? pose.z_m : top.at<float>(row, col);
-        const Eigen::Vector3d w(truth.CellCentreX(col), truth.CellCentreY(row), z);
-        const Eigen::Vector3d v = vehicle_from_world * w;
+        Eigen::Vector3d w(truth.CellCentreX(col), truth.CellCentreY(row), z);
+        Eigen::Vector3d v = vehicle_from_world * w;
+        if (k == kObject && v.z() > o.band_max_z_m) {
+          // Down to the search's top (the vehicle frame's, as the search's own: where no LiDAR
+          // return shows the ground, inside a hedge, the object's foot is unknown).
+          v.z() = o.band_max_z_m;
+          w = world_from_vehicle * v;
+        }
         if (v.y() < o.band_min_y_m - margin_m || v.y() > o.band_max_y_m + margin_m) continue;
         if (!InBothImages(rig, left_from_vehicle, v)) continue;
         fn(col, row, k, w);
@@ -553,15 +584,32 @@ LidarEvalResult EvaluateMapAgainstLidar(const io::GeoRaster& map, const io::GeoR
   }
 
   // The band: cells a timely pair's cameras saw between band_min_y_m and band_max_y_m ahead,
-  // in both images and in the left camera's line of sight over the LiDAR's surface.
-  auto visible = [&](const Eigen::Vector3d& camera, const Eigen::Vector3d& target) {
+  // in both images and in both cameras' lines of sight over the LiDAR's surface (a point one
+  // camera cannot see no matcher measures). Over its last metre, ground's line of sight is
+  // hidden only by objects (the ground there, which the grazing ray meets within the returns'
+  // spread, does not hide it; a walker beside it does); an object's is judged to its own cell
+  // and the cells of its own mass beside it (where the ray enters its face): its mass's deeper
+  // cells and anything in front of it, however near, hide it.
+  auto visible = [&](const Eigen::Vector3d& camera, const Eigen::Vector3d& target, int tcol, int trow,
+                     bool object) {
     const Eigen::Vector3d d = target - camera;
     const double length = d.head<2>().norm();
-    const double stop = length - 4 * c;  // the last metre is the target's own ground
-    for (double s = c; s < stop; s += 0.5 * c) {
+    const double last_metre = length - 4 * c;
+    const int own_mass = object ? mass.at<int>(trow, tcol) : 0;
+    for (double s = c; s < length; s += 0.5 * c) {
       const Eigen::Vector3d p = camera + d * (s / length);
       const int col = static_cast<int>(std::floor((p.x() - truth.x_west_m) / c));
       const int row = static_cast<int>(std::floor((truth.y_north_m - p.y()) / c));
+      if (!object && s > last_metre &&
+          ((col == tcol && row == trow) || At(cls, col, row) != static_cast<float>(kObject))) {
+        continue;
+      }
+      if (object && std::abs(col - tcol) <= 1 && std::abs(row - trow) <= 1 &&
+          ((col == tcol && row == trow) ||
+           (own_mass > 0 && col >= 0 && row >= 0 && col < mass.cols && row < mass.rows &&
+            mass.at<int>(row, col) == own_mass))) {
+        continue;
+      }
       const float t = At(top, col, row);
       if (std::isfinite(t) && t > p.z() + 0.05) return false;
     }
@@ -572,7 +620,8 @@ LidarEvalResult EvaluateMapAgainstLidar(const io::GeoRaster& map, const io::GeoR
   cv::Mat in_band(ground.size(), CV_8UC1, cv::Scalar(0));
   for (std::size_t p = 0; p < pairs.size(); ++p) {
     if (!timely[p]) continue;
-    const Eigen::Vector3d camera = pairs[p].WorldFromVehicle() * rig.VehicleFromLeft().translation();
+    const Eigen::Vector3d left = pairs[p].WorldFromVehicle() * rig.VehicleFromLeft().translation();
+    const Eigen::Vector3d right = pairs[p].WorldFromVehicle() * rig.VehicleFromRight().translation();
     for_band_cells(pairs[p], 0.0, [&](int col, int row, int k, const Eigen::Vector3d& w) {
       if ((k != kFlat && k != kObject) || in_band.at<std::uint8_t>(row, col) != 0 || !judged(col, row)) return;
       if (k == kObject && stood_in != nullptr && nearest_sweep[p] >= 0) {
@@ -580,7 +629,7 @@ LidarEvalResult EvaluateMapAgainstLidar(const io::GeoRaster& map, const io::GeoR
                                       static_cast<std::size_t>(col)];
         if (std::find(who.begin(), who.end(), nearest_sweep[p]) == who.end()) return;  // not there then
       }
-      if (!visible(camera, w)) return;
+      if (!visible(left, w, col, row, k == kObject) || !visible(right, w, col, row, k == kObject)) return;
       in_band.at<std::uint8_t>(row, col) = static_cast<std::uint8_t>(k == kFlat ? 1 : 2);
     });
   }
@@ -617,15 +666,8 @@ LidarEvalResult EvaluateMapAgainstLidar(const io::GeoRaster& map, const io::GeoR
 
   // Recall: the LiDAR's objects (8-connected cells where something at least recall_height_m
   // stands over the local ground's plane in most of the sweeps that saw the cell: no slope, no
-  // passing car) whose top a pair saw in the band, found when a map obstacle lies within the
+  // passing car) whose part a pair saw in the band, found when a map obstacle lies within the
   // tolerance of one of their cells.
-  const cv::Mat& standing = Band(truth, "standing_m", "truth");
-  const cv::Mat& persistence = Band(truth, "persistence", "truth");
-  auto stands = [&](int c0, int r0) {
-    // Without the sweeps' times, what stood in most of the sweeps that saw the cell.
-    return standing.at<float>(r0, c0) >= o.recall_height_m &&
-           (stood_in != nullptr || persistence.at<float>(r0, c0) >= 0.5f);
-  };
   cv::Mat label(ground.size(), CV_32SC1, cv::Scalar(-1));
   for (int row = 0; row < ground.rows; ++row) {
     for (int col = 0; col < ground.cols; ++col) {
@@ -855,11 +897,19 @@ LidarEvalResult RunLidarMapEvaluation(const LidarMapCommand& cmd, const json& in
   LidarEvalOptions o = cmd.options;
   const calib::StereoRig rig = calib::ReadStereoRig(cmd.rig);
   LN_CHECK_ARG(rig.rectified.has_value()) << cmd.rig.string() << ": the rig is not rectified";
+  // The rig's default search over the heights stereo-batch searched (its --z-range).
+  calib::GroundWindowOptions search;
+  if (std::isfinite(cmd.z_max_m)) {
+    search.z_min_m = cmd.z_min_m;
+    search.z_max_m = cmd.z_max_m;
+  }
+  search.Validate();
+  o.band_max_z_m = search.z_max_m;
   if (std::isfinite(cmd.band_min_y_m)) {
     o.band_min_y_m = cmd.band_min_y_m;
     o.band_max_y_m = cmd.band_max_y_m;
   } else {
-    const calib::GroundWindow window = calib::SelectGroundWindow(rig, calib::ReferenceImage::kRight, {});
+    const calib::GroundWindow window = calib::SelectGroundWindow(rig, calib::ReferenceImage::kRight, search);
     o.band_min_y_m = window.region.y_min_m;
     o.band_max_y_m = window.region.y_max_m;
   }
@@ -1033,7 +1083,8 @@ LidarEvalResult RunLidarMapEvaluation(const LidarMapCommand& cmd, const json& in
     std::ostringstream csv;
     csv.imbue(std::locale::classic());
     csv << "# lunarnav evaluate map --lidar: the LiDAR objects of the band (what stands " << o.recall_height_m
-        << " m or more over the ground's plane where a pair saw its top); found: a map obstacle within "
+        << " m or more over the ground's plane where a pair saw its part up to " << o.band_max_z_m
+        << " m); found: a map obstacle within "
         << o.tolerance_cells << " cell(s) of one of its cells\n";
     csv << "x_m,y_m,cells,height_m,found\n" << std::fixed << std::setprecision(3);
     for (const LidarObject& b : result.object_list) {

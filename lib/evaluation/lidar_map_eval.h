@@ -51,8 +51,12 @@ struct LidarEvalOptions {
   /// A compared cell farther than this from the truth is a large error (a phantom), metres.
   double large_error_m = 0.30;
   /// The band the rig maps: ground this far ahead of a pair (vehicle-frame Y), in both images
-  /// and in the left camera's line of sight (not behind a LiDAR object), metres.
+  /// and in both cameras' lines of sight (not behind a LiDAR object), metres.
   double band_min_y_m = 0, band_max_y_m = 0;
+  /// The heights the rig's search matches (the region's Z_max, vehicle frame: stereo-batch's
+  /// `--z-range`), metres: an object is in the band where a pair saw its part up to this height
+  /// (the part above it no pair's search matched), over any other object in the line of sight.
+  double band_max_z_m = 1.0;
   /// Cells in the band (3 m wider at each end) of a pair taken farther in time than this from
   /// every sweep are not judged: what stood there then (a cyclist who rode on) no sweep shows,
   /// seconds, >= 0 (infinity: judge every cell).
@@ -170,6 +174,9 @@ struct LidarMapCommand {
   /// The band; NaN: the rig's default search (calib::SelectGroundWindow).
   double band_min_y_m = std::numeric_limits<double>::quiet_NaN();
   double band_max_y_m = std::numeric_limits<double>::quiet_NaN();
+  /// The search's heights (stereo-batch's --z-range); NaN: its default, -0.5:1 m.
+  double z_min_m = std::numeric_limits<double>::quiet_NaN();
+  double z_max_m = std::numeric_limits<double>::quiet_NaN();
   LidarEvalOptions options;
   int num_threads = 0;
 };

@@ -235,6 +235,70 @@ TEST(EvaluateMapAgainstLidar, AnObjectCountsForRecallWhereItStoodWhenThePairSawI
   EXPECT_EQ(later.objects_found, 1);
 }
 
+// A block standing on the ground at x0..x1, y0..y1, `height` tall, in both sweeps: its top and
+// its face towards the vehicle (south), the ground's returns under it removed.
+void AddBlock(std::vector<LidarSweep>* sweeps, double x0, double x1, double y0, double y1, double height) {
+  for (LidarSweep& sweep : *sweeps) {
+    std::erase_if(sweep.points,
+                  [&](const Eigen::Vector3f& p) { return p.x() > x0 && p.x() < x1 && p.y() > y0 && p.y() < y1; });
+    for (double x = x0 + 0.001; x < x1; x += 0.05) {
+      for (double y = y0 + 0.001; y < y1; y += 0.05) sweep.points.emplace_back(x, y, height);
+      for (double z = 0; z < height; z += 0.05) sweep.points.emplace_back(x, y0 + 0.001, z);
+    }
+  }
+}
+
+// An object is in the band where a pair saw its part within the heights the search matches
+// (the region's Z_max, 1 m by default), over everything in front of it however near.
+TEST(EvaluateMapAgainstLidar, AnObjectCountsWhereAPairSawItsPartWithinTheSearchsHeights) {
+  Scene s;
+  // A hedge 1.2 m tall at x -3..-1, y 8.5..8.75, flagged in the map; behind it a post 2 m
+  // tall at x -2.25..-1.75, y 9..9.5, which the map misses. The post's top shows over the hedge
+  // from the cameras 1.65 m up; its part up to 1 m does not.
+  AddBlock(&s.sweeps, -3, -1, 8.5, 8.75, 1.2);
+  AddBlock(&s.sweeps, -2.25, -1.75, 9, 9.5, 2.0);
+  cv::Mat& obstacle = MapBand(&s.map, "obstacle");
+  for (double x = -2.875; x < -1; x += kCell) obstacle.at<float>(CellAt(s.map, x, 8.625)) = 1;
+  s.truth = GridLidarTruth(s.sweeps, s.map, s.options);
+  LidarEvalResult r = s.Score();
+  EXPECT_EQ(r.objects, 2);  // the box and the hedge
+  EXPECT_EQ(r.objects_found, 2);
+  // A search up to 2.5 m matches the post's top: a missed object.
+  s.options.band_max_z_m = 2.5;
+  r = s.Score();
+  EXPECT_EQ(r.objects, 3);
+  EXPECT_EQ(r.objects_found, 2);
+  // Behind a hedge 2.5 m tall the post is hidden whole, though it stands within a metre of it.
+  AddBlock(&s.sweeps, -3, -1, 8.5, 8.75, 2.5);
+  s.truth = GridLidarTruth(s.sweeps, s.map, s.options);
+  r = s.Score();
+  EXPECT_EQ(r.objects, 2);
+  EXPECT_EQ(r.objects_found, 2);
+}
+
+// Ground is in the band where both cameras see it: a walker half a metre in front of a cell
+// hides it (however near), and so does a post that only the right camera's ray meets.
+TEST(EvaluateMapAgainstLidar, GroundOneCameraCannotSeeIsNotInTheBand) {
+  Scene s;
+  AddBlock(&s.sweeps, -3.1, -2.9, 9, 9.2, 1.7);  // the walker
+  AddBlock(&s.sweeps, 0.6, 0.8, 5, 5.25, 2.0);   // the post, right of the left camera's ray
+  s.truth = GridLidarTruth(s.sweeps, s.map, s.options);
+  cv::Mat& count = MapBand(&s.map, "count");
+  const LidarEvalResult all = s.Score();
+  EXPECT_DOUBLE_EQ(all.coverage, 1.0);
+  const cv::Point behind_walker = CellAt(s.map, -3.1, 9.6), behind_post = CellAt(s.map, 1.1, 10.1);
+  ASSERT_EQ(s.truth.bands[static_cast<std::size_t>(s.truth.BandIndex("class"))].pixels.at<float>(behind_walker), 1.0f);
+  ASSERT_EQ(s.truth.bands[static_cast<std::size_t>(s.truth.BandIndex("class"))].pixels.at<float>(behind_post), 1.0f);
+  count.at<float>(behind_walker) = 0;
+  count.at<float>(behind_post) = 0;
+  const LidarEvalResult r = s.Score();
+  EXPECT_EQ(r.band_cells, all.band_cells);  // neither is in the band
+  EXPECT_DOUBLE_EQ(r.coverage, 1.0);
+  // A cell beside them that both cameras see is.
+  count.at<float>(CellAt(s.map, -1.1, 9.6)) = 0;
+  EXPECT_EQ(s.Score().band_mapped, all.band_cells - 1);
+}
+
 TEST(GridLidarTruth, ASlopeIsReliefButNoStandingObject) {
   Scene s;
   // An embankment of 20 deg (gentler than a vehicle's 30 deg limit) rising 0.5 m from x = 4 to
