@@ -235,6 +235,9 @@ Subcommand AddMap(CLI::App* app) {
   cmd->add_option("--max-sweep-gap", l.options.max_sweep_gap_s,
                   "with --lidar: cells a pair saw farther in time than this from every sweep are not judged, s")
       ->capture_default_str();
+  cmd->add_option("--sweeps-agree", l.options.sweeps_agree_m,
+                  "with --lidar: the flat ground is also scored over the cells whose sweeps agree within this, m")
+      ->capture_default_str();
   cmd->add_option("--flat-spread", l.options.flat_spread_m,
                   "with --lidar: a flat cell's returns lie within this of their median, m")
       ->capture_default_str();

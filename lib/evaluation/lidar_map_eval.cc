@@ -233,6 +233,7 @@ void LidarEvalOptions::Validate() const {
   LN_CHECK_ARG(std::abs(band_min_y_m) <= 1000 && std::abs(band_max_y_m) <= 1000)
       << "band: " << band_min_y_m << ":" << band_max_y_m << " m reaches beyond 1000 m";
   LN_CHECK_ARG(max_range_m <= 1000) << "LiDAR range: at most 1000 m, got " << max_range_m << " m";
+  LN_CHECK_ARG(std::isfinite(sweeps_agree_m) && sweeps_agree_m > 0) << "sweeps agree: must be > 0 m";
   LN_CHECK_ARG(std::isfinite(band_max_z_m) && std::abs(band_max_z_m) <= 1000)
       << "band height: must be finite, within 1000 m, got " << band_max_z_m << " m";
 }
@@ -251,6 +252,7 @@ json LidarEvalOptions::ToJson() const {
           {"large_error_m", large_error_m},
           {"band_y_m", {band_min_y_m, band_max_y_m}},
           {"band_max_z_m", band_max_z_m},
+          {"sweeps_agree_m", sweeps_agree_m},
           {"max_sweep_gap_s", Number(max_sweep_gap_s)}};
 }
 
@@ -526,7 +528,10 @@ LidarEvalResult EvaluateMapAgainstLidar(const io::GeoRaster& map, const io::GeoR
     return offset;
   };
 
-  // The elevation error on flat ground.
+  // The elevation error on flat ground (and where the sweeps agree).
+  const int spread_band = truth.BandIndex("sweep_spread_m");
+  const cv::Mat* spread = spread_band >= 0 ? &truth.bands[static_cast<std::size_t>(spread_band)].pixels : nullptr;
+  std::vector<double> agree_errors;
   std::vector<double> errors;
   std::map<int, std::vector<double>> by_lateral;  // 1 m bands: floor(offset)
   double worst = -1;
@@ -542,6 +547,7 @@ LidarEvalResult EvaluateMapAgainstLidar(const io::GeoRaster& map, const io::GeoR
       if (!mapped(col, row)) continue;
       const double e = At(elevation, col + dc, row + dr) - t;
       errors.push_back(e);
+      if (spread != nullptr && spread->at<float>(row, col) <= o.sweeps_agree_m) agree_errors.push_back(e);
       const double lateral = lateral_offset(truth.CellCentreX(col), truth.CellCentreY(row));
       if (std::isfinite(lateral)) by_lateral[static_cast<int>(std::floor(lateral))].push_back(e);
       res.cells_large_error += std::abs(e) > o.large_error_m;
@@ -553,6 +559,13 @@ LidarEvalResult EvaluateMapAgainstLidar(const io::GeoRaster& map, const io::GeoR
     }
   }
   res.cells_compared = static_cast<long>(errors.size());
+  res.agree_cells = static_cast<long>(agree_errors.size());
+  if (!agree_errors.empty()) {
+    double sum2 = 0;
+    for (double e : agree_errors) sum2 += e * e;
+    res.agree_rmse_m = std::sqrt(sum2 / static_cast<double>(agree_errors.size()));
+    res.agree_median_m = MedianOf(agree_errors);
+  }
   for (auto& [band, es] : by_lateral) {
     LateralBin bin;
     bin.from_m = band;
@@ -714,7 +727,7 @@ LidarEvalResult EvaluateMapAgainstLidar(const io::GeoRaster& map, const io::GeoR
 }
 
 void MeasureSweepConsistency(const std::vector<LidarSweep>& sweeps, const io::GeoRaster& truth,
-                             const LidarEvalOptions& o, LidarEvalResult* result) {
+                             const LidarEvalOptions& o, LidarEvalResult* result, cv::Mat* spread) {
   io::GeoRaster grid;
   grid.cell_m = truth.cell_m;
   grid.x_west_m = truth.x_west_m;
@@ -724,6 +737,7 @@ void MeasureSweepConsistency(const std::vector<LidarSweep>& sweeps, const io::Ge
   const cv::Mat& ground = Band(truth, "ground_m", "truth");
   std::vector<double> diffs;
   const int w = truth.Width();
+  if (spread != nullptr) *spread = cv::Mat(ground.size(), CV_32FC1, cv::Scalar(kNaNf));
   for (int row = 0; row < ground.rows; ++row) {
     for (int col = 0; col < ground.cols; ++col) {
       if (!std::isfinite(ground.at<float>(row, col))) continue;
@@ -738,6 +752,10 @@ void MeasureSweepConsistency(const std::vector<LidarSweep>& sweeps, const io::Ge
       }
       for (std::size_t i = 0; i < medians.size(); ++i) {
         for (std::size_t j = i + 1; j < medians.size(); ++j) diffs.push_back(medians[i] - medians[j]);
+      }
+      if (spread != nullptr && medians.size() >= 2) {
+        const auto [lo, hi] = std::minmax_element(medians.begin(), medians.end());
+        spread->at<float>(row, col) = static_cast<float>(*hi - *lo);
       }
     }
   }
@@ -769,6 +787,9 @@ json LidarEvalResult::ToJson() const {
           {"elevation_max_abs_m", Number(max_abs_m)},
           {"largest_error_at_m", {Number(large_error_x_m), Number(large_error_y_m)}},
           {"cells_large_error", cells_large_error},
+          {"sweeps_agree_cells", agree_cells},
+          {"sweeps_agree_rmse_m", Number(agree_rmse_m)},
+          {"sweeps_agree_median_m", Number(agree_median_m)},
           {"band_flat_cells", band_cells},
           {"band_flat_cells_mapped", band_mapped},
           {"coverage", Number(coverage)},
@@ -784,6 +805,7 @@ json LidarEvalResult::ToJson() const {
           {"truth_sweep_median_abs_m", Number(sweep_median_abs_m)},
           {"pairs_against_nearest_sweep", pairs_measured},
           {"pair_offset_median_abs_m", Number(pair_offset_median_abs_m)},
+          {"pair_offset_median_m", Number(pair_offset_median_m)},
           {"pair_offset_max_abs_m", Number(pair_offset_max_abs_m)}};
 }
 
@@ -795,18 +817,25 @@ Table LidarEvalResult::ToTable() const {
                {"median", "cm", "median offset (cm)", 2},
                {"largest", "cm", "largest error (cm)", 1},
                {"large", "", "cells > 30 cm", 0},
+               {"agree_cells", "", "flat cells whose sweeps agree", 0},
+               {"agree_rmse", "cm", "there: RMSE (cm)", 2},
+               {"agree_median", "cm", "there: median offset (cm)", 2},
                {"coverage", "pct", "coverage of the band's flat ground (%)", 1},
                {"precision", "pct", "obstacle precision (%)", 1},
                {"recall", "pct", "LiDAR objects found (%)", 1},
                {"sweeps", "cm", "truth: sweep vs sweep median |d| (cm)", 2},
-               {"pairs", "cm", "truth: pair vs nearest sweep median |d| (cm)", 2}};
+               {"pairs", "cm", "truth: pair vs nearest sweep median |d| (cm)", 2},
+               {"pairs_signed", "cm", "truth: pair vs its sweep at one instant, median (cm)", 2}};
   auto pct = [](double v, const std::string& why) { return Cell::NumberOr(100 * v, why); };
   t.AddRow({Cell::Number(static_cast<double>(cells_compared)), Cell::NumberOr(100 * rmse_m, "no cell"),
             Cell::NumberOr(100 * median_m, "no cell"), Cell::NumberOr(100 * max_abs_m, "no cell"),
-            Cell::Number(static_cast<double>(cells_large_error)), pct(coverage, "no flat ground in the band"),
+            Cell::Number(static_cast<double>(cells_large_error)), Cell::Number(static_cast<double>(agree_cells)),
+            Cell::NumberOr(100 * agree_rmse_m, "no cell"), Cell::NumberOr(100 * agree_median_m, "no cell"),
+            pct(coverage, "no flat ground in the band"),
             pct(precision, "no obstacle judged"), pct(object_recall, "no object in the band"),
             Cell::NumberOr(100 * sweep_median_abs_m, "no cell two sweeps saw"),
-            Cell::NumberOr(100 * pair_offset_median_abs_m, "no stereo points given")});
+            Cell::NumberOr(100 * pair_offset_median_abs_m, "no stereo points given"),
+            Cell::NumberOr(100 * pair_offset_median_m, "no pair at a sweep's time")});
   return t;
 }
 
@@ -973,7 +1002,12 @@ LidarEvalResult RunLidarMapEvaluation(const LidarMapCommand& cmd, const json& in
     }
   });
   std::vector<std::vector<int>> stood_in;
-  const io::GeoRaster truth = GridLidarTruth(sweeps, map, o, cmd.lidar_in_world ? nullptr : &stood_in);
+  io::GeoRaster truth = GridLidarTruth(sweeps, map, o, cmd.lidar_in_world ? nullptr : &stood_in);
+  // The truth's own consistency, sweep against sweep, and where it holds (scored apart).
+  LidarEvalResult consistency;
+  cv::Mat spread;
+  MeasureSweepConsistency(sweeps, truth, o, &consistency, &spread);
+  truth.bands.push_back(NamedBand(spread, "sweep_spread_m"));
   std::vector<double> sweep_times;
   if (!cmd.lidar_in_world) {
     for (const LidarSweep& s : sweeps) sweep_times.push_back(s.t_s);
@@ -983,7 +1017,9 @@ LidarEvalResult RunLidarMapEvaluation(const LidarMapCommand& cmd, const json& in
                                                    cmd.lidar_in_world ? nullptr : &stood_in, &band);
   result.sweeps = static_cast<long>(sweeps.size());
   for (const LidarSweep& s : sweeps) result.returns += static_cast<long>(s.points.size());
-  MeasureSweepConsistency(sweeps, truth, o, &result);
+  result.sweep_pairs = consistency.sweep_pairs;
+  result.sweep_rms_m = consistency.sweep_rms_m;
+  result.sweep_median_abs_m = consistency.sweep_median_abs_m;
 
   // Each pair against the sweep nearest in time, on flat ground (the pose's share of the error).
   json pair_rows = json::array();
@@ -996,6 +1032,7 @@ LidarEvalResult RunLidarMapEvaluation(const LidarMapCommand& cmd, const json& in
     grid.bands.push_back(NamedBand(cv::Mat(truth.Height(), truth.Width(), CV_32FC1, cv::Scalar(0)), "returns"));
     std::vector<double> offsets(pairs.size(), kNaN);
     std::vector<std::string> nearest(pairs.size());
+    std::vector<double> gap_s(pairs.size(), kNaN);
     util::ParallelForEachItem(pairs.size(), cmd.num_threads, [&](std::size_t k) {
       const mapping::FramePose& pose = pairs[k];
       const fs::path xyz_path = cmd.stereo_dir / "xyz" / (pose.stem + ".exr");
@@ -1006,6 +1043,7 @@ LidarEvalResult RunLidarMapEvaluation(const LidarMapCommand& cmd, const json& in
         if (sweep == nullptr || std::abs(s.t_s - pose.t_s) < std::abs(sweep->t_s - pose.t_s)) sweep = &s;
       }
       nearest[k] = sweep->stem;
+      gap_s[k] = std::abs(sweep->t_s - pose.t_s);
       const io::ExrImage xyz = io::ReadExr(xyz_path);
       LN_CHECK_INPUT(xyz.pixels.type() == CV_32FC3) << xyz_path.string() << ": not 3 channels";
       LidarSweep stereo;
@@ -1035,15 +1073,17 @@ LidarEvalResult RunLidarMapEvaluation(const LidarMapCommand& cmd, const json& in
       }
       if (d.size() >= 10) offsets[k] = MedianOf(d);
     });
-    std::vector<double> abs_offsets;
+    std::vector<double> abs_offsets, signed_offsets;
     for (std::size_t k = 0; k < pairs.size(); ++k) {
       if (!std::isfinite(offsets[k])) continue;
       abs_offsets.push_back(std::abs(offsets[k]));
+      if (gap_s[k] <= o.max_sweep_gap_s) signed_offsets.push_back(offsets[k]);
       pair_rows.push_back({{"stem", pairs[k].stem}, {"sweep", nearest[k]}, {"offset_m", offsets[k]}});
     }
     result.pairs_measured = static_cast<long>(abs_offsets.size());
     if (!abs_offsets.empty()) {
       result.pair_offset_median_abs_m = MedianOf(abs_offsets);
+      if (!signed_offsets.empty()) result.pair_offset_median_m = MedianOf(signed_offsets);
       result.pair_offset_max_abs_m = *std::max_element(abs_offsets.begin(), abs_offsets.end());
     }
   }
@@ -1063,7 +1103,8 @@ LidarEvalResult RunLidarMapEvaluation(const LidarMapCommand& cmd, const json& in
     csv.imbue(std::locale::classic());
     csv << "# lunarnav evaluate map --lidar: every LiDAR flat-ground cell; map_m NaN where the map holds fewer than "
         << o.min_points << " points; judged 0 where a pair far in time from every sweep saw it\n";
-    csv << "x_m,y_m,lidar_m,map_m,error_m,map_points,map_obstacle,judged\n" << std::fixed << std::setprecision(4);
+    csv << "x_m,y_m,lidar_m,map_m,error_m,map_points,map_obstacle,judged,sweep_spread_m\n" << std::fixed
+        << std::setprecision(4);
     for (int row = 0; row < ground.rows; ++row) {
       for (int col = 0; col < ground.cols; ++col) {
         const float t = ground.at<float>(row, col);
@@ -1073,7 +1114,7 @@ LidarEvalResult RunLidarMapEvaluation(const LidarMapCommand& cmd, const json& in
         csv << truth.CellCentreX(col) << "," << truth.CellCentreY(row) << "," << t << "," << m << "," << m - t << ","
             << (std::isfinite(n) ? static_cast<long>(n) : 0L) << ","
             << (n >= o.min_points && At(obstacle, col + dc, row + dr) > 0) << ","
-            << (untimely.at<std::uint8_t>(row, col) == 0) << "\n";
+            << (untimely.at<std::uint8_t>(row, col) == 0) << "," << spread.at<float>(row, col) << "\n";
       }
     }
     io::WriteFileAtomic(cmd.output_dir / "cells.csv", csv.str());
@@ -1122,10 +1163,12 @@ LidarEvalResult RunLidarMapEvaluation(const LidarMapCommand& cmd, const json& in
         {"returns", "LiDAR returns in the cell (all sweeps, under the clearance)"},
         {"standing_m", "the highest return over the plane through the 5 x 5 cells' low returns, m"},
         {"persistence", "the share of the sweeps that saw the cell in which something 20 cm tall stood there"},
+        {"sweep_spread_m", "the largest difference of two sweeps' medians in a flat-ground cell, m (NaN: fewer "
+                           "than two sweeps saw it)"},
         {"judged", "1 judged, 0 seen by a pair far in time from every sweep"},
         {"band",
-         "1 flat ground the coverage counts (a timely pair saw it in the band), 2 an object's top the recall counts, 0 "
-         "neither"}};
+         "1 flat ground the coverage counts (a timely pair saw it in the band), 2 an object's part the recall counts, "
+         "0 neither"}};
     for (io::RasterBand& b : layers.bands) b.metadata["meaning"] = meaning.at(b.description);
     layers.metadata["lunarnav_content"] = "evaluate map --lidar: the LiDAR truth on the map's lattice";
     io::WriteGeoTiffAtomic(cmd.output_dir / "truth.tif", layers);

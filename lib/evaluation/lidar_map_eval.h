@@ -57,6 +57,9 @@ struct LidarEvalOptions {
   /// `--z-range`), metres: an object is in the band where a pair saw its part up to this height
   /// (the part above it no pair's search matched), over any other object in the line of sight.
   double band_max_z_m = 1.0;
+  /// The flat ground is also scored where the truth agrees with itself this well: the cells
+  /// whose sweeps' medians (two sweeps or more) lie within this of each other, metres, > 0.
+  double sweeps_agree_m = 0.02;
   /// Cells in the band (3 m wider at each end) of a pair taken farther in time than this from
   /// every sweep are not judged: what stood there then (a cyclist who rode on) no sweep shows,
   /// seconds, >= 0 (infinity: judge every cell).
@@ -112,6 +115,12 @@ struct LidarEvalResult {
   /// The same error by lateral offset from the path (1 m bands, the pairs' positions joined in
   /// order and carried 100 m on along the first and last headings): where it grows.
   std::vector<LateralBin> lateral_profile;
+  /// The same over the flat cells whose sweeps agree within sweeps_agree_m (with the truth's
+  /// band `sweep_spread_m`, MeasureSweepConsistency's; else none): where a pose error is not
+  /// taken for a map error.
+  long agree_cells = 0;
+  double agree_rmse_m = std::numeric_limits<double>::quiet_NaN();
+  double agree_median_m = std::numeric_limits<double>::quiet_NaN();
   long cells_large_error = 0;
   double large_error_x_m = std::numeric_limits<double>::quiet_NaN();  ///< Where the largest error lies.
   double large_error_y_m = std::numeric_limits<double>::quiet_NaN();
@@ -128,8 +137,11 @@ struct LidarEvalResult {
   double sweep_rms_m = 0, sweep_median_abs_m = 0;
   /// Each pair against the sweep nearest in time (with stereo points): the median over a
   /// pair's flat cells of its points' median minus the sweep's; over the pairs, the median and
-  /// largest |offset| and the pairs measured.
+  /// largest |offset| and the pairs measured; over the pairs within max_sweep_gap_s of their
+  /// sweep, the median offset (signed: the stereo's height over the LiDAR's at one instant, what
+  /// the sensors' calibration leaves between them, no pose between).
   long pairs_measured = 0;
+  double pair_offset_median_m = std::numeric_limits<double>::quiet_NaN();
   double pair_offset_median_abs_m = std::numeric_limits<double>::quiet_NaN();
   double pair_offset_max_abs_m = std::numeric_limits<double>::quiet_NaN();
   nlohmann::json ToJson() const;
@@ -154,9 +166,11 @@ LidarEvalResult EvaluateMapAgainstLidar(const io::GeoRaster& map, const io::GeoR
                                         const std::vector<std::vector<int>>* stood_in = nullptr,
                                         cv::Mat* band = nullptr);
 
-/// The sweep-to-sweep consistency of the truth (LidarEvalResult::sweep_*).
+/// The sweep-to-sweep consistency of the truth (LidarEvalResult::sweep_*); with `spread`, each
+/// flat cell's largest difference between two sweeps' medians (CV_32FC1 on the truth's lattice,
+/// NaN where fewer than two sweeps saw the cell with min_lidar_points returns).
 void MeasureSweepConsistency(const std::vector<LidarSweep>& sweeps, const io::GeoRaster& truth,
-                             const LidarEvalOptions& options, LidarEvalResult* result);
+                             const LidarEvalOptions& options, LidarEvalResult* result, cv::Mat* spread = nullptr);
 
 /// `evaluate map --lidar`.
 struct LidarMapCommand {

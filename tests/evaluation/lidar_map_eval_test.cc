@@ -376,6 +376,31 @@ TEST(MeasureSweepConsistency, IsZeroForAgreeingSweepsAndSeesAShiftedOne) {
   EXPECT_NEAR(r.sweep_median_abs_m, 0.03, 1e-5);
 }
 
+// The flat ground is also scored where the sweeps agree: a stretch where the second sweep
+// stands 5 cm higher (its pose off) raises the error there, not where the truth agrees.
+TEST(MeasureSweepConsistency, TheMapIsAlsoScoredWhereTheSweepsAgree) {
+  Scene s;
+  for (Eigen::Vector3f& p : s.sweeps[1].points) {
+    if (p.x() < -4) p.z() += 0.05f;
+  }
+  s.truth = GridLidarTruth(s.sweeps, s.map, s.options);
+  LidarEvalResult r;
+  cv::Mat spread;
+  MeasureSweepConsistency(s.sweeps, s.truth, s.options, &r, &spread);
+  EXPECT_NEAR(spread.at<float>(CellAt(s.truth, -6.1, 10.1)), 0.05, 1e-5);
+  EXPECT_NEAR(spread.at<float>(CellAt(s.truth, 4.1, 10.1)), 0.0, 1e-6);
+  const LidarEvalResult without = s.Score();
+  EXPECT_EQ(without.agree_cells, 0);  // no spread given: no cell known to agree
+  EXPECT_TRUE(std::isnan(without.agree_rmse_m));
+  s.truth.bands.push_back(NamedBand(spread, "sweep_spread_m"));
+  const LidarEvalResult with = s.Score();
+  EXPECT_GT(with.rmse_m, 0.01);  // the map (z = 0) against the mixed sweeps left of x = -4
+  EXPECT_GT(with.agree_cells, 1000);
+  EXPECT_LT(with.agree_cells, with.cells_compared);
+  EXPECT_NEAR(with.agree_rmse_m, 0.0, 1e-6);
+  EXPECT_NEAR(with.agree_median_m, 0.0, 1e-6);
+}
+
 // The options' limits: a band or a LiDAR range beyond 1000 m is refused (a band 1e300 m ahead
 // scored nothing, exit 0), the defaults pass.
 TEST(LidarEvalOptions, RefusesDistancesBeyondAThousandMetres) {
