@@ -226,8 +226,8 @@ Subcommand AddMap(CLI::App* app) {
   cmd->add_option("--band", c->band, "with --lidar: the band scored for coverage and recall, MIN:MAX m ahead "
                                      "(default: the rig's default search)");
   cmd->add_option("--z-range", c->z_range,
-                  "with --lidar: the heights the stereo searched, ZMIN:ZMAX m (stereo-batch's --z-range; default -0.5:1): "
-                  "an object counts for recall where a pair saw its part up to ZMAX");
+                  "with --lidar: the heights the stereo searched, ZMIN:ZMAX m (stereo-batch's --z-range; default "
+                  "-0.5:1): an object counts for recall where a pair saw its part up to ZMAX");
   cmd->add_option("--lidar-range", c->lidar_range,
                   "with --lidar: returns MIN:MAX m from the sensor (horizontally) are used: nearer ones hit the vehicle, "
                   "farther ones carry the sensor's small angle errors as height errors")

@@ -211,6 +211,93 @@ bool InBothImages(const calib::StereoRig& rig, const Eigen::Isometry3d& left_fro
 
 }  // namespace
 
+namespace internal {
+
+PathOffsets::PathOffsets(std::vector<Eigen::Vector2d> path, double bucket_m)
+    : path_(std::move(path)), bucket_m_(bucket_m) {
+  LN_CHECK_ARG(std::isfinite(bucket_m_) && bucket_m_ > 0) << "path offsets: bucket must be > 0 m";
+  if (path_.empty()) return;
+  origin_ = path_.front();
+  auto bucket = [&](double v, double o) { return static_cast<std::int64_t>(std::floor((v - o) / bucket_m_)); };
+  for (std::size_t k = 0; k + 1 < path_.size(); ++k) {
+    const Eigen::Vector2d a = path_[k], b = path_[k + 1];
+    if (!((b - a).squaredNorm() > 0)) continue;
+    const std::int64_t x0 = bucket(std::min(a.x(), b.x()), origin_.x());
+    const std::int64_t x1 = bucket(std::max(a.x(), b.x()), origin_.x());
+    const std::int64_t y0 = bucket(std::min(a.y(), b.y()), origin_.y());
+    const std::int64_t y1 = bucket(std::max(a.y(), b.y()), origin_.y());
+    // A long diagonal segment (the path's extensions) crosses few of its box's buckets: keep
+    // those within a bucket's diagonal of it.
+    const Eigen::Vector2d d = b - a;
+    const double reach = bucket_m_ * std::sqrt(2.0);
+    for (std::int64_t bx = x0; bx <= x1; ++bx) {
+      for (std::int64_t by = y0; by <= y1; ++by) {
+        const Eigen::Vector2d c = origin_ + bucket_m_ * Eigen::Vector2d(bx + 0.5, by + 0.5);
+        const double s = std::clamp((c - a).dot(d) / d.squaredNorm(), 0.0, 1.0);
+        if ((c - (a + s * d)).norm() > reach) continue;
+        buckets_[Key(bx, by)].push_back(static_cast<int>(k));
+        if (bx1_ < bx0_) {
+          bx0_ = bx1_ = bx;
+          by0_ = by1_ = by;
+        }
+        bx0_ = std::min(bx0_, bx);
+        bx1_ = std::max(bx1_, bx);
+        by0_ = std::min(by0_, by);
+        by1_ = std::max(by1_, by);
+      }
+    }
+  }
+}
+
+double PathOffsets::Offset(const Eigen::Vector2d& w) const {
+  if (buckets_.empty()) return kNaN;
+  const std::int64_t qx = static_cast<std::int64_t>(std::floor((w.x() - origin_.x()) / bucket_m_));
+  const std::int64_t qy = static_cast<std::int64_t>(std::floor((w.y() - origin_.y()) / bucket_m_));
+  double best = std::numeric_limits<double>::infinity(), offset = kNaN;
+  int best_k = -1;
+  auto visit = [&](std::int64_t bx, std::int64_t by) {
+    const auto it = buckets_.find(Key(bx, by));
+    if (it == buckets_.end()) return;
+    for (const int k : it->second) {
+      const Eigen::Vector2d a = path_[static_cast<std::size_t>(k)], d = path_[static_cast<std::size_t>(k) + 1] - a;
+      const double s = std::clamp((w - a).dot(d) / d.squaredNorm(), 0.0, 1.0);
+      const Eigen::Vector2d r = w - (a + s * d);
+      const double r2 = r.squaredNorm();
+      if (r2 < best || (r2 == best && k < best_k)) {
+        best = r2;
+        best_k = k;
+        const double cross = d.x() * r.y() - d.y() * r.x();  // > 0: left of travel
+        offset = (cross > 0 ? -1.0 : 1.0) * r.norm();
+      }
+    }
+  };
+  // Ring r holds the buckets r away (Chebyshev); every point of ring r + 1 lies at least
+  // r buckets from w. A segment's nearest point lies in a bucket holding the segment
+  // (buckets within a diagonal of it hold it), so once the best is that near, no ring beyond
+  // can hold a nearer one.
+  const std::int64_t last =
+      std::max({std::abs(qx - bx0_), std::abs(qx - bx1_), std::abs(qy - by0_), std::abs(qy - by1_)});
+  for (std::int64_t r = 0; r <= last; ++r) {
+    if (r == 0) {
+      visit(qx, qy);
+    } else {
+      for (std::int64_t i = -r; i <= r; ++i) {
+        visit(qx + i, qy - r);
+        visit(qx + i, qy + r);
+      }
+      for (std::int64_t i = -r + 1; i <= r - 1; ++i) {
+        visit(qx - r, qy + i);
+        visit(qx + r, qy + i);
+      }
+    }
+    const double clear = static_cast<double>(r) * bucket_m_;
+    if (best_k >= 0 && best < clear * clear) break;
+  }
+  return offset;
+}
+
+}  // namespace internal
+
 void LidarEvalOptions::Validate() const {
   LN_CHECK_ARG(min_points >= 1 && min_lidar_points >= 1) << "min points: must be >= 1";
   LN_CHECK_ARG(std::isfinite(flat_spread_m) && flat_spread_m > 0) << "flat spread: must be > 0 m";
@@ -510,23 +597,8 @@ LidarEvalResult EvaluateMapAgainstLidar(const io::GeoRaster& map, const io::GeoR
     for (const mapping::FramePose& q : pairs) path.emplace_back(q.x_m, q.y_m);
     path.push_back(Eigen::Vector2d(pairs.back().x_m, pairs.back().y_m) + kPathExtensionM * ahead(pairs.back()));
   }
-  auto lateral_offset = [&](double x, double y) {
-    const Eigen::Vector2d w(x, y);
-    double best = std::numeric_limits<double>::infinity(), offset = kNaN;
-    for (std::size_t k = 0; k + 1 < path.size(); ++k) {
-      const Eigen::Vector2d a = path[k], d = path[k + 1] - a;
-      const double len2 = d.squaredNorm();
-      if (!(len2 > 0)) continue;
-      const double s = std::clamp((w - a).dot(d) / len2, 0.0, 1.0);
-      const Eigen::Vector2d r = w - (a + s * d);
-      if (r.squaredNorm() < best) {
-        best = r.squaredNorm();
-        const double cross = d.x() * r.y() - d.y() * r.x();  // > 0: left of travel
-        offset = (cross > 0 ? -1.0 : 1.0) * r.norm();
-      }
-    }
-    return offset;
-  };
+  const internal::PathOffsets path_offsets(std::move(path));
+  auto lateral_offset = [&](double x, double y) { return path_offsets.Offset(Eigen::Vector2d(x, y)); };
 
   // The elevation error on flat ground (and where the sweeps agree).
   const int spread_band = truth.BandIndex("sweep_spread_m");

@@ -2,7 +2,10 @@
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
+#include <limits>
+#include <random>
 
 namespace lunarnav::evaluation {
 namespace {
@@ -399,6 +402,48 @@ TEST(MeasureSweepConsistency, TheMapIsAlsoScoredWhereTheSweepsAgree) {
   EXPECT_LT(with.agree_cells, with.cells_compared);
   EXPECT_NEAR(with.agree_rmse_m, 0.0, 1e-6);
   EXPECT_NEAR(with.agree_median_m, 0.0, 1e-6);
+}
+
+// The bucketed search finds what the scan of every segment finds, on a winding path with
+// repeated points and long straight ends, for points near it and far from it.
+TEST(PathOffsets, AgreesWithTheScanOfEverySegment) {
+  std::mt19937 rng(7);
+  std::uniform_real_distribution<double> turn(-0.6, 0.6), step(0.0, 3.0), spread(-40.0, 40.0);
+  std::vector<Eigen::Vector2d> path = {Eigen::Vector2d(0, -100)};
+  Eigen::Vector2d p(0, 0);
+  double heading = 0;
+  for (int i = 0; i < 300; ++i) {
+    path.push_back(p);
+    if (i % 17 == 0) path.push_back(p);  // a pair taken standing still
+    heading += turn(rng);
+    p += step(rng) * Eigen::Vector2d(std::sin(heading), std::cos(heading));
+  }
+  path.push_back(p + 100 * Eigen::Vector2d(std::sin(heading), std::cos(heading)));
+  auto scan = [&](const Eigen::Vector2d& w) {
+    double best = std::numeric_limits<double>::infinity(), offset = std::nan("");
+    for (std::size_t k = 0; k + 1 < path.size(); ++k) {
+      const Eigen::Vector2d a = path[k], d = path[k + 1] - a;
+      const double len2 = d.squaredNorm();
+      if (!(len2 > 0)) continue;
+      const double t = std::clamp((w - a).dot(d) / len2, 0.0, 1.0);
+      const Eigen::Vector2d r = w - (a + t * d);
+      if (r.squaredNorm() < best) {
+        best = r.squaredNorm();
+        offset = (d.x() * r.y() - d.y() * r.x() > 0 ? -1.0 : 1.0) * r.norm();
+      }
+    }
+    return offset;
+  };
+  for (const double bucket : {0.5, 4.0, 25.0}) {
+    const internal::PathOffsets offsets(path, bucket);
+    for (int i = 0; i < 3000; ++i) {
+      const Eigen::Vector2d& near = path[static_cast<std::size_t>(i) % path.size()];
+      const Eigen::Vector2d w = near + Eigen::Vector2d(spread(rng), spread(rng)) * (i % 30 == 0 ? 5.0 : 0.25);
+      ASSERT_EQ(offsets.Offset(w), scan(w)) << "bucket " << bucket << ", point " << w.transpose();
+    }
+  }
+  EXPECT_TRUE(std::isnan(internal::PathOffsets({Eigen::Vector2d(1, 1), Eigen::Vector2d(1, 1)}).Offset({0, 0})));
+  EXPECT_TRUE(std::isnan(internal::PathOffsets({}).Offset({0, 0})));
 }
 
 // The options' limits: a band or a LiDAR range beyond 1000 m is refused (a band 1e300 m ahead
