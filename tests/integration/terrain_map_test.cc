@@ -390,7 +390,8 @@ TEST(EvaluateMapTool, OptionsOfTheOtherTruthAreUsageErrors) {
   const fs::path map = tmp.path() / "map", out = tmp.path() / "eval";
   for (const std::vector<std::string>& args :
        {std::vector<std::string>{"--truth", "sim", "--stereo", "stereo"}, {"--truth", "sim", "--lidar-calib", "c.txt"},
-        {"--truth", "sim", "--band", "5:10"}, {"--lidar", "velodyne", "--requests", "requests.csv"},
+        {"--truth", "sim", "--band", "5:10"}, {"--truth", "sim", "--z-range", "-0.5:2"},
+        {"--lidar", "velodyne", "--requests", "requests.csv"},
         {"--truth", "sim", "--lidar", "velodyne"}}) {
     std::vector<std::string> all = {"map", map.string()};
     all.insert(all.end(), args.begin(), args.end());
