@@ -39,6 +39,8 @@ constexpr float kNaNf = std::numeric_limits<float>::quiet_NaN();
 constexpr double kUntimelyMarginM = 3.0;
 // How far the path is carried on beyond its first and last pairs for the lateral profile, m.
 constexpr double kPathExtensionM = 100.0;
+// A pair's offset from its sweep needs this many flat cells that both saw.
+constexpr std::size_t kPairOffsetMinCells = 10;
 // A cell whose low returns lie this far below the wider area's is sunk (a reflection, a hole), m.
 constexpr double kSunkDepthM = 0.3;
 // The largest truth grid, cells: 4096 x 4096 (a square kilometre of 25 cm cells).
@@ -846,6 +848,52 @@ void MeasureSweepConsistency(const std::vector<LidarSweep>& sweeps, const io::Ge
   result->sweep_median_abs_m = MedianOf(abs_d);
 }
 
+double PairOffset(const std::vector<Eigen::Vector3f>& stereo_world, const LidarSweep& sweep,
+                  const io::GeoRaster& truth, const LidarEvalOptions& o) {
+  const cv::Mat& ground = Band(truth, "ground_m", "truth");
+  io::GeoRaster grid;
+  grid.cell_m = truth.cell_m;
+  grid.x_west_m = truth.x_west_m;
+  grid.y_north_m = truth.y_north_m;
+  grid.bands.push_back(NamedBand(cv::Mat(truth.Height(), truth.Width(), CV_32FC1, cv::Scalar(0)), "returns"));
+  LidarSweep stereo;
+  stereo.points = stereo_world;
+  const Binned mine = BinReturns({stereo}, grid);
+  const Binned theirs = BinReturns({sweep}, grid);
+  std::vector<double> d;
+  for (int row = 0; row < ground.rows; ++row) {
+    for (int col = 0; col < ground.cols; ++col) {
+      if (!std::isfinite(ground.at<float>(row, col))) continue;
+      const std::size_t i =
+          static_cast<std::size_t>(row) * static_cast<std::size_t>(ground.cols) + static_cast<std::size_t>(col);
+      if (mine.start[i + 1] - mine.start[i] < 3 || theirs.start[i + 1] - theirs.start[i] < o.min_lidar_points) {
+        continue;
+      }
+      std::vector<float> a(mine.z.begin() + mine.start[i], mine.z.begin() + mine.start[i + 1]);
+      std::vector<float> b(theirs.z.begin() + theirs.start[i], theirs.z.begin() + theirs.start[i + 1]);
+      d.push_back(Median(&a) - Median(&b));
+    }
+  }
+  return d.size() >= kPairOffsetMinCells ? MedianOf(d) : kNaN;
+}
+
+void SummarizePairOffsets(const std::vector<double>& offsets_m, const std::vector<double>& gaps_s,
+                          const LidarEvalOptions& o, LidarEvalResult* result) {
+  LN_CHECK(offsets_m.size() == gaps_s.size()) << "pair offsets: one gap per offset";
+  std::vector<double> abs_offsets, signed_offsets;
+  for (std::size_t k = 0; k < offsets_m.size(); ++k) {
+    if (!std::isfinite(offsets_m[k])) continue;
+    abs_offsets.push_back(std::abs(offsets_m[k]));
+    if (gaps_s[k] <= o.max_sweep_gap_s) signed_offsets.push_back(offsets_m[k]);
+  }
+  result->pairs_measured = static_cast<long>(abs_offsets.size());
+  result->pair_offset_median_abs_m = result->pair_offset_max_abs_m = result->pair_offset_median_m = kNaN;
+  if (abs_offsets.empty()) return;
+  result->pair_offset_median_abs_m = MedianOf(abs_offsets);
+  result->pair_offset_max_abs_m = *std::max_element(abs_offsets.begin(), abs_offsets.end());
+  if (!signed_offsets.empty()) result->pair_offset_median_m = MedianOf(signed_offsets);
+}
+
 json LidarEvalResult::ToJson() const {
   return {{"sweeps", sweeps},
           {"returns", returns},
@@ -1096,12 +1144,6 @@ LidarEvalResult RunLidarMapEvaluation(const LidarMapCommand& cmd, const json& in
   // Each pair against the sweep nearest in time, on flat ground (the pose's share of the error).
   json pair_rows = json::array();
   if (!cmd.stereo_dir.empty() && !cmd.lidar_in_world) {
-    const cv::Mat& ground = Band(truth, "ground_m", "truth");
-    io::GeoRaster grid;
-    grid.cell_m = truth.cell_m;
-    grid.x_west_m = truth.x_west_m;
-    grid.y_north_m = truth.y_north_m;
-    grid.bands.push_back(NamedBand(cv::Mat(truth.Height(), truth.Width(), CV_32FC1, cv::Scalar(0)), "returns"));
     std::vector<double> offsets(pairs.size(), kNaN);
     std::vector<std::string> nearest(pairs.size());
     std::vector<double> gap_s(pairs.size(), kNaN);
@@ -1128,35 +1170,12 @@ LidarEvalResult RunLidarMapEvaluation(const LidarMapCommand& cmd, const json& in
           stereo.points.push_back(world_from_vehicle * Eigen::Vector3f(v[x][0], v[x][1], v[x][2]));
         }
       }
-      const Binned mine = BinReturns({stereo}, grid);
-      const Binned theirs = BinReturns({*sweep}, grid);
-      std::vector<double> d;
-      for (int row = 0; row < ground.rows; ++row) {
-        for (int col = 0; col < ground.cols; ++col) {
-          if (!std::isfinite(ground.at<float>(row, col))) continue;
-          const std::size_t i =
-              static_cast<std::size_t>(row) * static_cast<std::size_t>(ground.cols) + static_cast<std::size_t>(col);
-          if (mine.start[i + 1] - mine.start[i] < 3 || theirs.start[i + 1] - theirs.start[i] < o.min_lidar_points)
-            continue;
-          std::vector<float> a(mine.z.begin() + mine.start[i], mine.z.begin() + mine.start[i + 1]);
-          std::vector<float> b(theirs.z.begin() + theirs.start[i], theirs.z.begin() + theirs.start[i + 1]);
-          d.push_back(Median(&a) - Median(&b));
-        }
-      }
-      if (d.size() >= 10) offsets[k] = MedianOf(d);
+      offsets[k] = PairOffset(stereo.points, *sweep, truth, o);
     });
-    std::vector<double> abs_offsets, signed_offsets;
+    SummarizePairOffsets(offsets, gap_s, o, &result);
     for (std::size_t k = 0; k < pairs.size(); ++k) {
       if (!std::isfinite(offsets[k])) continue;
-      abs_offsets.push_back(std::abs(offsets[k]));
-      if (gap_s[k] <= o.max_sweep_gap_s) signed_offsets.push_back(offsets[k]);
       pair_rows.push_back({{"stem", pairs[k].stem}, {"sweep", nearest[k]}, {"offset_m", offsets[k]}});
-    }
-    result.pairs_measured = static_cast<long>(abs_offsets.size());
-    if (!abs_offsets.empty()) {
-      result.pair_offset_median_abs_m = MedianOf(abs_offsets);
-      if (!signed_offsets.empty()) result.pair_offset_median_m = MedianOf(signed_offsets);
-      result.pair_offset_max_abs_m = *std::max_element(abs_offsets.begin(), abs_offsets.end());
     }
   }
 

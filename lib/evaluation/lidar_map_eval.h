@@ -174,6 +174,19 @@ LidarEvalResult EvaluateMapAgainstLidar(const io::GeoRaster& map, const io::GeoR
 void MeasureSweepConsistency(const std::vector<LidarSweep>& sweeps, const io::GeoRaster& truth,
                              const LidarEvalOptions& options, LidarEvalResult* result, cv::Mat* spread = nullptr);
 
+/// One pair against a sweep on the truth's flat ground: over the flat cells where the pair's
+/// points (world frame, 3 or more) and the sweep's returns (min_lidar_points or more) both
+/// fall, the median of (the points' median minus the returns' median); NaN with fewer than 10
+/// such cells.
+double PairOffset(const std::vector<Eigen::Vector3f>& stereo_world, const LidarSweep& sweep,
+                  const io::GeoRaster& truth, const LidarEvalOptions& options);
+
+/// The pairs' offsets (NaN: not measured) and each pair's time from its sweep into
+/// LidarEvalResult's pairs_measured, pair_offset_median_abs_m and pair_offset_max_abs_m (every
+/// pair measured) and pair_offset_median_m (signed, the pairs within max_sweep_gap_s).
+void SummarizePairOffsets(const std::vector<double>& offsets_m, const std::vector<double>& gaps_s,
+                          const LidarEvalOptions& options, LidarEvalResult* result);
+
 /// `evaluate map --lidar`.
 struct LidarMapCommand {
   std::filesystem::path map_dir, lidar_dir, output_dir;

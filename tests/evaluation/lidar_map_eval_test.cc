@@ -446,6 +446,35 @@ TEST(PathOffsets, AgreesWithTheScanOfEverySegment) {
   EXPECT_TRUE(std::isnan(internal::PathOffsets({}).Offset({0, 0})));
 }
 
+// A pair against its sweep: its points 3 cm over the flat ground the sweep saw are 3 cm off
+// (the box and the cells the pair did not see aside); the summary's signed median takes only
+// the pairs taken within the sweep gap, the |offsets| every pair.
+TEST(PairOffset, IsThePairsHeightOverItsSweepOnFlatGround) {
+  const Scene s;
+  std::vector<Eigen::Vector3f> stereo;
+  for (double x = -3; x < 3; x += 0.05) {
+    for (double y = 5; y < 10; y += 0.05) {
+      const bool on_box = x > 1.5 && x < 2.5 && y > 7.5 && y < 8.5;
+      stereo.emplace_back(x + 0.001, y + 0.001, on_box ? 0.2f : 0.03f);
+    }
+  }
+  EXPECT_NEAR(PairOffset(stereo, s.sweeps[0], s.truth, s.options), 0.03, 1e-5);
+  // Fewer than ten flat cells both saw (the first 15 points: x -3, y 5..5.7, three cells): not
+  // measured.
+  const std::vector<Eigen::Vector3f> few(stereo.begin(), stereo.begin() + 15);
+  EXPECT_TRUE(std::isnan(PairOffset(few, s.sweeps[0], s.truth, s.options)));
+
+  LidarEvalResult r;
+  SummarizePairOffsets({0.03, -0.05, std::nan(""), 0.02, 0.01}, {0.0, 2.0, 0.0, 0.1, 0.2}, s.options, &r);
+  EXPECT_EQ(r.pairs_measured, 4);
+  EXPECT_NEAR(r.pair_offset_median_abs_m, 0.025, 1e-12);
+  EXPECT_NEAR(r.pair_offset_max_abs_m, 0.05, 1e-12);
+  EXPECT_NEAR(r.pair_offset_median_m, 0.02, 1e-12);  // the pair 2 s from its sweep left out
+  SummarizePairOffsets({0.03}, {1.0}, s.options, &r);
+  EXPECT_EQ(r.pairs_measured, 1);
+  EXPECT_TRUE(std::isnan(r.pair_offset_median_m));  // no pair at a sweep's time
+}
+
 // The options' limits: a band or a LiDAR range beyond 1000 m is refused (a band 1e300 m ahead
 // scored nothing, exit 0), the defaults pass.
 TEST(LidarEvalOptions, RefusesDistancesBeyondAThousandMetres) {
