@@ -67,6 +67,12 @@ int main(int argc, char** argv) {
   app.add_option(
       "--z-range", z_range,
       "heights ZMIN:ZMAX metres of the objects for window selection and the rig's default search (default -0.5:1)");
+  double tall_guard_m = 0.0;
+  app.add_option("--tall-guard", tall_guard_m,
+                 "with --rig's default search: also search each row's disparities of objects up to M metres above the "
+                 "heights (--z-range's top) at the search's distances, and reject what matches there (beyond_near): a post "
+                 "taller than the heights is matched where it stands, not smeared into the band beside it (0 = off)")
+      ->capture_default_str();
   CLI::Option* requests_option = app.add_option(
       "--requests", requests_path,
       "CSV stem,y_min_m,y_max_m: each listed pair's own distance interval (needs --rig)");
@@ -123,10 +129,13 @@ int main(int argc, char** argv) {
       std::tie(region.z_min_m, region.z_max_m) = util::ParseDoublePair(z_range, ':', "--z-range");
     }
     if (opt.rig) stereo::CheckRigAgainstPairs(*opt.rig, opt.rig_source, input_dir);
+    LN_CHECK_ARG(rig_default || !given_option("--tall-guard"))
+        << "--tall-guard: needs --rig's default search (no --disparity, --rows or --range-y)";
     if (rig_default) {
       calib::GroundWindowOptions ground;
       ground.z_min_m = region.z_min_m;
       ground.z_max_m = region.z_max_m;
+      ground.tall_guard_m = tall_guard_m;
       opt.ground = calib::SelectGroundWindow(*opt.rig, opt.matcher.reference, ground, opt.window_selection);
     }
     if (!range_y.empty()) {

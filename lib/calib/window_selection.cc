@@ -195,6 +195,7 @@ void GroundWindowOptions::Validate() const {
       << "far guard: the distance factor must be >= 1, got " << guard_distance_factor;
   LN_CHECK_ARG(guard_tilt_deg >= 0 && guard_tilt_deg < 45) << "far guard: the tilt must be in [0, 45) deg, got "
                                                            << guard_tilt_deg;
+  LN_CHECK_ARG(tall_guard_m >= 0 && tall_guard_m <= 100) << "tall guard: must be in [0, 100] m, got " << tall_guard_m;
 }
 
 nlohmann::json GroundWindow::ToJson() const {
@@ -211,6 +212,8 @@ nlohmann::json GroundWindow::ToJson() const {
           {"guard_y_max_m", guard_y_max_m},
           {"guard_tilt_deg", guard_tilt_deg},
           {"guard_min_disparity_px", guard_min_disparity_px},
+          {"tall_guard_m", options.tall_guard_m},
+          {"guard_max_disparity_px", guard_max_disparity_px},
           {"window", window.ToJson()},
           {"rows_with_points", rows},
           {"row_band_widest_px", widest},
@@ -219,7 +222,7 @@ nlohmann::json GroundWindow::ToJson() const {
 
 RowBands SelectRowBands(const StereoRig& rig, ReferenceImage reference, const RegionOfInterest& region,
                         const ImageWindow& window, double guard_distance_factor, double guard_tilt_deg,
-                        double near_guard_factor, const WindowSelectionOptions& selection) {
+                        double near_guard_factor, const WindowSelectionOptions& selection, double tall_guard_m) {
   LN_CHECK_ARG(rig.rectified.has_value()) << "rig: not rectified (rectify the pair first)";
   LN_CHECK_ARG(std::isfinite(guard_distance_factor) && guard_distance_factor >= 1)
       << "far guard: the distance factor must be >= 1, got " << guard_distance_factor;
@@ -227,6 +230,7 @@ RowBands SelectRowBands(const StereoRig& rig, ReferenceImage reference, const Re
                                                            << guard_tilt_deg;
   LN_CHECK_ARG(std::isfinite(near_guard_factor) && near_guard_factor >= 1)
       << "near guard: the distance factor must be >= 1, got " << near_guard_factor;
+  LN_CHECK_ARG(tall_guard_m >= 0 && tall_guard_m <= 100) << "tall guard: must be in [0, 100] m, got " << tall_guard_m;
   selection.Validate();
   const RectifiedGeometry& g = *rig.rectified;
   const ReferenceGeometry geo(rig, reference, selection);
@@ -254,6 +258,7 @@ RowBands SelectRowBands(const StereoRig& rig, ReferenceImage reference, const Re
   int guard_min = window.min_disparity_px, guard_max = window.max_disparity_px;
   for (int y = 0; y < g.height_px; ++y) {
     double d_lo = std::numeric_limits<double>::infinity(), d_hi = -d_lo, d_guard = d_lo, d_near = d_hi;
+    double d_tall = d_hi;
     for (int x = 0; x < g.width_px; ++x) {
       const Eigen::Vector3d u = ray(x, y);
       // The depths along the ray within [lo, hi] of base + t rate, intersected into [t0, t1].
@@ -283,6 +288,12 @@ RowBands SelectRowBands(const StereoRig& rig, ReferenceImage reference, const Re
       clip(centre.y(), along_y.dot(u), y_near, region.y_max_m, &n0, &n1);
       clip(centre.z(), along_z.dot(u), region.z_min_m, region.z_max_m, &n0, &n1);
       if (n0 <= n1) d_near = std::max(d_near, fb / n0 + dc);
+      if (tall_guard_m > 0) {  // the tall guard: the heights above the region at its distances
+        double a0 = 1e-3, a1 = 1e5;
+        clip(centre.y(), along_y.dot(u), region.y_min_m, region.y_max_m, &a0, &a1);
+        clip(centre.z(), along_z.dot(u), region.z_max_m, region.z_max_m + tall_guard_m, &a0, &a1);
+        if (a0 <= a1) d_tall = std::max(d_tall, fb / a0 + dc);
+      }
     }
     if (!(d_lo <= d_hi)) continue;
     const int lo = std::max(floor_px(d_lo), window.min_disparity_px);
@@ -294,7 +305,11 @@ RowBands SelectRowBands(const StereoRig& rig, ReferenceImage reference, const Re
             ? std::max(accept_max, static_cast<int>(std::ceil(std::min(d_near, d_limit) + kHair)) +
                                        selection.disparity_margin_px)
             : accept_max;
-    out.row_disparity_px[y] = {guard, near};
+    const int tall = std::isfinite(d_tall) ? static_cast<int>(std::ceil(std::min(d_tall, d_limit) + kHair)) +
+                                                 selection.disparity_margin_px
+                                           : near;
+    out.row_disparity_px[y] = {guard, std::max(near, tall)};
+    guard_max = std::max(guard_max, tall);
     out.row_accept_min_px[y] = lo;
     out.row_accept_max_px[y] = accept_max;
     guard_max = std::max(guard_max, near);
@@ -375,13 +390,15 @@ GroundWindow SelectGroundWindow(const StereoRig& rig, ReferenceImage reference, 
   out.window = SelectWindow(rig, out.region, reference, selection);
 
   const RowBands bands = SelectRowBands(rig, reference, out.region, out.window, options.guard_distance_factor,
-                                        options.guard_tilt_deg, 1.0, selection);
+                                        options.guard_tilt_deg, 1.0, selection, options.tall_guard_m);
   out.guard_y_max_m = bands.guard_y_max_m;
   out.guard_distance_factor = options.guard_distance_factor;
   out.guard_tilt_deg = options.guard_tilt_deg;
   out.row_disparity_px = bands.row_disparity_px;
   out.row_accept_min_px = bands.row_accept_min_px;
+  if (options.tall_guard_m > 0) out.row_accept_max_px = bands.row_accept_max_px;
   out.guard_min_disparity_px = bands.guard_min_disparity_px;
+  out.guard_max_disparity_px = bands.guard_max_disparity_px;
   return out;
 }
 

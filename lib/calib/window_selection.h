@@ -120,6 +120,14 @@ struct GroundWindowOptions {
   /// Ground farther below is matched into the guard's lowest disparities (nearer its own than
   /// the band's) and rejected there too.
   double guard_tilt_deg = 2.0;
+  /// A guard above each band, for objects taller than z_max_m standing in the region: each row
+  /// also searches the disparities of the heights z_max_m to z_max_m + tall_guard_m at the
+  /// region's distances, and what matches there is rejected (beyond_near). A post taller than
+  /// the heights, whose upper part lies above a row's band, is then matched where it stands
+  /// rather than smeared by the aggregation into the band's top beside it (raw KITTI drive
+  /// 0005: a keep-right sign's post 1.1 m up at 6 m, its shadow matched 1 m behind it).
+  /// Metres, in [0, 100]; 0: none (the default: it widens the upper rows' search).
+  double tall_guard_m = 0.0;
   void Validate() const;
 };
 
@@ -145,6 +153,10 @@ struct GroundWindow {
   /// Per row, the least disparity accepted (the region's far limit; the band extends below
   /// it by the guard); 0 for rows without a band.
   std::vector<int> row_accept_min_px;
+  /// With a tall guard (GroundWindowOptions::tall_guard_m > 0): per row, the greatest
+  /// disparity accepted (the band extends above it by the tall guard); empty without.
+  std::vector<int> row_accept_max_px;
+  int guard_max_disparity_px = 0;  ///< The greatest disparity of the bands, tall guard included.
   nlohmann::json ToJson() const;
 };
 
@@ -172,9 +184,12 @@ struct RowBands {
 /// far guard); guard_tilt_deg in [0, 45). near_guard_factor >= 1: above each band, a near
 /// guard, the heights from y_min_m / near_guard_factor (from the camera's Y) to the region
 /// (1 = none; a requested window's lower rows see ground nearer than its interval).
+/// tall_guard_m >= 0: above each band also the heights z_max_m to z_max_m + tall_guard_m at
+/// the region's distances (GroundWindowOptions::tall_guard_m; 0 = none).
 RowBands SelectRowBands(const StereoRig& rig, ReferenceImage reference, const RegionOfInterest& region,
                         const ImageWindow& window, double guard_distance_factor, double guard_tilt_deg = 0.0,
-                        double near_guard_factor = 1.0, const WindowSelectionOptions& selection = {});
+                        double near_guard_factor = 1.0, const WindowSelectionOptions& selection = {},
+                        double tall_guard_m = 0.0);
 
 /// stereo-batch's default search with a rig (docs/stereo-batch.md): the region of the ground
 /// the rig sees, from the nearest ground point that projects inside both images to the far

@@ -54,14 +54,14 @@ struct PairWindow {
   long request_line = 0;
   std::vector<std::pair<int, int>> row_disparity_px;  // with a rig default: per-row bands (semi-global), guard included
   std::vector<int> row_accept_min_px;                 // with a rig default: the far limit's disparity per row
-  std::vector<int> row_accept_max_px;                 // requests: the near limit's disparity per row
+  std::vector<int> row_accept_max_px;                 // requests, a tall guard: the near limit's disparity per row
   int guard_min_disparity_px = 0;
   int guard_max_disparity_px = 0;
   std::optional<VehicleAttitude> attitude;  // the region is then in the level frame
   // The rig's default search (calib::SelectGroundWindow's window and per-row bands).
   static PairWindow FromGround(const calib::GroundWindow& g) {
-    return {"rig-ground", g.region, g.window, 0, g.row_disparity_px, g.row_accept_min_px, {},
-            g.guard_min_disparity_px, g.window.max_disparity_px, std::nullopt};
+    return {"rig-ground", g.region, g.window, 0, g.row_disparity_px, g.row_accept_min_px, g.row_accept_max_px,
+            g.guard_min_disparity_px, std::max(g.window.max_disparity_px, g.guard_max_disparity_px), std::nullopt};
   }
   nlohmann::json ToJson() const {
     nlohmann::json j = window.ToJson();
@@ -568,7 +568,7 @@ struct StereoBatchRun::Impl {
       const calib::RowBands bands =
           calib::SelectRowBands(*options.rig, options.matcher.reference, w.region, w.window,
                                 options.ground->guard_distance_factor, options.ground->guard_tilt_deg,
-                                options.ground->guard_distance_factor, selection);
+                                options.ground->guard_distance_factor, selection, options.ground->options.tall_guard_m);
       w.row_disparity_px = bands.row_disparity_px;
       w.row_accept_min_px = bands.row_accept_min_px;
       w.row_accept_max_px = bands.row_accept_max_px;

@@ -490,6 +490,66 @@ TEST(SelectRowBands, ANearGuardHoldsTheGroundNearerThanTheInterval) {
   }
 }
 
+// The rig's default search with a tall guard: the region's points lie in each row's accepted
+// band as without it; the points of a post taller than the heights (Z_max to Z_max + 1.5 m at
+// the region's distances), above many rows' bands, lie in the band searched above them, to be
+// rejected there; without the guard the bands and the accepted disparities are the same and
+// nothing of the post above the heights is searched.
+TEST(SelectGroundWindow, ATallGuardHoldsWhatStandsAboveTheHeights) {
+  std::mt19937 rng(13);
+  for (const RigCase& rc : Rigs()) {
+    const RectifiedGeometry& g = *rc.rig.rectified;
+    for (ReferenceImage reference : {ReferenceImage::kRight, ReferenceImage::kLeft}) {
+      SCOPED_TRACE(std::string(rc.name) + ", " + ToString(reference));
+      const Projector proj(rc.rig, reference);
+      GroundWindowOptions options;
+      const GroundWindow plain = SelectGroundWindow(rc.rig, reference, options);
+      options.tall_guard_m = 1.5;
+      const GroundWindow tall = SelectGroundWindow(rc.rig, reference, options);
+      ASSERT_TRUE(tall.window.visible);
+      EXPECT_TRUE(plain.row_accept_max_px.empty());
+      ASSERT_EQ(tall.row_accept_max_px.size(), tall.row_disparity_px.size());
+      EXPECT_EQ(plain.row_accept_min_px, tall.row_accept_min_px);
+      EXPECT_EQ(plain.guard_max_disparity_px, plain.window.max_disparity_px);
+      EXPECT_GT(tall.guard_max_disparity_px, plain.guard_max_disparity_px);
+      const RegionOfInterest& region = tall.region;
+      std::uniform_real_distribution<double> X(-4, 4), Y(region.y_min_m, region.y_max_m),
+          Z(region.z_min_m, region.z_max_m), Z_tall(region.z_max_m, region.z_max_m + 1.5);
+      int inside = 0, inside_wrong = 0, above = 0, above_outside = 0, above_accepted = 0, plain_holds = 0;
+      for (int i = 0; i < 200000; ++i) {
+        const bool in_region = i % 2 == 0;
+        const auto p = proj.Project(Eigen::Vector3d(X(rng), Y(rng), in_region ? Z(rng) : Z_tall(rng)));
+        if (!(p.depth > 0) || p.row < -0.5 || p.row > g.height_px - 0.5 || p.column < -0.5 ||
+            p.column > g.width_px - 0.5) {
+          continue;
+        }
+        const int row = static_cast<int>(std::lround(p.row));
+        const auto [lo, hi] = tall.row_disparity_px[row];
+        if (lo > hi) continue;
+        // Without the guard a row's band ends at its accepted disparities.
+        const auto [plain_lo, plain_hi] = plain.row_disparity_px[row];
+        ASSERT_EQ(plain_lo, lo) << row;
+        ASSERT_EQ(plain_hi, tall.row_accept_max_px[row]) << row;
+        if (in_region) {
+          ++inside;
+          inside_wrong += !(p.disparity >= tall.row_accept_min_px[row] && p.disparity <= tall.row_accept_max_px[row]);
+        } else {
+          ++above;
+          above_outside += !(p.disparity <= hi);
+          above_accepted += p.disparity > tall.row_accept_max_px[row] + 1;  // beyond the band: the guard's
+          plain_holds += p.disparity <= plain_hi;
+        }
+      }
+      EXPECT_GT(inside, 10000);
+      EXPECT_EQ(inside_wrong, 0);
+      EXPECT_GT(above, 300);  // most of the post stands above the window's rows: not searched at all
+      EXPECT_EQ(above_outside, 0);
+      EXPECT_GT(above_accepted, above / 10);
+      EXPECT_LT(plain_holds, above - above_accepted / 2);
+    }
+  }
+}
+
 // A vehicle pitched over a rock (or rolled on a slope) sees the ground ahead where a level
 // vehicle would not: with its attitude the bands hold the region taken in the level frame at
 // the mast base, every point of it; the level vehicle's bands miss much of it.
