@@ -67,7 +67,7 @@ int main(int argc, char** argv) {
   app.add_option(
       "--z-range", z_range,
       "heights ZMIN:ZMAX metres of the objects for window selection and the rig's default search (default -0.5:1)");
-  double tall_guard_m = 0.0;
+  double tall_guard_m = calib::GroundWindowOptions{}.tall_guard_m;
   app.add_option("--tall-guard", tall_guard_m,
                  "with --rig's default search: also search each row's disparities of objects up to M metres above the "
                  "heights (--z-range's top) at the search's distances, and reject what matches there (beyond_near): a post "

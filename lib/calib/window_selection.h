@@ -126,8 +126,9 @@ struct GroundWindowOptions {
   /// the heights, whose upper part lies above a row's band, is then matched where it stands
   /// rather than smeared by the aggregation into the band's top beside it (raw KITTI drive
   /// 0005: a keep-right sign's post 1.1 m up at 6 m, its shadow matched 1 m behind it).
-  /// Metres, in [0, 100]; 0: none (the default: it widens the upper rows' search).
-  double tall_guard_m = 0.0;
+  /// Metres, in [0, 100]; 0: none. The default widens the upper rows' search (matching 6-22 %
+  /// slower on the real drives) and keeps every simulated traverse's rocks.
+  double tall_guard_m = 1.5;
   void Validate() const;
 };
 

@@ -424,7 +424,9 @@ TEST(SelectGroundWindow, StartsAtTheNearestGroundBothImagesHoldAndBoundsEveryRow
       int rows = 0;
       for (int r = 0; r < g.height_px; ++r) {
         if (!(lo[r] <= hi[r])) continue;
-        const int band_lo = gw.row_accept_min_px[r], band_hi = gw.row_disparity_px[r].second;
+        // The accepted band (above it, the tall guard searches what stands over the heights).
+        const int band_lo = gw.row_accept_min_px[r];
+        const int band_hi = gw.row_accept_max_px.empty() ? gw.row_disparity_px[r].second : gw.row_accept_max_px[r];
         slack += (band_hi - band_lo) - (hi[r] - lo[r]);
         ++rows;
       }
@@ -503,6 +505,8 @@ TEST(SelectGroundWindow, ATallGuardHoldsWhatStandsAboveTheHeights) {
       SCOPED_TRACE(std::string(rc.name) + ", " + ToString(reference));
       const Projector proj(rc.rig, reference);
       GroundWindowOptions options;
+      EXPECT_EQ(options.tall_guard_m, 1.5);  // the default
+      options.tall_guard_m = 0;
       const GroundWindow plain = SelectGroundWindow(rc.rig, reference, options);
       options.tall_guard_m = 1.5;
       const GroundWindow tall = SelectGroundWindow(rc.rig, reference, options);
