@@ -339,7 +339,7 @@ FrameContribution BinFrame(const cv::Mat& xyz, const cv::Mat& sigma, const Eigen
     std::vector<std::uint8_t> row_edge;              // per column of the row: at a depth edge
     std::vector<std::uint8_t> at_edge, sorted_at_edge;  // by pass 1's index and sorted: at a depth edge
     std::vector<float> edge_ground;                  // per cell of the box: its own ground (NaN: unknown)
-    std::vector<std::pair<std::int64_t, float>> near_ground;  // cells without: the ground around them
+    std::vector<float> edge_floor;                   // per cell of the box: the ground its edge points meet
     std::vector<PlaneSample> plane;                  // a sample of the other points: world x, y, z
   };
   static thread_local Buffers buf;
@@ -581,45 +581,37 @@ FrameContribution BinFrame(const cv::Mat& xyz, const cv::Mat& sigma, const Eigen
     }
     return g;
   };
-  // Where a cell with points at an edge has no ground of its own, the lowest of the cells' around
-  // it within kEdgeGroundReachCells; +inf where none has (inside a bush or a hedge, where the
-  // pair sees no ground near: nothing to judge the points by). Filled before pass 3.
-  std::vector<std::pair<std::int64_t, float>>& near_ground = buf.near_ground;
-  near_ground.clear();
+  // Per cell with points at an edge, the ground they are judged against: the cell's own, else
+  // the lowest of the cells' around it within kEdgeGroundReachCells, +inf where none has
+  // (inside a bush or a hedge, where the pair sees no ground near: nothing to judge the points
+  // by); NaN for the cells without (most). Filled before pass 3 reorders any cell.
+  std::vector<float>& edge_floor = buf.edge_floor;
   if (edge_points > 0) {
+    edge_floor.assign(static_cast<std::size_t>(nx * ny), kNaNF);
     for (std::int64_t c = 0; c + 1 < static_cast<std::int64_t>(start.size()); ++c) {
       const auto b = sorted_at_edge.begin() + start[c], e = sorted_at_edge.begin() + start[c + 1];
-      if (std::find(b, e, 1) == e || std::isfinite(OwnEdgeGround(c))) continue;
-      const std::int64_t ci = c % nx, cj = c / nx;
-      float lowest_near = kInfF;
-      for (std::int64_t j = std::max<std::int64_t>(0, cj - kEdgeGroundReachCells);
-           j <= std::min<std::int64_t>(ny - 1, cj + kEdgeGroundReachCells); ++j) {
-        for (std::int64_t i = std::max<std::int64_t>(0, ci - kEdgeGroundReachCells);
-             i <= std::min<std::int64_t>(nx - 1, ci + kEdgeGroundReachCells); ++i) {
-          const std::int64_t n = j * nx + i;
-          if (start[n] != start[n + 1]) lowest_near = std::min(lowest_near, OwnEdgeGround(n));
+      if (std::find(b, e, 1) == e) continue;
+      float floor_z = OwnEdgeGround(c);
+      if (std::isinf(floor_z)) {
+        const std::int64_t ci = c % nx, cj = c / nx;
+        for (std::int64_t j = std::max<std::int64_t>(0, cj - kEdgeGroundReachCells);
+             j <= std::min<std::int64_t>(ny - 1, cj + kEdgeGroundReachCells); ++j) {
+          for (std::int64_t i = std::max<std::int64_t>(0, ci - kEdgeGroundReachCells);
+               i <= std::min<std::int64_t>(nx - 1, ci + kEdgeGroundReachCells); ++i) {
+            const std::int64_t n = j * nx + i;
+            if (start[n] != start[n + 1]) floor_z = std::min(floor_z, OwnEdgeGround(n));
+          }
         }
       }
-      near_ground.emplace_back(c, lowest_near);
+      edge_floor[static_cast<std::size_t>(c)] = floor_z;
     }
   }
-  // The points of cell c at a depth edge that stand more than edge_height_m over the cell's
-  // ground (its own, else the lowest of the cells' around it; where none is seen, none) are
-  // dropped, the others moved to the front of the cell's range [b, e) in their order and
+  // The points of cell c at a depth edge that stand more than edge_height_m over its edge_floor
+  // are dropped, the others moved to the front of the cell's range [b, e) in their order and
   // counted; returns how many points stay.
-  std::size_t next_near = 0;  // near_ground's entries in cell order
   auto JudgeEdgePoints = [&](std::uint32_t b, std::uint32_t e, std::int64_t c) -> std::uint32_t {
-    if (std::find(sorted_at_edge.begin() + b, sorted_at_edge.begin() + e, 1) == sorted_at_edge.begin() + e) {
-      return e - b;  // none at an edge (most cells)
-    }
-    double floor_z = OwnEdgeGround(c);
-    if (std::isinf(floor_z)) {
-      while (next_near < near_ground.size() && near_ground[next_near].first < c) ++next_near;
-      LN_CHECK(next_near < near_ground.size() && near_ground[next_near].first == c)
-          << "depth edge: cell " << c << " has no ground looked for around it";
-      floor_z = near_ground[next_near].second;
-      if (std::isinf(floor_z)) return e - b;
-    }
+    const double floor_z = edge_floor[static_cast<std::size_t>(c)];
+    if (!std::isfinite(floor_z)) return e - b;  // none at an edge (NaN), or no ground seen (+inf)
     std::uint32_t keep = b;  // the points kept, moved to the front in their order
     for (std::uint32_t k = b; k < e; ++k) {
       if (sorted_at_edge[k] != 0 && sz[k] - floor_z > o.edge_height_m) {
