@@ -1,5 +1,6 @@
 #include "calib/triangulation.h"
 
+#include <algorithm>
 #include <cmath>
 #include <limits>
 #include <stdexcept>
@@ -34,26 +35,34 @@ RectifiedCamera Unpack(const StereoRig& rig, const cv::Mat& disparity) {
   return c;
 }
 
-// For each pixel with a finite disparity in front of the rig, the depth z and the rectified
-// ray (u, v, 1) of the reference camera go to `per_point`, whose result fills the CV_32FC3
-// map; elsewhere NaN.
+// For each pixel with a finite disparity in front of the rig, the depth z and the reference
+// camera's rectified ray (u, v, 1) turned into the vehicle frame go to `per_point`, whose
+// result fills the CV_32FC3 map; elsewhere NaN. The ray's turn is a row's constant plus the
+// column's share (the fusion reads every pixel of every pair through here).
 template <typename PerPoint>
 cv::Mat MapPoints(const RectifiedCamera& c, const cv::Mat& disparity_px, ReferenceImage reference,
                   const PerPoint& per_point) {
   const double c_x = reference == ReferenceImage::kRight ? c.c_right : c.c_left;
   const float nan = std::numeric_limits<float>::quiet_NaN();
+  const double offset = c.c_left - c.c_right, fb = c.f * c.baseline_m;
+  const Eigen::Vector3d per_column = c.vehicle_from_rect.col(0) / c.f;
   cv::Mat out(disparity_px.size(), CV_32FC3);
   for (int y = 0; y < disparity_px.rows; ++y) {
     const float* d = disparity_px.ptr<float>(y);
     cv::Vec3f* row = out.ptr<cv::Vec3f>(y);
+    if (std::none_of(d, d + disparity_px.cols, [](float v) { return std::isfinite(v); })) {
+      std::fill(row, row + disparity_px.cols, cv::Vec3f(nan, nan, nan));  // a row outside the search
+      continue;
+    }
+    const Eigen::Vector3d row_ray =
+        c.vehicle_from_rect.col(1) * ((y - c.c_y) / c.f) + c.vehicle_from_rect.col(2) - c_x * per_column;
     for (int x = 0; x < disparity_px.cols; ++x) {
-      const double effective = d[x] - (c.c_left - c.c_right);
-      if (!std::isfinite(d[x]) || !(effective > 0)) {
+      const double effective = d[x] - offset;
+      if (!(effective > 0) || !std::isfinite(d[x])) {
         row[x] = cv::Vec3f(nan, nan, nan);
         continue;
       }
-      const double z = c.f * c.baseline_m / effective;
-      const Eigen::Vector3d v = per_point(z, Eigen::Vector3d((x - c_x) / c.f, (y - c.c_y) / c.f, 1.0));
+      const Eigen::Vector3d v = per_point(fb / effective, row_ray + x * per_column);
       row[x] = cv::Vec3f(static_cast<float>(v.x()), static_cast<float>(v.y()), static_cast<float>(v.z()));
     }
   }
@@ -75,10 +84,11 @@ ReferenceImage ReferenceImageFromString(const std::string& name) {
 cv::Mat TriangulateDisparity(const StereoRig& rig, const cv::Mat& disparity_px, ReferenceImage reference) {
   const RectifiedCamera c = Unpack(rig, disparity_px);
   // A right-referenced ray starts at the right camera, B along the rectified x axis.
-  const Eigen::Vector3d ray_origin(reference == ReferenceImage::kRight ? c.baseline_m : 0.0, 0, 0);
-  return MapPoints(c, disparity_px, reference, [&](double z, const Eigen::Vector3d& ray) -> Eigen::Vector3d {
-    return c.vehicle_from_rect * (ray_origin + z * ray) + c.vehicle_origin;
-  });
+  const Eigen::Vector3d start =
+      c.vehicle_from_rect * Eigen::Vector3d(reference == ReferenceImage::kRight ? c.baseline_m : 0.0, 0, 0) +
+      c.vehicle_origin;
+  return MapPoints(c, disparity_px, reference,
+                   [&](double z, const Eigen::Vector3d& ray) -> Eigen::Vector3d { return start + z * ray; });
 }
 
 cv::Mat PredictXyzSigma(const StereoRig& rig, const cv::Mat& disparity_px, ReferenceImage reference,
@@ -87,7 +97,7 @@ cv::Mat PredictXyzSigma(const StereoRig& rig, const cv::Mat& disparity_px, Refer
   const RectifiedCamera c = Unpack(rig, disparity_px);
   // P - C_ref = z (u, v, 1) in the rectified frame, so dP/dd = -(z^2 / (f B)) (u, v, 1).
   return MapPoints(c, disparity_px, reference, [&](double z, const Eigen::Vector3d& ray) -> Eigen::Vector3d {
-    return (c.vehicle_from_rect * (-(z * z / (c.f * c.baseline_m)) * ray)).cwiseAbs() * sigma_d_px;
+    return ray.cwiseAbs() * (z * z / (c.f * c.baseline_m) * sigma_d_px);
   });
 }
 

@@ -231,6 +231,13 @@ std::vector<std::string> ListStems(const fs::path& xyz_dir) {
   return stems;
 }
 
+// A pair's points (CV_32FC3, vehicle frame, NaN where none) and the rows that hold them
+// (all, when not known).
+struct PairPoints {
+  cv::Mat xyz;
+  cv::Range rows = cv::Range::all();
+};
+
 // Attitude from the ground: the pairs in time order, each read (a sample of its pixels) and
 // brought onto the ground the aligner holds (the stored map's cells, then each aligned pair),
 // its pose in `todo` replaced by the corrected one. Reading runs in parallel blocks, the
@@ -421,17 +428,29 @@ TerrainMapRunSummary RunTerrainMap(const TerrainMapRunOptions& options, const fs
         << "stem " << stem << ": " << path.string() << " is " << disparity.cols << "x" << disparity.rows
         << ", the rig's rectified images " << rig->rectified->width_px << "x" << rig->rectified->height_px;
     // No matcher returns a disparity as large as the image is wide: such a value is damage, not
-    // a point (1e30 px would put a point on the camera, a phantom under the vehicle).
+    // a point (1e30 px would put a point on the camera, a phantom under the vehicle). The same
+    // pass finds the rows that hold a disparity (a rig's search matches a band of rows).
     const float widest = static_cast<float>(disparity.cols);
+    PairPoints points;
+    int first = disparity.rows, last = -1;
     for (int y = 0; y < disparity.rows; ++y) {
       const float* row = disparity.ptr<float>(y);
+      bool any = false;
       for (int x = 0; x < disparity.cols; ++x) {
-        LN_CHECK_INPUT(!(std::isfinite(row[x]) && std::abs(row[x]) >= widest))  // +inf and NaN: no match
+        const bool finite = std::isfinite(row[x]);
+        LN_CHECK_INPUT(!(finite && std::abs(row[x]) >= widest))  // +inf and NaN: no match
             << "stem " << stem << ": " << path.string() << ": pixel (" << x << ", " << y << ") holds a disparity of "
             << row[x] << " px, beyond the image's width (" << disparity.cols << " px)";
+        any = any || finite;
+      }
+      if (any) {
+        first = std::min(first, y);
+        last = y;
       }
     }
-    return calib::TriangulateDisparity(*rig, disparity, options.reference);
+    points.xyz = calib::TriangulateDisparity(*rig, disparity, options.reference);
+    points.rows = last >= first ? cv::Range(first, last + 1) : cv::Range(0, 0);
+    return points;
   };
   // When stereo-batch's summary records this rig and reference image, that is the check: no
   // XYZ array is read (nor the OpenEXR reader loaded, a third of the process's time on a real
@@ -446,7 +465,7 @@ TerrainMapRunSummary RunTerrainMap(const TerrainMapRunOptions& options, const fs
     io::PreloadExrReader();
     const std::string& stem = todo.front().stem;
     const cv::Mat stored = io::ReadExr(options.stereo_dir / "xyz" / (stem + ".exr")).pixels;
-    const cv::Mat ours = triangulate(stem);
+    const cv::Mat ours = triangulate(stem).xyz;
     from_disparity = stored.type() == CV_32FC3 && ours.size() == stored.size() &&
                      std::memcmp(ours.ptr(), stored.ptr(), ours.total() * ours.elemSize()) == 0;
     if (from_disparity) summary.points_check = "the first pair's XYZ array, bit for bit";
@@ -461,19 +480,20 @@ TerrainMapRunSummary RunTerrainMap(const TerrainMapRunOptions& options, const fs
   // reading only (a pair without its disparity map still loads it when its array is read).
   if (!todo.empty() && (!from_disparity || has_sigma)) io::PreloadExrReader();
   // The points of a pair: triangulated from its disparity map with the rig, or its XYZ array.
-  auto read_points = [&](const FramePose& pose) {
+  auto read_pair = [&](const FramePose& pose) {
     const fs::path xyz_path = options.stereo_dir / "xyz" / (pose.stem + ".exr");
-    io::ExrImage xyz;
+    PairPoints points;
     if (from_disparity && fs::is_regular_file(disparity_path(pose.stem))) {
-      xyz.pixels = triangulate(pose.stem);
+      points = triangulate(pose.stem);
     } else {
-      xyz = io::ReadExr(xyz_path);
+      points.xyz = io::ReadExr(xyz_path).pixels;
     }
-    LN_CHECK_INPUT(xyz.pixels.type() == CV_32FC3)
-        << "stem " << pose.stem << ": " << xyz_path.string() << " has " << xyz.pixels.channels()
+    LN_CHECK_INPUT(points.xyz.type() == CV_32FC3)
+        << "stem " << pose.stem << ": " << xyz_path.string() << " has " << points.xyz.channels()
         << " channels, expected 3 (X, Y, Z)";
-    return xyz.pixels;
+    return points;
   };
+  auto read_points = [&](const FramePose& pose) { return read_pair(pose).xyz; };
 
   // The inputs read and checked (poses, rig, the pairs listed, a resumed or merged map, the
   // first pair's points against its XYZ array).
@@ -500,23 +520,24 @@ TerrainMapRunSummary RunTerrainMap(const TerrainMapRunOptions& options, const fs
     util::ParallelForEachItem(n, threads, [&](std::size_t k) {
       const FramePose& pose = todo[b0 + k];
       const double read_start = util::ThreadCpuSeconds();
-      io::ExrImage xyz;
-      xyz.pixels = read_points(pose);
+      const PairPoints xyz = read_pair(pose);
       cv::Mat sigma;
       const fs::path sigma_path = options.stereo_dir / "xyz_sigma" / (pose.stem + ".exr");
       if (has_sigma && fs::is_regular_file(sigma_path)) {
         sigma = io::ReadExr(sigma_path).pixels;
-        LN_CHECK_INPUT(sigma.type() == CV_32FC3 && sigma.size() == xyz.pixels.size())
+        LN_CHECK_INPUT(sigma.type() == CV_32FC3 && sigma.size() == xyz.xyz.size())
             << "stem " << pose.stem << ": " << sigma_path.string() << " is " << sigma.cols << "x" << sigma.rows
-            << " with " << sigma.channels() << " channels, the XYZ array " << xyz.pixels.cols << "x"
-            << xyz.pixels.rows << " with 3";
+            << " with " << sigma.channels() << " channels, the XYZ array " << xyz.xyz.cols << "x" << xyz.xyz.rows
+            << " with 3";
       }
       read_cpu[k] = util::ThreadCpuSeconds() - read_start;
-      sizes[k] = xyz.pixels.size();
+      sizes[k] = xyz.xyz.size();
       const auto interval = y_interval.find(pose.stem);
       constexpr double kInf = std::numeric_limits<double>::infinity();
       const double bin_start = util::ThreadCpuSeconds();
-      parts[k] = BinFrame(xyz.pixels, sigma, pose.WorldFromVehicle(), pose.t_s, mo, error_model ? &*error_model : nullptr,
+      // Only the rows that hold points (the others add nothing: binning reads no row's index).
+      parts[k] = BinFrame(xyz.xyz.rowRange(xyz.rows), sigma.empty() ? sigma : sigma.rowRange(xyz.rows),
+                          pose.WorldFromVehicle(), pose.t_s, mo, error_model ? &*error_model : nullptr,
                           interval != y_interval.end() ? interval->second.first : -kInf,
                           interval != y_interval.end() ? interval->second.second : kInf);
       bin_cpu[k] = util::ThreadCpuSeconds() - bin_start;

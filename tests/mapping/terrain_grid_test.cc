@@ -928,6 +928,47 @@ TEST_F(Carving, WhatStandsBehindADepthEdgeIsLeftOutTheGroundBesideItKept) {
   EXPECT_EQ(kept, static_cast<int>(flat.size()));
 }
 
+TEST_F(Carving, BinningReadsNoRowsIndex) {
+  // terrain-map bins only the rows of a pair's map that hold points (a rig's search matches a
+  // band of rows): a frame with rows of NaN above and below its points bins exactly as its rows
+  // with points alone, every rule on (depth edges at the box's silhouette, carving, hidden).
+  const FramePose p = Pose(0, 0, 0);
+  auto box = [](double x, double y) { return std::abs(x) < 0.25 && y >= 7 && y < 7.5 ? 1.0 : 0.0; };
+  const cv::Mat points = RenderedXyz(box, p, camera_, 160, 160, -3, 3, 2, 12);
+  const float nan = std::numeric_limits<float>::quiet_NaN();
+  cv::Mat padded(points.rows + 30, points.cols, CV_32FC3, cv::Scalar(nan, nan, nan));
+  points.copyTo(padded.rowRange(10, 10 + points.rows));
+  const TerrainMapOptions o;
+  const FrameContribution whole = BinFrame(padded, cv::Mat(), p.WorldFromVehicle(), 0, o, &model_);
+  const FrameContribution rows = BinFrame(padded.rowRange(10, 10 + points.rows), cv::Mat(), p.WorldFromVehicle(), 0, o, &model_);
+  const FrameContribution none = BinFrame(padded.rowRange(0, 10), cv::Mat(), p.WorldFromVehicle(), 0, o, &model_);
+  ASSERT_GT(whole.points_in, 1000);
+  ASSERT_GT(whole.points_edge, 0);
+  ASSERT_GT(whole.rays_cast, 0);
+  EXPECT_EQ(none.points_in, 0);
+  EXPECT_TRUE(none.cells.empty());
+  EXPECT_EQ(BinFrame(padded.rowRange(0, 0), cv::Mat(), p.WorldFromVehicle(), 0, o, &model_).points_in, 0);  // no row
+  EXPECT_EQ(rows.points_in, whole.points_in);
+  EXPECT_EQ(rows.points_fused, whole.points_fused);
+  EXPECT_EQ(rows.points_rejected, whole.points_rejected);
+  EXPECT_EQ(rows.points_edge, whole.points_edge);
+  EXPECT_EQ(rows.points_hidden, whole.points_hidden);
+  EXPECT_EQ(rows.rays_cast, whole.rays_cast);
+  ASSERT_EQ(rows.cells.size(), whole.cells.size());
+  for (std::size_t k = 0; k < rows.cells.size(); ++k) {
+    const auto& [a, sa] = rows.cells[k];
+    const auto& [b, sb] = whole.cells[k];
+    ASSERT_TRUE(a.i == b.i && a.j == b.j) << k;
+    EXPECT_EQ(sa.sum_w, sb.sum_w) << k;
+    EXPECT_EQ(sa.sum_wz, sb.sum_wz) << k;
+    EXPECT_EQ(sa.sum_wzz, sb.sum_wzz) << k;
+    EXPECT_EQ(sa.z_min, sb.z_min) << k;
+    EXPECT_EQ(sa.z_max2, sb.z_max2) << k;
+    EXPECT_EQ(sa.count, sb.count) << k;
+    EXPECT_EQ(sa.ceiling, sb.ceiling) << k;
+  }
+}
+
 TEST_F(Carving, InsideAHedgeWithNoGroundInSightTheDepthEdgeRuleKeepsThePoints) {
   // A hedge's face as a pair sees it where no ground shows: leaves at two depths, 7.0 and 7.8 m
   // ahead in stripes 8 px wide, 0-2 m up. Every far leaf lies within the margin of a near
