@@ -49,6 +49,11 @@ struct DisparityScores {
   std::vector<long long> bad;       ///< Per threshold: estimated pixels with error above it.
   long long d1_outliers = 0;        ///< Estimated pixels that are KITTI D1 outliers (IsD1Outlier).
   double sum_abs_error_px = 0, sum_squared_error_px2 = 0;
+  /// The signed errors (estimate minus truth) of the estimates within kBiasRangePx of the
+  /// truth, counted in bins of kBiasBinPx (the first bin centred on -kBiasRangePx): what
+  /// BiasPx's median reads, and pools like the other counts.
+  static constexpr double kBiasRangePx = 3.0, kBiasBinPx = 0.01;
+  std::vector<long long> signed_error_bins;
 
   void Add(const DisparityScores& other);
   /// estimated / truth pixels, %; NaN without truth pixels.
@@ -64,6 +69,10 @@ struct DisparityScores {
   double D1OrMissingPct() const;
   double MeanAbsErrorPx() const;
   double RmsErrorPx() const;
+  /// The median signed error (estimate minus truth) of the estimates within kBiasRangePx of
+  /// the truth, px (to kBiasBinPx): a matcher's, or a calibration's, systematic offset, which
+  /// the gross errors beyond do not move. NaN without such estimates.
+  double BiasPx() const;
 };
 
 /// KITTI 2015's outlier: an error of more than 3 px and more than 5 % of the true disparity.

@@ -5,6 +5,7 @@
 #include <cstdint>
 #include <iomanip>
 #include <map>
+#include <optional>
 #include <opencv2/imgproc.hpp>
 #include <set>
 #include <sstream>
@@ -41,6 +42,9 @@ constexpr double kUntimelyMarginM = 3.0;
 constexpr double kPathExtensionM = 100.0;
 // A pair's offset from its sweep needs this many flat cells that both saw.
 constexpr std::size_t kPairOffsetMinCells = 10;
+// PairDisparityOffset: the differences counted, and the fewest that make a pair's median.
+constexpr double kPairDisparityWithinPx = 3.0;
+constexpr std::size_t kPairDisparityMinReturns = 50;
 // A cell whose low returns lie this far below the wider area's is sunk (a reflection, a hole), m.
 constexpr double kSunkDepthM = 0.3;
 // The largest truth grid, cells: 4096 x 4096 (a square kilometre of 25 cm cells).
@@ -877,6 +881,30 @@ double PairOffset(const std::vector<Eigen::Vector3f>& stereo_world, const LidarS
   return d.size() >= kPairOffsetMinCells ? MedianOf(d) : kNaN;
 }
 
+double PairDisparityOffset(const cv::Mat& disparity, calib::ReferenceImage reference, const LidarSweep& sweep,
+                           const io::GeoRaster& truth, const Eigen::Isometry3d& world_from_vehicle,
+                           const calib::StereoRig& rig, const LidarEvalOptions& o) {
+  LN_CHECK(disparity.type() == CV_32FC1) << "disparity: CV_32FC1 expected";
+  const cv::Mat& ground = Band(truth, "ground_m", "truth");
+  const Eigen::Isometry3d vehicle_from_world = world_from_vehicle.inverse();
+  std::vector<double> d;
+  for (const Eigen::Vector3f& p : sweep.points) {
+    const int col = static_cast<int>(std::floor((p.x() - truth.x_west_m) / truth.cell_m));
+    const int row = static_cast<int>(std::floor((truth.y_north_m - p.y()) / truth.cell_m));
+    if (!std::isfinite(At(ground, col, row))) continue;  // flat ground only: no edge, no occlusion
+    const Eigen::Vector3d v = vehicle_from_world * p.cast<double>();
+    if (v.y() < o.band_min_y_m || v.y() > o.band_max_y_m) continue;
+    const calib::RectifiedProjection q = calib::ProjectToRectified(rig, v, reference);
+    if (!(q.depth_m > 0)) continue;
+    const long x = std::lround(q.x_px), y = std::lround(q.y_px);
+    if (x < 0 || y < 0 || x >= disparity.cols || y >= disparity.rows) continue;
+    const float s = disparity.at<float>(static_cast<int>(y), static_cast<int>(x));
+    if (!std::isfinite(s) || std::abs(s - q.disparity_px) > kPairDisparityWithinPx) continue;
+    d.push_back(s - q.disparity_px);
+  }
+  return d.size() >= kPairDisparityMinReturns ? MedianOf(d) : kNaN;
+}
+
 void SummarizePairOffsets(const std::vector<double>& offsets_m, const std::vector<double>& gaps_s,
                           const LidarEvalOptions& o, LidarEvalResult* result) {
   LN_CHECK(offsets_m.size() == gaps_s.size()) << "pair offsets: one gap per offset";
@@ -926,7 +954,9 @@ json LidarEvalResult::ToJson() const {
           {"pairs_against_nearest_sweep", pairs_measured},
           {"pair_offset_median_abs_m", Number(pair_offset_median_abs_m)},
           {"pair_offset_median_m", Number(pair_offset_median_m)},
-          {"pair_offset_max_abs_m", Number(pair_offset_max_abs_m)}};
+          {"pair_offset_max_abs_m", Number(pair_offset_max_abs_m)},
+          {"pairs_disparity_measured", pairs_disparity_measured},
+          {"pair_disparity_offset_px", Number(pair_disparity_offset_px)}};
 }
 
 Table LidarEvalResult::ToTable() const {
@@ -945,7 +975,8 @@ Table LidarEvalResult::ToTable() const {
                {"recall", "pct", "LiDAR objects found (%)", 1},
                {"sweeps", "cm", "truth: sweep vs sweep median |d| (cm)", 2},
                {"pairs", "cm", "truth: pair vs nearest sweep median |d| (cm)", 2},
-               {"pairs_signed", "cm", "truth: pair vs its sweep at one instant, median (cm)", 2}};
+               {"pairs_signed", "cm", "truth: pair vs its sweep at one instant, median (cm)", 2},
+               {"pairs_disparity", "px", "truth: pair vs its sweep at one instant, disparity (px)", 2}};
   auto pct = [](double v, const std::string& why) { return Cell::NumberOr(100 * v, why); };
   t.AddRow({Cell::Number(static_cast<double>(cells_compared)), Cell::NumberOr(100 * rmse_m, "no cell"),
             Cell::NumberOr(100 * median_m, "no cell"), Cell::NumberOr(100 * max_abs_m, "no cell"),
@@ -955,7 +986,8 @@ Table LidarEvalResult::ToTable() const {
             pct(precision, "no obstacle judged"), pct(object_recall, "no object in the band"),
             Cell::NumberOr(100 * sweep_median_abs_m, "no cell two sweeps saw"),
             Cell::NumberOr(100 * pair_offset_median_abs_m, "no stereo points given"),
-            Cell::NumberOr(100 * pair_offset_median_m, "no pair at a sweep's time")});
+            Cell::NumberOr(100 * pair_offset_median_m, "no pair at a sweep's time"),
+            Cell::NumberOr(pair_disparity_offset_px, "no disparity map of a pair at a sweep's time")});
   return t;
 }
 
@@ -1144,9 +1176,18 @@ LidarEvalResult RunLidarMapEvaluation(const LidarMapCommand& cmd, const json& in
   // Each pair against the sweep nearest in time, on flat ground (the pose's share of the error).
   json pair_rows = json::array();
   if (!cmd.stereo_dir.empty() && !cmd.lidar_in_world) {
-    std::vector<double> offsets(pairs.size(), kNaN);
+    std::vector<double> offsets(pairs.size(), kNaN), disparity_offsets(pairs.size(), kNaN);
     std::vector<std::string> nearest(pairs.size());
     std::vector<double> gap_s(pairs.size(), kNaN);
+    // The image the disparity maps are referenced to, as stereo-batch's summary records it
+    // (without it the pairs' disparities are not compared).
+    std::optional<calib::ReferenceImage> reference;
+    try {
+      reference = calib::ReferenceImageFromString(
+          io::ReadJson(cmd.stereo_dir / "summary.json").at("options").at("reference").get<std::string>());
+    } catch (const std::exception&) {
+      reference.reset();
+    }
     util::ParallelForEachItem(pairs.size(), cmd.num_threads, [&](std::size_t k) {
       const mapping::FramePose& pose = pairs[k];
       const fs::path xyz_path = cmd.stereo_dir / "xyz" / (pose.stem + ".exr");
@@ -1171,11 +1212,24 @@ LidarEvalResult RunLidarMapEvaluation(const LidarMapCommand& cmd, const json& in
         }
       }
       offsets[k] = PairOffset(stereo.points, *sweep, truth, o);
+      const fs::path disparity_path = cmd.stereo_dir / "disparity" / (pose.stem + ".pfm");
+      if (reference && gap_s[k] <= o.max_sweep_gap_s && fs::is_regular_file(disparity_path, ec)) {
+        disparity_offsets[k] = PairDisparityOffset(io::ReadPfm(disparity_path), *reference, *sweep, truth,
+                                                   pose.WorldFromVehicle(), rig, o);
+      }
     });
     SummarizePairOffsets(offsets, gap_s, o, &result);
+    std::vector<double> measured;
+    for (double d : disparity_offsets) {
+      if (std::isfinite(d)) measured.push_back(d);
+    }
+    result.pairs_disparity_measured = static_cast<long>(measured.size());
+    if (!measured.empty()) result.pair_disparity_offset_px = MedianOf(measured);
     for (std::size_t k = 0; k < pairs.size(); ++k) {
       if (!std::isfinite(offsets[k])) continue;
-      pair_rows.push_back({{"stem", pairs[k].stem}, {"sweep", nearest[k]}, {"offset_m", offsets[k]}});
+      json row = {{"stem", pairs[k].stem}, {"sweep", nearest[k]}, {"offset_m", offsets[k]}};
+      if (std::isfinite(disparity_offsets[k])) row["disparity_offset_px"] = disparity_offsets[k];
+      pair_rows.push_back(row);
     }
   }
 

@@ -15,6 +15,7 @@
 #include <vector>
 
 #include "calib/stereo_rig.h"
+#include "calib/triangulation.h"
 #include "evaluation/table.h"
 #include "io/geotiff_io.h"
 #include "mapping/frame_poses.h"
@@ -146,6 +147,13 @@ struct LidarEvalResult {
   double pair_offset_median_m = std::numeric_limits<double>::quiet_NaN();
   double pair_offset_median_abs_m = std::numeric_limits<double>::quiet_NaN();
   double pair_offset_max_abs_m = std::numeric_limits<double>::quiet_NaN();
+  /// The same instant in the images (PairDisparityOffset, the pairs within max_sweep_gap_s of
+  /// their sweep): the median over those pairs of the stereo's disparity minus the LiDAR's at
+  /// the pixels where the sweep's flat ground falls, px. Constant over the distance ahead, an
+  /// offset of the images' calibration (the matcher's own: `evaluate disparity`'s bias); NaN
+  /// without the pairs' disparity maps.
+  long pairs_disparity_measured = 0;
+  double pair_disparity_offset_px = std::numeric_limits<double>::quiet_NaN();
   nlohmann::json ToJson() const;
   Table ToTable() const;
   std::string BriefReport() const;
@@ -180,6 +188,16 @@ void MeasureSweepConsistency(const std::vector<LidarSweep>& sweeps, const io::Ge
 /// such cells.
 double PairOffset(const std::vector<Eigen::Vector3f>& stereo_world, const LidarSweep& sweep,
                   const io::GeoRaster& truth, const LidarEvalOptions& options);
+
+/// One pair against a sweep of the same instant in the pair's reference image: the sweep's
+/// returns on the truth's flat ground within the band (options.band_*, vehicle Y at the pair's
+/// pose `world_from_vehicle`) projected into the rectified pair (calib::ProjectToRectified),
+/// and at each one's pixel the pair's `disparity` (NaN, +-inf: none) minus the return's; the
+/// median of the differences within 3 px (a wrong match, or a return the camera does not see
+/// there, is no offset); NaN with fewer than 50 of them.
+double PairDisparityOffset(const cv::Mat& disparity, calib::ReferenceImage reference, const LidarSweep& sweep,
+                           const io::GeoRaster& truth, const Eigen::Isometry3d& world_from_vehicle,
+                           const calib::StereoRig& rig, const LidarEvalOptions& options);
 
 /// The pairs' offsets (NaN: not measured) and each pair's time from its sweep into
 /// LidarEvalResult's pairs_measured, pair_offset_median_abs_m and pair_offset_max_abs_m (every

@@ -475,6 +475,35 @@ TEST(PairOffset, IsThePairsHeightOverItsSweepOnFlatGround) {
   EXPECT_TRUE(std::isnan(r.pair_offset_median_m));  // no pair at a sweep's time
 }
 
+TEST(PairDisparityOffset, IsTheStereosDisparityOverTheLidarsAtTheSameInstant) {
+  // The rig's right-referenced disparity of the level ground (d = B (y - c_y) / 1.65 under the
+  // horizon) plus 0.4 px, every third column a gross error 8 px off: the pair's offset from
+  // the sweep is 0.4 px, whatever the gross errors and the box on the ground.
+  const Scene s;
+  cv::Mat disparity(375, 1242, CV_32FC1, cv::Scalar(std::numeric_limits<float>::quiet_NaN()));
+  for (int y = 174; y < disparity.rows; ++y) {
+    for (int x = 0; x < disparity.cols; ++x) {
+      disparity.at<float>(y, x) = static_cast<float>(0.54 * (y - 173) / 1.65 + (x % 3 == 0 ? 8.4 : 0.4));
+    }
+  }
+  const Eigen::Isometry3d at_origin = Eigen::Isometry3d::Identity();
+  EXPECT_NEAR(PairDisparityOffset(disparity, calib::ReferenceImage::kRight, s.sweeps[0], s.truth, at_origin, s.rig,
+                                  s.options),
+              0.4, 0.05);
+  // Taken at a pose 3 cm higher, the sweep's ground lies 1.68 m under the cameras, not the
+  // 1.65 m the map's disparities show: the pose's error joins the offset (1.8 % of d).
+  Eigen::Isometry3d higher = Eigen::Isometry3d::Identity();
+  higher.translation().z() = 0.03;
+  EXPECT_GT(PairDisparityOffset(disparity, calib::ReferenceImage::kRight, s.sweeps[0], s.truth, higher, s.rig,
+                                s.options),
+            0.4 + 0.5);
+  // A handful of returns: not measured.
+  LidarSweep few;
+  few.points.assign(s.sweeps[0].points.begin(), s.sweeps[0].points.begin() + 200);
+  EXPECT_TRUE(std::isnan(
+      PairDisparityOffset(disparity, calib::ReferenceImage::kRight, few, s.truth, at_origin, s.rig, s.options)));
+}
+
 // The options' limits: a band or a LiDAR range beyond 1000 m is refused (a band 1e300 m ahead
 // scored nothing, exit 0), the defaults pass.
 TEST(LidarEvalOptions, RefusesDistancesBeyondAThousandMetres) {
