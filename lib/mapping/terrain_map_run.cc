@@ -520,23 +520,23 @@ TerrainMapRunSummary RunTerrainMap(const TerrainMapRunOptions& options, const fs
     util::ParallelForEachItem(n, threads, [&](std::size_t k) {
       const FramePose& pose = todo[b0 + k];
       const double read_start = util::ThreadCpuSeconds();
-      const PairPoints xyz = read_pair(pose);
+      const PairPoints points = read_pair(pose);
       cv::Mat sigma;
       const fs::path sigma_path = options.stereo_dir / "xyz_sigma" / (pose.stem + ".exr");
       if (has_sigma && fs::is_regular_file(sigma_path)) {
         sigma = io::ReadExr(sigma_path).pixels;
-        LN_CHECK_INPUT(sigma.type() == CV_32FC3 && sigma.size() == xyz.xyz.size())
+        LN_CHECK_INPUT(sigma.type() == CV_32FC3 && sigma.size() == points.xyz.size())
             << "stem " << pose.stem << ": " << sigma_path.string() << " is " << sigma.cols << "x" << sigma.rows
-            << " with " << sigma.channels() << " channels, the XYZ array " << xyz.xyz.cols << "x" << xyz.xyz.rows
+            << " with " << sigma.channels() << " channels, the XYZ array " << points.xyz.cols << "x" << points.xyz.rows
             << " with 3";
       }
       read_cpu[k] = util::ThreadCpuSeconds() - read_start;
-      sizes[k] = xyz.xyz.size();
+      sizes[k] = points.xyz.size();
       const auto interval = y_interval.find(pose.stem);
       constexpr double kInf = std::numeric_limits<double>::infinity();
       const double bin_start = util::ThreadCpuSeconds();
       // Only the rows that hold points (the others add nothing: binning reads no row's index).
-      parts[k] = BinFrame(xyz.xyz.rowRange(xyz.rows), sigma.empty() ? sigma : sigma.rowRange(xyz.rows),
+      parts[k] = BinFrame(points.xyz.rowRange(points.rows), sigma.empty() ? sigma : sigma.rowRange(points.rows),
                           pose.WorldFromVehicle(), pose.t_s, mo, error_model ? &*error_model : nullptr,
                           interval != y_interval.end() ? interval->second.first : -kInf,
                           interval != y_interval.end() ? interval->second.second : kInf);
