@@ -1214,8 +1214,13 @@ LidarEvalResult RunLidarMapEvaluation(const LidarMapCommand& cmd, const json& in
       offsets[k] = PairOffset(stereo.points, *sweep, truth, o);
       const fs::path disparity_path = cmd.stereo_dir / "disparity" / (pose.stem + ".pfm");
       if (reference && gap_s[k] <= o.max_sweep_gap_s && fs::is_regular_file(disparity_path, ec)) {
-        disparity_offsets[k] = PairDisparityOffset(io::ReadPfm(disparity_path), *reference, *sweep, truth,
-                                                   pose.WorldFromVehicle(), rig, o);
+        const cv::Mat disparity = io::ReadPfm(disparity_path);
+        LN_CHECK_INPUT(disparity.cols == rig.rectified->width_px && disparity.rows == rig.rectified->height_px)
+            << disparity_path.string() << " is " << disparity.cols << "x" << disparity.rows
+            << ", the rig's rectified images " << rig.rectified->width_px << "x" << rig.rectified->height_px
+            << " (another rig's stereo run?)";
+        disparity_offsets[k] =
+            PairDisparityOffset(disparity, *reference, *sweep, truth, pose.WorldFromVehicle(), rig, o);
       }
     });
     SummarizePairOffsets(offsets, gap_s, o, &result);
