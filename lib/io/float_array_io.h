@@ -50,7 +50,10 @@ void WriteExrAtomic(const std::filesystem::path& path, const cv::Mat& image,
 /// @throws std::runtime_error when it cannot be loaded.
 void PreloadExrReader();
 
-/// Reads an OpenEXR file as float32 (through OpenImageIO); a file stamped with
+/// Reads an OpenEXR file as float32: the project's own arrays (one scanline part, channels Y or
+/// R, G, B[, A], 32- or 16-bit floats) through OpenEXR's core API, which unpacks a block in one
+/// pass (half the time of OpenImageIO's frame buffers, the same pixels), anything else through
+/// OpenImageIO; a file stamped with
 /// kFiniteRowsAttribute (a valid range of its rows) has only those rows decoded, the others NaN.
 /// @throws InputError naming the file when it is missing, unreadable, not 2-D or not OpenEXR
 ///         (another format under an .exr name, told by its magic number).

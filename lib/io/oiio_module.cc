@@ -3,8 +3,10 @@
 
 #include <algorithm>
 #include <cstdio>
+#include <cstring>
 #include <limits>
 
+#include <OpenEXR/openexr.h>
 #include <OpenImageIO/imageio.h>
 
 namespace lunarnav::io::internal {
@@ -22,6 +24,131 @@ bool TooLarge(const OIIO::ImageSpec& spec, long long max_pixels, std::string* er
   if (pixels <= max_pixels) return false;
   *error = "size: the header claims " + std::to_string(spec.width) + " x " + std::to_string(spec.height) +
            " pixels, more than the limit of " + std::to_string(max_pixels) + " (--max-pixels)";
+  return true;
+}
+
+// The rows a file's lunarnav:finite_rows stamp names ([*first, *last]; false: no usable stamp).
+bool StampedRows(const std::string& stamp, int height, int* first, int* last) {
+  int a = 0, b = 0;
+  char tail = 0;
+  if (stamp.empty() || std::sscanf(stamp.c_str(), "%d %d%c", &a, &b, &tail) != 2 || !(a >= 0 && b >= a - 1 && b < height)) {
+    return false;
+  }
+  *first = a;
+  *last = b;
+  return true;
+}
+
+// Closes a core API context however the read ends.
+struct ExrContext {
+  exr_context_t context = nullptr;
+  exr_decode_pipeline_t decoder = EXR_DECODE_PIPELINE_INITIALIZER;
+  bool decoding = false;
+  ~ExrContext() {
+    if (decoding) exr_decoding_destroy(context, &decoder);
+    if (context != nullptr) exr_finish(&context);
+  }
+};
+
+void Quiet(exr_const_context_t, exr_result_t, const char*) {}
+
+// A file as the project's own writer makes it (WriteExrAtomic: one scanline part, channels Y or
+// R, G, B[, A], 32- or 16-bit floats, full resolution), read through OpenEXR's core API, which
+// unpacks a block's values into interleaved floats in one pass (OpenImageIO goes through
+// OpenEXR's frame buffers, a byte-order read a value: twice the time of the whole read on a
+// rig's XYZ arrays). The same pixels and channel names as the OpenImageIO path (tests/io and the
+// maps of both real drives, byte for byte), the header's string attributes (OpenImageIO adds a
+// few of its own, such as "compression"); false for any other file, or any trouble: the caller
+// then reads it through OpenImageIO, which also words the errors.
+bool ReadOwnExr(const std::string& path, long long max_pixels, cv::Mat* pixels, std::vector<std::string>* names,
+                std::map<std::string, std::string>* attributes) {
+  ExrContext exr;
+  exr_context_initializer_t init = EXR_DEFAULT_CONTEXT_INITIALIZER;
+  init.error_handler_fn = &Quiet;
+  if (exr_start_read(&exr.context, path.c_str(), &init) != EXR_ERR_SUCCESS) return false;
+  int parts = 0;
+  exr_storage_t storage = EXR_STORAGE_LAST_TYPE;
+  exr_attr_box2i_t window;
+  const exr_attr_chlist_t* channels = nullptr;
+  int lines = 0;
+  if (exr_get_count(exr.context, &parts) != EXR_ERR_SUCCESS || parts != 1 ||
+      exr_get_storage(exr.context, 0, &storage) != EXR_ERR_SUCCESS || storage != EXR_STORAGE_SCANLINE ||
+      exr_get_data_window(exr.context, 0, &window) != EXR_ERR_SUCCESS ||
+      exr_get_channels(exr.context, 0, &channels) != EXR_ERR_SUCCESS || channels == nullptr ||
+      exr_get_scanlines_per_chunk(exr.context, 0, &lines) != EXR_ERR_SUCCESS || lines < 1) {
+    return false;
+  }
+  const long long width = static_cast<long long>(window.max.x) - window.min.x + 1;
+  const long long height = static_cast<long long>(window.max.y) - window.min.y + 1;
+  if (width < 1 || height < 1 || width * height > max_pixels) return false;
+  // The channels, in the order OpenImageIO gives them: Y, or R, G, B[, A] (the file stores them
+  // by name).
+  const int n = channels->num_channels;
+  const std::vector<std::string> order = n == 1 ? std::vector<std::string>{"Y"}
+                                         : n == 3 ? std::vector<std::string>{"R", "G", "B"}
+                                         : n == 4 ? std::vector<std::string>{"R", "G", "B", "A"}
+                                                  : std::vector<std::string>{};
+  if (order.empty()) return false;
+  for (int c = 0; c < n; ++c) {
+    const exr_attr_chlist_entry_t& e = channels->entries[c];
+    if (std::find(order.begin(), order.end(), std::string(e.name.str, static_cast<std::size_t>(e.name.length))) ==
+            order.end() ||
+        (e.pixel_type != EXR_PIXEL_FLOAT && e.pixel_type != EXR_PIXEL_HALF) || e.x_sampling != 1 ||
+        e.y_sampling != 1) {
+      return false;
+    }
+  }
+  // The string attributes, and the rows the writer stamped as holding finite values.
+  std::map<std::string, std::string> strings;
+  int count = 0;
+  if (exr_get_attribute_count(exr.context, 0, &count) != EXR_ERR_SUCCESS) return false;
+  for (int k = 0; k < count; ++k) {
+    const exr_attribute_t* a = nullptr;
+    if (exr_get_attribute_by_index(exr.context, 0, EXR_ATTR_LIST_FILE_ORDER, k, &a) != EXR_ERR_SUCCESS) return false;
+    if (a != nullptr && a->type == EXR_ATTR_STRING && a->string != nullptr) {
+      strings[a->name] = std::string(a->string->str, static_cast<std::size_t>(a->string->length));
+    }
+  }
+  const int rows = static_cast<int>(height), cols = static_cast<int>(width);
+  int first = 0, last = rows - 1;
+  const auto stamp = strings.find("lunarnav:finite_rows");
+  const bool stamped = stamp != strings.end() && StampedRows(stamp->second, rows, &first, &last);
+  pixels->create(rows, cols, CV_32FC(n));
+  if (stamped) pixels->setTo(cv::Scalar::all(std::numeric_limits<float>::quiet_NaN()));
+  // Block by block into a block's buffer, its rows within [first, last] copied out.
+  const std::size_t row_bytes = static_cast<std::size_t>(cols) * n * sizeof(float);
+  std::vector<float> block(static_cast<std::size_t>(lines) * cols * n);
+  for (int y = first - first % lines; y <= last; y += lines) {
+    exr_chunk_info_t chunk;
+    if (exr_read_scanline_chunk_info(exr.context, 0, window.min.y + y, &chunk) != EXR_ERR_SUCCESS ||
+        chunk.height < 1 || chunk.height > lines || chunk.start_y - window.min.y != y) {
+      return false;
+    }
+    const exr_result_t started = exr.decoding ? exr_decoding_update(exr.context, 0, &chunk, &exr.decoder)
+                                              : exr_decoding_initialize(exr.context, 0, &chunk, &exr.decoder);
+    if (started != EXR_ERR_SUCCESS) return false;
+    const bool first_block = !exr.decoding;
+    exr.decoding = true;
+    for (int c = 0; c < exr.decoder.channel_count; ++c) {
+      exr_coding_channel_info_t& ch = exr.decoder.channels[c];
+      const auto at = std::find(order.begin(), order.end(), std::string(ch.channel_name));
+      if (at == order.end() || ch.height != chunk.height || ch.width != cols) return false;
+      ch.decode_to_ptr = reinterpret_cast<std::uint8_t*>(block.data() + (at - order.begin()));
+      ch.user_pixel_stride = static_cast<std::int32_t>(n * sizeof(float));
+      ch.user_line_stride = static_cast<std::int32_t>(row_bytes);
+      ch.user_data_type = EXR_PIXEL_FLOAT;
+      ch.user_bytes_per_element = sizeof(float);
+    }
+    if (first_block && exr_decoding_choose_default_routines(exr.context, 0, &exr.decoder) != EXR_ERR_SUCCESS) {
+      return false;
+    }
+    if (exr_decoding_run(exr.context, 0, &exr.decoder) != EXR_ERR_SUCCESS) return false;
+    for (int r = std::max(y, first); r < std::min(y + chunk.height, last + 1); ++r) {
+      std::memcpy(pixels->ptr<float>(r), block.data() + static_cast<std::size_t>(r - y) * cols * n, row_bytes);
+    }
+  }
+  *names = order;
+  *attributes = std::move(strings);
   return true;
 }
 
@@ -100,6 +227,9 @@ class OiioModuleImpl final : public OiioModule {
 
   bool ReadFloat(const std::string& path, long long max_pixels, cv::Mat* pixels, std::vector<std::string>* names,
                  std::map<std::string, std::string>* attributes, std::string* error) override {
+    if (ReadOwnExr(path, max_pixels, pixels, names, attributes)) return true;
+    names->clear();
+    attributes->clear();
     auto in = OIIO::ImageInput::open(path);
     if (in == nullptr) {
       *error = "unreadable: " + OneLine(OIIO::geterror(), "cannot decode");
@@ -115,15 +245,9 @@ class OiioModuleImpl final : public OiioModule {
     // The rows the writer stamped as holding finite values (lunarnav:finite_rows): only those
     // are decoded, the others are NaN. Anything else about the stamp: the whole image.
     int first = 0, last = spec.height - 1;
-    const std::string stamp = spec.get_string_attribute("lunarnav:finite_rows");
-    if (!stamp.empty() && spec.tile_width == 0) {
-      int a = 0, b = 0;
-      char tail = 0;
-      if (std::sscanf(stamp.c_str(), "%d %d%c", &a, &b, &tail) == 2 && a >= 0 && b >= a - 1 && b < spec.height) {
-        first = a;
-        last = b;
-        pixels->setTo(cv::Scalar::all(std::numeric_limits<float>::quiet_NaN()));
-      }
+    if (spec.tile_width == 0 &&
+        StampedRows(spec.get_string_attribute("lunarnav:finite_rows"), spec.height, &first, &last)) {
+      pixels->setTo(cv::Scalar::all(std::numeric_limits<float>::quiet_NaN()));
     }
     const bool ok = last < first ||
                     (in->read_scanlines(0, 0, spec.y + first, spec.y + last + 1, 0, 0, spec.nchannels,

@@ -1,6 +1,7 @@
-// OpenImageIO behind a loadable module. Linking OpenImageIO into a tool costs about 0.2 s at
-// every start (it brings some 250 shared libraries); the tools load it only when they read or
-// write a format that needs it (TIFF, JPEG, EXR, ...), never for PNG. Internal to io/.
+// OpenImageIO (and OpenEXR's core API, for the project's own EXR arrays) behind a loadable
+// module. Linking OpenImageIO into a tool costs about 0.2 s at every start (it brings some 250
+// shared libraries); the tools load it only when they read or write a format that needs it
+// (TIFF, JPEG, EXR, ...), never for PNG. Internal to io/.
 #pragma once
 
 #include <filesystem>
@@ -27,8 +28,10 @@ class OiioModule {
   /// stored as 32-bit floats or, with `half`, 16-bit ones.
   virtual bool WriteExr(const std::string& path, const cv::Mat& image, const std::vector<std::string>& names,
                         const std::map<std::string, std::string>& attributes, bool half, std::string* error) = 0;
-  /// Reads a float image (EXR and the like) with its channel names and string attributes.
-  /// On failure `error` as for ReadInteger.
+  /// Reads a float image (EXR and the like) with its channel names and string attributes; the
+  /// project's own EXR arrays through OpenEXR's core API (the same pixels and names, the
+  /// header's string attributes), anything else through OpenImageIO. On failure `error` as for
+  /// ReadInteger.
   virtual bool ReadFloat(const std::string& path, long long max_pixels, cv::Mat* pixels, std::vector<std::string>* names,
                          std::map<std::string, std::string>* attributes, std::string* error) = 0;
 };

@@ -6,7 +6,10 @@
 #include <fstream>
 #include <limits>
 
+#include <opencv2/imgproc.hpp>
+
 #include "io/atomic_file.h"
+#include "io/oiio_module.h"
 #include "util/errors.h"
 #include "util/testing.h"
 
@@ -108,6 +111,67 @@ TEST(WriteExrAtomic, StampsTheFiniteRowsAndReadExrDecodesOnlyThose) {
   const ExrImage empty = ReadExr(tmp.path() / "empty.exr");
   EXPECT_EQ(empty.attributes.at(kFiniteRowsAttribute), "0 -1");
   EXPECT_EQ(cv::countNonZero(empty.pixels.reshape(1) == empty.pixels.reshape(1)), 0);
+}
+
+TEST(ReadExr, HalfAndFourChannelArraysReadBackAsWritten) {
+  // The project's own arrays are read through OpenEXR's core API, block by block (16 rows):
+  // 16-bit storage comes back as its rounded floats (values past 65504 as +inf), four channels
+  // in their order, over rows that span several blocks.
+  util::ScopedTempDir tmp;
+  cv::Mat m(40, 9, CV_32FC4);
+  for (int y = 0; y < m.rows; ++y) {
+    for (int x = 0; x < m.cols; ++x) m.at<cv::Vec4f>(y, x) = cv::Vec4f(0.001f * x * y, -3.7f * y, 1e5f + x, x - 4.5f);
+  }
+  m.at<cv::Vec4f>(17, 2) = cv::Vec4f(kNaN, kInf, -kInf, kNaN);
+  WriteExrAtomic(tmp.path() / "four.exr", m);
+  const ExrImage four = ReadExr(tmp.path() / "four.exr");
+  ASSERT_EQ(four.pixels.type(), CV_32FC4);
+  EXPECT_EQ(four.channel_names, (std::vector<std::string>{"R", "G", "B", "A"}));
+  cv::Mat three;
+  cv::cvtColor(m, three, cv::COLOR_BGRA2BGR);
+  WriteExrAtomic(tmp.path() / "half.exr", three, {}, {{"lunarnav:units", "m"}}, ExrStorage::kFloat16);
+  const ExrImage half = ReadExr(tmp.path() / "half.exr");
+  ASSERT_EQ(half.pixels.type(), CV_32FC3);
+  EXPECT_EQ(half.attributes.at("lunarnav:units"), "m");
+  cv::Mat rounded;
+  three.convertTo(rounded, CV_16F);
+  rounded.convertTo(rounded, CV_32F);
+  for (int y = 0; y < m.rows; ++y) {
+    for (int x = 0; x < m.cols; ++x) {
+      for (int c = 0; c < 4; ++c) {
+        EXPECT_TRUE(SameBitsOrBothNaN(four.pixels.at<cv::Vec4f>(y, x)[c], m.at<cv::Vec4f>(y, x)[c])) << y << "," << x;
+      }
+      for (int c = 0; c < 3; ++c) {
+        const float want = std::abs(three.at<cv::Vec3f>(y, x)[c]) > 65504 && std::isfinite(three.at<cv::Vec3f>(y, x)[c])
+                               ? std::copysign(kInf, three.at<cv::Vec3f>(y, x)[c])
+                               : rounded.at<cv::Vec3f>(y, x)[c];
+        EXPECT_TRUE(SameBitsOrBothNaN(half.pixels.at<cv::Vec3f>(y, x)[c], want)) << y << "," << x << "," << c;
+      }
+    }
+  }
+}
+
+TEST(ReadExr, ReadsOnlyTheRowsTheStampNames) {
+  // A stamp that names fewer rows than hold values (rows 12-20 of 40): the others read NaN,
+  // also within the 16-row blocks the named rows share with them.
+  util::ScopedTempDir tmp;
+  cv::Mat m(40, 5, CV_32FC3);
+  for (int y = 0; y < m.rows; ++y) {
+    for (int x = 0; x < m.cols; ++x) m.at<cv::Vec3f>(y, x) = cv::Vec3f(1.0f * y, 2.0f * x, 3.0f);
+  }
+  std::string error;
+  ASSERT_TRUE(internal::Oiio().WriteExr((tmp.path() / "stamped.exr").string(), m, {"R", "G", "B"},
+                                        {{kFiniteRowsAttribute, "12 20"}}, false, &error))
+      << error;
+  const ExrImage back = ReadExr(tmp.path() / "stamped.exr");
+  ASSERT_EQ(back.pixels.size(), m.size());
+  for (int y = 0; y < m.rows; ++y) {
+    const bool named = y >= 12 && y <= 20;
+    for (int c = 0; c < 3; ++c) {
+      const float v = back.pixels.at<cv::Vec3f>(y, 2)[c];
+      EXPECT_TRUE(named ? v == m.at<cv::Vec3f>(y, 2)[c] : std::isnan(v)) << y << "," << c;
+    }
+  }
 }
 
 TEST(ReadExr, ReportsMissingAndCorruptFiles) {
