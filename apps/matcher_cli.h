@@ -34,10 +34,14 @@ inline constexpr double kMapApertureRatio = 0.4;
 inline constexpr double kMapApertureGradient = 1.5;
 /// The occlusion margin the map pipeline uses: the census window's half-width (px).
 inline constexpr int kMapOcclusionMarginPx = 4;
+/// The penalty of a disparity jump the map pipeline uses: twice the quality preset's (smooth,
+/// weakly textured ground at range; docs/stereo-matcher.md).
+inline constexpr int kMapPenaltyLarge = 480;
 
 /// The map pipeline's matcher defaults over `matcher`: with semi-global aggregation, the
 /// aperture filter on (kMapApertureRatio, kMapApertureGradient) unless --aperture is given,
-/// and the occlusion margin kMapOcclusionMarginPx unless --occlusion-margin is given.
+/// the occlusion margin kMapOcclusionMarginPx unless --occlusion-margin is given, and P2
+/// kMapPenaltyLarge unless --p2 is given.
 void ApplyMapPipelineDefaults(const CLI::App& app, stereo::NccOptions* matcher);
 
 }  // namespace lunarnav::apps

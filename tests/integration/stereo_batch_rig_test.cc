@@ -297,17 +297,20 @@ TEST(StereoBatchRig, WithoutARangeTheRigsGroundIsSearched) {
   for (const nlohmann::json& pair : summary["pairs"]) {
     EXPECT_EQ(pair["result"]["window"]["source"], "rig-ground");
   }
-  // With a rig the aperture filter is on (the map pipeline's default), unless told otherwise;
-  // without one it is off.
+  // With a rig the aperture filter, the occlusion margin and the doubled P2 are on (the map
+  // pipeline's defaults), unless told otherwise; without one the preset's.
   EXPECT_EQ(summary["options"]["semi_global"]["aperture"],
             nlohmann::json({{"ratio", 0.4}, {"gradient_levels_per_px", 1.5}}));
   EXPECT_EQ(summary["options"]["semi_global"]["occlusion_margin_px"], 4);
+  EXPECT_EQ(summary["options"]["semi_global"]["p2"], 480);
   const fs::path plain = fx.tmp.path() / "plain", off = fx.tmp.path() / "aperture-off";
   ASSERT_EQ(RunTool("stereo-batch", {fx.in.string(), "-o", plain.string(), "-q"}, fx.tmp.path()).exit_code, 0);
   EXPECT_EQ(io::ReadJson(plain / "summary.json")["options"]["semi_global"]["aperture"], "off");
   EXPECT_EQ(io::ReadJson(plain / "summary.json")["options"]["semi_global"]["occlusion_margin_px"], 0);
-  ASSERT_EQ(RunTool("stereo-batch", fx.Args(off, {"--aperture", "off"}), fx.tmp.path()).exit_code, 0);
+  EXPECT_EQ(io::ReadJson(plain / "summary.json")["options"]["semi_global"]["p2"], 240);
+  ASSERT_EQ(RunTool("stereo-batch", fx.Args(off, {"--aperture", "off", "--p2", "300"}), fx.tmp.path()).exit_code, 0);
   EXPECT_EQ(io::ReadJson(off / "summary.json")["options"]["semi_global"]["aperture"], "off");
+  EXPECT_EQ(io::ReadJson(off / "summary.json")["options"]["semi_global"]["p2"], 300);
   for (const char* bad : {"2:1.5", "0.4", "0.4:0", "0:1.5", "x:y"}) {
     EXPECT_EQ(RunTool("stereo-batch", fx.Args(fx.tmp.path() / "bad", {"--aperture", bad}), fx.tmp.path()).exit_code, 2)
         << bad;
