@@ -45,7 +45,8 @@ void AddMatcherOptions(CLI::App* app, MatcherCommandLine* cl, stereo::FrameCheck
       ->default_str(std::to_string(quality.semi_global.penalty_small));
   app->add_option("--p2", given.semi_global.penalty_large,
                   "semi-global: penalty of a larger disparity change (census bits)")
-      ->default_str(util::Format("%d; with --rig %d", quality.semi_global.penalty_large, kMapPenaltyLarge));
+      ->default_str(util::Format("%d; with --rig %d (rows not subsampled)", quality.semi_global.penalty_large,
+                                  kMapPenaltyLarge));
   app->add_option("--p2-edge", given.semi_global.edge_levels,
                   "semi-global: P2 falls to P2 E / (E + g) across a grey-level step g (8-bit levels); 0 = constant")
       ->default_str(std::to_string(quality.semi_global.edge_levels));
@@ -153,7 +154,9 @@ void ApplyMapPipelineDefaults(const CLI::App& app, stereo::NccOptions* matcher) 
   if (app.get_option("--occlusion-margin")->count() == 0) {
     matcher->semi_global.occlusion_margin_px = kMapOcclusionMarginPx;
   }
-  if (app.get_option("--p2")->count() == 0) matcher->semi_global.penalty_large = kMapPenaltyLarge;
+  if (app.get_option("--p2")->count() == 0 && matcher->step_y_px == 1) {
+    matcher->semi_global.penalty_large = kMapPenaltyLarge;
+  }
 }
 
 }  // namespace lunarnav::apps

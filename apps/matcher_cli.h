@@ -34,14 +34,17 @@ inline constexpr double kMapApertureRatio = 0.4;
 inline constexpr double kMapApertureGradient = 1.5;
 /// The occlusion margin the map pipeline uses: the census window's half-width (px).
 inline constexpr int kMapOcclusionMarginPx = 4;
-/// The penalty of a disparity jump the map pipeline uses: twice the quality preset's (smooth,
-/// weakly textured ground at range; docs/stereo-matcher.md).
+/// The penalty of a disparity jump the map pipeline uses over every row: twice the quality
+/// preset's (smooth, weakly textured ground at range; docs/stereo-matcher.md). With rows
+/// subsampled (--step DXxDY, DY > 1) the preset's stays: there neighbouring grid rows of
+/// ground slanted in the image lie more than a pixel of disparity apart, and the jump penalty
+/// is paid by the ground itself.
 inline constexpr int kMapPenaltyLarge = 480;
 
 /// The map pipeline's matcher defaults over `matcher`: with semi-global aggregation, the
 /// aperture filter on (kMapApertureRatio, kMapApertureGradient) unless --aperture is given,
 /// the occlusion margin kMapOcclusionMarginPx unless --occlusion-margin is given, and P2
-/// kMapPenaltyLarge unless --p2 is given.
+/// kMapPenaltyLarge unless --p2 is given or the rows are subsampled.
 void ApplyMapPipelineDefaults(const CLI::App& app, stereo::NccOptions* matcher);
 
 }  // namespace lunarnav::apps

@@ -311,6 +311,10 @@ TEST(StereoBatchRig, WithoutARangeTheRigsGroundIsSearched) {
   ASSERT_EQ(RunTool("stereo-batch", fx.Args(off, {"--aperture", "off", "--p2", "300"}), fx.tmp.path()).exit_code, 0);
   EXPECT_EQ(io::ReadJson(off / "summary.json")["options"]["semi_global"]["aperture"], "off");
   EXPECT_EQ(io::ReadJson(off / "summary.json")["options"]["semi_global"]["p2"], 300);
+  // Rows subsampled: the preset's P2 (slanted ground steps more than a pixel between grid rows).
+  const fs::path sub = fx.tmp.path() / "rows-subsampled";
+  ASSERT_EQ(RunTool("stereo-batch", fx.Args(sub, {"--step", "1x2"}), fx.tmp.path()).exit_code, 0);
+  EXPECT_EQ(io::ReadJson(sub / "summary.json")["options"]["semi_global"]["p2"], 240);
   for (const char* bad : {"2:1.5", "0.4", "0.4:0", "0:1.5", "x:y"}) {
     EXPECT_EQ(RunTool("stereo-batch", fx.Args(fx.tmp.path() / "bad", {"--aperture", bad}), fx.tmp.path()).exit_code, 2)
         << bad;
