@@ -93,6 +93,9 @@ void NccOptions::Validate() const {
       << "per-row accepted disparities: " << row_accept_min_px.size() << " rows, the bands " << row_disparity_px.size();
   LN_CHECK_ARG(row_accept_max_px.empty() || row_accept_max_px.size() == row_disparity_px.size())
       << "per-row accepted disparities: " << row_accept_max_px.size() << " rows, the bands " << row_disparity_px.size();
+  LN_CHECK_ARG(row_ground_disparity_px.empty() || row_ground_disparity_px.size() == row_disparity_px.size())
+      << "per-row ground disparities: " << row_ground_disparity_px.size() << " rows, the bands "
+      << row_disparity_px.size();
   LN_CHECK_ARG(min_row.has_value() == max_row.has_value())
       << "rows: give both MIN and MAX";
   if (min_row) {

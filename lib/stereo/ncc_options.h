@@ -163,6 +163,10 @@ struct NccOptions {
   /// window's near limit); the band above it is a near guard (ground nearer than the window
   /// seen in its lower rows), whose matches are rejected as kBeyondNear. Empty = no limit.
   std::vector<int> row_accept_max_px;
+  /// With row_disparity_px: per image row, the ground's disparity (NaN where the row sees no
+  /// ground); semi-global aggregation's vertical and diagonal paths then follow the ground's
+  /// change of disparity between grid rows at no penalty (SgmInput::row_ground). Empty = none.
+  std::vector<float> row_ground_disparity_px;
   /// Inclusive band of reference-image rows [y_min, y_max] to process (window selection,
   /// sec. 3.3). Unset = the whole image.
   std::optional<int> min_row;

@@ -100,6 +100,27 @@ inline __attribute__((always_inline)) std::int16_t Step(const std::uint8_t* cost
   return new_min;
 }
 
+// Step with a second predecessor at no penalty: `prev2` (the previous row read at the ground's
+// change of disparity), with its own neighbours at P1.
+template <SumMode kMode>
+inline __attribute__((always_inline)) std::int16_t Step2(const std::uint8_t* cost, const std::int16_t* prev,
+                                                         const std::int16_t* prev2, std::int16_t prev_min,
+                                                         std::int16_t p1, std::int16_t p2, int n, std::int16_t* out,
+                                                         std::uint16_t* sum) {
+  const std::int16_t jump = static_cast<std::int16_t>(prev_min + p2);
+  std::int16_t new_min = kSentinel;
+  for (int k = 0; k < n; ++k) {
+    const std::int16_t side = static_cast<std::int16_t>(
+        std::min(std::min(prev[k - 1], prev[k + 1]), std::min(prev2[k - 1], prev2[k + 1])) + p1);
+    const std::int16_t best = std::min(std::min(std::min(prev[k], prev2[k]), side), jump);
+    const std::int16_t v = static_cast<std::int16_t>(cost[k] + best - prev_min);
+    out[k] = v;
+    new_min = std::min(new_min, v);
+    Accumulate<kMode>(v, &sum[k]);
+  }
+  return new_min;
+}
+
 // The first pixel of a path: L = C.
 template <SumMode kMode>
 inline __attribute__((always_inline)) std::int16_t Start(const std::uint8_t* cost, int n, std::int16_t* out,
@@ -294,6 +315,10 @@ LN_SGM_CLONES void VerticalChunk(const SgmInput& in, HammingFn hamming, const Ed
   const int prev = cur ^ 1;
   // Index k of this row is index k + shift of the previous row of the direction of travel.
   const int shift = first ? 0 : in.Shift(j) - in.Shift(down ? j - 1 : j + 1);
+  // The ground's change of disparity from the previous row: its index k + shift - slope. A
+  // change of one pixel P1 already carries; only a larger one takes the second predecessor
+  // (SgmInput::GroundSlope).
+  const int slope = first ? 0 : in.GroundSlope(j, down ? j - 1 : j + 1);
   const bool banded = in.row_num_disp != nullptr;
   FillCosts(in, hamming, j, i_begin, i_end, cost);
   const auto p2 = static_cast<std::int16_t>(in.penalty_large);
@@ -313,8 +338,11 @@ LN_SGM_CLONES void VerticalChunk(const SgmInput& in, HammingFn hamming, const Ed
       std::int16_t* out = b->Row(dir, cur, i);
       if (!first && from >= 0 && from < cols) {
         const std::int16_t p2_here = grey == nullptr ? p2 : edge(grey[i * sx], grey_from[from * sx]);
-        b->mins[dir][cur][i] = Step<SumMode::kNone>(c, b->Row(dir, prev, from) + shift, b->mins[dir][prev][from], p1,
-                                                    p2_here, n, out, s);
+        const std::int16_t* from_row = b->Row(dir, prev, from);
+        b->mins[dir][cur][i] = slope == 0 ? Step<SumMode::kNone>(c, from_row + shift, b->mins[dir][prev][from], p1,
+                                                                 p2_here, n, out, s)
+                                          : Step2<SumMode::kNone>(c, from_row + shift, from_row + shift - slope,
+                                                                  b->mins[dir][prev][from], p1, p2_here, n, out, s);
       } else {
         b->mins[dir][cur][i] = Start<SumMode::kNone>(c, n, out, s);
       }
@@ -408,6 +436,12 @@ void SemiGlobalAggregate(const SgmInput& in, AggregatedCost* out) {
                         in.row_num_disp[j - 1] + down - in.row_num_disp[j] + 1});
       }
     }
+  }
+  // The ground's reads lie |slope| further from the band's ends than the band's own.
+  if (in.row_ground != nullptr) {
+    int widest = 0;
+    for (int j = 1; j < in.num_rows; ++j) widest = std::max(widest, std::abs(in.GroundSlope(j, j - 1)));
+    pad += widest;
   }
   out->sum_.Reserve(cells);
   if (cells == 0) return;

@@ -4,6 +4,7 @@
 #pragma once
 
 #include <cstdint>
+#include <cstdlib>
 #include <vector>
 
 #include <opencv2/core.hpp>
@@ -62,7 +63,20 @@ struct SgmInput {
   /// previous row did not search is reached from its neighbours (P1) or by a jump (P2).
   const int* row_shift = nullptr;     ///< >= 0.
   const int* row_num_disp = nullptr;  ///< In [1, num_disp].
+  /// The expected ground disparity of each grid row, rounded (num_rows entries), or null. A
+  /// vertical or diagonal path step from row i to row j then also carries disparity d - g(j) +
+  /// g(i) of row i to d at no penalty (the ground's own change of disparity between the rows),
+  /// besides d itself (an upright face's): neither pays P2 where rows are far apart.
+  const int* row_ground = nullptr;
   int Shift(int j) const { return row_shift ? row_shift[j] : 0; }
+  /// The ground's change of disparity from row i to row j that the paths follow: 0 without
+  /// row_ground, where it is one pixel or none (P1 carries that) and where it exceeds the
+  /// search's range (no ground's).
+  int GroundSlope(int j, int i) const {
+    if (row_ground == nullptr) return 0;
+    const int s = row_ground[j] - row_ground[i];
+    return std::abs(s) < 2 || std::abs(s) > num_disp ? 0 : s;
+  }
   int RowDisp(int j) const { return row_num_disp ? row_num_disp[j] : num_disp; }
 };
 

@@ -111,6 +111,7 @@ struct SearchGrid {
   int d_min = 0, n = 1;
   bool banded = false;
   std::vector<int> row_shift, row_n;
+  std::vector<int> row_ground;  // the ground's disparity per grid row, rounded; empty = none
   int RowDMin(int j) const { return banded ? d_min + row_shift[j] : d_min; }
   int RowNum(int j) const { return banded ? row_n[j] : n; }
   int Y(int j) const { return grid_lo + j * dy; }
@@ -149,6 +150,23 @@ SearchGrid MakeSearchGrid(const NccOptions& options, int width, int height) {
       grid.row_n[j] = hi - lo + 1;
       grid.n = std::max(grid.n, grid.row_n[j]);
     }
+    if (!options.row_ground_disparity_px.empty()) {
+      // Rows that see no ground take the nearest row's value (no change of disparity there).
+      std::vector<double> g(grid.num_rows, std::numeric_limits<double>::quiet_NaN());
+      for (int j = 0; j < grid.num_rows; ++j) g[j] = options.row_ground_disparity_px[grid.Y(j)];
+      int first = -1;
+      for (int j = 0; j < grid.num_rows && first < 0; ++j) {
+        if (std::isfinite(g[j])) first = j;
+      }
+      if (first >= 0) {
+        grid.row_ground.resize(grid.num_rows);
+        double last = g[first];
+        for (int j = 0; j < grid.num_rows; ++j) {
+          if (std::isfinite(g[j])) last = g[j];
+          grid.row_ground[j] = static_cast<int>(std::lround(std::clamp(last, -1e6, 1e6)));
+        }
+      }
+    }
   }
   return grid;
 }
@@ -178,6 +196,7 @@ void PrepareCostInputs(const SemiGlobalOptions& g, const SearchGrid& grid, const
   if (grid.banded) {
     in.row_shift = grid.row_shift.data();
     in.row_num_disp = grid.row_n.data();
+    if (!grid.row_ground.empty()) in.row_ground = grid.row_ground.data();
   }
   in.penalty_small = g.penalty_small;
   in.penalty_large = g.penalty_large;
