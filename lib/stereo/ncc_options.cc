@@ -246,6 +246,7 @@ nlohmann::json NccSummary::ToJson() const {
           {"rows_processed", {band_min_row, band_max_row}},
           {"working_shift_bits", working_shift_bits},
           {"bit_depth", bit_depth},
+          {"ground_following_row_steps", ground_following_row_steps},
           {"match_ms", 1e3 * match_seconds}};
 }
 

@@ -223,6 +223,9 @@ struct NccSummary {
   int band_min_row = 0, band_max_row = -1;  ///< Row band actually processed.
   int working_shift_bits = 0;  ///< Right shift applied to 16-bit data to keep sums exact.
   int bit_depth = 8;           ///< Significant bits the grey-level thresholds were scaled for.
+  /// Semi-global with the ground's disparity per row (NccOptions::row_ground_disparity_px):
+  /// the steps between grid rows whose paths follow the ground's change of 2 px or more.
+  int ground_following_row_steps = 0;
   double match_seconds = 0;
   /// The matcher's stages in the order they ran (name, wall seconds): where match_seconds goes.
   util::StageTimes stage_seconds;

@@ -674,6 +674,7 @@ void MatchSemiGlobal(const NccOptions& options, const cv::Mat& left, const cv::M
   clock.Lap("filters");  // occlusion margin, guard band, median, border rule, speckle
   ScatterToImage(grid, maps, bit_depth, out);
   clock.Lap("scatter");
+  for (int j = 1; j < grid.num_rows; ++j) out->summary.ground_following_row_steps += cost_inputs.in.GroundSlope(j, j - 1) != 0;
   out->summary.stage_seconds = clock.Take();
   out->summary.match_seconds = timer.ElapsedSeconds();
 }

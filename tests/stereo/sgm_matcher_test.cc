@@ -122,9 +122,14 @@ TEST(SemiGlobal, TheGroundsDisparityLetsSubsampledRowsFollowSlantedGround) {
   const int h = pair.left.rows;
   o.row_disparity_px.assign(h, {0, 95});
   const cv::Rect inner(8, 40, 280, 160);
-  const Agreement without = Compare(MatchStereoPair(o, pair.left, pair.right), pair.disparity_right_px, inner);
+  const NccResult plain = MatchStereoPair(o, pair.left, pair.right);
+  const Agreement without = Compare(plain, pair.disparity_right_px, inner);
   for (int y = 0; y < h; ++y) o.row_ground_disparity_px.push_back(pair.disparity_right_px.at<float>(y, 160));
-  const Agreement with = Compare(MatchStereoPair(o, pair.left, pair.right), pair.disparity_right_px, inner);
+  const NccResult following = MatchStereoPair(o, pair.left, pair.right);
+  const Agreement with = Compare(following, pair.disparity_right_px, inner);
+  // Every step between the 30 grid rows changes by 2.4 px; the summary says how many it followed.
+  EXPECT_EQ(plain.summary.ground_following_row_steps, 0);
+  EXPECT_EQ(following.summary.ground_following_row_steps, 29);
   // One row in 8 is on the grid: an accepted share of 0.125 is every grid pixel.
   EXPECT_GT(with.AcceptedShare(), 0.9 * 0.125);
   EXPECT_GT(with.ShareWithin(0.5), 0.97);
