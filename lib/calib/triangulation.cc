@@ -129,4 +129,27 @@ Eigen::Vector3d PredictPointSigma(const StereoRig& rig, const Eigen::Vector3d& p
   return ((p.depth_m / (f * baseline_m)) * (point_vehicle - centre)).cwiseAbs() * sigma_d_px;
 }
 
+std::vector<float> GroundDisparityByRow(const StereoRig& rig, ReferenceImage reference) {
+  LN_CHECK_ARG(rig.rectified.has_value()) << "rig: not rectified (rectify the pair first)";
+  const RectifiedGeometry& g = *rig.rectified;
+  const double f = g.P_left(0, 0), cy = g.P_left(1, 2), baseline_m = -g.P_right(0, 3) / f;
+  const double c_ref = reference == ReferenceImage::kRight ? g.P_right(0, 2) : g.P_left(0, 2);
+  const double c_offset = g.P_left(0, 2) - g.P_right(0, 2);  // d = f B / z + (c_l - c_r)
+  const Eigen::Isometry3d vehicle_from_left = rig.VehicleFromLeft();
+  const Eigen::Matrix3d vehicle_from_rect = vehicle_from_left.linear() * g.rect_from_left.transpose();
+  const Eigen::Vector3d ref_offset_rect(reference == ReferenceImage::kRight ? baseline_m : 0.0, 0, 0);
+  const Eigen::Vector3d centre = vehicle_from_left * (g.rect_from_left.transpose() * ref_offset_rect);
+  const double x0 = 0.5 * (g.width_px - 1);
+  std::vector<float> out(g.height_px, std::numeric_limits<float>::quiet_NaN());
+  for (int y = 0; y < g.height_px; ++y) {
+    // The ray (u, v, 1) of depth 1 in the rectified frame, in the vehicle frame.
+    const Eigen::Vector3d dir = vehicle_from_rect * Eigen::Vector3d((x0 - c_ref) / f, (y - cy) / f, 1.0);
+    if (!(dir.z() < 0)) continue;                // at or above the horizon
+    const double depth = -centre.z() / dir.z();  // where it meets Z = 0
+    if (!(depth > 0)) continue;                  // a head below the ground
+    out[y] = static_cast<float>(f * baseline_m / depth + c_offset);
+  }
+  return out;
+}
+
 }  // namespace lunarnav::calib

@@ -4,6 +4,8 @@
 
 #include <string>
 
+#include <vector>
+
 #include <opencv2/core.hpp>
 
 #include "calib/stereo_rig.h"
@@ -54,5 +56,11 @@ RectifiedProjection ProjectToRectified(const StereoRig& rig, const Eigen::Vector
 /// at the point's pixel and disparity.
 Eigen::Vector3d PredictPointSigma(const StereoRig& rig, const Eigen::Vector3d& point_vehicle,
                                   ReferenceImage reference, double sigma_d_px);
+
+/// Per row of the rectified reference image, the disparity of the ground the vehicle stands on
+/// (the plane Z = 0 of the vehicle frame) on the image's centre column; NaN for rows whose ray
+/// there meets no ground ahead (at or above the horizon). The ground's disparity is affine in
+/// the pixel, so neighbouring rows differ by its slope (SgmInput::row_ground).
+std::vector<float> GroundDisparityByRow(const StereoRig& rig, ReferenceImage reference);
 
 }  // namespace lunarnav::calib

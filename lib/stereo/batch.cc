@@ -44,29 +44,6 @@ using nlohmann::json;
 namespace {
 
 constexpr const char* kSidecarFormat = "lunarnav.disparity/1";
-
-// Per reference-image row, the disparity of the flat ground (Z = 0 of the vehicle frame) seen
-// straight ahead of the head; NaN for rows that see no ground ahead.
-std::vector<float> GroundDisparityByRow(const calib::StereoRig& rig, ReferenceImage reference, int height) {
-  std::vector<float> out(height, std::numeric_limits<float>::quiet_NaN());
-  const double x = rig.mast.lateral_offset_m;
-  double prev_y = -1, prev_d = 0;
-  for (double y_m = 0.2; y_m < 500; y_m *= 1.01) {
-    const calib::RectifiedProjection p =
-        calib::ProjectToRectified(rig, Eigen::Vector3d(x, y_m, 0.0), reference);
-    if (p.depth_m <= 0) continue;
-    if (prev_y >= 0 && p.y_px < prev_y) {  // rows between the two samples
-      for (int r = static_cast<int>(std::ceil(p.y_px)); r <= static_cast<int>(std::floor(prev_y)); ++r) {
-        if (r < 0 || r >= height) continue;
-        const double t = (r - p.y_px) / (prev_y - p.y_px);
-        out[r] = static_cast<float>(p.disparity_px + t * (prev_d - p.disparity_px));
-      }
-    }
-    prev_y = p.y_px;
-    prev_d = p.disparity_px;
-  }
-  return out;
-}
 constexpr const char* kVehicleFrame = "vehicle: X right, Y forward (direction of travel), Z up, metres, origin at the mast base";
 
 // The window (row band and disparity range) one pair measures, and where it came from.
@@ -336,7 +313,7 @@ json ProcessPair(const BatchOptions& options, const PairFiles& pair, const PairO
       matcher.row_disparity_px = window->row_disparity_px;
       matcher.row_accept_min_px = window->row_accept_min_px;
       matcher.row_accept_max_px = window->row_accept_max_px;
-      if (options.rig) matcher.row_ground_disparity_px = GroundDisparityByRow(*options.rig, matcher.reference, left.rows);
+      if (options.rig) matcher.row_ground_disparity_px = calib::GroundDisparityByRow(*options.rig, matcher.reference);
       matcher.min_disparity_px = window->guard_min_disparity_px;
       matcher.max_disparity_px = std::max(matcher.max_disparity_px, window->guard_max_disparity_px);
     }

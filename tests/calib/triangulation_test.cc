@@ -242,6 +242,52 @@ TEST(PredictPointSigma, PapersRigOnGroundTargetsStraightAhead) {
   }
 }
 
+TEST(GroundDisparityByRow, LevelRigIsTheBaselineOverTheHeightPerRowBelowTheHorizon) {
+  // Cameras level at height h: the ground seen on row y lies at depth f h / (y - c_y), so its
+  // disparity is (y - c_y) B / h, and rows at or above the horizon (c_y) see no ground.
+  StereoRig rig = testing::IdealRectifiedRig(160, 120, 185, 0.5);
+  rig.mast = MastPose{1.65, 0.0, 0.0, 0.0};
+  const double cy = 0.5 * (120 - 1);
+  for (const ReferenceImage reference : {ReferenceImage::kRight, ReferenceImage::kLeft}) {
+    const std::vector<float> d = GroundDisparityByRow(rig, reference);
+    ASSERT_EQ(d.size(), 120u);
+    for (int y = 0; y < 120; ++y) {
+      if (y <= cy) {
+        EXPECT_TRUE(std::isnan(d[y])) << y;
+      } else {
+        EXPECT_NEAR(d[y], (y - cy) * 0.5 / 1.65, 1e-4) << y;
+      }
+    }
+  }
+}
+
+TEST(GroundDisparityByRow, EachRowsValueProjectsBackOntoTheGroundOnThatRow) {
+  // The paper's tilted rig and one rolled and yawed: the ground point of each row's value, on
+  // the image's centre column, lies on Z = 0 and projects to that row with that disparity.
+  for (const StereoRig& rig :
+       {RectifiedPaperRig(), testing::IdealRectifiedRig(160, 120, 185, 0.9, testing::RollYaw(2.0, -3.0), -4.0)}) {
+    for (const ReferenceImage reference : {ReferenceImage::kRight, ReferenceImage::kLeft}) {
+      const std::vector<float> d = GroundDisparityByRow(rig, reference);
+      int rows = 0;
+      for (int y = 0; y < rig.rectified->height_px; ++y) {
+        if (std::isnan(d[y])) continue;
+        ++rows;
+        cv::Mat disparity(rig.rectified->height_px, rig.rectified->width_px, CV_32FC1,
+                          cv::Scalar(std::numeric_limits<float>::quiet_NaN()));
+        const int x = (rig.rectified->width_px - 1) / 2;
+        disparity.at<float>(y, x) = d[y];
+        const cv::Mat xyz = TriangulateDisparity(rig, disparity, reference);
+        const cv::Vec3f p = xyz.at<cv::Vec3f>(y, x);
+        EXPECT_NEAR(p[2], 0.0, 2e-3 * std::max(1.0, static_cast<double>(p[1]))) << y;
+        const RectifiedProjection back =
+            ProjectToRectified(rig, Eigen::Vector3d(p[0], p[1], p[2]), reference);
+        EXPECT_NEAR(back.y_px, y, 1e-2) << y;
+      }
+      EXPECT_GT(rows, rig.rectified->height_px / 3);
+    }
+  }
+}
+
 TEST(TriangulateDisparity, NeedsARectifiedRigOfTheMapsSize) {
   const cv::Mat disparity(480, 640, CV_32FC1, cv::Scalar(10));
   EXPECT_THROW(TriangulateDisparity(testing::PaperRig(), disparity, ReferenceImage::kRight),
