@@ -16,13 +16,9 @@ struct RectifiedCamera {
   Eigen::Vector3d vehicle_origin;  // the rectified left camera's centre in the vehicle frame
 };
 
-RectifiedCamera Unpack(const StereoRig& rig, const cv::Mat& disparity) {
+RectifiedCamera Unpack(const StereoRig& rig) {
   LN_CHECK_ARG(rig.rectified.has_value()) << "rig: not rectified (rectify the pair first)";
-  LN_CHECK_ARG(disparity.type() == CV_32FC1) << "disparity: expected a float32 single-channel map";
   const RectifiedGeometry& g = *rig.rectified;
-  LN_CHECK_ARG(disparity.cols == g.width_px && disparity.rows == g.height_px)
-      << "disparity: " << disparity.cols << "x" << disparity.rows << " does not match the rectified size "
-      << g.width_px << "x" << g.height_px;
   RectifiedCamera c;
   c.f = g.P_left(0, 0);
   c.c_left = g.P_left(0, 2);
@@ -33,6 +29,23 @@ RectifiedCamera Unpack(const StereoRig& rig, const cv::Mat& disparity) {
   c.vehicle_from_rect = vehicle_from_left.linear() * g.rect_from_left.transpose();
   c.vehicle_origin = vehicle_from_left.translation();
   return c;
+}
+
+RectifiedCamera Unpack(const StereoRig& rig, const cv::Mat& disparity) {
+  const RectifiedCamera c = Unpack(rig);
+  LN_CHECK_ARG(disparity.type() == CV_32FC1) << "disparity: expected a float32 single-channel map";
+  const RectifiedGeometry& g = *rig.rectified;
+  LN_CHECK_ARG(disparity.cols == g.width_px && disparity.rows == g.height_px)
+      << "disparity: " << disparity.cols << "x" << disparity.rows << " does not match the rectified size "
+      << g.width_px << "x" << g.height_px;
+  return c;
+}
+
+// Where the reference camera's rays start, in the vehicle frame: a right-referenced ray starts
+// at the right camera, B along the rectified x axis.
+Eigen::Vector3d RayStart(const RectifiedCamera& c, ReferenceImage reference) {
+  return c.vehicle_from_rect * Eigen::Vector3d(reference == ReferenceImage::kRight ? c.baseline_m : 0.0, 0, 0) +
+         c.vehicle_origin;
 }
 
 // For each pixel with a finite disparity in front of the rig, the depth z and the reference
@@ -83,10 +96,7 @@ ReferenceImage ReferenceImageFromString(const std::string& name) {
 
 cv::Mat TriangulateDisparity(const StereoRig& rig, const cv::Mat& disparity_px, ReferenceImage reference) {
   const RectifiedCamera c = Unpack(rig, disparity_px);
-  // A right-referenced ray starts at the right camera, B along the rectified x axis.
-  const Eigen::Vector3d start =
-      c.vehicle_from_rect * Eigen::Vector3d(reference == ReferenceImage::kRight ? c.baseline_m : 0.0, 0, 0) +
-      c.vehicle_origin;
+  const Eigen::Vector3d start = RayStart(c, reference);
   return MapPoints(c, disparity_px, reference,
                    [&](double z, const Eigen::Vector3d& ray) -> Eigen::Vector3d { return start + z * ray; });
 }
@@ -120,34 +130,24 @@ Eigen::Vector3d PredictPointSigma(const StereoRig& rig, const Eigen::Vector3d& p
   LN_CHECK_ARG(std::isfinite(sigma_d_px) && sigma_d_px > 0) << "sigma_d: must be > 0 px";
   const RectifiedProjection p = ProjectToRectified(rig, point_vehicle, reference);
   LN_CHECK_ARG(p.depth_m > 0) << "point: behind the cameras";
-  const RectifiedGeometry& g = *rig.rectified;
-  const double f = g.P_left(0, 0), baseline_m = -g.P_right(0, 3) / f;
+  const RectifiedCamera c = Unpack(rig);
   // dP/dd = -(z / (f B)) (P - C_ref), C_ref the reference camera's centre.
-  const Eigen::Isometry3d vehicle_from_left = rig.VehicleFromLeft();
-  const Eigen::Vector3d ref_offset_rect(reference == ReferenceImage::kRight ? baseline_m : 0.0, 0, 0);
-  const Eigen::Vector3d centre = vehicle_from_left * (g.rect_from_left.transpose() * ref_offset_rect);
-  return ((p.depth_m / (f * baseline_m)) * (point_vehicle - centre)).cwiseAbs() * sigma_d_px;
+  return ((p.depth_m / (c.f * c.baseline_m)) * (point_vehicle - RayStart(c, reference))).cwiseAbs() * sigma_d_px;
 }
 
 std::vector<float> GroundDisparityByRow(const StereoRig& rig, ReferenceImage reference) {
-  LN_CHECK_ARG(rig.rectified.has_value()) << "rig: not rectified (rectify the pair first)";
-  const RectifiedGeometry& g = *rig.rectified;
-  const double f = g.P_left(0, 0), cy = g.P_left(1, 2), baseline_m = -g.P_right(0, 3) / f;
-  const double c_ref = reference == ReferenceImage::kRight ? g.P_right(0, 2) : g.P_left(0, 2);
-  const double c_offset = g.P_left(0, 2) - g.P_right(0, 2);  // d = f B / z + (c_l - c_r)
-  const Eigen::Isometry3d vehicle_from_left = rig.VehicleFromLeft();
-  const Eigen::Matrix3d vehicle_from_rect = vehicle_from_left.linear() * g.rect_from_left.transpose();
-  const Eigen::Vector3d ref_offset_rect(reference == ReferenceImage::kRight ? baseline_m : 0.0, 0, 0);
-  const Eigen::Vector3d centre = vehicle_from_left * (g.rect_from_left.transpose() * ref_offset_rect);
-  const double x0 = 0.5 * (g.width_px - 1);
-  std::vector<float> out(g.height_px, std::numeric_limits<float>::quiet_NaN());
-  for (int y = 0; y < g.height_px; ++y) {
+  const RectifiedCamera c = Unpack(rig);
+  const double c_ref = reference == ReferenceImage::kRight ? c.c_right : c.c_left;
+  const double start_z = RayStart(c, reference).z();
+  const double x0 = 0.5 * (rig.rectified->width_px - 1);
+  std::vector<float> out(rig.rectified->height_px, std::numeric_limits<float>::quiet_NaN());
+  for (int y = 0; y < rig.rectified->height_px; ++y) {
     // The ray (u, v, 1) of depth 1 in the rectified frame, in the vehicle frame.
-    const Eigen::Vector3d dir = vehicle_from_rect * Eigen::Vector3d((x0 - c_ref) / f, (y - cy) / f, 1.0);
-    if (!(dir.z() < 0)) continue;                // at or above the horizon
-    const double depth = -centre.z() / dir.z();  // where it meets Z = 0
-    if (!(depth > 0)) continue;                  // a head below the ground
-    out[y] = static_cast<float>(f * baseline_m / depth + c_offset);
+    const Eigen::Vector3d dir = c.vehicle_from_rect * Eigen::Vector3d((x0 - c_ref) / c.f, (y - c.c_y) / c.f, 1.0);
+    if (!(dir.z() < 0)) continue;           // at or above the horizon
+    const double depth = -start_z / dir.z();  // where it meets Z = 0
+    if (!(depth > 0)) continue;             // a head below the ground
+    out[y] = static_cast<float>(c.f * c.baseline_m / depth + (c.c_left - c.c_right));
   }
   return out;
 }
