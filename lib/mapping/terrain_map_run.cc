@@ -58,6 +58,19 @@ bool StereoSummaryRecordsRig(const fs::path& stereo_dir, const calib::StereoRig&
   }
 }
 
+/// The reference image stereo-batch's summary.json in `stereo_dir` records (options.reference);
+/// none when there is no such summary or it records none that can be read.
+std::optional<calib::ReferenceImage> StereoSummaryReference(const fs::path& stereo_dir) {
+  const fs::path path = stereo_dir / "summary.json";
+  std::error_code ec;
+  if (!fs::is_regular_file(path, ec)) return std::nullopt;
+  try {
+    return calib::ReferenceImageFromString(io::ReadJson(path).at("options").at("reference").get<std::string>());
+  } catch (const std::exception&) {  // not stereo-batch's, or damaged
+    return std::nullopt;
+  }
+}
+
 constexpr double kDeg = 180.0 / M_PI;
 
 struct FusedFrame {
@@ -359,8 +372,16 @@ TerrainMapRunSummary RunTerrainMap(const TerrainMapRunOptions& options, const fs
       y_interval[r.stem] = {r.y_min_m, r.y_max_m};
     }
   }
+  // The reference image: as given, else as the stereo run records it, else stereo-batch's default.
+  calib::ReferenceImage reference = calib::ReferenceImage::kRight;
+  if (options.reference) {
+    reference = *options.reference;
+  } else if (!options.stereo_dir.empty()) {
+    reference = StereoSummaryReference(options.stereo_dir).value_or(calib::ReferenceImage::kRight);
+  }
+  summary.reference = reference;
   std::optional<ElevationErrorModel> error_model;
-  if (rig) error_model.emplace(*rig, options.reference, options.sigma_d_px);
+  if (rig) error_model.emplace(*rig, reference, options.sigma_d_px);
   summary.frames_total = static_cast<long>(todo.size());
 
   TerrainGrid grid(mo.cell_m);
@@ -448,7 +469,7 @@ TerrainMapRunSummary RunTerrainMap(const TerrainMapRunOptions& options, const fs
         last = y;
       }
     }
-    points.xyz = calib::TriangulateDisparity(*rig, disparity, options.reference);
+    points.xyz = calib::TriangulateDisparity(*rig, disparity, reference);
     points.rows = last >= first ? cv::Range(first, last + 1) : cv::Range(0, 0);
     return points;
   };
@@ -458,7 +479,7 @@ TerrainMapRunSummary RunTerrainMap(const TerrainMapRunOptions& options, const fs
   bool from_disparity = false;
   const bool disparity_first =
       rig && rig->rectified && !todo.empty() && fs::is_regular_file(disparity_path(todo.front().stem));
-  if (disparity_first && StereoSummaryRecordsRig(options.stereo_dir, *rig, options.reference)) {
+  if (disparity_first && StereoSummaryRecordsRig(options.stereo_dir, *rig, reference)) {
     from_disparity = true;
     summary.points_check = "stereo-batch's summary.json records this rig and reference image";
   } else if (disparity_first) {
@@ -642,6 +663,7 @@ TerrainMapRunSummary RunTerrainMap(const TerrainMapRunOptions& options, const fs
       {"xyz_sigma", has_sigma},
       {"points", summary.points_source},
       {"points_check", summary.points_check.empty() ? json(nullptr) : json(summary.points_check)},
+      {"reference", calib::ToString(summary.reference)},
       {"rig", options.rig.string()},
       {"requests", options.requests.string()},
       {"errors", has_sigma     ? "xyz_sigma arrays"

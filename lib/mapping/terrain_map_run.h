@@ -31,7 +31,10 @@ struct TerrainMapRunOptions {
   /// xyz_sigma/<stem>.exr when present, else TerrainMapOptions::default_sigma_m.
   std::filesystem::path rig;
   double sigma_d_px = 1.0;  ///< Disparity error for the rig's error model, px, > 0.
-  calib::ReferenceImage reference = calib::ReferenceImage::kRight;  ///< The disparity maps' reference.
+  /// The disparity maps' reference image (the rays of the carving, hidden and depth-edge rules
+  /// start at its camera). Unset: the one stereo-batch's summary.json in stereo_dir records,
+  /// else the right image (stereo-batch's default).
+  std::optional<calib::ReferenceImage> reference;
   /// The requests the pairs were matched with (`stereo-batch --requests`, plan-windows'
   /// requests.csv): a listed pair's points outside its Y interval are left out. Empty: none.
   std::filesystem::path requests;
@@ -72,6 +75,8 @@ struct TerrainMapRunSummary {
   /// summary.json recording the same rig and reference image, or the first pair's XYZ array
   /// compared bit for bit); empty otherwise.
   std::string points_check;
+  /// The disparity maps' reference image the run used (TerrainMapRunOptions::reference).
+  calib::ReferenceImage reference = calib::ReferenceImage::kRight;
   double seconds = 0, fuse_seconds = 0, fuse_cpu_seconds = 0, write_seconds = 0;
   /// Of fuse_cpu_seconds, the CPU time the threads spent getting the points (the EXR decoding, or the
   /// disparity maps read and triangulated).

@@ -795,5 +795,62 @@ TEST(TerrainMapTool, WithTheRigThePointsComeFromTheDisparityMapsAndAreTheXyzArra
   EXPECT_FALSE(fs::exists(tmp.path() / "m_wide" / "elevation.tif"));
 }
 
+TEST(TerrainMapTool, ALeftReferencedRunIsTriangulatedAndItsRaysCastFromTheLeftCamera) {
+  // stereo-batch --reference left: terrain-map takes the reference image from the run's
+  // summary.json, triangulates the disparity maps with it (the map the XYZ arrays make, bit
+  // for bit) and starts the rays of its carving, hidden and depth-edge rules at the left camera;
+  // without the summary it takes the right image, stereo-batch's default, and says so.
+  util::ScopedTempDir tmp;
+  const calib::StereoRig rig = calib::testing::IdealRectifiedRig(160, 120, 185);
+  const fs::path pairs = tmp.path() / "pairs", rig_file = tmp.path() / "rig.json";
+  calib::WriteStereoRig(rig_file, rig);
+  WriteSlopingPlanePairs(pairs, 4);
+  const std::string poses = (tmp.path() / "poses.csv").string();
+  WritePoses(poses, 4);
+  const fs::path stereo = tmp.path() / "stereo";
+  const auto batch = RunTool("stereo-batch",
+                             {pairs.string(), "-o", stereo.string(), "-q", "--rig", rig_file.string(), "--reference",
+                              "left"},
+                             tmp.path());
+  ASSERT_EQ(batch.exit_code, 0) << batch.stderr_text;
+  auto map = [&](const fs::path& dir, const std::string& out) {
+    const auto run = RunTool("terrain-map",
+                             {dir.string(), "--poses", poses, "--rig", rig_file.string(), "-o",
+                              (tmp.path() / out).string(), "-q", "--no-preview"},
+                             tmp.path());
+    EXPECT_EQ(run.exit_code, 0) << run.stderr_text;
+    return io::ReadJson(tmp.path() / out / "summary.json");
+  };
+  const nlohmann::json left = map(stereo, "m_left");
+  EXPECT_EQ(left["inputs"]["reference"], "left");
+  EXPECT_EQ(left["inputs"]["points"], "disparity maps triangulated with the rig");
+  EXPECT_TRUE(left["warnings"].empty()) << left["warnings"];
+  EXPECT_GT(left["counts"]["points_fused"].get<long>(), 1000);
+  // The XYZ arrays alone, with the run's summary: the same map.
+  const fs::path arrays = tmp.path() / "arrays";
+  fs::create_directories(arrays);
+  fs::copy(stereo / "xyz", arrays / "xyz");
+  fs::copy(stereo / "summary.json", arrays / "summary.json");
+  const nlohmann::json from_arrays = map(arrays, "m_arrays");
+  EXPECT_EQ(from_arrays["inputs"]["points"], "XYZ arrays");
+  EXPECT_EQ(from_arrays["inputs"]["reference"], "left");
+  const io::GeoRaster a = io::ReadGeoTiff(tmp.path() / "m_left" / "elevation.tif");
+  const io::GeoRaster b = io::ReadGeoTiff(tmp.path() / "m_arrays" / "elevation.tif");
+  ASSERT_EQ(a.bands.size(), b.bands.size());
+  for (std::size_t k = 0; k < a.bands.size(); ++k) {
+    const cv::Mat& pa = a.bands[k].pixels;
+    const cv::Mat& pb = b.bands[k].pixels;
+    ASSERT_EQ(pa.size(), pb.size());
+    EXPECT_EQ(std::memcmp(pa.ptr(), pb.ptr(), pa.total() * pa.elemSize()), 0) << a.bands[k].description;
+  }
+  // Without the summary: the right image, whose triangulation is not this run's (a warning; the
+  // arrays are read).
+  fs::remove(stereo / "summary.json");
+  const nlohmann::json unknown = map(stereo, "m_unknown");
+  EXPECT_EQ(unknown["inputs"]["reference"], "right");
+  EXPECT_EQ(unknown["inputs"]["points"], "XYZ arrays");
+  ASSERT_EQ(unknown["warnings"].size(), 1u);
+}
+
 }  // namespace
 }  // namespace lunarnav
