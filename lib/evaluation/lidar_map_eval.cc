@@ -1182,11 +1182,20 @@ LidarEvalResult RunLidarMapEvaluation(const LidarMapCommand& cmd, const json& in
     // The image the disparity maps are referenced to, as stereo-batch's summary records it
     // (without it the pairs' disparities are not compared).
     std::optional<calib::ReferenceImage> reference;
+    const fs::path stereo_summary = cmd.stereo_dir / "summary.json";
     try {
       reference = calib::ReferenceImageFromString(
-          io::ReadJson(cmd.stereo_dir / "summary.json").at("options").at("reference").get<std::string>());
-    } catch (const std::exception&) {
+          io::ReadJson(stereo_summary).at("options").at("reference").get<std::string>());
+    } catch (const std::exception& e) {
       reference.reset();
+      std::error_code ec;
+      result.warnings.push_back(
+          stereo_summary.string() +
+          (fs::is_regular_file(stereo_summary, ec) ? std::string(": records no reference image that can be read (") +
+                                                         e.what() + ")"
+                                                   : std::string(": no such file")) +
+          ": the pairs' disparity is not compared with the LiDAR's (one instant, px: n/a)");
+      LN_LOG(Warning) << result.warnings.back();
     }
     util::ParallelForEachItem(pairs.size(), cmd.num_threads, [&](std::size_t k) {
       const mapping::FramePose& pose = pairs[k];
@@ -1338,6 +1347,7 @@ LidarEvalResult RunLidarMapEvaluation(const LidarMapCommand& cmd, const json& in
                  {"stereo", cmd.stereo_dir.string()}};
   j["options"] = o.ToJson();
   j["result"] = result.ToJson();
+  j["warnings"] = result.warnings;
   j["pairs_against_nearest_sweep"] = pair_rows;
   j["table"] = table.ToJson();
   j["outputs"] = {"lidar.csv",   "lidar.json",  "lidar.md",  "cells.csv",

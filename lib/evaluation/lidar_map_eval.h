@@ -154,6 +154,9 @@ struct LidarEvalResult {
   /// without the pairs' disparity maps.
   long pairs_disparity_measured = 0;
   double pair_disparity_offset_px = std::numeric_limits<double>::quiet_NaN();
+  /// What the run could not measure and why (also printed as it arises; summary.json's
+  /// `warnings`).
+  std::vector<std::string> warnings;
   nlohmann::json ToJson() const;
   Table ToTable() const;
   std::string BriefReport() const;

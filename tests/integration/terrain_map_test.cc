@@ -25,6 +25,7 @@
 #include "io/geotiff_io.h"
 #include "io/image_io.h"
 #include "io/json_io.h"
+#include "io/ply_io.h"
 #include "mapping/elevation_error.h"
 #include "mapping/frame_poses.h"
 #include "mapping/synthetic_frames.h"
@@ -793,6 +794,81 @@ TEST(TerrainMapTool, WithTheRigThePointsComeFromTheDisparityMapsAndAreTheXyzArra
             std::string::npos)
       << wide.stderr_text;
   EXPECT_FALSE(fs::exists(tmp.path() / "m_wide" / "elevation.tif"));
+}
+
+TEST(EvaluateMapTool, LidarJudgesTheMapOfRenderedGroundAndSaysWhatItCannotMeasure) {
+  // The whole of `evaluate map --lidar`: pairs rendered of the level ground the paper-like rig
+  // stands on (160 x 120), stereo-batch and terrain-map with the rig, and LiDAR sweeps of that
+  // ground (PLY, vehicle frame) at the pairs' poses. The map lies on the LiDAR's ground and the
+  // pairs' disparity on the LiDAR's at the same instant. Without the stereo run's summary.json
+  // (the disparity maps' reference image unknown) that comparison is not made, and a warning
+  // says so: one line, in summary.json too.
+  util::ScopedTempDir tmp;
+  const calib::StereoRig rig = calib::testing::IdealRectifiedRig(160, 120, 185);
+  const fs::path pairs = tmp.path() / "pairs", rig_file = tmp.path() / "rig.json";
+  calib::WriteStereoRig(rig_file, rig);
+  constexpr int kPairs = 4;
+  {
+    // Z = 0 in the vehicle frame: d = (B / h) (f sin(tilt) + (y - c_y) cos(tilt)), y the row.
+    const double b_over_h = 0.9 / 1.5, tilt = 25.0 * M_PI / 180, cy = 0.5 * (120 - 1);
+    sim::LayeredSceneOptions scene;
+    scene.width = 160;
+    scene.height = 120;
+    sim::PlaneLayer ground;
+    ground.d0_px = b_over_h * (185 * std::sin(tilt) - cy * std::cos(tilt));
+    ground.slope_y = b_over_h * std::cos(tilt);
+    scene.layers = {ground};
+    const sim::RenderedPair pair = sim::RenderLayeredPair(scene);
+    for (const char* side : {"left", "right"}) fs::create_directories(pairs / side);
+    for (int k = 0; k < kPairs; ++k) {
+      const std::string stem = PoseOf(k).stem;
+      cv::imwrite((pairs / "left" / (stem + ".png")).string(), pair.left);
+      cv::imwrite((pairs / "right" / (stem + ".png")).string(), pair.right);
+    }
+  }
+  const std::string poses = (tmp.path() / "poses.csv").string();
+  WritePoses(poses, kPairs);
+  const fs::path lidar = tmp.path() / "velodyne";
+  fs::create_directories(lidar);
+  cv::Mat sweep(1, 121 * 201, CV_32FC3);
+  for (int i = 0; i < 121; ++i) {
+    for (int j = 0; j < 201; ++j) sweep.at<cv::Vec3f>(0, i * 201 + j) = cv::Vec3f(-3.0f + 0.05f * i, 2.0f + 0.05f * j, 0);
+  }
+  for (int k = 0; k < kPairs; ++k) io::WritePlyAtomic(lidar / (PoseOf(k).stem + ".ply"), sweep);
+  const fs::path stereo = tmp.path() / "stereo", map = tmp.path() / "map";
+  const auto batch =
+      RunTool("stereo-batch", {pairs.string(), "-o", stereo.string(), "-q", "--rig", rig_file.string()}, tmp.path());
+  ASSERT_EQ(batch.exit_code, 0) << batch.stderr_text;
+  const auto mapped = RunTool("terrain-map", {stereo.string(), "--poses", poses, "--rig", rig_file.string(), "-o",
+                                              map.string(), "-q", "--no-preview"},
+                              tmp.path());
+  ASSERT_EQ(mapped.exit_code, 0) << mapped.stderr_text;
+  auto judge = [&](const std::string& out) {
+    const auto run = RunTool("evaluate", {"map", map.string(), "--lidar", lidar.string(), "--rig", rig_file.string(),
+                                          "--poses", poses, "--pairs", pairs.string(), "--stereo", stereo.string(),
+                                          "-o", (tmp.path() / out).string(), "-q"},
+                             tmp.path());
+    EXPECT_EQ(run.exit_code, 0) << run.stderr_text;
+    return std::pair(run, io::ReadJson(tmp.path() / out / "summary.json"));
+  };
+  const auto [run, judged] = judge("eval");
+  const nlohmann::json& r = judged["result"];
+  EXPECT_GT(r["cells_compared"].get<long>(), 50) << r;
+  EXPECT_LT(r["elevation_rmse_m"].get<double>(), 0.03) << r;
+  EXPECT_EQ(r["cells_large_error"], 0) << r;
+  EXPECT_EQ(r["pairs_disparity_measured"], kPairs) << r;
+  EXPECT_NEAR(r["pair_disparity_offset_px"].get<double>(), 0.0, 0.1) << r;
+  EXPECT_TRUE(judged["warnings"].empty()) << judged["warnings"];
+  EXPECT_EQ(run.stderr_text.find("warning"), std::string::npos) << run.stderr_text;
+  fs::remove(stereo / "summary.json");
+  const auto [blind_run, blind] = judge("eval_blind");
+  EXPECT_TRUE(blind["result"]["pair_disparity_offset_px"].is_null()) << blind["result"];
+  EXPECT_EQ(blind["result"]["cells_compared"], r["cells_compared"]);
+  ASSERT_EQ(blind["warnings"].size(), 1u) << blind["warnings"];
+  EXPECT_NE(blind["warnings"][0].get<std::string>().find("summary.json: no such file"), std::string::npos)
+      << blind["warnings"];
+  EXPECT_EQ(blind_run.ErrorLines(), 0) << blind_run.stderr_text;
+  EXPECT_NE(blind_run.stderr_text.find("warning"), std::string::npos) << blind_run.stderr_text;
 }
 
 TEST(TerrainMapTool, ALeftReferencedRunIsTriangulatedAndItsRaysCastFromTheLeftCamera) {
