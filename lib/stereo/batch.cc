@@ -240,8 +240,8 @@ json WriteGeometry(const BatchOptions& options, const std::string& stem, const N
 
 // Reads, screens and matches one pair and writes its outputs. Throws InputError for a bad pair.
 json ProcessPair(const BatchOptions& options, const PairFiles& pair, const PairOutputPaths& out,
-                 const json& options_json, const PairWindow* window, NccResult* result,
-                 PairTimings* timings) {
+                 const json& options_json, const PairWindow* window, const std::vector<float>& ground_disparity_px,
+                 NccResult* result, PairTimings* timings) {
   LN_CHECK_INPUT(pair.problem.empty()) << pair.problem;
   util::Timer timer;
   // Both images decoded at once (a lone pair has the threads to spare; a batch's pairs keep
@@ -313,7 +313,7 @@ json ProcessPair(const BatchOptions& options, const PairFiles& pair, const PairO
       matcher.row_disparity_px = window->row_disparity_px;
       matcher.row_accept_min_px = window->row_accept_min_px;
       matcher.row_accept_max_px = window->row_accept_max_px;
-      if (options.rig) matcher.row_ground_disparity_px = calib::GroundDisparityByRow(*options.rig, matcher.reference);
+      matcher.row_ground_disparity_px = ground_disparity_px;
       matcher.min_disparity_px = window->guard_min_disparity_px;
       matcher.max_disparity_px = std::max(matcher.max_disparity_px, window->guard_max_disparity_px);
     }
@@ -496,6 +496,9 @@ struct StereoBatchRun::Impl {
   tbb::enumerable_thread_specific<NccResult> results;  // reused buffers, one per thread
 
   std::map<std::string, PairWindow> attitude_windows;  // the rig default of pairs with an attitude
+  // The ground's disparity per row of the reference image (calib::GroundDisparityByRow: the
+  // rig's alone, the same for every pair and attitude), for the aggregation's row steps.
+  std::vector<float> ground_disparity_px;
 
   const PairWindow* WindowFor(const std::string& stem) const {
     if (const auto it = requested.find(stem); it != requested.end()) return &it->second;
@@ -620,6 +623,9 @@ StereoBatchRun::StereoBatchRun(const BatchOptions& options, const fs::path& inpu
   } else if (options.ground) {
     run.range_window = PairWindow::FromGround(*options.ground);
   }
+  if (options.rig && options.matcher.aggregation == Aggregation::kSemiGlobal) {
+    run.ground_disparity_px = calib::GroundDisparityByRow(*options.rig, options.matcher.reference);
+  }
   if (run.range_window && !options.attitudes.empty()) {
     // A pair with an attitude searches the ground (the rig's default, or --range-y's interval)
     // where its vehicle's attitude puts it (10-20 ms a pair for the paper's rig: made in parallel).
@@ -686,7 +692,8 @@ const PairOutcome& StereoBatchRun::Process(std::size_t k) {
     outcome.result = sidecar["result"];
   } else {
     try {
-      outcome.result = ProcessPair(run.options, pair, out, pair_options, window, &run.results.local(), &run.timings[k]);
+      outcome.result = ProcessPair(run.options, pair, out, pair_options, window, run.ground_disparity_px,
+                                   &run.results.local(), &run.timings[k]);
       outcome.status = PairOutcome::Status::kOk;
     } catch (const InputError& e) {
       outcome.status = PairOutcome::Status::kFailed;
