@@ -19,9 +19,11 @@
 // and summary.json (the rig, reference "left", the matcher's settings).
 #include <algorithm>
 #include <cmath>
+#include <cstdlib>
 #include <filesystem>
 #include <iostream>
 #include <limits>
+#include <stdexcept>
 #include <string>
 #include <vector>
 
