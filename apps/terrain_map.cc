@@ -5,6 +5,7 @@
 #include <vector>
 
 #include "apps/mapping_cli.h"
+#include "calib/triangulation.h"
 #include "calib/vehicle.h"
 #include "mapping/terrain_map_run.h"
 #include "util/cli.h"
@@ -26,6 +27,7 @@ int main(int argc, char** argv) {
   mapping::TerrainMapRunOptions opt;  // defaults live in the library
   fs::path output_dir, vehicle;
   double window_m = 0;
+  std::string reference;
   bool quiet = false, no_preview = false;
   app.add_option("STEREO_DIR", opt.stereo_dir, "stereo-batch output directory (with xyz/ from --rig)");
   app.add_option("-o,--output", output_dir, "output directory (created)")->required();
@@ -39,6 +41,11 @@ int main(int argc, char** argv) {
   app.add_option("--rig", opt.rig, "rectified rig file: each point's predicted error from the rig's geometry "
                                    "(as xyz_sigma/ holds it) without reading xyz_sigma/");
   app.add_option("--sigma-d", opt.sigma_d_px, "disparity error for --rig's error model, px")->capture_default_str();
+  app.add_option("--reference", reference,
+                 "the image the disparity maps are referenced to (the rays of the depth-edge, hidden and carving "
+                 "rules start at its camera; with --rig)")
+      ->check(CLI::IsMember({"right", "left"}))
+      ->default_str("as stereo-batch's summary.json records it, else right");
   app.add_option("--requests", opt.requests, "the requests the pairs were matched with (stereo-batch --requests): "
                                              "points outside a pair's Y interval are left out");
   apps::AddFusionOptions(&app, &opt.map);
@@ -64,6 +71,7 @@ int main(int argc, char** argv) {
   return util::RunMain([&] {
     // Given, it is a window (0, a negative size or nan are refused by the options' check).
     if (app.get_option("--window-m")->count() > 0) opt.map.window_m = window_m;
+    if (!reference.empty()) opt.reference = calib::ReferenceImageFromString(reference);
     if (!vehicle.empty()) {
       apps::ApplyVehicleLimits(calib::ReadVehicleSpec(vehicle), &opt.map);
     }

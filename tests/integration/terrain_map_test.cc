@@ -926,6 +926,17 @@ TEST(TerrainMapTool, ALeftReferencedRunIsTriangulatedAndItsRaysCastFromTheLeftCa
   EXPECT_EQ(unknown["inputs"]["reference"], "right");
   EXPECT_EQ(unknown["inputs"]["points"], "XYZ arrays");
   ASSERT_EQ(unknown["warnings"].size(), 1u);
+  // ... unless told: --reference left, checked against the first pair's array.
+  const auto told = RunTool("terrain-map",
+                            {stereo.string(), "--poses", poses, "--rig", rig_file.string(), "--reference", "left", "-o",
+                             (tmp.path() / "m_told").string(), "-q", "--no-preview"},
+                            tmp.path());
+  ASSERT_EQ(told.exit_code, 0) << told.stderr_text;
+  const nlohmann::json told_summary = io::ReadJson(tmp.path() / "m_told" / "summary.json");
+  EXPECT_EQ(told_summary["inputs"]["reference"], "left");
+  EXPECT_EQ(told_summary["inputs"]["points"], "disparity maps triangulated with the rig");
+  EXPECT_EQ(told_summary["inputs"]["points_check"], "the first pair's XYZ array, bit for bit");
+  EXPECT_TRUE(told_summary["warnings"].empty()) << told_summary["warnings"];
 }
 
 }  // namespace
