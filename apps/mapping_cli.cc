@@ -74,6 +74,11 @@ void AddFusionOptions(CLI::App* app, mapping::TerrainMapOptions* map) {
   app->add_option("--ground-gate", map->ground_gate_m,
                   "the ground-only points' largest height from their pair's ground plane (a robust fit), m")
       ->capture_default_str();
+  app->add_option("--lone-object-height", map->lone_object_height_m,
+                  "of the points too uncertain for a cell, keep those standing more than this over their pair's "
+                  "ground plane where the pair placed nothing standing that high within two cells: an object seen "
+                  "only at the view's far corners (inf: off), m")
+      ->capture_default_str();
   app->add_option("--edge-margin", map->edge_margin_px,
                   "leave out a point standing more than --edge-height over its cell's ground when, within this many "
                   "pixels along its row, a point is more than --edge-step nearer: a depth edge, where the point's "

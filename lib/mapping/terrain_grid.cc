@@ -100,6 +100,9 @@ constexpr double kPlaneScaleM = 0.03;
 // The plane is the ground only where it passes within this of the vehicle's own ground point
 // (the vehicle frame's origin): a view filled by a car's flank fits the car, metres.
 constexpr double kPlaneOriginToleranceM = 0.3;
+// Lone objects: the reach, in cells, within which a standing point the pair placed makes the
+// pair's uncertain standing points its spill (TerrainMapOptions::lone_object_height_m).
+constexpr std::int64_t kLoneObjectReachCells = 2;
 
 // The pair's ground: the dominant plane of a sample of its points (about their mean place).
 struct GroundPlaneFit {
@@ -237,6 +240,7 @@ void TerrainMapOptions::Validate() const {
   LN_CHECK_ARG(max_horizontal_sigma_cells > 0) << "max horizontal sigma: must be > 0 cells";
   LN_CHECK_ARG(!std::isnan(ground_sigma_cells)) << "ground sigma: must be a number of cells";
   LN_CHECK_ARG(std::isfinite(ground_gate_m) && ground_gate_m > 0) << "ground gate: must be > 0 m";
+  LN_CHECK_ARG(lone_object_height_m > 0) << "lone object height: must be > 0 m (inf: off)";
   LN_CHECK_ARG(edge_margin_px >= 0 && edge_margin_px <= internal::kEdgeRowPad)
       << "edge margin: must be in 0..64 px (0: off)";
   LN_CHECK_ARG(std::isfinite(edge_step_px) && edge_step_px > 0) << "edge step: must be > 0 px";
@@ -267,6 +271,7 @@ nlohmann::json TerrainMapOptions::ToJson() const {
           {"max_horizontal_sigma_cells", number(max_horizontal_sigma_cells)},
           {"ground_sigma_cells", number(ground_sigma_cells)},
           {"ground_gate_m", ground_gate_m},
+          {"lone_object_height_m", number(lone_object_height_m)},
           {"edge_margin_px", edge_margin_px},
           {"edge_step_px", edge_step_px},
           {"edge_height_m", edge_height_m},
@@ -341,6 +346,8 @@ FrameContribution BinFrame(const cv::Mat& xyz, const cv::Mat& sigma, const Eigen
     std::vector<float> edge_ground;                  // per cell of the box: its own ground (NaN: unknown)
     std::vector<float> edge_floor;                   // per cell of the box: the ground its edge points meet
     std::vector<PlaneSample> plane;                  // a sample of the other points: world x, y, z
+    std::vector<std::size_t> lone;                   // the ground-only candidates standing high: their index
+    std::vector<std::uint8_t> standing;              // per cell of the placed points' box: one stands high
   };
   static thread_local Buffers buf;
   std::vector<std::int32_t>& ci = buf.ci;
@@ -508,13 +515,53 @@ FrameContribution BinFrame(const cv::Mat& xyz, const cv::Mat& sigma, const Eigen
     ground = FitGround(plane);
     if (ground && !(std::abs(ground->At(t.x(), t.y()) - t.z()) <= kPlaneOriginToleranceM)) ground.reset();
   }
-  for (const auto& [wx, wy, wz, w] : ground_only) {
-    if (!ground || !(std::abs(wz - ground->At(wx, wy)) <= o.ground_gate_m)) {
+  // Lone objects: the uncertain points standing lone_object_height_m over the plane are kept
+  // where none of the pair's placed points stands that high within kLoneObjectReachCells.
+  std::vector<std::size_t>& lone = buf.lone;
+  lone.clear();
+  for (std::size_t k = 0; k < ground_only.size(); ++k) {
+    const auto& [wx, wy, wz, w] = ground_only[k];
+    if (ground && std::abs(wz - ground->At(wx, wy)) <= o.ground_gate_m) {
+      bin(wx, wy, wz, w);
+      ++out.points_ground_only;
+    } else if (ground && wz - ground->At(wx, wy) > o.lone_object_height_m) {
+      lone.push_back(k);
+    } else {
       ++out.points_off_ground;
-      continue;
     }
-    bin(wx, wy, wz, w);
-    ++out.points_ground_only;
+  }
+  if (!lone.empty()) {
+    // The placed points' box (binning the lone points below widens i0..j1).
+    const std::size_t placed = zs.size();
+    const std::int64_t bi0 = i0, bj0 = j0, bi1 = i1, bj1 = j1, box_w = bi1 - bi0 + 1;
+    std::vector<std::uint8_t>& standing = buf.standing;  // per cell of that box: a placed point stands high
+    standing.assign(placed > 0 ? static_cast<std::size_t>(box_w * (bj1 - bj0 + 1)) : 0, 0);
+    for (std::size_t k = 0; k < placed; ++k) {
+      const double x = (ci[k] + 0.5) * o.cell_m, y = (cj[k] + 0.5) * o.cell_m;
+      if (zs[k] - ground->At(x, y) > o.lone_object_height_m) {
+        standing[static_cast<std::size_t>((cj[k] - bj0) * box_w + (ci[k] - bi0))] = 1;
+      }
+    }
+    auto near_standing = [&](std::int64_t i, std::int64_t j) {
+      if (placed == 0) return false;
+      for (std::int64_t b = std::max(j - kLoneObjectReachCells, bj0); b <= std::min(j + kLoneObjectReachCells, bj1);
+           ++b) {
+        for (std::int64_t a = std::max(i - kLoneObjectReachCells, bi0);
+             a <= std::min(i + kLoneObjectReachCells, bi1); ++a) {
+          if (standing[static_cast<std::size_t>((b - bj0) * box_w + (a - bi0))] != 0) return true;
+        }
+      }
+      return false;
+    };
+    for (std::size_t k : lone) {
+      const auto& [wx, wy, wz, w] = ground_only[k];
+      if (near_standing(FloorToInt32(wx * inv_cell), FloorToInt32(wy * inv_cell))) {
+        ++out.points_off_ground;
+        continue;
+      }
+      bin(wx, wy, wz, w);
+      ++out.points_lone_object;
+    }
   }
   if (zs.empty()) return out;
   if (!rays.empty()) {  // the box reaches back to the camera, where the rays start

@@ -147,6 +147,15 @@ struct TerrainMapOptions {
   double ground_sigma_cells = 1.5;
   /// The ground-only points' gate: their largest height from the pair's ground plane, metres, > 0.
   double ground_gate_m = 0.1;
+  /// Lone objects: of the points too uncertain for a cell (above), those standing more than
+  /// this over the pair's ground plane are kept where the pair placed nothing standing that
+  /// high within kLoneObjectReachCells cells of them: an object the pair sees only at its
+  /// view's far corners (a bush at the band's far end, beside the road) is mapped, a cell or so
+  /// off at worst, while the spill of an object the pair placed well (a walker's or a car's
+  /// points a cell or two off, beside its well-placed points) stays out. Metres, > 0; infinity:
+  /// off (the points are left out, as before 2026-12-06). The default, twice the paper's
+  /// obstacle height, lies above the far corners' noise (0.2 made a 45 cm cell on odometry 04).
+  double lone_object_height_m = 0.4;
   /// Depth edges: a point that has, within edge_margin_px along its image row, a point more
   /// than edge_step_px of disparity nearer than the point's own surface carried there (along
   /// its slope where it is locally linear: a plane's disparity is linear along a rectified
@@ -248,6 +257,7 @@ struct FrameContribution {
   long points_out_of_range = 0;
   long points_ground_only = 0;  ///< Kept as ground only (TerrainMapOptions::ground_sigma_cells).
   long points_off_ground = 0;   ///< Too uncertain for a cell and off the pair's ground plane: left out.
+  long points_lone_object = 0;  ///< Too uncertain for a cell, kept as a lone object (lone_object_height_m).
   long points_edge = 0;         ///< Standing at a depth edge, behind a nearer surface (edge_margin_px).
   long rays_cast = 0;      ///< Rays that set ceilings (carving).
   long points_hidden = 0;  ///< Points of observations the ray to them shows hidden (left out).

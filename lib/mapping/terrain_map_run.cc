@@ -124,6 +124,7 @@ json FusionJson(const TerrainMapRunOptions& options, const std::string& errors) 
           {"max_horizontal_sigma_cells", number(mo.max_horizontal_sigma_cells)},
           {"ground_sigma_cells", number(mo.ground_sigma_cells)},
           {"ground_gate_m", mo.ground_gate_m},
+          {"lone_object_height_m", number(mo.lone_object_height_m)},
           {"edge_margin_px", mo.edge_margin_px},
           {"edge_step_px", mo.edge_step_px},
           {"edge_height_m", mo.edge_height_m},
@@ -591,6 +592,7 @@ TerrainMapRunSummary RunTerrainMap(const TerrainMapRunOptions& options, const fs
       summary.points_hidden += c.points_hidden;
       summary.points_ground_only += c.points_ground_only;
       summary.points_off_ground += c.points_off_ground;
+      summary.points_lone_object += c.points_lone_object;
       summary.points_edge += c.points_edge;
       fused.push_back({pose, c.points_fused, c.points_rejected});
       ++summary.frames_fused;
@@ -692,6 +694,7 @@ TerrainMapRunSummary RunTerrainMap(const TerrainMapRunOptions& options, const fs
                  {"points_hidden", summary.points_hidden},
                  {"points_out_of_range", summary.points_out_of_range},
                  {"points_ground_only", summary.points_ground_only},
+                 {"points_lone_object", summary.points_lone_object},
                  {"points_off_ground", summary.points_off_ground},
                  {"points_edge", summary.points_edge},
                  {"mapped_cells", summary.mapped_cells},

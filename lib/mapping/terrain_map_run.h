@@ -65,6 +65,7 @@ struct TerrainMapRunSummary {
   long points_hidden = 0;          ///< Points of observations the rays to them show hidden (with a rig only).
   long points_ground_only = 0;     ///< Kept as ground only (TerrainMapOptions::ground_sigma_cells).
   long points_off_ground = 0;      ///< Too uncertain for a cell and off their pair's ground plane.
+  long points_lone_object = 0;     ///< Too uncertain for a cell, kept as a lone object (lone_object_height_m).
   long points_edge = 0;            ///< Standing at a depth edge, behind a nearer surface.
   CarveCounts carved;              ///< What carving left out of the layers.
   std::vector<GroundAlignment> alignments;  ///< With options.align: one per pair fused, in time order.

@@ -225,29 +225,32 @@ TEST(TerrainGrid, PointsTooUncertainForACellAreLeftOut) {
   EXPECT_EQ(BinFrame(xyz, sigma, pose.WorldFromVehicle(), 0, all).points_out_of_range, 0);
 }
 
+// The horizontal error the uncertain-point tests predict: Y^2 / 40 (as above), one cell at
+// Y = 3.16 m, 1.5 cells at 3.87 m.
+cv::Mat QuadraticSigma(const cv::Mat& xyz) {
+  cv::Mat sigma(xyz.size(), CV_32FC3);
+  for (int r = 0; r < xyz.rows; ++r) {
+    for (int c = 0; c < xyz.cols; ++c) {
+      const float h = xyz.at<cv::Vec3f>(r, c)[1] * xyz.at<cv::Vec3f>(r, c)[1] / 40.0f;
+      sigma.at<cv::Vec3f>(r, c) = cv::Vec3f(0.6f * h, 0.8f * h, 0.01f);
+    }
+  }
+  return sigma;
+}
+
 // Points too uncertain for a cell count as ground only: kept where they lie within the gate of
 // their pair's ground plane (a robust fit to its other points), so that the ground there is
-// mapped while what stands there (a walker's points a cell or two off) stays out. A view whose
-// plane misses the vehicle's own ground point keeps none.
+// mapped while what stands there beside what the pair placed well (a walker's points a cell or
+// two off) stays out. A view whose plane misses the vehicle's own ground point keeps none.
 TEST(TerrainGrid, PointsTooUncertainForACellCountAsGroundOnlyOnTheirPairsGroundPlane) {
   TerrainMapOptions o;  // one cell of horizontal error; ground only up to 1.5 cells, 10 cm from the plane
   o.visibility_k = std::numeric_limits<double>::infinity();  // the column rules off: this rule alone
   o.support_rise_m = std::numeric_limits<double>::infinity();
   const FramePose pose = Pose(0, 0, 0);
-  // The horizontal error grows as Y^2 / 40 (as above): one cell at Y = 3.16 m, 1.5 cells at
-  // 3.87 m. A 1 m box stands at Y 3.4-3.7 m, where the error is 1.2-1.4 cells.
-  auto height = BoxOnPlane(0.0, -1.0, 1.0, 3.4, 3.7, 1.0);
-  auto sigma_of = [](const cv::Mat& xyz) {
-    cv::Mat sigma(xyz.size(), CV_32FC3);
-    for (int r = 0; r < xyz.rows; ++r) {
-      for (int c = 0; c < xyz.cols; ++c) {
-        const float h = xyz.at<cv::Vec3f>(r, c)[1] * xyz.at<cv::Vec3f>(r, c)[1] / 40.0f;
-        sigma.at<cv::Vec3f>(r, c) = cv::Vec3f(0.6f * h, 0.8f * h, 0.01f);
-      }
-    }
-    return sigma;
-  };
-  const cv::Mat xyz = SurfaceXyz(height, pose), sigma = sigma_of(xyz);
+  // A 1 m box stands at Y 3.0-3.7 m: its near part within a cell's error (placed), the rest
+  // where the error is 1.0-1.4 cells, within two cells of the placed part.
+  auto height = BoxOnPlane(0.0, -1.0, 1.0, 3.0, 3.7, 1.0);
+  const cv::Mat xyz = SurfaceXyz(height, pose), sigma = QuadraticSigma(xyz);
   long ground = 0, standing = 0;  // the uncertain points on the ground and on the box
   for (int r = 0; r < xyz.rows; ++r) {
     for (int c = 0; c < xyz.cols; ++c) {
@@ -261,14 +264,17 @@ TEST(TerrainGrid, PointsTooUncertainForACellCountAsGroundOnlyOnTheirPairsGroundP
   const FrameContribution part = BinFrame(xyz, sigma, pose.WorldFromVehicle(), 0, o);
   EXPECT_EQ(part.points_ground_only, ground);
   EXPECT_EQ(part.points_off_ground, standing);
+  EXPECT_EQ(part.points_lone_object, 0);
   TerrainGrid grid(o.cell_m);
   grid.Add(part);
   const MapLayers l = ComputeLayers(grid, o.obstacles);
   // The ground out to 3.87 m is mapped (rows of cells from y = 3.25 m on: 24 cells across each,
-  // less the box's 8), at its height; the box is not.
-  const int far_ground = CountCells(l.elevation_m, [&](int r, int) { return l.y_north_m - (r + 0.5) * l.cell_m > 3.25; });
+  // less the box's 8), at its height; the box's uncertain part is not.
+  auto far = [&](int r) { return l.y_north_m - (r + 0.5) * l.cell_m > 3.25; };
+  const int far_ground = CountCells(l.elevation_m, [&](int r, int) { return far(r); });
   EXPECT_GE(far_ground, 2 * 24 - 8);
-  EXPECT_EQ(CountCells(l.max_m, [&](int r, int c) { return std::abs(l.max_m.at<float>(r, c)) > 1e-4f; }), 0);
+  EXPECT_EQ(CountCells(l.max_m, [&](int r, int c) { return far(r) && std::abs(l.max_m.at<float>(r, c)) > 1e-4f; }), 0);
+  EXPECT_GT(CountCells(l.max_m, [&](int r, int c) { return !far(r) && l.max_m.at<float>(r, c) > 0.9f; }), 0);
   // Off: those points are out of range, as before.
   TerrainMapOptions off = o;
   off.ground_sigma_cells = off.max_horizontal_sigma_cells;
@@ -278,9 +284,64 @@ TEST(TerrainGrid, PointsTooUncertainForACellCountAsGroundOnlyOnTheirPairsGroundP
   EXPECT_EQ(none.points_out_of_range, part.points_out_of_range + ground + standing);
   // The whole view 0.5 m above the vehicle's ground (a car's flank filling it): no ground plane.
   const cv::Mat raised = SurfaceXyz([](double, double) { return 0.5; }, pose);
-  const FrameContribution flank = BinFrame(raised, sigma_of(raised), pose.WorldFromVehicle(), 0, o);
+  const FrameContribution flank = BinFrame(raised, QuadraticSigma(raised), pose.WorldFromVehicle(), 0, o);
   EXPECT_EQ(flank.points_ground_only, 0);
   EXPECT_GT(flank.points_off_ground, 1000);
+}
+
+// An object the pair sees only where its points are too uncertain for a cell (a bush at the
+// band's far corner) is kept, where the pair placed nothing standing as high within two cells:
+// its points stand lone_object_height_m over the pair's ground plane. Off (infinity), they are
+// left out; lower ones never count.
+TEST(TerrainGrid, AnObjectThePairSeesOnlyTooUncertainForACellIsKeptAsALoneObject) {
+  TerrainMapOptions o;
+  o.visibility_k = std::numeric_limits<double>::infinity();
+  o.support_rise_m = std::numeric_limits<double>::infinity();
+  const FramePose pose = Pose(0, 0, 0);
+  // A 1 m box at Y 3.4-3.7 m, where the error is 1.2-1.4 cells: none of it placed; beside it a
+  // 0.3 m one, lower than lone_object_height_m.
+  const testing::HeightFn tall = BoxOnPlane(0.0, -1.0, 1.0, 3.4, 3.7, 1.0), low = BoxOnPlane(0.0, 2.0, 2.5, 3.4, 3.7, 0.3);
+  const cv::Mat xyz = SurfaceXyz([&](double x, double y) { return std::max(tall(x, y), low(x, y)); }, pose);
+  const cv::Mat sigma = QuadraticSigma(xyz);
+  long standing = 0, high = 0;  // its uncertain points, and those more than 0.4 m up
+  for (int r = 0; r < xyz.rows; ++r) {
+    for (int c = 0; c < xyz.cols; ++c) {
+      const cv::Vec3f p = xyz.at<cv::Vec3f>(r, c);
+      const double h = p[1] * p[1] / 40.0;
+      if (h > 0.25 && h <= 0.375 && p[2] != 0) {
+        ++standing;
+        high += p[2] > 0.4;
+      }
+    }
+  }
+  ASSERT_GT(high, 100);
+  ASSERT_GT(standing, high);
+  const FrameContribution part = BinFrame(xyz, sigma, pose.WorldFromVehicle(), 0, o);
+  EXPECT_EQ(part.points_lone_object, high);
+  EXPECT_EQ(part.points_off_ground, standing - high);
+  TerrainGrid grid(o.cell_m);
+  grid.Add(part);
+  const MapLayers l = ComputeLayers(grid, o.obstacles);
+  // The tall box's cells (x -1..1, y 3.25..3.75 with a cell of spill) stand a metre up; nothing
+  // else stands 0.4 m.
+  int box = 0, elsewhere = 0;
+  for (int r = 0; r < l.max_m.rows; ++r) {
+    for (int c = 0; c < l.max_m.cols; ++c) {
+      if (!(l.max_m.at<float>(r, c) > 0.4f)) continue;
+      const double x = l.x_west_m + (c + 0.5) * l.cell_m, y = l.y_north_m - (r + 0.5) * l.cell_m;
+      ++(std::abs(x) < 1.0 + l.cell_m && y > 3.25 - l.cell_m && y < 3.75 + l.cell_m ? box : elsewhere);
+    }
+  }
+  EXPECT_GE(box, 8);
+  EXPECT_EQ(elsewhere, 0);
+  TerrainMapOptions off = o;
+  off.lone_object_height_m = std::numeric_limits<double>::infinity();
+  const FrameContribution out = BinFrame(xyz, sigma, pose.WorldFromVehicle(), 0, off);
+  EXPECT_EQ(out.points_lone_object, 0);
+  EXPECT_EQ(out.points_off_ground, standing);
+  TerrainMapOptions bad = o;
+  bad.lone_object_height_m = 0;
+  EXPECT_THROW(bad.Validate(), std::invalid_argument);
 }
 
 // The visibility rule: a blob of matches nearer than the rays below it in its image column
