@@ -103,6 +103,9 @@ constexpr double kPlaneOriginToleranceM = 0.3;
 // Lone objects: the reach, in cells, within which a standing point the pair placed makes the
 // pair's uncertain standing points its spill (TerrainMapOptions::lone_object_height_m).
 constexpr std::int64_t kLoneObjectReachCells = 2;
+// The most cells a frame's points may span (its box's per-cell arrays), beyond which they lie
+// implausibly far (bad input: a maximum range keeps them out).
+constexpr std::int64_t kMaxFrameBoxCells = 50'000'000;
 
 // The pair's ground: the dominant plane of a sample of its points (about their mean place).
 struct GroundPlaneFit {
@@ -530,10 +533,13 @@ FrameContribution BinFrame(const cv::Mat& xyz, const cv::Mat& sigma, const Eigen
       ++out.points_off_ground;
     }
   }
-  if (!lone.empty()) {
-    // The placed points' box (binning the lone points below widens i0..j1).
+  // The placed points' box (binning the lone points below widens i0..j1); one too large for
+  // pass 2 is refused there.
+  const std::int64_t bi0 = i0, bj0 = j0, bi1 = i1, bj1 = j1, box_w = bi1 - bi0 + 1;
+  if (!lone.empty() && !zs.empty() && box_w * (bj1 - bj0 + 1) > kMaxFrameBoxCells) {
+    out.points_off_ground += static_cast<long>(lone.size());
+  } else if (!lone.empty()) {
     const std::size_t placed = zs.size();
-    const std::int64_t bi0 = i0, bj0 = j0, bi1 = i1, bj1 = j1, box_w = bi1 - bi0 + 1;
     std::vector<std::uint8_t>& standing = buf.standing;  // per cell of that box: a placed point stands high
     standing.assign(placed > 0 ? static_cast<std::size_t>(box_w * (bj1 - bj0 + 1)) : 0, 0);
     for (std::size_t k = 0; k < placed; ++k) {
@@ -578,7 +584,7 @@ FrameContribution BinFrame(const cv::Mat& xyz, const cv::Mat& sigma, const Eigen
 
   // Pass 2: counting sort by cell of the frame's bounding box.
   const std::int64_t nx = static_cast<std::int64_t>(i1) - i0 + 1, ny = static_cast<std::int64_t>(j1) - j0 + 1;
-  LN_CHECK_INPUT(nx * ny <= 50'000'000) << "a frame's points span " << nx << " x " << ny
+  LN_CHECK_INPUT(nx * ny <= kMaxFrameBoxCells) << "a frame's points span " << nx << " x " << ny
                                         << " cells (points far away: set a maximum range)";
   std::vector<std::uint32_t>& start = buf.start;
   std::vector<std::uint32_t>& local = buf.local;
