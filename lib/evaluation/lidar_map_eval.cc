@@ -20,6 +20,7 @@
 #include "io/point_cloud_io.h"
 #include "io/stereo_pairs.h"
 #include "mapping/kitti_trajectory.h"
+#include "stereo/batch.h"
 #include "util/check.h"
 #include "util/errors.h"
 #include "util/log.h"
@@ -1181,20 +1182,11 @@ LidarEvalResult RunLidarMapEvaluation(const LidarMapCommand& cmd, const json& in
     std::vector<double> gap_s(pairs.size(), kNaN);
     // The image the disparity maps are referenced to, as stereo-batch's summary records it
     // (without it the pairs' disparities are not compared).
-    std::optional<calib::ReferenceImage> reference;
-    const fs::path stereo_summary = cmd.stereo_dir / "summary.json";
-    try {
-      reference = calib::ReferenceImageFromString(
-          io::ReadJson(stereo_summary).at("options").at("reference").get<std::string>());
-    } catch (const std::exception& e) {
-      reference.reset();
-      std::error_code ec;
-      result.warnings.push_back(
-          stereo_summary.string() +
-          (fs::is_regular_file(stereo_summary, ec) ? std::string(": records no reference image that can be read (") +
-                                                         e.what() + ")"
-                                                   : std::string(": no such file")) +
-          ": the pairs' disparity is not compared with the LiDAR's (one instant, px: n/a)");
+    std::string problem;
+    const std::optional<calib::ReferenceImage> reference = stereo::ReadRunReference(cmd.stereo_dir, &problem);
+    if (!reference) {
+      result.warnings.push_back(problem +
+                                ": the pairs' disparity is not compared with the LiDAR's (one instant, px: n/a)");
       LN_LOG(Warning) << result.warnings.back();
     }
     util::ParallelForEachItem(pairs.size(), cmd.num_threads, [&](std::size_t k) {

@@ -22,6 +22,7 @@
 #include "io/stereo_pairs.h"
 #include "mapping/frame_poses.h"
 #include "mapping/map_preview.h"
+#include "stereo/batch.h"
 #include "stereo/window_requests.h"
 #include "util/check.h"
 #include "util/errors.h"
@@ -55,19 +56,6 @@ bool StereoSummaryRecordsRig(const fs::path& stereo_dir, const calib::StereoRig&
     return o.at("reference") == calib::ToString(reference) && o.at("geometry").at("rig") == calib::StereoRigToJson(rig);
   } catch (const std::exception&) {  // not stereo-batch's, or damaged: the pixels decide
     return false;
-  }
-}
-
-/// The reference image stereo-batch's summary.json in `stereo_dir` records (options.reference);
-/// none when there is no such summary or it records none that can be read.
-std::optional<calib::ReferenceImage> StereoSummaryReference(const fs::path& stereo_dir) {
-  const fs::path path = stereo_dir / "summary.json";
-  std::error_code ec;
-  if (!fs::is_regular_file(path, ec)) return std::nullopt;
-  try {
-    return calib::ReferenceImageFromString(io::ReadJson(path).at("options").at("reference").get<std::string>());
-  } catch (const std::exception&) {  // not stereo-batch's, or damaged
-    return std::nullopt;
   }
 }
 
@@ -378,7 +366,7 @@ TerrainMapRunSummary RunTerrainMap(const TerrainMapRunOptions& options, const fs
   if (options.reference) {
     reference = *options.reference;
   } else if (!options.stereo_dir.empty()) {
-    reference = StereoSummaryReference(options.stereo_dir).value_or(calib::ReferenceImage::kRight);
+    reference = stereo::ReadRunReference(options.stereo_dir).value_or(calib::ReferenceImage::kRight);
   }
   summary.reference = reference;
   std::optional<ElevationErrorModel> error_model;

@@ -462,6 +462,23 @@ std::string SummaryFileName(const BatchOptions& options) {
   return io::SummaryFileName(options.shard_index, options.shard_count);
 }
 
+std::optional<calib::ReferenceImage> ReadRunReference(const fs::path& output_dir, std::string* problem) {
+  const fs::path path = output_dir / "summary.json";
+  std::error_code ec;
+  std::string why;
+  if (!fs::is_regular_file(path, ec)) {
+    why = path.string() + ": no such file";
+  } else {
+    try {  // bounded in size and values
+      return calib::ReferenceImageFromString(io::ReadJson(path).at("options").at("reference").get<std::string>());
+    } catch (const std::exception& e) {  // not stereo-batch's, or damaged
+      why = path.string() + ": records no reference image that can be read (" + e.what() + ")";
+    }
+  }
+  if (problem != nullptr) *problem = why;
+  return std::nullopt;
+}
+
 std::string BatchSummary::BriefReport() const {
   std::ostringstream s;
   s.setf(std::ios::fixed);

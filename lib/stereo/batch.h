@@ -12,6 +12,7 @@
 #include <nlohmann/json.hpp>
 
 #include "calib/stereo_rig.h"
+#include "calib/triangulation.h"
 #include "calib/window_selection.h"
 #include "io/stereo_pairs.h"
 #include "stereo/frame_check.h"
@@ -112,6 +113,12 @@ PairOutputPaths OutputPathsFor(const std::filesystem::path& output_dir, const st
 
 /// Name of the run summary: summary.json, or summary.shard-K-of-N.json for a shard.
 std::string SummaryFileName(const BatchOptions& options);
+
+/// The image a run's disparity maps are referenced to, as its summary.json in `output_dir`
+/// records it (options.reference). None when the summary is missing or records none that can be
+/// read; then `problem`, when given, says which ("<path>: no such file", or what was wrong).
+std::optional<calib::ReferenceImage> ReadRunReference(const std::filesystem::path& output_dir,
+                                                      std::string* problem = nullptr);
 
 /// A run driven pair by pair: the closed loop of sec. 3.3, where a pair's request is known only
 /// once the pairs before it are in the map. RunStereoBatch is this over every pair of the shard.

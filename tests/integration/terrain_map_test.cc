@@ -680,21 +680,53 @@ TEST(PlanWindowsTool, WritesRequestsThatStereoBatchReads) {
   }
 }
 
+// stereo-batch with a quarter-size paper rig over four rectified pairs of a sloping plane
+// (WriteSlopingPlanePairs), in DIR: the rig file, the poses and the run.
+struct SlopingPlaneRun {
+  calib::StereoRig rig = calib::testing::IdealRectifiedRig(160, 120, 185);
+  fs::path pairs, rig_file, stereo;
+  std::string poses;
+};
+SlopingPlaneRun RunSlopingPlaneStereo(const fs::path& dir, const std::vector<std::string>& batch_options = {}) {
+  SlopingPlaneRun run;
+  run.pairs = dir / "pairs";
+  run.rig_file = dir / "rig.json";
+  run.stereo = dir / "stereo";
+  run.poses = (dir / "poses.csv").string();
+  calib::WriteStereoRig(run.rig_file, run.rig);
+  WriteSlopingPlanePairs(run.pairs, 4);
+  WritePoses(run.poses, 4);
+  std::vector<std::string> args = {run.pairs.string(), "-o", run.stereo.string(), "-q", "--rig", run.rig_file.string()};
+  args.insert(args.end(), batch_options.begin(), batch_options.end());
+  const auto batch = RunTool("stereo-batch", args, dir);
+  EXPECT_EQ(batch.exit_code, 0) << batch.stderr_text;
+  return run;
+}
+
+// Every band of two maps' elevation.tif, bit for bit.
+void ExpectSameElevationBands(const fs::path& a_dir, const fs::path& b_dir) {
+  const io::GeoRaster a = io::ReadGeoTiff(a_dir / "elevation.tif");
+  const io::GeoRaster b = io::ReadGeoTiff(b_dir / "elevation.tif");
+  ASSERT_EQ(a.bands.size(), b.bands.size());
+  for (std::size_t k = 0; k < a.bands.size(); ++k) {
+    const cv::Mat& pa = a.bands[k].pixels;
+    const cv::Mat& pb = b.bands[k].pixels;
+    ASSERT_EQ(pa.size(), pb.size());
+    EXPECT_EQ(std::memcmp(pa.ptr(), pb.ptr(), pa.total() * pa.elemSize()), 0) << a.bands[k].description;
+  }
+}
+
 TEST(TerrainMapTool, WithTheRigThePointsComeFromTheDisparityMapsAndAreTheXyzArrays) {
   // stereo-batch on four rectified pairs of a quarter-size paper rig (a sloping plane), then
   // terrain-map with that rig: it triangulates the disparity maps itself, and the map is the one
   // the XYZ arrays make, bit for bit; with another rig it says so and reads the arrays.
   util::ScopedTempDir tmp;
-  const calib::StereoRig rig = calib::testing::IdealRectifiedRig(160, 120, 185);
-  const fs::path pairs = tmp.path() / "pairs", rig_file = tmp.path() / "rig.json";
-  calib::WriteStereoRig(rig_file, rig);
-  WriteSlopingPlanePairs(pairs, 4);
-  const std::string poses = (tmp.path() / "poses.csv").string();
-  WritePoses(poses, 4);
-  const fs::path stereo = tmp.path() / "stereo";
-  const auto batch =
-      RunTool("stereo-batch", {pairs.string(), "-o", stereo.string(), "-q", "--rig", rig_file.string()}, tmp.path());
-  ASSERT_EQ(batch.exit_code, 0) << batch.stderr_text;
+  const SlopingPlaneRun sloping = RunSlopingPlaneStereo(tmp.path());
+  ASSERT_FALSE(::testing::Test::HasFailure());
+  const calib::StereoRig& rig = sloping.rig;
+  const fs::path& rig_file = sloping.rig_file;
+  const fs::path& stereo = sloping.stereo;
+  const std::string& poses = sloping.poses;
   auto map = [&](const fs::path& dir, const fs::path& rig_path, const std::string& out) {
     const auto run = RunTool("terrain-map",
                              {dir.string(), "--poses", poses, "--rig", rig_path.string(), "-o",
@@ -749,15 +781,7 @@ TEST(TerrainMapTool, WithTheRigThePointsComeFromTheDisparityMapsAndAreTheXyzArra
   const nlohmann::json from_arrays = map(arrays, rig_file, "m_arrays");
   EXPECT_EQ(from_arrays["inputs"]["points"], "XYZ arrays");
   EXPECT_EQ(from_arrays["counts"]["points_fused"], from_disparity["counts"]["points_fused"]);
-  const io::GeoRaster a = io::ReadGeoTiff(tmp.path() / "m_disparity" / "elevation.tif");
-  const io::GeoRaster b = io::ReadGeoTiff(tmp.path() / "m_arrays" / "elevation.tif");
-  ASSERT_EQ(a.bands.size(), b.bands.size());
-  for (std::size_t k = 0; k < a.bands.size(); ++k) {
-    const cv::Mat& pa = a.bands[k].pixels;
-    const cv::Mat& pb = b.bands[k].pixels;
-    ASSERT_EQ(pa.size(), pb.size());
-    EXPECT_EQ(std::memcmp(pa.ptr(), pb.ptr(), pa.total() * pa.elemSize()), 0) << a.bands[k].description;
-  }
+  ExpectSameElevationBands(tmp.path() / "m_disparity", tmp.path() / "m_arrays");
   // Another rig (a longer baseline): its triangulation is not stereo-batch's; the arrays are read.
   calib::StereoRig other = rig;
   other.right_from_left_t_m *= 1.1;
@@ -877,18 +901,11 @@ TEST(TerrainMapTool, ALeftReferencedRunIsTriangulatedAndItsRaysCastFromTheLeftCa
   // for bit) and starts the rays of its carving, hidden and depth-edge rules at the left camera;
   // without the summary it takes the right image, stereo-batch's default, and says so.
   util::ScopedTempDir tmp;
-  const calib::StereoRig rig = calib::testing::IdealRectifiedRig(160, 120, 185);
-  const fs::path pairs = tmp.path() / "pairs", rig_file = tmp.path() / "rig.json";
-  calib::WriteStereoRig(rig_file, rig);
-  WriteSlopingPlanePairs(pairs, 4);
-  const std::string poses = (tmp.path() / "poses.csv").string();
-  WritePoses(poses, 4);
-  const fs::path stereo = tmp.path() / "stereo";
-  const auto batch = RunTool("stereo-batch",
-                             {pairs.string(), "-o", stereo.string(), "-q", "--rig", rig_file.string(), "--reference",
-                              "left"},
-                             tmp.path());
-  ASSERT_EQ(batch.exit_code, 0) << batch.stderr_text;
+  const SlopingPlaneRun sloping = RunSlopingPlaneStereo(tmp.path(), {"--reference", "left"});
+  ASSERT_FALSE(::testing::Test::HasFailure());
+  const fs::path& rig_file = sloping.rig_file;
+  const fs::path& stereo = sloping.stereo;
+  const std::string& poses = sloping.poses;
   auto map = [&](const fs::path& dir, const std::string& out) {
     const auto run = RunTool("terrain-map",
                              {dir.string(), "--poses", poses, "--rig", rig_file.string(), "-o",
@@ -910,15 +927,7 @@ TEST(TerrainMapTool, ALeftReferencedRunIsTriangulatedAndItsRaysCastFromTheLeftCa
   const nlohmann::json from_arrays = map(arrays, "m_arrays");
   EXPECT_EQ(from_arrays["inputs"]["points"], "XYZ arrays");
   EXPECT_EQ(from_arrays["inputs"]["reference"], "left");
-  const io::GeoRaster a = io::ReadGeoTiff(tmp.path() / "m_left" / "elevation.tif");
-  const io::GeoRaster b = io::ReadGeoTiff(tmp.path() / "m_arrays" / "elevation.tif");
-  ASSERT_EQ(a.bands.size(), b.bands.size());
-  for (std::size_t k = 0; k < a.bands.size(); ++k) {
-    const cv::Mat& pa = a.bands[k].pixels;
-    const cv::Mat& pb = b.bands[k].pixels;
-    ASSERT_EQ(pa.size(), pb.size());
-    EXPECT_EQ(std::memcmp(pa.ptr(), pb.ptr(), pa.total() * pa.elemSize()), 0) << a.bands[k].description;
-  }
+  ExpectSameElevationBands(tmp.path() / "m_left", tmp.path() / "m_arrays");
   // Without the summary: the right image, whose triangulation is not this run's (a warning; the
   // arrays are read).
   fs::remove(stereo / "summary.json");
