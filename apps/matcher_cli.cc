@@ -91,6 +91,12 @@ void AddMatcherOptions(CLI::App* app, MatcherCommandLine* cl, stereo::FrameCheck
   app->add_option("--reference", cl->reference, "image the disparity map is referenced to")
       ->check(CLI::IsMember({"right", "left"}))
       ->capture_default_str();
+  app->add_option("--vertical-alignment", cl->vertical_alignment,
+                  "measure the pairs' residual vertical misalignment (rows of the two images off by a fraction of a "
+                  "pixel, which biases the disparity of oblique texture) on a few pairs of the run and resample "
+                  "every pair to take it out: auto, or off")
+      ->check(CLI::IsMember({"auto", "off"}))
+      ->default_str("off; with --rig auto (semi-global)");
   app->add_option("--blank-sigma", frame_check->blank_max_sigma,
                   "a frame with intensity std dev below this (8-bit grey levels) is blank")
       ->capture_default_str();
@@ -143,6 +149,18 @@ stereo::NccOptions MatcherFromCommandLine(const CLI::App& app, const MatcherComm
   std::tie(m.step_x_px, m.step_y_px) = util::ParseIntPair(cl.step, 'x', "--step");
   m.reference = stereo::ReferenceImageFromString(cl.reference);
   return m;
+}
+
+stereo::BatchOptions::VerticalAlignment VerticalAlignmentFromCommandLine(const CLI::App& app,
+                                                                         const MatcherCommandLine& cl,
+                                                                         const stereo::NccOptions& matcher,
+                                                                         bool map_pipeline) {
+  if (app.get_option("--vertical-alignment")->count() > 0) {
+    return stereo::VerticalAlignmentFromString(cl.vertical_alignment);
+  }
+  return map_pipeline && matcher.aggregation == stereo::Aggregation::kSemiGlobal
+             ? stereo::BatchOptions::VerticalAlignment::kAuto
+             : stereo::BatchOptions::VerticalAlignment::kOff;
 }
 
 void ApplyMapPipelineDefaults(const CLI::App& app, stereo::NccOptions* matcher) {

@@ -7,6 +7,7 @@
 
 #include <CLI/CLI.hpp>
 
+#include "stereo/batch.h"
 #include "stereo/frame_check.h"
 #include "stereo/ncc_options.h"
 
@@ -17,6 +18,7 @@ struct MatcherCommandLine {
   std::string preset = "quality";
   std::string aggregation = "semi-global", census = "4x3", window, step = "1x1", reference = "right";
   std::string aperture = "off";
+  std::string vertical_alignment = "off";
   stereo::NccOptions given = stereo::PresetOptions("paper");  ///< Explicit values, applied over the preset.
 };
 
@@ -46,5 +48,12 @@ inline constexpr int kMapPenaltyLarge = 480;
 /// the occlusion margin kMapOcclusionMarginPx unless --occlusion-margin is given, and P2
 /// kMapPenaltyLarge unless --p2 is given or the rows are subsampled.
 void ApplyMapPipelineDefaults(const CLI::App& app, stereo::NccOptions* matcher);
+
+/// --vertical-alignment when given; else auto for the map pipeline's semi-global matcher
+/// (stereo-batch with --rig, map-loop), off otherwise (the paper's matcher stays exact).
+stereo::BatchOptions::VerticalAlignment VerticalAlignmentFromCommandLine(const CLI::App& app,
+                                                                         const MatcherCommandLine& cl,
+                                                                         const stereo::NccOptions& matcher,
+                                                                         bool map_pipeline);
 
 }  // namespace lunarnav::apps

@@ -28,6 +28,7 @@
 #include "io/shard_merge.h"
 #include "stereo/ncc_matcher.h"
 #include "stereo/preview.h"
+#include "stereo/vertical_alignment.h"
 #include "util/check.h"
 #include "util/log.h"
 #include "util/parallel.h"
@@ -238,16 +239,20 @@ json WriteGeometry(const BatchOptions& options, const std::string& stem, const N
   return j;
 }
 
-// Reads, screens and matches one pair and writes its outputs. Throws InputError for a bad pair.
-json ProcessPair(const BatchOptions& options, const PairFiles& pair, const PairOutputPaths& out,
-                 const json& options_json, const PairWindow* window, const std::vector<float>& ground_disparity_px,
-                 NccResult* result, PairTimings* timings) {
+// A pair's images, decoded and checked (as ProcessPair reads them).
+struct LoadedPair {
+  cv::Mat left, right;
+  io::SignificantBits bits;
+};
+
+LoadedPair LoadPair(const BatchOptions& options, const PairFiles& pair, const PairWindow* window) {
   LN_CHECK_INPUT(pair.problem.empty()) << pair.problem;
-  util::Timer timer;
   // Both images decoded at once (a lone pair has the threads to spare; a batch's pairs keep
   // them busy anyway). An unreadable file is reported as the first one that failed.
   io::SignificantBits left_bits, right_bits;
-  cv::Mat left, right;
+  LoadedPair p;
+  cv::Mat& left = p.left;
+  cv::Mat& right = p.right;
   std::exception_ptr left_error, right_error;
   tbb::parallel_invoke(
       [&] {
@@ -268,7 +273,8 @@ json ProcessPair(const BatchOptions& options, const PairFiles& pair, const PairO
   if (right_error) std::rethrow_exception(right_error);
   // The grey levels' depth: --bit-depth, else what the files say (the deeper of the two), and for
   // 16-bit files that say nothing, what the data say (io::InferSignificantBits).
-  io::SignificantBits bits = left_bits.bits >= right_bits.bits ? left_bits : right_bits;
+  io::SignificantBits& bits = p.bits;
+  bits = left_bits.bits >= right_bits.bits ? left_bits : right_bits;
   if (options.matcher.bit_depth > 0) {
     bits = {options.matcher.bit_depth, "--bit-depth"};
   } else {
@@ -297,12 +303,15 @@ json ProcessPair(const BatchOptions& options, const PairFiles& pair, const PairO
   LN_CHECK_ARG(window != nullptr || !options.matcher.min_row || *options.matcher.min_row < left.rows)
       << "rows: " << *options.matcher.min_row << ":" << *options.matcher.max_row << " lies outside the images' "
       << left.rows << " rows (0:" << left.rows - 1 << ")";
-  timings->read_s = timer.ElapsedSeconds();
-  timings->stages.emplace_back("decode and check", timings->read_s);
-  timer.Restart();
+  return p;
+}
+
+// The matcher's options for one pair: its window's rows and range (and per-row bands).
+NccOptions PairMatcher(const BatchOptions& options, const PairWindow* window,
+                       const std::vector<float>& ground_disparity_px, int bits) {
   NccOptions matcher = options.matcher;
   matcher.num_threads = 0;  // the batch's arena
-  matcher.bit_depth = bits.bits;
+  matcher.bit_depth = bits;
   if (window != nullptr) {  // window selection: the band replaces the rows and range
     matcher.min_row = window->window.min_row;
     matcher.max_row = window->window.max_row;
@@ -318,6 +327,30 @@ json ProcessPair(const BatchOptions& options, const PairFiles& pair, const PairO
       matcher.max_disparity_px = std::max(matcher.max_disparity_px, window->guard_max_disparity_px);
     }
   }
+  return matcher;
+}
+
+// Reads, screens (resamples by `vertical` when given) and matches one pair and writes its
+// outputs. Throws InputError for a bad pair.
+json ProcessPair(const BatchOptions& options, const PairFiles& pair, const PairOutputPaths& out,
+                 const json& options_json, const PairWindow* window, const std::vector<float>& ground_disparity_px,
+                 const VerticalResampler* vertical, NccResult* result, PairTimings* timings) {
+  util::Timer timer;
+  LoadedPair loaded = LoadPair(options, pair, window);
+  cv::Mat& left = loaded.left;
+  cv::Mat& right = loaded.right;
+  const io::SignificantBits& bits = loaded.bits;
+  timings->read_s = timer.ElapsedSeconds();
+  timings->stages.emplace_back("decode and check", timings->read_s);
+  if (vertical != nullptr) {
+    timer.Restart();
+    vertical->Apply(&left, &right);
+    const double resample_s = timer.ElapsedSeconds();
+    timings->read_s += resample_s;
+    timings->stages.emplace_back("vertical alignment (resample)", resample_s);
+  }
+  timer.Restart();
+  const NccOptions matcher = PairMatcher(options, window, ground_disparity_px, bits.bits);
   MatchStereoPair(matcher, left, right, result);
   timings->match_s = timer.ElapsedSeconds();
   for (const auto& [stage, seconds] : result->summary.stage_seconds) timings->stages.emplace_back("match: " + stage, seconds);
@@ -431,8 +464,19 @@ void BatchOptions::Validate() const {
   }
 }
 
+std::string ToString(BatchOptions::VerticalAlignment mode) {
+  return mode == BatchOptions::VerticalAlignment::kAuto ? "auto" : "off";
+}
+
+BatchOptions::VerticalAlignment VerticalAlignmentFromString(const std::string& text) {
+  if (text == "auto") return BatchOptions::VerticalAlignment::kAuto;
+  LN_CHECK_ARG(text == "off") << "vertical-alignment: auto or off, got '" << text << "'";
+  return BatchOptions::VerticalAlignment::kOff;
+}
+
 json BatchOptions::ToJson() const {
   json j = matcher.ToJson();
+  j["vertical_alignment"] = ToString(vertical_alignment);
   j["frame_check"] = frame_check.ToJson();
   if (rig) {
     // The rig itself, not its file name: resuming with another rig redoes the pairs.
@@ -516,6 +560,13 @@ struct StereoBatchRun::Impl {
   // The ground's disparity per row of the reference image (calib::GroundDisparityByRow: the
   // rig's alone, the same for every pair and attitude), for the aggregation's row steps.
   std::vector<float> ground_disparity_px;
+  // The pairs' vertical misalignment (BatchOptions::vertical_alignment): the resampler when it
+  // is taken out, and what was measured (the summary's vertical_alignment).
+  std::optional<VerticalResampler> vertical;
+  json vertical_json;
+  double vertical_seconds = 0;
+
+  void MeasureVerticalAlignment();
 
   const PairWindow* WindowFor(const std::string& stem) const {
     if (const auto it = requested.find(stem); it != requested.end()) return &it->second;
@@ -671,6 +722,93 @@ StereoBatchRun::StereoBatchRun(const BatchOptions& options, const fs::path& inpu
   run.outcomes.resize(run.shard.size());
   run.processed.assign(run.shard.size(), 0);
   run.timings.resize(run.shard.size());
+  if (options.vertical_alignment == BatchOptions::VerticalAlignment::kAuto) {
+    run.MeasureVerticalAlignment();
+    // The resampling changes every pair's outputs: resuming redoes pairs made with another.
+    run.options_json["vertical_alignment_applied"] = run.vertical_json.value("applied", false)
+                                                         ? run.vertical_json["misalignment"]
+                                                         : json(nullptr);
+  }
+}
+
+// Matches up to kVerticalSamplePairs pairs spread over the whole listing (a shard's own pairs
+// would give each shard its own resampling), measures their rows' offsets and fits the surface;
+// then once more over pairs resampled by it, for what the first fit left. A pair that cannot be
+// read is skipped here (it fails in its turn).
+void StereoBatchRun::Impl::MeasureVerticalAlignment() {
+  util::Timer timer;
+  const std::size_t n = listing.size();
+  const std::size_t k_pairs = std::clamp<std::size_t>(n / 6, 1, kVerticalSamplePairs);
+  std::vector<const PairFiles*> picked;
+  for (std::size_t i = 0; i < k_pairs; ++i) picked.push_back(&listing[(2 * i + 1) * n / (2 * k_pairs)]);
+  vertical_json = {{"mode", "auto"}, {"applied", false}};
+  json stems = json::array();
+  for (const PairFiles* p : picked) stems.push_back(p->stem);
+  vertical_json["pairs"] = stems;
+  std::optional<VerticalMisalignment> total;
+  json rounds = json::array();
+  for (int round = 0; round < 2; ++round) {
+    std::optional<VerticalResampler> resampler;
+    if (total) resampler.emplace(*total, options.matcher.reference);
+    std::vector<std::vector<VerticalSample>> per_pair(picked.size());
+    std::vector<cv::Size> sizes(picked.size());
+    util::ParallelForEachItem(picked.size(), options.num_threads, [&](std::size_t k) {
+      const PairFiles& pair = *picked[k];
+      try {
+        const PairWindow* window = WindowFor(pair.stem);
+        LoadedPair loaded = LoadPair(options, pair, window);
+        if (resampler) resampler->Apply(&loaded.left, &loaded.right);
+        NccResult result;
+        MatchStereoPair(PairMatcher(options, window, ground_disparity_px, loaded.bits.bits), loaded.left, loaded.right,
+                        &result);
+        per_pair[k] = MeasureVerticalOffsets(loaded.left, loaded.right, loaded.bits.bits, result.disparity_px,
+                                             options.matcher.step_x_px, options.matcher.step_y_px,
+                                             options.matcher.reference);
+        sizes[k] = loaded.left.size();
+      } catch (const InputError&) {
+      } catch (const std::invalid_argument&) {
+      }
+    });
+    std::vector<VerticalSample> samples;
+    cv::Size size;
+    for (std::size_t k = 0; k < picked.size(); ++k) {
+      if (per_pair[k].empty()) continue;
+      if (size.area() == 0) size = sizes[k];
+      if (sizes[k] != size) continue;  // the rig's size, checked in each pair's turn
+      samples.insert(samples.end(), per_pair[k].begin(), per_pair[k].end());
+    }
+    VerticalFitReport report;
+    const std::optional<VerticalMisalignment> fit =
+        size.area() > 0 ? FitVerticalMisalignment(samples, size, &report) : std::nullopt;
+    rounds.push_back({{"samples", report.samples},
+                      {"samples_kept", report.samples_kept},
+                      {"median_abs_offset_px", report.median_abs_offset_px},
+                      {"residual_px", report.residual_px},
+                      {"max_abs_offset_px", fit ? json(fit->MaxAbsOffsetPx()) : json(nullptr)}});
+    if (!fit) break;
+    total = total ? total->Plus(*fit) : *fit;
+    if (fit->MaxAbsOffsetPx() < kMinVerticalCorrectionPx) break;  // nothing left worth another round
+  }
+  vertical_json["rounds"] = rounds;
+  vertical_seconds = timer.ElapsedSeconds();  // in timings_s (shards must agree on the rest)
+  if (!total) {
+    LN_LOG(Warning) << "vertical alignment: too few textured matches on the pairs " << stems.dump()
+                    << " to measure the rows' misalignment (at least " << kMinVerticalSamples
+                    << "); the pairs are matched as they are";
+    vertical_json["note"] = "too few textured matches to measure";
+    return;
+  }
+  const double max_abs = total->MaxAbsOffsetPx();
+  vertical_json["misalignment"] = total->ToJson();
+  vertical_json["max_abs_offset_px"] = max_abs;
+  if (max_abs < kMinVerticalCorrectionPx) return;  // aligned as well as it can be measured
+  vertical_json["applied"] = true;
+  vertical.emplace(*total, options.matcher.reference);
+  if (max_abs > kLargeVerticalMisalignmentPx) {
+    LN_LOG(Warning) << "vertical alignment: the pairs' rows lie up to " << max_abs
+                    << " px apart (the same point in both images); each pair is resampled to take it out, but a "
+                       "new calibration of the rig would serve better";
+  }
 }
 
 StereoBatchRun::~StereoBatchRun() = default;
@@ -710,7 +848,7 @@ const PairOutcome& StereoBatchRun::Process(std::size_t k) {
   } else {
     try {
       outcome.result = ProcessPair(run.options, pair, out, pair_options, window, run.ground_disparity_px,
-                                   &run.results.local(), &run.timings[k]);
+                                   run.vertical ? &*run.vertical : nullptr, &run.results.local(), &run.timings[k]);
       outcome.status = PairOutcome::Status::kOk;
     } catch (const InputError& e) {
       outcome.status = PairOutcome::Status::kFailed;
@@ -827,6 +965,10 @@ BatchSummary StereoBatchRun::Finish(const json& invocation) {
     if (!run.requested.empty()) {
       j["geometry"]["requests"] = {{"file", options.requests_source}, {"count", run.requested.size()}};
     }
+  }
+  if (!run.vertical_json.is_null()) {
+    j["vertical_alignment"] = run.vertical_json;
+    j["timings_s"]["vertical_alignment"] = run.vertical_seconds;
   }
   j["bit_depths"] = depths_json;
   j["peak_memory_mib"] = util::PeakResidentMemoryMiB();

@@ -71,11 +71,30 @@ struct BatchOptions {
   std::map<std::string, VehicleAttitude> attitudes;
   std::string attitudes_source;  ///< The poses file (for messages and the summary).
 
+  /// The pairs' residual vertical misalignment (stereo/vertical_alignment.h): kAuto measures it
+  /// on up to kVerticalSamplePairs pairs spread over the whole listing (every shard the same
+  /// ones, so shards agree) and resamples every pair by it before matching, when it reaches
+  /// kMinVerticalCorrectionPx somewhere in the image; kOff matches the rows as they are.
+  enum class VerticalAlignment { kOff, kAuto };
+  VerticalAlignment vertical_alignment = VerticalAlignment::kOff;
+
   /// Throws std::invalid_argument for bad options: geometry options without a rig, a rig
   /// that is not rectified, a region that the reference camera does not see.
   void Validate() const;
   nlohmann::json ToJson() const;
 };
+
+/// The pairs a run measures its vertical misalignment on, at most.
+inline constexpr int kVerticalSamplePairs = 8;
+/// A misalignment smaller than this everywhere in the image is left as it is, px.
+inline constexpr double kMinVerticalCorrectionPx = 0.1;
+/// A misalignment larger than this somewhere is worth a warning (the rig wants a new calibration), px.
+inline constexpr double kLargeVerticalMisalignmentPx = 1.5;
+
+/// "auto" or "off".
+std::string ToString(BatchOptions::VerticalAlignment mode);
+/// From "auto" or "off". @throws std::invalid_argument otherwise.
+BatchOptions::VerticalAlignment VerticalAlignmentFromString(const std::string& text);
 
 /// What happened to one pair.
 struct PairOutcome {
