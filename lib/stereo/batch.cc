@@ -733,7 +733,9 @@ StereoBatchRun::StereoBatchRun(const BatchOptions& options, const fs::path& inpu
 
 // Matches up to kVerticalSamplePairs pairs spread over the whole listing (a shard's own pairs
 // would give each shard its own resampling), measures their rows' offsets and fits the surface;
-// then once more over pairs resampled by it, for what the first fit left. A pair that cannot be
+// then again over pairs resampled by the sum so far, for what the fits left (the matches of
+// misaligned rows lean towards the offset, so a round finds a part of it), until a round finds
+// less than kMinVerticalCorrectionPx or kVerticalRounds have run. A pair that cannot be
 // read is skipped here (it fails in its turn).
 void StereoBatchRun::Impl::MeasureVerticalAlignment() {
   util::Timer timer;
@@ -747,7 +749,7 @@ void StereoBatchRun::Impl::MeasureVerticalAlignment() {
   vertical_json["pairs"] = stems;
   std::optional<VerticalMisalignment> total;
   json rounds = json::array();
-  for (int round = 0; round < 2; ++round) {
+  for (int round = 0; round < kVerticalRounds; ++round) {
     std::optional<VerticalResampler> resampler;
     if (total) resampler.emplace(*total, options.matcher.reference);
     std::vector<std::vector<VerticalSample>> per_pair(picked.size());

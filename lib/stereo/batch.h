@@ -86,6 +86,8 @@ struct BatchOptions {
 
 /// The pairs a run measures its vertical misalignment on, at most.
 inline constexpr int kVerticalSamplePairs = 8;
+/// Rounds of measuring at most: each on the pairs resampled by the rounds before.
+inline constexpr int kVerticalRounds = 4;
 /// A misalignment smaller than this everywhere in the image is left as it is, px.
 inline constexpr double kMinVerticalCorrectionPx = 0.1;
 /// A misalignment larger than this somewhere is worth a warning (the rig wants a new calibration), px.
