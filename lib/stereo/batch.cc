@@ -879,6 +879,9 @@ BatchSummary StereoBatchRun::Finish(const json& invocation) {
   summary.pairs_in_shard = static_cast<int>(run.shard.size());
   json pairs_json = json::array();
   json failed_json = json::array();
+  // The vertical alignment's measurement first: it ran before every pair (a stage of the run,
+  // not of a pair, so that the stages still account for the process's time).
+  if (!run.vertical_json.is_null()) summary.stage_seconds.emplace_back("vertical alignment (measure)", run.vertical_seconds);
   for (std::size_t k = 0; k < run.shard.size(); ++k) {
     if (!run.processed[k]) continue;
     const PairOutcome& outcome = run.outcomes[k];
