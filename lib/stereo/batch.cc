@@ -767,8 +767,11 @@ void StereoBatchRun::Impl::MeasureVerticalAlignment() {
                                              options.matcher.step_x_px, options.matcher.step_y_px,
                                              options.matcher.reference);
         sizes[k] = loaded.left.size();
-      } catch (const InputError&) {
+      } catch (const InputError&) {  // each such pair fails in its turn, named there
       } catch (const std::invalid_argument&) {
+      } catch (const std::bad_alloc&) {
+      } catch (const cv::Exception& e) {
+        if (e.code != cv::Error::StsNoMem) throw;
       }
     });
     std::vector<VerticalSample> samples;

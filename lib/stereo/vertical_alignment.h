@@ -16,10 +16,12 @@
 // columns shift by different amounts from row to row, lines up along the rows: a translation-only
 // tracker such as Lucas-Kanade's is biased there), Gauss-Newton steps find the shift (down the
 // rows, and along them: the matches themselves lean towards the offset on oblique texture) that
-// best lines up the two windows, to a few hundredths of a pixel; each window gives one sample. A quadratic surface over the image is fitted to the samples
-// of a few pairs spread over the run (least squares, iteratively trimmed of outliers); both
-// images are then resampled by half of it in opposite directions (the rows meet half-way, as the
-// project's rectification turns each camera half-way), before matching.
+// best lines up the two windows, to a few hundredths of a pixel; each window gives one sample.
+// A cubic surface over the image is fitted to the samples of a few pairs spread over the run
+// (least squares, iteratively trimmed of outliers); both images are then resampled by half of it
+// in opposite directions (the rows meet half-way, as the project's rectification turns each
+// camera half-way), before matching. stereo::StereoBatchRun measures in rounds, each on the
+// pairs resampled by the rounds before.
 #pragma once
 
 #include <array>
