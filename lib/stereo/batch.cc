@@ -735,7 +735,9 @@ StereoBatchRun::StereoBatchRun(const BatchOptions& options, const fs::path& inpu
 // would give each shard its own resampling), measures their rows' offsets and fits the surface;
 // then again over pairs resampled by the sum so far, for what the fits left (the matches of
 // misaligned rows lean towards the offset, so a round finds a part of it), until a round finds
-// less than kMinVerticalCorrectionPx or kVerticalRounds have run. A pair that cannot be
+// less than kMinVerticalResidualPx where it measured or kVerticalRounds have run. The first
+// round decides: under kMinVerticalCorrectionPx where it measured, nothing is resampled. A pair
+// that cannot be
 // read is skipped here (it fails in its turn).
 void StereoBatchRun::Impl::MeasureVerticalAlignment() {
   util::Timer timer;
@@ -748,6 +750,7 @@ void StereoBatchRun::Impl::MeasureVerticalAlignment() {
   for (const PairFiles* p : picked) stems.push_back(p->stem);
   vertical_json["pairs"] = stems;
   std::optional<VerticalMisalignment> total;
+  bool aligned = true;  // the first round found less than kMinVerticalCorrectionPx
   json rounds = json::array();
   for (int round = 0; round < kVerticalRounds; ++round) {
     std::optional<VerticalResampler> resampler;
@@ -789,10 +792,17 @@ void StereoBatchRun::Impl::MeasureVerticalAlignment() {
                       {"samples_kept", report.samples_kept},
                       {"median_abs_offset_px", report.median_abs_offset_px},
                       {"residual_px", report.residual_px},
+                      {"surface_p95_abs_px", report.surface_p95_abs_px},
                       {"max_abs_offset_px", fit ? json(fit->MaxAbsOffsetPx()) : json(nullptr)}});
     if (!fit) break;
-    total = total ? total->Plus(*fit) : *fit;
-    if (fit->MaxAbsOffsetPx() < kMinVerticalCorrectionPx) break;  // nothing left worth another round
+    if (!total) {
+      total = *fit;
+      if (report.surface_p95_abs_px < kMinVerticalCorrectionPx) break;  // aligned as well as it can be measured
+      aligned = false;
+      continue;
+    }
+    if (report.surface_p95_abs_px < kMinVerticalResidualPx) break;  // what is left is the fit's own noise
+    total = total->Plus(*fit);
   }
   vertical_json["rounds"] = rounds;
   vertical_seconds = timer.ElapsedSeconds();  // in timings_s (shards must agree on the rest)
@@ -806,7 +816,7 @@ void StereoBatchRun::Impl::MeasureVerticalAlignment() {
   const double max_abs = total->MaxAbsOffsetPx();
   vertical_json["misalignment"] = total->ToJson();
   vertical_json["max_abs_offset_px"] = max_abs;
-  if (max_abs < kMinVerticalCorrectionPx) return;  // aligned as well as it can be measured
+  if (aligned) return;
   vertical_json["applied"] = true;
   vertical.emplace(*total, options.matcher.reference);
   if (max_abs > kLargeVerticalMisalignmentPx) {

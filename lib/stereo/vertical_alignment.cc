@@ -77,7 +77,8 @@ std::vector<VerticalSample> MeasureVerticalOffsets(const cv::Mat& left, const cv
   LN_CHECK_ARG(options.stride_px >= 1 && options.window_px >= 3 && options.window_px % 2 == 1 &&
                options.iterations >= 1)
       << "vertical alignment: stride >= 1, an odd window >= 3 and at least one iteration";
-  LN_CHECK(left.size() == right.size() && disparity.type() == CV_32FC1 && step_x_px >= 1 && step_y_px >= 1)
+  LN_CHECK(left.size() == right.size() && disparity.size() == left.size() && disparity.type() == CV_32FC1 &&
+           step_x_px >= 1 && step_y_px >= 1)
       << "a pair and its disparity map";
   const bool right_reference = reference == calib::ReferenceImage::kRight;
   const double to_8bit = left.depth() == CV_8U ? 1.0 : 255.0 / (std::ldexp(1.0, std::clamp(bits, 1, 16)) - 1.0);
@@ -92,10 +93,13 @@ std::vector<VerticalSample> MeasureVerticalOffsets(const cv::Mat& left, const cv
   const int h = options.window_px / 2, w = left.cols, rows = left.rows;
   const int margin = h + static_cast<int>(std::ceil(std::max(options.max_offset_px, options.max_shift_px))) + 2;
   const float sign = right_reference ? 1.0f : -1.0f;  // the other image's column: x + sign * d
-  // The disparity at image pixel (x, y): the nearest sample of the map's grid.
+  // The disparity at image pixel (x, y): the nearest point of the map's grid (origin (0, 0), the
+  // steps given; the map has the image's size, NaN between the grid's points).
+  const int last_x = (disparity.cols - 1) / step_x_px * step_x_px;
+  const int last_y = (disparity.rows - 1) / step_y_px * step_y_px;
   auto disparity_at = [&](int x, int y) {
-    const int gx = std::min((x + step_x_px / 2) / step_x_px, disparity.cols - 1);
-    const int gy = std::min((y + step_y_px / 2) / step_y_px, disparity.rows - 1);
+    const int gx = std::min((x + step_x_px / 2) / step_x_px * step_x_px, last_x);
+    const int gy = std::min((y + step_y_px / 2) / step_y_px * step_y_px, last_y);
     return disparity.at<float>(gy, gx);
   };
   auto bilinear = [&](const cv::Mat& m, float x, float y) {
@@ -248,6 +252,14 @@ std::optional<VerticalMisalignment> FitVerticalMisalignment(const std::vector<Ve
     m.v_max = std::max(m.v_max, a(i, 2));
   }
   r.residual_px = sigma;
+  std::vector<double> surface;
+  surface.reserve(r.samples_kept);
+  for (int i = 0; i < n; ++i) {
+    if (keep[i]) surface.push_back(std::abs(a.row(i).dot(c)));
+  }
+  const auto q = surface.begin() + static_cast<std::ptrdiff_t>(0.95 * (surface.size() - 1));
+  std::nth_element(surface.begin(), q, surface.end());
+  r.surface_p95_abs_px = *q;
   if (report != nullptr) *report = r;
   return m;
 }

@@ -75,8 +75,9 @@ struct VerticalMeasureOptions {
 };
 
 /// Samples of one matched pair. `left` and `right` are the pair's images (any depth: scaled to
-/// 8 bits by `bits` significant bits); `disparity` the matcher's map (CV_32F, NaN invalid) on the
-/// grid origin (0, 0) with steps `step_x_px`, `step_y_px`; `reference` the image it refers to.
+/// 8 bits by `bits` significant bits); `disparity` the matcher's map (CV_32F, the images' size,
+/// NaN where invalid or between the points of its grid, origin (0, 0) and steps `step_x_px`,
+/// `step_y_px`); `reference` the image it refers to.
 std::vector<VerticalSample> MeasureVerticalOffsets(const cv::Mat& left, const cv::Mat& right, int bits,
                                                    const cv::Mat& disparity, int step_x_px, int step_y_px,
                                                    calib::ReferenceImage reference,
@@ -87,6 +88,9 @@ struct VerticalFitReport {
   int samples = 0, samples_kept = 0;
   double median_abs_offset_px = 0;  ///< Of the samples, before the fit.
   double residual_px = 0;           ///< Robust standard deviation of the kept samples about the surface.
+  /// The surface's size where it was measured: the 95th percentile of |offset| at the kept
+  /// samples (the image-wide maximum also takes its corners, where few samples hold it).
+  double surface_p95_abs_px = 0;
 };
 
 /// Fewer samples than this measure nothing.
