@@ -80,8 +80,7 @@ int main(int argc, char** argv) {
     apps::ApplyVehicleLimits(opt.vehicle, &opt.map.map);
     opt.stereo.matcher = apps::MatcherFromCommandLine(app, matcher_cl);
     apps::ApplyMapPipelineDefaults(app, &opt.stereo.matcher);
-    opt.stereo.vertical_alignment =
-        apps::VerticalAlignmentFromCommandLine(app, matcher_cl, opt.stereo.matcher, /*map_pipeline=*/true);
+    apps::ApplyVerticalAlignment(app, matcher_cl, /*map_pipeline=*/true, &opt.stereo);
     opt.stereo.rig = calib::ReadStereoRig(rig_path);
     opt.stereo.rig_source = rig_path.string();
     LN_CHECK_ARG(opt.stereo.rig->rectified) << rig_path.string() << ": not a rectified rig (run rectify first)";

@@ -94,8 +94,8 @@ void AddMatcherOptions(CLI::App* app, MatcherCommandLine* cl, stereo::FrameCheck
   app->add_option("--vertical-alignment", cl->vertical_alignment,
                   "measure the pairs' residual vertical misalignment (rows of the two images off by a fraction of a "
                   "pixel, which biases the disparity of oblique texture) on a few pairs of the run and resample "
-                  "every pair to take it out: auto, or off")
-      ->check(CLI::IsMember({"auto", "off"}))
+                  "every pair to take it out: auto; off; or a FILE, the summary.json of a run that measured it "
+                  "(resample by that, measuring nothing: the shards of a cluster run)")
       ->default_str("off; with --rig auto (semi-global)");
   app->add_option("--blank-sigma", frame_check->blank_max_sigma,
                   "a frame with intensity std dev below this (8-bit grey levels) is blank")
@@ -151,16 +151,21 @@ stereo::NccOptions MatcherFromCommandLine(const CLI::App& app, const MatcherComm
   return m;
 }
 
-stereo::BatchOptions::VerticalAlignment VerticalAlignmentFromCommandLine(const CLI::App& app,
-                                                                         const MatcherCommandLine& cl,
-                                                                         const stereo::NccOptions& matcher,
-                                                                         bool map_pipeline) {
-  if (app.get_option("--vertical-alignment")->count() > 0) {
-    return stereo::VerticalAlignmentFromString(cl.vertical_alignment);
+void ApplyVerticalAlignment(const CLI::App& app, const MatcherCommandLine& cl, bool map_pipeline,
+                            stereo::BatchOptions* batch) {
+  using Mode = stereo::BatchOptions::VerticalAlignment;
+  if (app.get_option("--vertical-alignment")->count() == 0) {
+    batch->vertical_alignment =
+        map_pipeline && batch->matcher.aggregation == stereo::Aggregation::kSemiGlobal ? Mode::kAuto : Mode::kOff;
+    return;
   }
-  return map_pipeline && matcher.aggregation == stereo::Aggregation::kSemiGlobal
-             ? stereo::BatchOptions::VerticalAlignment::kAuto
-             : stereo::BatchOptions::VerticalAlignment::kOff;
+  if (cl.vertical_alignment == "auto" || cl.vertical_alignment == "off") {
+    batch->vertical_alignment = stereo::VerticalAlignmentFromString(cl.vertical_alignment);
+    return;
+  }
+  batch->vertical_alignment = Mode::kGiven;
+  batch->vertical_source = cl.vertical_alignment;
+  batch->vertical_given = stereo::ReadMeasuredVerticalAlignment(cl.vertical_alignment);
 }
 
 void ApplyMapPipelineDefaults(const CLI::App& app, stereo::NccOptions* matcher) {

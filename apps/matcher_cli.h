@@ -49,11 +49,11 @@ inline constexpr int kMapPenaltyLarge = 480;
 /// kMapPenaltyLarge unless --p2 is given or the rows are subsampled.
 void ApplyMapPipelineDefaults(const CLI::App& app, stereo::NccOptions* matcher);
 
-/// --vertical-alignment when given; else auto for the map pipeline's semi-global matcher
-/// (stereo-batch with --rig, map-loop), off otherwise (the paper's matcher stays exact).
-stereo::BatchOptions::VerticalAlignment VerticalAlignmentFromCommandLine(const CLI::App& app,
-                                                                         const MatcherCommandLine& cl,
-                                                                         const stereo::NccOptions& matcher,
-                                                                         bool map_pipeline);
+/// `batch`'s vertical alignment: --vertical-alignment when given (auto, off, or a FILE read
+/// here: a run's summary.json with its measurement; @throws InputError naming it when that
+/// holds none); else auto for the map pipeline's semi-global matcher (stereo-batch with --rig,
+/// map-loop), off otherwise (the paper's matcher stays exact). After batch->matcher is set.
+void ApplyVerticalAlignment(const CLI::App& app, const MatcherCommandLine& cl, bool map_pipeline,
+                            stereo::BatchOptions* batch);
 
 }  // namespace lunarnav::apps

@@ -118,8 +118,7 @@ int main(int argc, char** argv) {
       opt.rig_source = rig_path;
       apps::ApplyMapPipelineDefaults(app, &opt.matcher);  // the points become a map
     }
-    opt.vertical_alignment =
-        apps::VerticalAlignmentFromCommandLine(app, matcher_cl, opt.matcher, opt.rig.has_value());
+    apps::ApplyVerticalAlignment(app, matcher_cl, opt.rig.has_value(), &opt);
     if (sigma_option->count() > 0) opt.xyz_sigma_px = xyz_sigma;
     calib::RegionOfInterest region;  // the paper's heights unless --z-range
     // With a rig and neither --disparity, --rows nor --range-y, the search is the ground the

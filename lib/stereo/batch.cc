@@ -343,6 +343,10 @@ json ProcessPair(const BatchOptions& options, const PairFiles& pair, const PairO
   timings->read_s = timer.ElapsedSeconds();
   timings->stages.emplace_back("decode and check", timings->read_s);
   if (vertical != nullptr) {
+    LN_CHECK_INPUT(left.size() == vertical->size())
+        << pair.left.string() << ": size " << left.cols << "x" << left.rows << " differs from the vertical alignment's "
+        << vertical->size().width << "x" << vertical->size().height
+        << (options.vertical_source.empty() ? std::string() : " (" + options.vertical_source + ")");
     timer.Restart();
     vertical->Apply(&left, &right);
     const double resample_s = timer.ElapsedSeconds();
@@ -465,7 +469,25 @@ void BatchOptions::Validate() const {
 }
 
 std::string ToString(BatchOptions::VerticalAlignment mode) {
-  return mode == BatchOptions::VerticalAlignment::kAuto ? "auto" : "off";
+  switch (mode) {
+    case BatchOptions::VerticalAlignment::kAuto: return "auto";
+    case BatchOptions::VerticalAlignment::kGiven: return "file";
+    case BatchOptions::VerticalAlignment::kOff: break;
+  }
+  return "off";
+}
+
+std::optional<VerticalMisalignment> ReadMeasuredVerticalAlignment(const fs::path& summary) {
+  const json j = io::ReadJson(summary);
+  const std::string source = summary.string();
+  LN_CHECK_INPUT(j.is_object() && j.contains("vertical_alignment") && j["vertical_alignment"].is_object())
+      << source << ": no vertical_alignment (a stereo-batch summary.json of a run with --vertical-alignment auto)";
+  const json& v = j["vertical_alignment"];
+  LN_CHECK_INPUT(v.contains("applied") && v["applied"].is_boolean())
+      << source << ": vertical_alignment: no applied (true or false)";
+  if (!v["applied"].get<bool>()) return std::nullopt;
+  LN_CHECK_INPUT(v.contains("misalignment")) << source << ": vertical_alignment: applied, but no misalignment";
+  return VerticalMisalignment::FromJson(v["misalignment"], source + ": vertical_alignment.misalignment");
 }
 
 BatchOptions::VerticalAlignment VerticalAlignmentFromString(const std::string& text) {
@@ -722,6 +744,23 @@ StereoBatchRun::StereoBatchRun(const BatchOptions& options, const fs::path& inpu
   run.outcomes.resize(run.shard.size());
   run.processed.assign(run.shard.size(), 0);
   run.timings.resize(run.shard.size());
+  if (options.vertical_alignment == BatchOptions::VerticalAlignment::kGiven) {
+    // Another run's measurement (the shards of a cluster run): the same record, not measured.
+    const std::optional<VerticalMisalignment>& m = options.vertical_given;
+    run.vertical_json = {{"mode", "file"}, {"source", options.vertical_source}, {"applied", m.has_value()}};
+    if (m) {
+      if (options.rig) {
+        const calib::RectifiedGeometry& g = *options.rig->rectified;
+        LN_CHECK_INPUT(m->width_px == g.width_px && m->height_px == g.height_px)
+            << options.vertical_source << ": a misalignment of " << m->width_px << "x" << m->height_px
+            << " images, the rig's are " << g.width_px << "x" << g.height_px << " (" << options.rig_source << ")";
+      }
+      run.vertical_json["misalignment"] = m->ToJson();
+      run.vertical_json["max_abs_offset_px"] = m->MaxAbsOffsetPx();
+      run.vertical.emplace(*m, options.matcher.reference);
+    }
+    run.options_json["vertical_alignment_applied"] = m ? run.vertical_json["misalignment"] : json(nullptr);
+  }
   if (options.vertical_alignment == BatchOptions::VerticalAlignment::kAuto) {
     run.MeasureVerticalAlignment();
     // The resampling changes every pair's outputs: resuming redoes pairs made with another.
@@ -894,7 +933,9 @@ BatchSummary StereoBatchRun::Finish(const json& invocation) {
   json failed_json = json::array();
   // The vertical alignment's measurement first: it ran before every pair (a stage of the run,
   // not of a pair, so that the stages still account for the process's time).
-  if (!run.vertical_json.is_null()) summary.stage_seconds.emplace_back("vertical alignment (measure)", run.vertical_seconds);
+  if (options.vertical_alignment == BatchOptions::VerticalAlignment::kAuto) {
+    summary.stage_seconds.emplace_back("vertical alignment (measure)", run.vertical_seconds);
+  }
   for (std::size_t k = 0; k < run.shard.size(); ++k) {
     if (!run.processed[k]) continue;
     const PairOutcome& outcome = run.outcomes[k];
@@ -986,7 +1027,9 @@ BatchSummary StereoBatchRun::Finish(const json& invocation) {
   }
   if (!run.vertical_json.is_null()) {
     j["vertical_alignment"] = run.vertical_json;
-    j["timings_s"]["vertical_alignment"] = run.vertical_seconds;
+    if (options.vertical_alignment == BatchOptions::VerticalAlignment::kAuto) {
+      j["timings_s"]["vertical_alignment"] = run.vertical_seconds;
+    }
   }
   j["bit_depths"] = depths_json;
   j["peak_memory_mib"] = util::PeakResidentMemoryMiB();

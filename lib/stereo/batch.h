@@ -17,6 +17,7 @@
 #include "io/stereo_pairs.h"
 #include "stereo/frame_check.h"
 #include "stereo/ncc_options.h"
+#include "stereo/vertical_alignment.h"
 #include "stereo/window_requests.h"
 
 namespace lunarnav::stereo {
@@ -75,8 +76,13 @@ struct BatchOptions {
   /// on up to kVerticalSamplePairs pairs spread over the whole listing (every shard the same
   /// ones, so shards agree) and resamples every pair by it before matching, when it reaches
   /// kMinVerticalCorrectionPx where it was measured; kOff matches the rows as they are.
-  enum class VerticalAlignment { kOff, kAuto };
+  /// kGiven: the misalignment another run measured (`vertical_given`, read from that run's
+  /// summary.json by ReadMeasuredVerticalAlignment; none when it found the pairs aligned), not
+  /// measured again: the shards of a cluster run, a rig whose misalignment is known.
+  enum class VerticalAlignment { kOff, kAuto, kGiven };
   VerticalAlignment vertical_alignment = VerticalAlignment::kOff;
+  std::optional<VerticalMisalignment> vertical_given;
+  std::string vertical_source;  ///< The file it came from (for messages and the summary).
 
   /// Throws std::invalid_argument for bad options: geometry options without a rig, a rig
   /// that is not rectified, a region that the reference camera does not see.
@@ -99,10 +105,15 @@ inline constexpr double kMinVerticalResidualPx = 0.02;
 /// A misalignment larger than this somewhere is worth a warning (the rig wants a new calibration), px.
 inline constexpr double kLargeVerticalMisalignmentPx = 1.5;
 
-/// "auto" or "off".
+/// "auto", "off" or "file".
 std::string ToString(BatchOptions::VerticalAlignment mode);
 /// From "auto" or "off". @throws std::invalid_argument otherwise.
 BatchOptions::VerticalAlignment VerticalAlignmentFromString(const std::string& text);
+
+/// The misalignment a stereo-batch run with --vertical-alignment auto measured, from its
+/// summary.json (or a shard's): the surface it resampled by, or none when it found the pairs
+/// aligned. @throws InputError naming the file when it holds no measurement or a malformed one.
+std::optional<VerticalMisalignment> ReadMeasuredVerticalAlignment(const std::filesystem::path& summary);
 
 /// What happened to one pair.
 struct PairOutcome {

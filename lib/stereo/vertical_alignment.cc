@@ -7,6 +7,7 @@
 #include <opencv2/imgproc.hpp>
 
 #include "util/check.h"
+#include "util/errors.h"
 
 namespace lunarnav::stereo {
 
@@ -68,6 +69,39 @@ nlohmann::json VerticalMisalignment::ToJson() const {
           {"span_u", {u_min, u_max}},
           {"span_v", {v_min, v_max}},
           {"size_px", {width_px, height_px}}};
+}
+
+VerticalMisalignment VerticalMisalignment::FromJson(const nlohmann::json& j, const std::string& source) {
+  auto number = [&](const nlohmann::json& v, const char* what) {
+    LN_CHECK_INPUT(v.is_number() && std::isfinite(v.get<double>())) << source << ": " << what << ": not a finite number";
+    return v.get<double>();
+  };
+  LN_CHECK_INPUT(j.is_object()) << source << ": the misalignment is not an object";
+  VerticalMisalignment m;
+  const nlohmann::json& c = j.contains("coefficients_px") ? j["coefficients_px"] : nlohmann::json();
+  LN_CHECK_INPUT(c.is_array() && c.size() == static_cast<std::size_t>(kVerticalTerms))
+      << source << ": coefficients_px: " << kVerticalTerms << " numbers expected";
+  for (int k = 0; k < kVerticalTerms; ++k) {
+    m.coefficients[k] = number(c[k], "coefficients_px");
+    LN_CHECK_INPUT(std::abs(m.coefficients[k]) <= 50) << source << ": coefficients_px: " << m.coefficients[k]
+                                                       << " px is no residual misalignment";
+  }
+  for (const char* key : {"span_u", "span_v", "size_px"}) {
+    LN_CHECK_INPUT(j.contains(key) && j[key].is_array() && j[key].size() == 2) << source << ": " << key << ": two numbers expected";
+  }
+  m.u_min = number(j["span_u"][0], "span_u");
+  m.u_max = number(j["span_u"][1], "span_u");
+  m.v_min = number(j["span_v"][0], "span_v");
+  m.v_max = number(j["span_v"][1], "span_v");
+  LN_CHECK_INPUT(-1 <= m.u_min && m.u_min <= m.u_max && m.u_max <= 1 && -1 <= m.v_min && m.v_min <= m.v_max &&
+                 m.v_max <= 1)
+      << source << ": span_u and span_v: MIN <= MAX within [-1, 1] expected";
+  const double w = number(j["size_px"][0], "size_px"), h = number(j["size_px"][1], "size_px");
+  LN_CHECK_INPUT(w >= 1 && h >= 1 && w <= 65536 && h <= 65536 && w == std::floor(w) && h == std::floor(h))
+      << source << ": size_px: two whole numbers of pixels expected";
+  m.width_px = static_cast<int>(w);
+  m.height_px = static_cast<int>(h);
+  return m;
 }
 
 std::vector<VerticalSample> MeasureVerticalOffsets(const cv::Mat& left, const cv::Mat& right, int bits,

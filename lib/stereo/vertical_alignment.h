@@ -26,6 +26,7 @@
 
 #include <array>
 #include <optional>
+#include <string>
 #include <vector>
 
 #include <nlohmann/json.hpp>
@@ -59,6 +60,9 @@ struct VerticalMisalignment {
   /// The sum of two surfaces (a correction measured after this one was applied), spanning both.
   VerticalMisalignment Plus(const VerticalMisalignment& residual) const;
   nlohmann::json ToJson() const;
+  /// The surface ToJson wrote, checked (ten finite coefficients of at most 50 px, spans within
+  /// [-1, 1], a positive size). @throws InputError naming `source` and what is wrong.
+  static VerticalMisalignment FromJson(const nlohmann::json& j, const std::string& source);
 };
 
 /// How the samples are taken.
@@ -106,6 +110,8 @@ class VerticalResampler {
   VerticalResampler(const VerticalMisalignment& misalignment, calib::ReferenceImage reference);
   /// Resamples both images in place (of the misalignment's size; any depth OpenCV's remap takes).
   void Apply(cv::Mat* left, cv::Mat* right) const;
+  /// The images' size it resamples.
+  cv::Size size() const { return reference_map1_.size(); }
 
  private:
   calib::ReferenceImage reference_;

@@ -13,6 +13,7 @@
 #include "sim/layered_scene.h"
 #include "stereo/batch.h"
 #include "stereo/ncc_matcher.h"
+#include "util/errors.h"
 #include "util/testing.h"
 
 namespace lunarnav::stereo {
@@ -214,6 +215,50 @@ TEST(RunStereoBatch, AutoVerticalAlignmentTakesOutTheRowsMisalignment) {
   EXPECT_NEAR(j["max_abs_offset_px"].get<double>(), truth.MaxAbsOffsetPx(), 0.1) << j.dump();
 }
 
+// Disparity maps of two runs, bit for bit (NaN alike).
+void ExpectSameDisparities(const fs::path& a_dir, const fs::path& b_dir, const std::vector<std::string>& stems) {
+  for (const std::string& stem : stems) {
+    cv::Mat a = io::ReadPfm(OutputPathsFor(a_dir, stem).disparity);
+    cv::Mat b = io::ReadPfm(OutputPathsFor(b_dir, stem).disparity);
+    cv::patchNaNs(a, -1);
+    cv::patchNaNs(b, -1);
+    EXPECT_EQ(cv::norm(a, b, cv::NORM_INF), 0) << stem;
+  }
+}
+
+TEST(RunStereoBatch, AGivenVerticalAlignmentResamplesAsTheRunThatMeasuredIt) {
+  util::ScopedTempDir tmp;
+  const VerticalMisalignment truth = Applied(320, 240);
+  WriteGroundRun(tmp.path() / "in", &truth);
+  const BatchSummary measured =
+      RunStereoBatch(QualityBatch(BatchOptions::VerticalAlignment::kAuto), tmp.path() / "in", tmp.path() / "o-auto");
+  BatchOptions given = QualityBatch(BatchOptions::VerticalAlignment::kGiven);
+  given.vertical_source = measured.summary_path.string();
+  given.vertical_given = ReadMeasuredVerticalAlignment(measured.summary_path);
+  ASSERT_TRUE(given.vertical_given.has_value());
+  const BatchSummary summary = RunStereoBatch(given, tmp.path() / "in", tmp.path() / "o-file");
+  EXPECT_EQ(summary.pairs_ok, 3);
+  ExpectSameDisparities(tmp.path() / "o-auto", tmp.path() / "o-file", {"g0", "g1", "g2"});
+  const nlohmann::json j = io::ReadJson(summary.summary_path);
+  EXPECT_EQ(j["vertical_alignment"]["mode"], "file");
+  EXPECT_EQ(j["vertical_alignment"]["misalignment"], io::ReadJson(measured.summary_path)["vertical_alignment"]["misalignment"]);
+  for (const nlohmann::json& st : j["timings_s"]["stages_sum"]) EXPECT_NE(st["stage"], "vertical alignment (measure)");
+
+  // What is not a measurement is bad input, named.
+  nlohmann::json bad = io::ReadJson(measured.summary_path);
+  bad["vertical_alignment"]["misalignment"]["coefficients_px"][3] = "x";
+  io::WriteJsonAtomic(tmp.path() / "bad.json", bad);
+  EXPECT_THROW(ReadMeasuredVerticalAlignment(tmp.path() / "bad.json"), InputError);
+  bad.erase("vertical_alignment");
+  io::WriteJsonAtomic(tmp.path() / "none.json", bad);
+  EXPECT_THROW(ReadMeasuredVerticalAlignment(tmp.path() / "none.json"), InputError);
+  // A surface of other images: each pair fails, named.
+  given.vertical_given->width_px = 640;
+  const BatchSummary other = RunStereoBatch(given, tmp.path() / "in", tmp.path() / "o-other");
+  EXPECT_EQ(other.pairs_failed, 3);
+  EXPECT_NE(other.pairs[0].error.find("vertical alignment"), std::string::npos) << other.pairs[0].error;
+}
+
 TEST(RunStereoBatch, AutoVerticalAlignmentLeavesAlignedPairsAsTheyAre) {
   util::ScopedTempDir tmp;
   const auto truths = WriteGroundRun(tmp.path() / "in", nullptr);
@@ -224,13 +269,9 @@ TEST(RunStereoBatch, AutoVerticalAlignmentLeavesAlignedPairsAsTheyAre) {
   EXPECT_FALSE(j["applied"].get<bool>()) << j.dump();
   EXPECT_LT(j["rounds"][0]["surface_p95_abs_px"].get<double>(), kMinVerticalCorrectionPx);
   EXPECT_EQ(j["rounds"].size(), 1u);
-  for (const auto& [stem, truth] : truths) {
-    cv::Mat a = io::ReadPfm(OutputPathsFor(tmp.path() / "o-off", stem).disparity);
-    cv::Mat b = io::ReadPfm(OutputPathsFor(tmp.path() / "o-auto", stem).disparity);
-    cv::patchNaNs(a, -1);
-    cv::patchNaNs(b, -1);
-    EXPECT_EQ(cv::norm(a, b, cv::NORM_INF), 0) << stem;
-  }
+  std::vector<std::string> stems;
+  for (const auto& entry : truths) stems.push_back(entry.first);
+  ExpectSameDisparities(tmp.path() / "o-off", tmp.path() / "o-auto", stems);
 }
 
 }  // namespace
