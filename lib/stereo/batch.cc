@@ -788,6 +788,15 @@ void StereoBatchRun::Impl::MeasureVerticalAlignment() {
   json stems = json::array();
   for (const PairFiles* p : picked) stems.push_back(p->stem);
   vertical_json["pairs"] = stems;
+  // The picked pairs read once for every round (none where a pair cannot be read).
+  std::vector<std::optional<LoadedPair>> loaded(picked.size());
+  util::ParallelForEachItem(picked.size(), options.num_threads, [&](std::size_t k) {
+    try {
+      loaded[k] = LoadPair(options, *picked[k], WindowFor(picked[k]->stem));
+    } catch (const InputError&) {  // each such pair fails in its turn, named there
+    } catch (const std::invalid_argument&) {
+    }
+  });
   std::optional<VerticalMisalignment> total;
   bool aligned = true;  // the first round found less than kMinVerticalCorrectionPx
   json rounds = json::array();
@@ -797,18 +806,17 @@ void StereoBatchRun::Impl::MeasureVerticalAlignment() {
     std::vector<std::vector<VerticalSample>> per_pair(picked.size());
     std::vector<cv::Size> sizes(picked.size());
     util::ParallelForEachItem(picked.size(), options.num_threads, [&](std::size_t k) {
-      const PairFiles& pair = *picked[k];
+      if (!loaded[k]) return;
+      const PairWindow* window = WindowFor(picked[k]->stem);
+      cv::Mat left = loaded[k]->left, right = loaded[k]->right;  // Apply gives them new buffers
+      const int bits = loaded[k]->bits.bits;
       try {
-        const PairWindow* window = WindowFor(pair.stem);
-        LoadedPair loaded = LoadPair(options, pair, window);
-        if (resampler) resampler->Apply(&loaded.left, &loaded.right);
+        if (resampler) resampler->Apply(&left, &right);
         NccResult result;
-        MatchStereoPair(PairMatcher(options, window, ground_disparity_px, loaded.bits.bits), loaded.left, loaded.right,
-                        &result);
-        per_pair[k] = MeasureVerticalOffsets(loaded.left, loaded.right, loaded.bits.bits, result.disparity_px,
-                                             options.matcher.step_x_px, options.matcher.step_y_px,
-                                             options.matcher.reference);
-        sizes[k] = loaded.left.size();
+        MatchStereoPair(PairMatcher(options, window, ground_disparity_px, bits), left, right, &result);
+        per_pair[k] = MeasureVerticalOffsets(left, right, bits, result.disparity_px, options.matcher.step_x_px,
+                                             options.matcher.step_y_px, options.matcher.reference);
+        sizes[k] = left.size();
       } catch (const InputError&) {  // each such pair fails in its turn, named there
       } catch (const std::invalid_argument&) {
       } catch (const std::bad_alloc&) {

@@ -686,6 +686,17 @@ struct SlopingPlaneRun {
   calib::StereoRig rig = calib::testing::IdealRectifiedRig(160, 120, 185);
   fs::path pairs, rig_file, stereo;
   std::string poses;
+  // terrain-map of INPUT (a stereo run's folder) with these poses and RIG into DIR/OUT; its
+  // summary.json.
+  nlohmann::json Map(const fs::path& input, const fs::path& rig_path, const fs::path& dir,
+                     const std::string& out) const {
+    const auto run = RunTool("terrain-map",
+                             {input.string(), "--poses", poses, "--rig", rig_path.string(), "-o", (dir / out).string(),
+                              "-q", "--no-preview"},
+                             dir);
+    EXPECT_EQ(run.exit_code, 0) << run.stderr_text;
+    return io::ReadJson(dir / out / "summary.json");
+  }
 };
 SlopingPlaneRun RunSlopingPlaneStereo(const fs::path& dir, const std::vector<std::string>& batch_options = {}) {
   SlopingPlaneRun run;
@@ -728,12 +739,7 @@ TEST(TerrainMapTool, WithTheRigThePointsComeFromTheDisparityMapsAndAreTheXyzArra
   const fs::path& stereo = sloping.stereo;
   const std::string& poses = sloping.poses;
   auto map = [&](const fs::path& dir, const fs::path& rig_path, const std::string& out) {
-    const auto run = RunTool("terrain-map",
-                             {dir.string(), "--poses", poses, "--rig", rig_path.string(), "-o",
-                              (tmp.path() / out).string(), "-q", "--no-preview"},
-                             tmp.path());
-    EXPECT_EQ(run.exit_code, 0) << run.stderr_text;
-    return io::ReadJson(tmp.path() / out / "summary.json");
+    return sloping.Map(dir, rig_path, tmp.path(), out);
   };
   const nlohmann::json from_disparity = map(stereo, rig_file, "m_disparity");
   EXPECT_EQ(from_disparity["inputs"]["points"], "disparity maps triangulated with the rig");
@@ -906,14 +912,7 @@ TEST(TerrainMapTool, ALeftReferencedRunIsTriangulatedAndItsRaysCastFromTheLeftCa
   const fs::path& rig_file = sloping.rig_file;
   const fs::path& stereo = sloping.stereo;
   const std::string& poses = sloping.poses;
-  auto map = [&](const fs::path& dir, const std::string& out) {
-    const auto run = RunTool("terrain-map",
-                             {dir.string(), "--poses", poses, "--rig", rig_file.string(), "-o",
-                              (tmp.path() / out).string(), "-q", "--no-preview"},
-                             tmp.path());
-    EXPECT_EQ(run.exit_code, 0) << run.stderr_text;
-    return io::ReadJson(tmp.path() / out / "summary.json");
-  };
+  auto map = [&](const fs::path& dir, const std::string& out) { return sloping.Map(dir, rig_file, tmp.path(), out); };
   const nlohmann::json left = map(stereo, "m_left");
   EXPECT_EQ(left["inputs"]["reference"], "left");
   EXPECT_EQ(left["inputs"]["points"], "disparity maps triangulated with the rig");
