@@ -104,6 +104,10 @@ void AddFusionOptions(CLI::App* app, mapping::TerrainMapOptions* map) {
                   "the step rule's lowest point of a cell (the ground's level beside a step): within this many "
                   "roughnesses of its mean (inf: raw)")
       ->capture_default_str();
+  app->add_option("--pair-step-support", map->obstacles.pair_step_support,
+                  "a step is flagged only where the pairs' own steps pass too: 1 one pair's, 2 the second highest "
+                  "(0: off)")
+      ->capture_default_str();
   app->add_option("--max-map-cells", map->max_cells,
                   "the largest map (width x height in cells); a pair that would make it larger is refused")
       ->capture_default_str()

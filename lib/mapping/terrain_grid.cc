@@ -29,8 +29,12 @@ const std::array<const char*, 11> kStateBandsV1 = {"sum_w",    "sum_wz",   "sum_
 // The state raster now: the cell's bands, then for each height-bin slot k (1, 2, ...) these
 // bands named "bin<k>_<name>" (count 0: the slot is empty).
 const std::array<const char*, 4> kStateCellBands = {"ceiling", "ceiling2", "rejected", "bin_level"};
-const std::array<const char*, 11> kStateBinBands = {"index", "sum_w",    "sum_wz", "sum_wzz", "z_min", "z_max",
-                                                    "count", "last_t_s", "frames", "z_min2",  "z_max2"};
+// The pairs' own steps (step1, step2, step_pairs) came on 2026-12-07: a state without them
+// (its bins of the first kStateBinBandsV2 bands) reads as one no pair measured a step in.
+constexpr std::array<const char*, 14> kStateBinBands = {"index",  "sum_w",  "sum_wz",   "sum_wzz", "z_min",
+                                                        "z_max",  "count",  "last_t_s", "frames",  "z_min2",
+                                                        "z_max2", "step1",  "step2",    "step_pairs"};
+constexpr std::size_t kStateBinBandsV2 = 11;
 constexpr float kInfF = std::numeric_limits<float>::infinity();
 constexpr float kNaNF = std::numeric_limits<float>::quiet_NaN();
 
@@ -202,6 +206,53 @@ double MinMod(double a, double b) {
   return std::abs(a) < std::abs(b) ? a : b;
 }
 
+// What the obstacle rules read of a cell: judged (enough points), its elevation, and the top
+// and the low its step rule takes.
+struct StepCell {
+  bool judged = false;
+  double elevation = 0, top = 0, low = 0;
+};
+
+// The step rule at a judged cell from its 3 x 3 neighbourhood, at(dx, dy) the cell dx east
+// and dy north of it (at(0, 0) the cell): the cell's top over the lowest of the
+// neighbourhood's lows, each neighbour's carried to the cell along the local ground slope (the
+// minmod of the one-sided slopes, so that an even slope is no step and at a step the slope is
+// 0). Sets the slope (dz/dx east, dz/dy north) and how many neighbours were judged.
+template <typename At>
+double StepAt(const At& at, double cell_m, double* gx, double* gy, int* neighbours) {
+  const StepCell self = at(0, 0);
+  auto slope = [&](int dx0, int dy0, int dx1, int dy1) {
+    const StepCell a = at(dx0, dy0), b = at(dx1, dy1);
+    if (!a.judged || !b.judged) return 0.0;
+    return MinMod((self.elevation - a.elevation) / cell_m, (b.elevation - self.elevation) / cell_m);
+  };
+  *gx = slope(-1, 0, 1, 0);
+  *gy = slope(0, -1, 0, 1);
+  double lowest = self.low;
+  *neighbours = 0;
+  for (int dy = -1; dy <= 1; ++dy) {
+    for (int dx = -1; dx <= 1; ++dx) {
+      if (dx == 0 && dy == 0) continue;
+      const StepCell c = at(dx, dy);
+      if (!c.judged) continue;
+      lowest = std::min(lowest, c.low - *gx * dx * cell_m - *gy * dy * cell_m);
+      ++*neighbours;
+    }
+  }
+  return self.top - lowest;
+}
+
+// A cell's top and low for the step rule: its highest and lowest points, trimmed to within
+// extreme_k and low_extreme_k roughnesses of its mean (ObstacleOptions).
+double TrimmedTop(double raw, double mean, double roughness, const ObstacleOptions& o) {
+  if (!std::isfinite(roughness) || !std::isfinite(o.extreme_k)) return raw;
+  return std::min(raw, mean + o.extreme_k * roughness);
+}
+double TrimmedLow(double raw, double mean, double roughness, const ObstacleOptions& o) {
+  if (!std::isfinite(roughness) || !std::isfinite(o.low_extreme_k)) return raw;
+  return std::max(raw, mean - o.low_extreme_k * roughness);
+}
+
 }  // namespace
 
 void ObstacleOptions::Validate() const {
@@ -212,6 +263,7 @@ void ObstacleOptions::Validate() const {
   LN_CHECK_ARG(low_extreme_k > 0) << "obstacle low extremes: must be > 0 roughnesses (inf: raw)";
   LN_CHECK_ARG(std::isfinite(step_tolerance_m) && step_tolerance_m >= 0 && step_tolerance_m < step_height_m)
       << "step tolerance: must be in [0, obstacle height)";
+  LN_CHECK_ARG(pair_step_support >= 0 && pair_step_support <= 2) << "pair step support: must be 0, 1 or 2 pairs";
 }
 
 nlohmann::json ObstacleOptions::ToJson() const {
@@ -221,7 +273,8 @@ nlohmann::json ObstacleOptions::ToJson() const {
           {"min_points", min_points},
           {"extreme_k", number(extreme_k)},
           {"low_extreme_k", number(low_extreme_k)},
-          {"step_tolerance_m", step_tolerance_m}};
+          {"step_tolerance_m", step_tolerance_m},
+          {"pair_step_support", pair_step_support}};
 }
 
 void TerrainMapOptions::Validate() const {
@@ -291,6 +344,9 @@ void CellStats::Merge(const CellStats& o) {
   // The two lowest of the four lows and the two highest of the four highs.
   z_min2 = std::min(std::max(z_min, o.z_min), std::min(z_min2, o.z_min2));
   z_max2 = std::max(std::min(z_max, o.z_max), std::max(z_max2, o.z_max2));
+  step2 = std::max(std::min(step1, o.step1), std::max(step2, o.step2));
+  step1 = std::max(step1, o.step1);
+  step_pairs += o.step_pairs;
   z_min = std::min(z_min, o.z_min);
   z_max = std::max(z_max, o.z_max);
   count += o.count;
@@ -310,6 +366,40 @@ double CellStats::StdDev() const {
 
 double CellStats::Sigma() const {
   return count == 0 ? std::numeric_limits<double>::quiet_NaN() : 1.0 / std::sqrt(sum_w);
+}
+
+// A pair's own steps (ObstacleOptions::pair_step_support): on `cells`, the pair's cells of
+// its box (i0, j0, nx x ny), in the box's order, the step rule on the pair's own points: at
+// each cell where it has min_points and so has a neighbour, its top (the third highest point,
+// trimmed) over the neighbourhood's lows, with the slope of its own means. One pair's points
+// share one pose, so two pairs' height errors do not make its steps.
+void PairSteps(const ObstacleOptions& o, double cell_m, std::int64_t i0, std::int64_t j0, std::int64_t nx,
+               std::int64_t ny, std::vector<std::pair<CellIndex, CellStats>>* cells, std::vector<StepCell>* box) {
+  box->assign(static_cast<std::size_t>(nx * ny), StepCell{});
+  for (const auto& [index, cell] : *cells) {
+    if (static_cast<int>(cell.count) < o.min_points) continue;
+    StepCell& s = (*box)[static_cast<std::size_t>((index.j - j0) * nx + (index.i - i0))];
+    s.judged = true;
+    s.elevation = cell.Mean();
+    const double rough = cell.StdDev();
+    s.top = TrimmedTop(cell.z_max2, s.elevation, rough, o);
+    s.low = TrimmedLow(cell.z_min, s.elevation, rough, o);
+  }
+  for (auto& [index, cell] : *cells) {
+    const std::int64_t li = index.i - i0, lj = index.j - j0;
+    if (!(*box)[static_cast<std::size_t>(lj * nx + li)].judged) continue;
+    auto at = [&](int dx, int dy) {
+      const std::int64_t a = li + dx, b = lj + dy;
+      if (a < 0 || b < 0 || a >= nx || b >= ny) return StepCell{};
+      return (*box)[static_cast<std::size_t>(b * nx + a)];
+    };
+    double gx = 0, gy = 0;
+    int neighbours = 0;
+    const double step = StepAt(at, cell_m, &gx, &gy, &neighbours);
+    if (neighbours == 0) continue;  // nothing around it seen by this pair: no step of its own
+    cell.step1 = static_cast<float>(step);
+    cell.step_pairs = 1;
+  }
 }
 
 FrameContribution BinFrame(const cv::Mat& xyz, const cv::Mat& sigma, const Eigen::Isometry3d& world_from_vehicle,
@@ -351,6 +441,7 @@ FrameContribution BinFrame(const cv::Mat& xyz, const cv::Mat& sigma, const Eigen
     std::vector<PlaneSample> plane;                  // a sample of the other points: world x, y, z
     std::vector<std::size_t> lone;                   // the ground-only candidates standing high: their index
     std::vector<std::uint8_t> standing;              // per cell of the placed points' box: one stands high
+    std::vector<StepCell> steps;                     // per cell of the box: what the pair's step rule reads
   };
   static thread_local Buffers buf;
   std::vector<std::int32_t>& ci = buf.ci;
@@ -796,6 +887,8 @@ FrameContribution BinFrame(const cv::Mat& xyz, const cv::Mat& sigma, const Eigen
       cell = emptied;
     }
   }
+  // Pass 3c: the pair's own steps.
+  if (o.obstacles.pair_step_support > 0) PairSteps(o.obstacles, o.cell_m, i0, j0, nx, ny, &out.cells, &buf.steps);
   if (rays.empty()) return out;
 
   // Pass 4: the rays of the points the gate kept set the frame's ceilings; a frame does not
@@ -1044,18 +1137,12 @@ io::GeoRaster TerrainGrid::ToStateRaster() const {
       for (int k = 0; k < 4; ++k) r.bands[k].pixels.at<double>(row, col) = cell[k];
       for (std::size_t k = 0; k < rec->bins.size(); ++k) {
         const auto& [index, s] = rec->bins[k];
-        const double v[11] = {static_cast<double>(index),
-                              s.sum_w,
-                              s.sum_wz,
-                              s.sum_wzz,
-                              s.z_min,
-                              s.z_max,
-                              static_cast<double>(s.count),
-                              s.last_t_s,
-                              static_cast<double>(s.frames),
-                              s.z_min2,
-                              s.z_max2};
-        for (int m = 0; m < 11; ++m) r.bands[4 + 11 * k + m].pixels.at<double>(row, col) = v[m];
+        const double v[kStateBinBands.size()] = {static_cast<double>(index), s.sum_w, s.sum_wz, s.sum_wzz,
+                                                 s.z_min, s.z_max, static_cast<double>(s.count), s.last_t_s,
+                                                 static_cast<double>(s.frames), s.z_min2, s.z_max2, s.step1,
+                                                 s.step2, static_cast<double>(s.step_pairs)};
+        const std::size_t n = kStateBinBands.size(), base = kStateCellBands.size() + n * k;
+        for (std::size_t m = 0; m < n; ++m) r.bands[base + m].pixels.at<double>(row, col) = v[m];
       }
     }
   }
@@ -1068,7 +1155,11 @@ TerrainGrid TerrainGrid::FromStateRaster(const io::GeoRaster& r, const std::stri
   };
   bool v1 = r.bands.size() == kStateBandsV1.size();
   for (std::size_t k = 0; v1 && k < kStateBandsV1.size(); ++k) v1 = named(k, kStateBandsV1[k]);
-  const std::size_t bin_bands = kStateBinBands.size(), cell_bands = kStateCellBands.size();
+  const std::size_t cell_bands = kStateCellBands.size();
+  // Bins of every band now, or of the bands before the pairs' steps (kStateBinBandsV2).
+  const bool v2 = !v1 && !(r.bands.size() > cell_bands + kStateBinBandsV2 &&
+                           r.bands[cell_bands + kStateBinBandsV2].description == "bin1_step1");
+  const std::size_t bin_bands = v2 ? kStateBinBandsV2 : kStateBinBands.size();
   if (!v1) {
     LN_CHECK_INPUT(r.bands.size() > cell_bands && (r.bands.size() - cell_bands) % bin_bands == 0)
         << source << ": not a terrain-map state file";
@@ -1116,6 +1207,18 @@ TerrainGrid TerrainGrid::FromStateRaster(const io::GeoRaster& r, const std::stri
         s.z_max2 = static_cast<float>(v[9]);
         return s;
       };
+  // A bin's pairs' steps: (step1, step2, step_pairs), each step finite or -infinity.
+  auto steps_of = [&](const double* v, CellStats* s) {
+    s->step_pairs = count_of(v[2], at_col, at_row, "step pairs");
+    const double none = -std::numeric_limits<double>::infinity();
+    const bool valid = (s->step_pairs > 0 ? std::isfinite(v[0]) : v[0] == none) &&
+                       (s->step_pairs > 1 ? std::isfinite(v[1]) && v[1] <= v[0] : v[1] == none);
+    LN_CHECK_INPUT(valid)
+        << source << ": cell (" << at_col << ", " << at_row << ") has pair steps " << v[0] << ", " << v[1] << " of "
+        << s->step_pairs << " pairs";
+    s->step1 = static_cast<float>(v[0]);
+    s->step2 = static_cast<float>(v[1]);
+  };
   const std::size_t slots = v1 ? 0 : (r.bands.size() - cell_bands) / bin_bands;
   for (int row = 0; row < r.Height(); ++row) {
     for (int col = 0; col < r.Width(); ++col) {
@@ -1145,12 +1248,14 @@ TerrainGrid TerrainGrid::FromStateRaster(const io::GeoRaster& r, const std::stri
       for (std::size_t k = 0; k < slots; ++k) {
         const std::size_t base = cell_bands + k * bin_bands;
         if (!(at(base + 6) > 0)) continue;
-        double v[10];
-        for (std::size_t m = 0; m < 10; ++m) v[m] = at(base + 1 + m);
+        double v[kStateBinBands.size() - 1];
+        for (std::size_t m = 0; m + 1 < bin_bands; ++m) v[m] = at(base + 1 + m);
         const double index = at(base);
         LN_CHECK_INPUT(std::abs(index) <= 1073741824.0 && index == std::floor(index))
             << source << ": cell (" << col << ", " << row << ") has bin index " << index;
-        rec->Insert(static_cast<std::int32_t>(index), stats_of(v));
+        CellStats stats = stats_of(v);
+        if (!v2) steps_of(v + 10, &stats);
+        rec->Insert(static_cast<std::int32_t>(index), stats);
       }
       rec->Fit();
     }
@@ -1167,18 +1272,8 @@ bool MapLayers::CellOf(double x_m, double y_m, int* col, int* row) const {
 }
 
 cv::Mat DetectObstacles(const cv::Mat& elevation, const cv::Mat& min_m, const cv::Mat& max_m, const cv::Mat& count,
-                        double cell_m, const ObstacleOptions& o, const cv::Mat& roughness) {
+                        double cell_m, const ObstacleOptions& o, const cv::Mat& roughness, const cv::Mat& pair_step) {
   o.Validate();
-  auto top = [&](int r, int c) {
-    const double raw = max_m.at<float>(r, c);
-    if (roughness.empty() || !std::isfinite(o.extreme_k)) return raw;
-    return std::min(raw, elevation.at<float>(r, c) + o.extreme_k * roughness.at<float>(r, c));
-  };
-  auto bottom = [&](int r, int c) {
-    const double raw = min_m.at<float>(r, c);
-    if (roughness.empty() || !std::isfinite(o.low_extreme_k)) return raw;
-    return std::max(raw, elevation.at<float>(r, c) - o.low_extreme_k * roughness.at<float>(r, c));
-  };
   const int h = elevation.rows, w = elevation.cols;
   cv::Mat out(h, w, CV_32FC1, cv::Scalar(kNaN));
   auto judged = [&](int r, int c) {
@@ -1186,29 +1281,29 @@ cv::Mat DetectObstacles(const cv::Mat& elevation, const cv::Mat& min_m, const cv
            (count.empty() || count.at<float>(r, c) >= o.min_points);
   };
   const double tan_limit = std::tan(o.max_slope_deg * M_PI / 180.0);
+  const double threshold = o.step_height_m - o.step_tolerance_m;
   for (int r = 0; r < h; ++r) {
     for (int c = 0; c < w; ++c) {
       if (!judged(r, c)) continue;
-      const double e = elevation.at<float>(r, c);
-      auto slope = [&](int r0, int c0, int r1, int c1) {  // minmod of the two one-sided slopes
-        if (!judged(r0, c0) || !judged(r1, c1)) return 0.0;
-        return MinMod((e - elevation.at<float>(r0, c0)) / cell_m, (elevation.at<float>(r1, c1) - e) / cell_m);
+      // Rows run north to south: dy north is a row up.
+      auto at = [&](int dx, int dy) {
+        StepCell s;
+        const int rr = r - dy, cc = c + dx;
+        if (!judged(rr, cc)) return s;
+        s.judged = true;
+        s.elevation = elevation.at<float>(rr, cc);
+        const double rough = roughness.empty() ? kNaN : roughness.at<float>(rr, cc);
+        s.top = TrimmedTop(max_m.at<float>(rr, cc), s.elevation, rough, o);
+        s.low = TrimmedLow(min_m.at<float>(rr, cc), s.elevation, rough, o);
+        return s;
       };
-      // dz/dx east and dz/dy north (rows run north to south).
-      const double gx = slope(r, c - 1, r, c + 1), gy = slope(r + 1, c, r - 1, c);
+      double gx = 0, gy = 0;
+      int neighbours = 0;
+      const double step = StepAt(at, cell_m, &gx, &gy, &neighbours);
       int kind = std::hypot(gx, gy) > tan_limit ? 2 : 0;
-      // Step: the cell's highest point above the lowest point around it, each neighbour's
-      // lowest point carried to this cell along the local ground slope (so that an even
-      // slope is no step; at a step the minmod slope is 0).
-      double lowest = bottom(r, c);
-      for (int dr = -1; dr <= 1; ++dr) {
-        for (int dc = -1; dc <= 1; ++dc) {
-          if ((dr != 0 || dc != 0) && judged(r + dr, c + dc)) {
-            lowest = std::min(lowest, bottom(r + dr, c + dc) - gx * dc * cell_m + gy * dr * cell_m);
-          }
-        }
-      }
-      if (top(r, c) - lowest > o.step_height_m - o.step_tolerance_m) kind |= 1;
+      // The pairs' own steps, where some pair measured one (NaN: none did), must agree.
+      const float own = pair_step.empty() ? kNaN : pair_step.at<float>(r, c);
+      if (step > threshold && !(own <= threshold)) kind |= 1;
       out.at<float>(r, c) = static_cast<float>(kind);
     }
   }
@@ -1228,6 +1323,8 @@ MapLayers ComputeLayers(const TerrainGrid& grid, const ObstacleOptions& obstacle
   l.y_north_m = static_cast<double>(j1 + 1) * l.cell_m;
   // The obstacle rule's extremes: those a second pair confirms (a cell one pair saw has only its).
   cv::Mat low(h, w, CV_32FC1, cv::Scalar(kNaN)), high(h, w, CV_32FC1, cv::Scalar(kNaN));
+  cv::Mat pair_step;  // the pairs' own steps (ObstacleOptions::pair_step_support), NaN where none measured one
+  if (obstacles.pair_step_support > 0) pair_step = cv::Mat(h, w, CV_32FC1, cv::Scalar(kNaN));
   for (cv::Mat* m : {&l.elevation_m, &l.min_m, &l.max_m, &l.count, &l.roughness_m, &l.sigma_m, &l.last_t_s, &l.frames}) {
     *m = cv::Mat(h, w, CV_32FC1, cv::Scalar(kNaN));
   }
@@ -1250,9 +1347,12 @@ MapLayers ComputeLayers(const TerrainGrid& grid, const ObstacleOptions& obstacle
       l.frames.at<float>(row, col) = static_cast<float>(s->frames);
       low.at<float>(row, col) = s->frames >= 2 ? s->z_min2 : s->z_min;
       high.at<float>(row, col) = s->frames >= 2 ? s->z_max2 : s->z_max;
+      if (!pair_step.empty() && s->step_pairs > 0) {
+        pair_step.at<float>(row, col) = obstacles.pair_step_support >= 2 && s->step_pairs >= 2 ? s->step2 : s->step1;
+      }
     }
   }
-  l.obstacle = DetectObstacles(l.elevation_m, low, high, l.count, l.cell_m, obstacles, l.roughness_m);
+  l.obstacle = DetectObstacles(l.elevation_m, low, high, l.count, l.cell_m, obstacles, l.roughness_m, pair_step);
   return l;
 }
 

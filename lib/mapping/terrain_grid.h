@@ -76,6 +76,14 @@ struct ObstacleOptions {
   /// seldom the rock's very top, and the extremes are trimmed), and a planner would rather
   /// avoid a 19 cm step than drive into a 21 cm one.
   double step_tolerance_m = 0.02;
+  /// Steps within a pair: a step is flagged only where the pairs that measured one themselves
+  /// (CellStats::step1, step2: each pair's own top of the cell over its own lows around it)
+  /// agree it passes the threshold: 1: one pair's step does; 2: the second highest pair's
+  /// (the highest where one pair measured it); 0: off, the fused extremes alone. The fused
+  /// extremes compare a cell's top from one pair with a neighbour's low from another, and two
+  /// pairs' heights differ by their poses' errors: a GPS/INS pose 3-5 cm off in height made flat
+  /// road 5-6 cm rough and a third of a city drive's obstacle cells phantoms.
+  int pair_step_support = 1;
   void Validate() const;
   nlohmann::json ToJson() const;
 };
@@ -219,6 +227,13 @@ struct CellStats {
   /// next; a lone stray point, or two, reaches neither.
   float z_min2 = std::numeric_limits<float>::infinity();
   float z_max2 = -std::numeric_limits<float>::infinity();
+  /// The pairs' own steps at the cell (BinFrame: a pair's top of the cell over the lowest of
+  /// its lows around it, all of that pair's points, so that two pairs' pose errors make no
+  /// step): the highest and the second highest, metres (-infinity: none), and how many pairs
+  /// measured one (step_pairs: those that judged the cell and a neighbour).
+  float step1 = -std::numeric_limits<float>::infinity();
+  float step2 = -std::numeric_limits<float>::infinity();
+  std::uint32_t step_pairs = 0;
   std::uint32_t count = 0;     ///< Accepted points.
   std::uint32_t rejected = 0;  ///< Points the gate rejected.
   std::uint32_t frames = 0;    ///< Pairs that added points.
@@ -355,8 +370,11 @@ MapLayers ComputeLayers(const TerrainGrid& grid, const ObstacleOptions& obstacle
 
 /// The obstacle layer (see MapLayers::obstacle) from elevation, min, max and count layers of
 /// one size (CV_32F, NaN = unmapped; `count` may be empty: every mapped cell is judged).
+/// `pair_step` (or empty): the step the pairs themselves measured at each cell (NaN: none did,
+/// ObstacleOptions::pair_step_support); a step is flagged only where it passes too.
 cv::Mat DetectObstacles(const cv::Mat& elevation_m, const cv::Mat& min_m, const cv::Mat& max_m, const cv::Mat& count,
-                        double cell_m, const ObstacleOptions& options, const cv::Mat& roughness_m = cv::Mat());
+                        double cell_m, const ObstacleOptions& options, const cv::Mat& roughness_m = cv::Mat(),
+                        const cv::Mat& pair_step = cv::Mat());
 
 /// The layers as the GeoTIFF `elevation.tif` writes them (bands in MapLayers' order, each
 /// with its description and units; docs/terrain-map.md).

@@ -116,6 +116,12 @@ json FusionJson(const TerrainMapRunOptions& options, const std::string& errors) 
           {"edge_margin_px", mo.edge_margin_px},
           {"edge_step_px", mo.edge_step_px},
           {"edge_height_m", mo.edge_height_m},
+          // The pairs' own steps (BinFrame) read these obstacle options; off: none were measured.
+          {"pair_steps", mo.obstacles.pair_step_support > 0
+                             ? json{{"min_points", mo.obstacles.min_points},
+                                    {"extreme_k", number(mo.obstacles.extreme_k)},
+                                    {"low_extreme_k", number(mo.obstacles.low_extreme_k)}}
+                             : json("off")},
           {"errors", errors}};
 }
 

@@ -148,16 +148,21 @@ TEST(TerrainGrid, GateRejectsOutliersAndKeepsTheHeight) {
   EXPECT_EQ(CountCells(l.max_m, [&](int r, int c) { return l.max_m.at<float>(r, c) > 0.51f; }), 0);
   EXPECT_EQ(CountCells(l.obstacle, [&](int r, int c) { return l.obstacle.at<float>(r, c) > 0; }), 0);
   // With the gate off they stay: the cells' highest points rise 1 m and make step obstacles
-  // on the flat plane.
+  // on the flat plane of the fused extremes (the pair's own steps, which take the top three
+  // of its points reach, hold: a cell's one or two false matches are no top of three).
   TerrainMapOptions off = o;
   off.gate_k = std::numeric_limits<double>::infinity();
+  ObstacleOptions fused_only = o.obstacles;
+  fused_only.pair_step_support = 0;
   const FrameContribution ungated = BinFrame(xyz, cv::Mat(), pose.WorldFromVehicle(), 0, off);
   EXPECT_EQ(ungated.points_rejected, 0);
   TerrainGrid raw(o.cell_m);
   raw.Add(ungated);
-  const MapLayers lr = ComputeLayers(raw, o.obstacles);
+  const MapLayers lr = ComputeLayers(raw, fused_only);
   EXPECT_GT(CountCells(lr.max_m, [&](int r, int c) { return lr.max_m.at<float>(r, c) > 1.4f; }), 10);
   EXPECT_GT(CountCells(lr.obstacle, [&](int r, int c) { return lr.obstacle.at<float>(r, c) > 0; }), 10);
+  const MapLayers own = ComputeLayers(raw, o.obstacles);
+  EXPECT_EQ(CountCells(own.obstacle, [&](int r, int c) { return own.obstacle.at<float>(r, c) > 0; }), 0);
 }
 
 TEST(TerrainGrid, PointsOutsideTheRequestedIntervalAreLeftOut) {
@@ -589,6 +594,111 @@ TEST(TerrainGrid, ARockTopThatOnlyOnePairSawWholeIsAStep) {
   EXPECT_EQ(l.frames.at<float>(row, col), 2);  // both pairs saw the cell
   EXPECT_EQ(l.obstacle.at<float>(row, col), 1);
   EXPECT_EQ(CountCells(l.obstacle, [&](int r, int c) { return l.obstacle.at<float>(r, c) != 0; }), 4);
+}
+
+// Two pairs whose poses disagree in height by 20 cm (a GPS/INS pose's error, larger here than
+// on a real drive so that exact surfaces show it): flat ground fused from both is as rough as
+// the disagreement, and a cell's top from one pair stands a step over a neighbour's low from the
+// other. Each pair's own steps, from its own points only, hold the ground flat; a rock both
+// pairs see stays a step.
+TEST(TerrainGrid, TwoPairsHeightErrorsMakeNoStepButARockStaysOne) {
+  const auto box = BoxOnPlane(0.0, 1.0, 1.5, 5.0, 5.5, 0.3);
+  auto map = [&](int pair_step_support) {
+    TerrainMapOptions o = GridFrameOptions();
+    o.obstacles.pair_step_support = pair_step_support;
+    TerrainGrid grid(o.cell_m);
+    for (int k = 0; k < 2; ++k) {
+      const FramePose truth = Pose(0, 0.3 * k, 0);
+      FramePose placed = truth;
+      placed.z_m = k == 0 ? 0.0 : -0.2;  // pair 1 placed 20 cm low
+      grid.Add(BinFrame(SurfaceXyz(box, truth, 480, 640), cv::Mat(), placed.WorldFromVehicle(), k, o));
+    }
+    return ComputeLayers(grid, o.obstacles, 1);
+  };
+  auto on_box = [](const MapLayers& l, int r, int c) {  // the box's cells and those beside them
+    const double x = l.x_west_m + (c + 0.5) * l.cell_m, y = l.y_north_m - (r + 0.5) * l.cell_m;
+    return x > 0.7 && x < 1.8 && y > 4.7 && y < 5.8;
+  };
+  const MapLayers fused_only = map(0), own = map(1), confirmed = map(2);
+  // Without the pairs' own steps the flat ground both saw is full of steps.
+  EXPECT_GT(CountCells(fused_only.obstacle,
+                       [&](int r, int c) { return fused_only.obstacle.at<float>(r, c) == 1 && !on_box(fused_only, r, c); }),
+            20);
+  for (const MapLayers* l : {&own, &confirmed}) {
+    EXPECT_EQ(CountCells(l->obstacle, [&](int r, int c) { return l->obstacle.at<float>(r, c) != 0 && !on_box(*l, r, c); }),
+              0);
+    int col = 0, row = 0;
+    ASSERT_TRUE(l->CellOf(1.25, 5.25, &col, &row));
+    EXPECT_EQ(l->frames.at<float>(row, col), 2);
+    EXPECT_EQ(l->obstacle.at<float>(row, col), 1);
+  }
+}
+
+// The pairs' steps merge as the extremes do (the highest two, in any order) and survive the
+// state file; a state written before them reads as one where no pair measured a step.
+TEST(TerrainGrid, PairStepsMergeInAnyOrderAndSurviveTheState) {
+  CellStats a, b, c;
+  a.step1 = 0.3f;
+  a.step_pairs = 1;
+  b.step1 = 0.05f;
+  b.step_pairs = 1;
+  c.step1 = 0.12f;
+  c.step2 = 0.1f;
+  c.step_pairs = 2;
+  CellStats abc = a, cba = c;
+  abc.Merge(b);
+  abc.Merge(c);
+  cba.Merge(b);
+  cba.Merge(a);
+  for (const CellStats* s : {&abc, &cba}) {
+    EXPECT_EQ(s->step1, 0.3f);
+    EXPECT_EQ(s->step2, 0.12f);
+    EXPECT_EQ(s->step_pairs, 4u);
+  }
+  const TerrainMapOptions o = GridFrameOptions();
+  const auto box = BoxOnPlane(0.0, 1.0, 1.5, 5.0, 5.5, 0.3);
+  TerrainGrid grid(o.cell_m);
+  for (int k = 0; k < 2; ++k) {
+    const FramePose p = Pose(0, 0.3 * k, 0);
+    grid.Add(BinFrame(SurfaceXyz(box, p, 480, 640), cv::Mat(), p.WorldFromVehicle(), k, o));
+  }
+  const io::GeoRaster state = grid.ToStateRaster();
+  const TerrainGrid back = TerrainGrid::FromStateRaster(state, "test");
+  // The same state without the steps' bands, as written before them.
+  io::GeoRaster old = state;
+  old.bands.clear();
+  for (const io::RasterBand& band : state.bands) {
+    const std::string& d = band.description;
+    auto ends_with = [&](const std::string& tail) {
+      return d.size() >= tail.size() && d.compare(d.size() - tail.size(), tail.size(), tail) == 0;
+    };
+    if (!ends_with("_step1") && !ends_with("_step2") && !ends_with("_step_pairs")) old.bands.push_back(band);
+  }
+  ASSERT_LT(old.bands.size(), state.bands.size());
+  const TerrainGrid before = TerrainGrid::FromStateRaster(old, "old");
+  int measured = 0;
+  const auto bounds = *grid.MappedBounds();
+  for (std::int64_t j = bounds[1]; j <= bounds[3]; ++j) {
+    for (std::int64_t i = bounds[0]; i <= bounds[2]; ++i) {
+      const std::optional<CellStats> s = grid.Find({i, j}), t = back.Find({i, j}), u = before.Find({i, j});
+      ASSERT_EQ(s.has_value(), t.has_value());
+      ASSERT_EQ(s.has_value(), u.has_value());
+      if (!s) continue;
+      EXPECT_EQ(s->step1, t->step1);
+      EXPECT_EQ(s->step2, t->step2);
+      EXPECT_EQ(s->step_pairs, t->step_pairs);
+      measured += s->step_pairs > 0;
+      EXPECT_EQ(u->step_pairs, 0u);
+      EXPECT_EQ(u->sum_wz, s->sum_wz);
+    }
+  }
+  EXPECT_GT(measured, 100);
+  // A step with no pair to have measured it is bad input.
+  io::GeoRaster bad = state;
+  for (io::RasterBand& band : bad.bands) {
+    if (band.description == "bin1_step_pairs") band.pixels.setTo(cv::Scalar(0.0));
+  }
+  EXPECT_THROW(TerrainGrid::FromStateRaster(bad, "bad"), InputError);
 }
 
 TEST(TerrainGrid, FusingInTwoHalvesAndMergingEqualsFusingAtOnce) {
