@@ -46,6 +46,10 @@ void AddFusionOptions(CLI::App* app, mapping::TerrainMapOptions* map) {
                   "free-space carving: leave out a cell's observations more than this above the height two pairs' "
                   "rays passed over it (needs --rig; inf: off), m")
       ->capture_default_str();
+  app->add_option("--moved-height", map->moved_height_m,
+                  "moved on: leave out a cell's observations whose top stands more than this over the top two later "
+                  "pairs saw there, their mean above it too (inf: off), m")
+      ->capture_default_str();
   app->add_option("--carve-reach", map->carve_reach_m,
                   "the stretch of each ray, before its point, that carves (horizontal), m")
       ->capture_default_str();

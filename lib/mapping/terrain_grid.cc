@@ -29,11 +29,12 @@ const std::array<const char*, 11> kStateBandsV1 = {"sum_w",    "sum_wz",   "sum_
 // The state raster now: the cell's bands, then for each height-bin slot k (1, 2, ...) these
 // bands named "bin<k>_<name>" (count 0: the slot is empty).
 const std::array<const char*, 4> kStateCellBands = {"ceiling", "ceiling2", "rejected", "bin_level"};
-// The pairs' own steps (step1, step2, step_pairs) came on 2026-12-07: a state without them
-// (its bins of the first kStateBinBandsV2 bands) reads as one no pair measured a step in.
-constexpr std::array<const char*, 14> kStateBinBands = {"index",  "sum_w",  "sum_wz",   "sum_wzz", "z_min",
-                                                        "z_max",  "count",  "last_t_s", "frames",  "z_min2",
-                                                        "z_max2", "step1",  "step2",    "step_pairs"};
+// The pairs' own steps (step1, step2, step_pairs) and the second last time came on
+// 2026-12-07: a state without them (its bins of the first kStateBinBandsV2 bands) reads as one
+// no pair measured a step in, each bin's second last time unknown (-infinity).
+constexpr std::array<const char*, 15> kStateBinBands = {"index",  "sum_w",  "sum_wz",   "sum_wzz",    "z_min",
+                                                        "z_max",  "count",  "last_t_s", "frames",     "z_min2",
+                                                        "z_max2", "step1",  "step2",    "step_pairs", "last_t2_s"};
 constexpr std::size_t kStateBinBandsV2 = 11;
 constexpr float kInfF = std::numeric_limits<float>::infinity();
 constexpr float kNaNF = std::numeric_limits<float>::quiet_NaN();
@@ -286,6 +287,7 @@ void TerrainMapOptions::Validate() const {
   LN_CHECK_ARG(std::isfinite(visibility_floor_m) && visibility_floor_m >= 0) << "visibility floor: must be >= 0 m";
   LN_CHECK_ARG(support_rise_m > 0) << "support rise: must be > 0 m (inf: off)";
   LN_CHECK_ARG(carve_tolerance_m >= 0) << "carve tolerance: must be >= 0 m (inf: off)";
+  LN_CHECK_ARG(moved_height_m > 0) << "moved height: must be > 0 m (inf: off)";
   LN_CHECK_ARG(std::isfinite(carve_reach_m) && carve_reach_m > 0) << "carve reach: must be > 0 m";
   LN_CHECK_ARG(hidden_tolerance_m >= 0) << "hidden tolerance: must be >= 0 m (inf: off)";
   LN_CHECK_ARG(hidden_ground_quantile >= 0 && hidden_ground_quantile <= 0.5)
@@ -318,6 +320,7 @@ nlohmann::json TerrainMapOptions::ToJson() const {
           {"visibility_floor_m", visibility_floor_m},
           {"support_rise_m", number(support_rise_m)},
           {"carve_tolerance_m", number(carve_tolerance_m)},
+          {"moved_height_m", number(moved_height_m)},
           {"carve_reach_m", carve_reach_m},
           {"hidden_tolerance_m", number(hidden_tolerance_m)},
           {"hidden_ground_quantile", hidden_ground_quantile},
@@ -352,10 +355,13 @@ void CellStats::Merge(const CellStats& o) {
   count += o.count;
   rejected += o.rejected;
   frames += o.frames;
+  last_t2_s = std::max(std::min(last_t_s, o.last_t_s), std::max(last_t2_s, o.last_t2_s));
   last_t_s = std::max(last_t_s, o.last_t_s);
   TwoLowest(&ceiling, &ceiling2, o.ceiling, o.ceiling2);
   carved_points += o.carved_points;
   carved_frames += o.carved_frames;
+  moved_points += o.moved_points;
+  moved_frames += o.moved_frames;
 }
 
 double CellStats::StdDev() const {
@@ -1011,16 +1017,29 @@ const TerrainGrid::Record* TerrainGrid::FindRecord(CellIndex c) const {
               ->cells[static_cast<std::size_t>((c.j - (tj << kTileShift)) * kTileSize + (c.i - (ti << kTileShift)))];
 }
 
-std::optional<CellStats> TerrainGrid::Find(CellIndex c, double carve_tolerance_m) const {
+std::optional<CellStats> TerrainGrid::Find(CellIndex c, double carve_tolerance_m, double moved_height_m) const {
   const Record* r = FindRecord(c);
   if (r == nullptr || (r->bins.empty() && r->rejected == 0)) return std::nullopt;
   CellStats s;
   s.rejected = r->rejected;
   const double limit = static_cast<double>(r->ceiling2) + carve_tolerance_m;  // inf + anything: no carving
+  // Moved on: a later, lower bin that two pairs after all of `bin`'s saw, whose top stands
+  // below bin's mean and more than moved_height_m below its top.
+  auto moved_on = [&](const CellStats& bin) {
+    if (!std::isfinite(moved_height_m)) return false;
+    for (const auto& [index, later] : r->bins) {
+      if (&later == &bin || later.Mean() > limit || !(later.last_t2_s > bin.last_t_s)) continue;
+      if (later.z_max2 < bin.Mean() && bin.z_max2 - later.z_max2 > moved_height_m) return true;
+    }
+    return false;
+  };
   for (const auto& [index, bin] : r->bins) {
     if (bin.Mean() > limit) {
       s.carved_points += bin.count;
       s.carved_frames += bin.frames;
+    } else if (moved_on(bin)) {
+      s.moved_points += bin.count;
+      s.moved_frames += bin.frames;
     } else {
       s.Merge(bin);
     }
@@ -1140,7 +1159,7 @@ io::GeoRaster TerrainGrid::ToStateRaster() const {
         const double v[kStateBinBands.size()] = {static_cast<double>(index), s.sum_w, s.sum_wz, s.sum_wzz,
                                                  s.z_min, s.z_max, static_cast<double>(s.count), s.last_t_s,
                                                  static_cast<double>(s.frames), s.z_min2, s.z_max2, s.step1,
-                                                 s.step2, static_cast<double>(s.step_pairs)};
+                                                 s.step2, static_cast<double>(s.step_pairs), s.last_t2_s};
         const std::size_t n = kStateBinBands.size(), base = kStateCellBands.size() + n * k;
         for (std::size_t m = 0; m < n; ++m) r.bands[base + m].pixels.at<double>(row, col) = v[m];
       }
@@ -1207,7 +1226,8 @@ TerrainGrid TerrainGrid::FromStateRaster(const io::GeoRaster& r, const std::stri
         s.z_max2 = static_cast<float>(v[9]);
         return s;
       };
-  // A bin's pairs' steps: (step1, step2, step_pairs), each step finite or -infinity.
+  // A bin's pairs' steps and second last time: (step1, step2, step_pairs, last_t2_s), each step
+  // finite or -infinity, the time -infinity or up to the last.
   auto steps_of = [&](const double* v, CellStats* s) {
     s->step_pairs = count_of(v[2], at_col, at_row, "step pairs");
     const double none = -std::numeric_limits<double>::infinity();
@@ -1218,6 +1238,10 @@ TerrainGrid TerrainGrid::FromStateRaster(const io::GeoRaster& r, const std::stri
         << s->step_pairs << " pairs";
     s->step1 = static_cast<float>(v[0]);
     s->step2 = static_cast<float>(v[1]);
+    LN_CHECK_INPUT(v[3] == none || (s->frames > 1 && v[3] <= s->last_t_s))
+        << source << ": cell (" << at_col << ", " << at_row << ") has second last time " << v[3] << " of "
+        << s->frames << " frames, the last " << s->last_t_s;
+    s->last_t2_s = v[3];
   };
   const std::size_t slots = v1 ? 0 : (r.bands.size() - cell_bands) / bin_bands;
   for (int row = 0; row < r.Height(); ++row) {
@@ -1311,7 +1335,7 @@ cv::Mat DetectObstacles(const cv::Mat& elevation, const cv::Mat& min_m, const cv
 }
 
 MapLayers ComputeLayers(const TerrainGrid& grid, const ObstacleOptions& obstacles, int min_frames,
-                        double carve_tolerance_m, CarveCounts* carved) {
+                        double carve_tolerance_m, CarveCounts* carved, double moved_height_m) {
   LN_CHECK_ARG(min_frames >= 1) << "min frames: must be >= 1";
   MapLayers l;
   l.cell_m = grid.cell_m();
@@ -1330,10 +1354,12 @@ MapLayers ComputeLayers(const TerrainGrid& grid, const ObstacleOptions& obstacle
   }
   for (int row = 0; row < h; ++row) {
     for (int col = 0; col < w; ++col) {
-      const std::optional<CellStats> s = grid.Find({i0 + col, j1 - row}, carve_tolerance_m);
-      if (s && carved != nullptr && s->carved_frames > 0) {
+      const std::optional<CellStats> s = grid.Find({i0 + col, j1 - row}, carve_tolerance_m, moved_height_m);
+      if (s && carved != nullptr && s->carved_frames + s->moved_frames > 0) {
         carved->points += s->carved_points;
         carved->observations += s->carved_frames;
+        carved->points_moved_on += s->moved_points;
+        carved->observations_moved_on += s->moved_frames;
         ++(s->count > 0 ? carved->cells_changed : carved->cells_cleared);
       }
       if (!s || s->count == 0 || s->frames < static_cast<std::uint32_t>(min_frames)) continue;

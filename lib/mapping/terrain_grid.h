@@ -29,7 +29,10 @@
 // holds more than kMaxHeightBins), and when the layers are computed, the bins whose mean
 // stands more than carve_tolerance_m above the second frame's ceiling are left out: the
 // reflections seen behind glossy bodies, the cyclist that has moved on, the wrong matches
-// beside an object's edge. Both are sums and minima, so the exactness above holds.
+// beside an object's edge. Both are sums and minima, so the exactness above holds. So are the
+// two rules that read time and the pairs one at a time: a bin that two later pairs saw lower
+// moved on (moved_height_m; each bin keeps its two last times), and a step is flagged only
+// where the pairs' own steps, each from its own points, agree (ObstacleOptions).
 #pragma once
 
 #include <cstdint>
@@ -118,6 +121,14 @@ struct TerrainMapOptions {
   /// point, less the point's own uncertainty (twice its horizontal error and half a cell),
   /// metres, > 0. Near its point a ray runs close over the ground, where it says most.
   double carve_reach_m = 2.0;
+  /// Moved on: a cell's observations of one height bin are left out of the layers when two
+  /// pairs after the last of them saw the cell lower, their top (the highest that a second pair
+  /// or three points of one pair reach) below those observations' mean and more than this below
+  /// their top: what stood there moved on (the cyclist who rode off, the van that drove away),
+  /// as later pairs saw. Carving needs rays that pass over the cell; a pair that sees the
+  /// cell's own ground says the same. Metres, > 0; infinity turns it off. The default is the
+  /// paper's obstacle height less the step rule's tolerance: what would make an obstacle.
+  double moved_height_m = 0.18;
   /// Hidden observations: a frame's observation of a cell is left out when the ray to it
   /// passes, within the carving stretch, through another cell of the same frame more than this
   /// below that cell's lowest point (the ray would have met the ground the frame sees there:
@@ -238,6 +249,8 @@ struct CellStats {
   std::uint32_t rejected = 0;  ///< Points the gate rejected.
   std::uint32_t frames = 0;    ///< Pairs that added points.
   double last_t_s = -std::numeric_limits<double>::infinity();  ///< Time of the last frame that added points.
+  /// Time of the second last frame that added points (-infinity: one frame at most).
+  double last_t2_s = -std::numeric_limits<double>::infinity();
   /// Free space over the cell: the lowest and second lowest of the frames' ceilings (a frame's
   /// ceiling: the kCeilingSupport-th lowest height at which its rays crossed the cell), metres;
   /// infinity: none.
@@ -246,6 +259,8 @@ struct CellStats {
   /// Accepted points and frames' observations that carving left out (TerrainGrid::Find only;
   /// they are not in the sums above).
   std::uint32_t carved_points = 0, carved_frames = 0;
+  /// Accepted points and frames' observations left out as moved on (TerrainGrid::Find only).
+  std::uint32_t moved_points = 0, moved_frames = 0;
 
   void Merge(const CellStats& other);
   double Mean() const { return sum_wz / sum_w; }
@@ -312,9 +327,11 @@ class TerrainGrid {
   /// (x, y): the vehicle-centred window.
   void KeepWindow(double x_m, double y_m, double side_m);
   /// The cell's accumulation, its observations more than `carve_tolerance_m` above its
-  /// ceiling2 left out (counted in carved_points and carved_frames; infinity: none), or
-  /// nothing when no point ever reached it.
-  std::optional<CellStats> Find(CellIndex c, double carve_tolerance_m = std::numeric_limits<double>::infinity()) const;
+  /// ceiling2 left out (counted in carved_points and carved_frames; infinity: none) and those
+  /// that moved on by `moved_height_m` (TerrainMapOptions; counted in moved_points and
+  /// moved_frames; infinity: none), or nothing when no point ever reached it.
+  std::optional<CellStats> Find(CellIndex c, double carve_tolerance_m = std::numeric_limits<double>::infinity(),
+                                double moved_height_m = std::numeric_limits<double>::infinity()) const;
   std::size_t TileCount() const;
   std::size_t MappedCells() const;  ///< Cells with at least one accepted point (carving aside).
   /// Smallest cell box containing every mapped cell: {i0, j0, i1, j1} inclusive, or nothing.
@@ -354,19 +371,22 @@ struct MapLayers {
 
 /// What carving left out of a map's layers.
 struct CarveCounts {
-  long points = 0;         ///< Accepted points of the observations left out.
-  long observations = 0;   ///< Frames' observations of cells left out.
-  long cells_changed = 0;  ///< Cells that kept some of their observations.
+  long points = 0;         ///< Accepted points of the observations carved.
+  long observations = 0;   ///< Frames' observations of cells carved.
+  long points_moved_on = 0;        ///< Accepted points of the observations left out as moved on.
+  long observations_moved_on = 0;  ///< Frames' observations left out as moved on.
+  long cells_changed = 0;  ///< Cells that kept some of their observations (either rule).
   long cells_cleared = 0;  ///< Cells that kept none (unmapped in the layers).
 };
 
 /// The layers of `grid` over its mapped bounds (empty Mats when nothing is mapped); cells that
 /// fewer than `min_frames` pairs saw are left out of the layers (NaN), not of the grid; each
-/// cell's observations more than `carve_tolerance_m` above its ceiling2 are left out
-/// (TerrainGrid::Find), counted in `carved` when given.
+/// cell's observations more than `carve_tolerance_m` above its ceiling2 and those that moved
+/// on by `moved_height_m` are left out (TerrainGrid::Find), counted in `carved` when given.
 MapLayers ComputeLayers(const TerrainGrid& grid, const ObstacleOptions& obstacles, int min_frames = 1,
                         double carve_tolerance_m = std::numeric_limits<double>::infinity(),
-                        CarveCounts* carved = nullptr);
+                        CarveCounts* carved = nullptr,
+                        double moved_height_m = std::numeric_limits<double>::infinity());
 
 /// The obstacle layer (see MapLayers::obstacle) from elevation, min, max and count layers of
 /// one size (CV_32F, NaN = unmapped; `count` may be empty: every mapped cell is judged).

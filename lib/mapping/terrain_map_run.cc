@@ -619,7 +619,8 @@ TerrainMapRunSummary RunTerrainMap(const TerrainMapRunOptions& options, const fs
   io::CreateOutputDirectory(out);
   io::RemoveStaleTempFiles(out);
   util::StageClock clock;
-  const MapLayers layers = ComputeLayers(grid, mo.obstacles, mo.min_frames, mo.carve_tolerance_m, &summary.carved);
+  const MapLayers layers =
+      ComputeLayers(grid, mo.obstacles, mo.min_frames, mo.carve_tolerance_m, &summary.carved, mo.moved_height_m);
   clock.Lap("layers (carving, obstacles)");
   summary.mapped_cells = static_cast<long>(grid.MappedCells());
   if (!layers.obstacle.empty()) {
@@ -698,6 +699,8 @@ TerrainMapRunSummary RunTerrainMap(const TerrainMapRunOptions& options, const fs
   j["counts"]["carving"] = {{"rays_cast", summary.rays_cast},
                             {"points_carved", summary.carved.points},
                             {"observations_carved", summary.carved.observations},
+                            {"points_moved_on", summary.carved.points_moved_on},
+                            {"observations_moved_on", summary.carved.observations_moved_on},
                             {"cells_changed", summary.carved.cells_changed},
                             {"cells_cleared", summary.carved.cells_cleared}};
   if (options.align) {

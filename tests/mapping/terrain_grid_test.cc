@@ -634,8 +634,9 @@ TEST(TerrainGrid, TwoPairsHeightErrorsMakeNoStepButARockStaysOne) {
   }
 }
 
-// The pairs' steps merge as the extremes do (the highest two, in any order) and survive the
-// state file; a state written before them reads as one where no pair measured a step.
+// The pairs' steps and the two last times merge as the extremes do (the highest two, in any
+// order) and survive the state file; a state written before them reads as one where no pair
+// measured a step and the second last time is unknown.
 TEST(TerrainGrid, PairStepsMergeInAnyOrderAndSurviveTheState) {
   CellStats a, b, c;
   a.step1 = 0.3f;
@@ -645,6 +646,10 @@ TEST(TerrainGrid, PairStepsMergeInAnyOrderAndSurviveTheState) {
   c.step1 = 0.12f;
   c.step2 = 0.1f;
   c.step_pairs = 2;
+  a.last_t_s = 3;  // and the two last times
+  b.last_t_s = 1;
+  c.last_t_s = 2;
+  c.last_t2_s = 0;
   CellStats abc = a, cba = c;
   abc.Merge(b);
   abc.Merge(c);
@@ -654,6 +659,8 @@ TEST(TerrainGrid, PairStepsMergeInAnyOrderAndSurviveTheState) {
     EXPECT_EQ(s->step1, 0.3f);
     EXPECT_EQ(s->step2, 0.12f);
     EXPECT_EQ(s->step_pairs, 4u);
+    EXPECT_EQ(s->last_t_s, 3);
+    EXPECT_EQ(s->last_t2_s, 2);
   }
   const TerrainMapOptions o = GridFrameOptions();
   const auto box = BoxOnPlane(0.0, 1.0, 1.5, 5.0, 5.5, 0.3);
@@ -672,7 +679,9 @@ TEST(TerrainGrid, PairStepsMergeInAnyOrderAndSurviveTheState) {
     auto ends_with = [&](const std::string& tail) {
       return d.size() >= tail.size() && d.compare(d.size() - tail.size(), tail.size(), tail) == 0;
     };
-    if (!ends_with("_step1") && !ends_with("_step2") && !ends_with("_step_pairs")) old.bands.push_back(band);
+    if (!ends_with("_step1") && !ends_with("_step2") && !ends_with("_step_pairs") && !ends_with("_last_t2_s")) {
+      old.bands.push_back(band);
+    }
   }
   ASSERT_LT(old.bands.size(), state.bands.size());
   const TerrainGrid before = TerrainGrid::FromStateRaster(old, "old");
@@ -687,8 +696,10 @@ TEST(TerrainGrid, PairStepsMergeInAnyOrderAndSurviveTheState) {
       EXPECT_EQ(s->step1, t->step1);
       EXPECT_EQ(s->step2, t->step2);
       EXPECT_EQ(s->step_pairs, t->step_pairs);
+      EXPECT_EQ(s->last_t2_s, t->last_t2_s);
       measured += s->step_pairs > 0;
       EXPECT_EQ(u->step_pairs, 0u);
+      EXPECT_EQ(u->last_t2_s, -std::numeric_limits<double>::infinity());
       EXPECT_EQ(u->sum_wz, s->sum_wz);
     }
   }
@@ -699,6 +710,62 @@ TEST(TerrainGrid, PairStepsMergeInAnyOrderAndSurviveTheState) {
     if (band.description == "bin1_step_pairs") band.pixels.setTo(cv::Scalar(0.0));
   }
   EXPECT_THROW(TerrainGrid::FromStateRaster(bad, "bad"), InputError);
+}
+
+// A box that two pairs see and that is gone when the next two look (a parked van that drove
+// off) is no obstacle: what later pairs saw lower moved on. One that arrives after the flat
+// ground was seen stays, in whatever order the pairs are fused.
+TEST(TerrainGrid, WhatLaterPairsSawLowerMovedOnWhatArrivedStays) {
+  const TerrainMapOptions o = GridFrameOptions();
+  const auto box = BoxOnPlane(0.0, 1.0, 1.5, 5.0, 5.5, 0.3);
+  const auto flat = [](double, double) { return 0.0; };
+  auto map = [&](bool box_first, const std::vector<int>& order, double moved_height_m, CarveCounts* counts) {
+    TerrainGrid grid(o.cell_m);
+    for (int k : order) {
+      const FramePose p = Pose(0, 0.2 * k, 0, k);
+      const bool has_box = box_first ? k < 2 : k >= 2;
+      const cv::Mat xyz = has_box ? SurfaceXyz(box, p, 480, 640) : SurfaceXyz(flat, p, 480, 640);
+      grid.Add(BinFrame(xyz, cv::Mat(), p.WorldFromVehicle(), p.t_s, o));
+    }
+    return ComputeLayers(grid, o.obstacles, 1, std::numeric_limits<double>::infinity(), counts, moved_height_m);
+  };
+  auto obstacle_at_box = [](const MapLayers& l) {
+    int col = 0, row = 0;
+    EXPECT_TRUE(l.CellOf(1.25, 5.25, &col, &row));
+    return l.obstacle.at<float>(row, col);
+  };
+  auto elevation_at_box = [](const MapLayers& l) {
+    int col = 0, row = 0;
+    EXPECT_TRUE(l.CellOf(1.25, 5.25, &col, &row));
+    return l.elevation_m.at<float>(row, col);
+  };
+  CarveCounts gone, kept;
+  const MapLayers left = map(true, {0, 1, 2, 3}, o.moved_height_m, &gone);
+  EXPECT_EQ(obstacle_at_box(left), 0);
+  EXPECT_NEAR(elevation_at_box(left), 0.0, 1e-3);  // the flat ground the later pairs saw
+  EXPECT_GT(gone.observations_moved_on, 0);
+  EXPECT_EQ(CountCells(left.obstacle, [&](int r, int c) { return left.obstacle.at<float>(r, c) != 0; }), 0);
+  // The same pairs fused in another order: the same map.
+  const MapLayers shuffled = map(true, {3, 1, 2, 0}, o.moved_height_m, nullptr);
+  EXPECT_EQ(cv::norm(left.elevation_m, shuffled.elevation_m, cv::NORM_INF), 0.0);
+  // Off, the box stays.
+  EXPECT_EQ(obstacle_at_box(map(true, {0, 1, 2, 3}, std::numeric_limits<double>::infinity(), nullptr)), 1);
+  // A box that arrived after the ground was seen stays, fused in either order.
+  for (const std::vector<int>& order : {std::vector<int>{0, 1, 2, 3}, std::vector<int>{3, 2, 1, 0}}) {
+    const MapLayers arrived = map(false, order, o.moved_height_m, &kept);
+    EXPECT_EQ(obstacle_at_box(arrived), 1);
+  }
+  EXPECT_EQ(kept.observations_moved_on, 0);
+  // One later pair is not enough: the box seen by pairs 0-2, gone for pair 3 only.
+  TerrainGrid grid(o.cell_m);
+  for (int k = 0; k < 4; ++k) {
+    const FramePose p = Pose(0, 0.2 * k, 0, k);
+    grid.Add(BinFrame(k < 3 ? SurfaceXyz(box, p, 480, 640) : SurfaceXyz(flat, p, 480, 640), cv::Mat(),
+                      p.WorldFromVehicle(), p.t_s, o));
+  }
+  EXPECT_EQ(obstacle_at_box(ComputeLayers(grid, o.obstacles, 1, std::numeric_limits<double>::infinity(), nullptr,
+                                          o.moved_height_m)),
+            1);
 }
 
 TEST(TerrainGrid, FusingInTwoHalvesAndMergingEqualsFusingAtOnce) {
