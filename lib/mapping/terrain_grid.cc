@@ -1335,7 +1335,7 @@ cv::Mat DetectObstacles(const cv::Mat& elevation, const cv::Mat& min_m, const cv
 }
 
 MapLayers ComputeLayers(const TerrainGrid& grid, const ObstacleOptions& obstacles, int min_frames,
-                        double carve_tolerance_m, CarveCounts* carved, double moved_height_m) {
+                        double carve_tolerance_m, double moved_height_m, CarveCounts* carved) {
   LN_CHECK_ARG(min_frames >= 1) << "min frames: must be >= 1";
   MapLayers l;
   l.cell_m = grid.cell_m();

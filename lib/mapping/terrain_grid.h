@@ -385,8 +385,8 @@ struct CarveCounts {
 /// on by `moved_height_m` are left out (TerrainGrid::Find), counted in `carved` when given.
 MapLayers ComputeLayers(const TerrainGrid& grid, const ObstacleOptions& obstacles, int min_frames = 1,
                         double carve_tolerance_m = std::numeric_limits<double>::infinity(),
-                        CarveCounts* carved = nullptr,
-                        double moved_height_m = std::numeric_limits<double>::infinity());
+                        double moved_height_m = std::numeric_limits<double>::infinity(),
+                        CarveCounts* carved = nullptr);
 
 /// The obstacle layer (see MapLayers::obstacle) from elevation, min, max and count layers of
 /// one size (CV_32F, NaN = unmapped; `count` may be empty: every mapped cell is judged).

@@ -620,7 +620,7 @@ TerrainMapRunSummary RunTerrainMap(const TerrainMapRunOptions& options, const fs
   io::RemoveStaleTempFiles(out);
   util::StageClock clock;
   const MapLayers layers =
-      ComputeLayers(grid, mo.obstacles, mo.min_frames, mo.carve_tolerance_m, &summary.carved, mo.moved_height_m);
+      ComputeLayers(grid, mo.obstacles, mo.min_frames, mo.carve_tolerance_m, mo.moved_height_m, &summary.carved);
   clock.Lap("layers (carving, obstacles)");
   summary.mapped_cells = static_cast<long>(grid.MappedCells());
   if (!layers.obstacle.empty()) {

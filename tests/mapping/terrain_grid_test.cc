@@ -8,6 +8,8 @@
 #include <limits>
 #include <map>
 #include <random>
+#include <tuple>
+#include <utility>
 #include <vector>
 
 #include "calib/paper_rig.h"
@@ -84,6 +86,16 @@ TEST(TerrainGrid, FlatPlaneMapsToItsHeightWhereverSeen) {
 // SurfaceXyz puts its points on a ground grid, not on an image's rays: a box's face is in none
 // of them, so the tests of a box or of stray points turn the support rule (which asks for the
 // face) off; AnUnsupportedRiseIsRejected tests it on an image-like column.
+// a + b + c and c + b + a: what merging in either order gives.
+std::pair<CellStats, CellStats> MergeBothOrders(const CellStats& a, const CellStats& b, const CellStats& c) {
+  CellStats abc = a, cba = c;
+  abc.Merge(b);
+  abc.Merge(c);
+  cba.Merge(b);
+  cba.Merge(a);
+  return {abc, cba};
+}
+
 TerrainMapOptions GridFrameOptions() {
   TerrainMapOptions o;
   o.support_rise_m = std::numeric_limits<double>::infinity();
@@ -546,11 +558,7 @@ TEST(TerrainGrid, ExtremesOfOnePairAloneMakeNoStep) {
   b.z_min = 0.0f;
   c.z_max = 0.02f;
   c.z_min = -0.05f;
-  CellStats abc = a, cba = c;
-  abc.Merge(b);
-  abc.Merge(c);
-  cba.Merge(b);
-  cba.Merge(a);
+  auto [abc, cba] = MergeBothOrders(a, b, c);
   for (const CellStats* s : {&abc, &cba}) {
     EXPECT_EQ(s->z_max, 0.3f);
     EXPECT_EQ(s->z_max2, 0.02f);
@@ -558,12 +566,7 @@ TEST(TerrainGrid, ExtremesOfOnePairAloneMakeNoStep) {
     EXPECT_EQ(s->z_min2, -0.05f);
   }
   a.z_max2 = 0.25f;  // a's pair had three points at 0.25 m or higher
-  abc = a;
-  cba = c;
-  abc.Merge(b);
-  abc.Merge(c);
-  cba.Merge(b);
-  cba.Merge(a);
+  std::tie(abc, cba) = MergeBothOrders(a, b, c);
   EXPECT_EQ(abc.z_max2, 0.25f);
   EXPECT_EQ(cba.z_max2, 0.25f);
 }
@@ -650,11 +653,7 @@ TEST(TerrainGrid, PairStepsMergeInAnyOrderAndSurviveTheState) {
   b.last_t_s = 1;
   c.last_t_s = 2;
   c.last_t2_s = 0;
-  CellStats abc = a, cba = c;
-  abc.Merge(b);
-  abc.Merge(c);
-  cba.Merge(b);
-  cba.Merge(a);
+  const auto [abc, cba] = MergeBothOrders(a, b, c);
   for (const CellStats* s : {&abc, &cba}) {
     EXPECT_EQ(s->step1, 0.3f);
     EXPECT_EQ(s->step2, 0.12f);
@@ -664,11 +663,8 @@ TEST(TerrainGrid, PairStepsMergeInAnyOrderAndSurviveTheState) {
   }
   const TerrainMapOptions o = GridFrameOptions();
   const auto box = BoxOnPlane(0.0, 1.0, 1.5, 5.0, 5.5, 0.3);
-  TerrainGrid grid(o.cell_m);
-  for (int k = 0; k < 2; ++k) {
-    const FramePose p = Pose(0, 0.3 * k, 0);
-    grid.Add(BinFrame(SurfaceXyz(box, p, 480, 640), cv::Mat(), p.WorldFromVehicle(), k, o));
-  }
+  const FramePose p0 = Pose(0, 0, 0, 0), p1 = Pose(0, 0.3, 0, 1);
+  const TerrainGrid grid = Fuse({{SurfaceXyz(box, p0, 480, 640), p0}, {SurfaceXyz(box, p1, 480, 640), p1}}, o);
   const io::GeoRaster state = grid.ToStateRaster();
   const TerrainGrid back = TerrainGrid::FromStateRaster(state, "test");
   // The same state without the steps' bands, as written before them.
@@ -719,53 +715,43 @@ TEST(TerrainGrid, WhatLaterPairsSawLowerMovedOnWhatArrivedStays) {
   const TerrainMapOptions o = GridFrameOptions();
   const auto box = BoxOnPlane(0.0, 1.0, 1.5, 5.0, 5.5, 0.3);
   const auto flat = [](double, double) { return 0.0; };
-  auto map = [&](bool box_first, const std::vector<int>& order, double moved_height_m, CarveCounts* counts) {
-    TerrainGrid grid(o.cell_m);
+  // Pairs k of `order` (at time k), those with has_box(k) seeing the box.
+  auto map = [&](auto has_box, const std::vector<int>& order, double moved_height_m, CarveCounts* counts) {
+    std::vector<std::pair<cv::Mat, FramePose>> frames;
     for (int k : order) {
       const FramePose p = Pose(0, 0.2 * k, 0, k);
-      const bool has_box = box_first ? k < 2 : k >= 2;
-      const cv::Mat xyz = has_box ? SurfaceXyz(box, p, 480, 640) : SurfaceXyz(flat, p, 480, 640);
-      grid.Add(BinFrame(xyz, cv::Mat(), p.WorldFromVehicle(), p.t_s, o));
+      frames.push_back({has_box(k) ? SurfaceXyz(box, p, 480, 640) : SurfaceXyz(flat, p, 480, 640), p});
     }
-    return ComputeLayers(grid, o.obstacles, 1, std::numeric_limits<double>::infinity(), counts, moved_height_m);
+    return ComputeLayers(Fuse(frames, o), o.obstacles, 1, kInfinity, moved_height_m, counts);
   };
-  auto obstacle_at_box = [](const MapLayers& l) {
+  const auto first_two = [](int k) { return k < 2; };
+  const auto last_two = [](int k) { return k >= 2; };
+  auto at_box = [](const MapLayers& l, const cv::Mat& layer) {
     int col = 0, row = 0;
     EXPECT_TRUE(l.CellOf(1.25, 5.25, &col, &row));
-    return l.obstacle.at<float>(row, col);
-  };
-  auto elevation_at_box = [](const MapLayers& l) {
-    int col = 0, row = 0;
-    EXPECT_TRUE(l.CellOf(1.25, 5.25, &col, &row));
-    return l.elevation_m.at<float>(row, col);
+    return layer.at<float>(row, col);
   };
   CarveCounts gone, kept;
-  const MapLayers left = map(true, {0, 1, 2, 3}, o.moved_height_m, &gone);
-  EXPECT_EQ(obstacle_at_box(left), 0);
-  EXPECT_NEAR(elevation_at_box(left), 0.0, 1e-3);  // the flat ground the later pairs saw
+  const MapLayers left = map(first_two, {0, 1, 2, 3}, o.moved_height_m, &gone);
+  EXPECT_EQ(at_box(left, left.obstacle), 0);
+  EXPECT_NEAR(at_box(left, left.elevation_m), 0.0, 1e-3);  // the flat ground the later pairs saw
   EXPECT_GT(gone.observations_moved_on, 0);
   EXPECT_EQ(CountCells(left.obstacle, [&](int r, int c) { return left.obstacle.at<float>(r, c) != 0; }), 0);
   // The same pairs fused in another order: the same map.
-  const MapLayers shuffled = map(true, {3, 1, 2, 0}, o.moved_height_m, nullptr);
+  const MapLayers shuffled = map(first_two, {3, 1, 2, 0}, o.moved_height_m, nullptr);
   EXPECT_EQ(cv::norm(left.elevation_m, shuffled.elevation_m, cv::NORM_INF), 0.0);
   // Off, the box stays.
-  EXPECT_EQ(obstacle_at_box(map(true, {0, 1, 2, 3}, std::numeric_limits<double>::infinity(), nullptr)), 1);
+  const MapLayers off = map(first_two, {0, 1, 2, 3}, kInfinity, nullptr);
+  EXPECT_EQ(at_box(off, off.obstacle), 1);
   // A box that arrived after the ground was seen stays, fused in either order.
   for (const std::vector<int>& order : {std::vector<int>{0, 1, 2, 3}, std::vector<int>{3, 2, 1, 0}}) {
-    const MapLayers arrived = map(false, order, o.moved_height_m, &kept);
-    EXPECT_EQ(obstacle_at_box(arrived), 1);
+    const MapLayers arrived = map(last_two, order, o.moved_height_m, &kept);
+    EXPECT_EQ(at_box(arrived, arrived.obstacle), 1);
   }
   EXPECT_EQ(kept.observations_moved_on, 0);
   // One later pair is not enough: the box seen by pairs 0-2, gone for pair 3 only.
-  TerrainGrid grid(o.cell_m);
-  for (int k = 0; k < 4; ++k) {
-    const FramePose p = Pose(0, 0.2 * k, 0, k);
-    grid.Add(BinFrame(k < 3 ? SurfaceXyz(box, p, 480, 640) : SurfaceXyz(flat, p, 480, 640), cv::Mat(),
-                      p.WorldFromVehicle(), p.t_s, o));
-  }
-  EXPECT_EQ(obstacle_at_box(ComputeLayers(grid, o.obstacles, 1, std::numeric_limits<double>::infinity(), nullptr,
-                                          o.moved_height_m)),
-            1);
+  const MapLayers one_later = map([](int k) { return k < 3; }, {0, 1, 2, 3}, o.moved_height_m, nullptr);
+  EXPECT_EQ(at_box(one_later, one_later.obstacle), 1);
 }
 
 TEST(TerrainGrid, FusingInTwoHalvesAndMergingEqualsFusingAtOnce) {
@@ -943,7 +929,7 @@ TEST_F(Carving, WhatLaterRaysPassBeneathIsLeftOut) {
   const auto frames = Drive([](double, double) { return 0.0; }, {0, 1, 2});
   const TerrainGrid grid = Fuse(frames, o);
   CarveCounts carved;
-  const MapLayers l = ComputeLayers(grid, o.obstacles, 1, o.carve_tolerance_m, &carved);
+  const MapLayers l = ComputeLayers(grid, o.obstacles, 1, o.carve_tolerance_m, kInfinity, &carved);
   const MapLayers kept = ComputeLayers(grid, o.obstacles, 1);  // no carving
   int phantom_cells = 0;
   for (double y = 7.125; y < 7.5; y += 0.25) {
@@ -979,7 +965,7 @@ TEST_F(Carving, WhatEveryFrameSeesStays) {
   const auto frames = Drive(BoxOnPlane(0.0, -0.6, 0.15, 7.0, 7.5, 0.3), {});
   const TerrainGrid grid = Fuse(frames, o);
   CarveCounts carved;
-  const MapLayers l = ComputeLayers(grid, o.obstacles, 1, o.carve_tolerance_m, &carved);
+  const MapLayers l = ComputeLayers(grid, o.obstacles, 1, o.carve_tolerance_m, kInfinity, &carved);
   const MapLayers kept = ComputeLayers(grid, o.obstacles, 1);
   EXPECT_EQ(carved.observations, 0);
   for (int r = 0; r < l.elevation_m.rows; ++r) {
